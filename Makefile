@@ -1,0 +1,37 @@
+# SafeState: every target installs what it needs (Debian packages, only the missing
+# ones) and works from a clean clone. Quick start: `make run`, then `make test`.
+SHELL := /bin/bash
+.DEFAULT_GOAL := build
+
+BUILD_DIR := build
+BIN := $(BUILD_DIR)/bin
+DEPS := tools/scripts/install-deps.sh
+
+.PHONY: build test docs docs-check embedded run clean deps
+
+deps:
+	@$(DEPS) build
+
+$(BUILD_DIR)/build.ninja: CMakeLists.txt CMakePresets.json | deps
+	cmake --preset default
+
+build: deps $(BUILD_DIR)/build.ninja
+	cmake --build --preset default
+
+test: build
+	ctest --preset default
+
+# Regenerate the documentation that mirrors the code (transition table, alarm list,
+# state diagram). CI fails (test docs_up_to_date) when the committed copy is stale.
+docs: build
+	$(BIN)/gen_docs --out docs
+
+embedded:
+	@$(DEPS) embedded
+	tools/scripts/embedded.sh
+
+run: build
+	$(BIN)/safestate table
+
+clean:
+	rm -rf $(BUILD_DIR) build-debug build-m4

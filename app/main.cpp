@@ -1,0 +1,35 @@
+// The one `safestate` command. Subcommands are added as the layers land.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+
+#include "safestate/core/alarms.hpp"
+#include "safestate/core/transitions.hpp"
+
+using namespace safestate::core;
+
+namespace {
+int print_table() {
+  std::printf("%-4s %-40s %-22s %-5s\n", "rule", "trigger", "to", "stop");
+  for (const Transition& t : kTransitions) {
+    std::printf("%-4s %-40.40s %-22s %-5s\n", t.rule, to_string(t.trigger), to_string(t.to), to_string(t.stop));
+  }
+  return 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"SafeState: safety supervisor of a 6-axis robot controller"};
+  app.require_subcommand(1);
+  auto* version = app.add_subcommand("version", "print the version");
+  auto* table = app.add_subcommand("table", "print the transition table the core runs");
+  CLI11_PARSE(app, argc, argv);
+  if (version->parsed()) {
+    std::printf("safestate %s\n", SAFESTATE_VERSION);
+    return 0;
+  }
+  if (table->parsed()) {
+    return print_table();
+  }
+  return 0;
+}

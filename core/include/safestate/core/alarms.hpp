@@ -1,0 +1,176 @@
+// The alarm table of SPEC §7: one row per alarm, in code, from which docs/alarms.md is
+// generated. An alarm names its cause (input and channel, axis, arming step) so that
+// every stop, lockout and refusal explains itself.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/types.hpp"
+
+namespace safestate::core {
+
+enum class AlarmId : std::uint8_t {
+  ESTOP_DISCREPANCY,
+  GATE_DISCREPANCY,
+  ENABLE_DISCREPANCY,
+  FIELDBUS_LOST,
+  INTEGRITY_FAULT,
+  BOOT_FAILED,
+  PROTECTIVE_STOP,
+  DRIVE_FAULT,
+  ARMING_TIMEOUT,
+  T1_SPEED_EXCEEDED,
+  STOP_TIME_EXCEEDED,
+  ESTOP_PRESSED,
+  MODE_SELECTOR_INVALID,
+  RESET_BUTTON_STUCK,
+  MODE_CHANGED,
+  ENABLING_PANIC,
+  JOG_LINK_LOST,
+};
+inline constexpr std::size_t kAlarmCount = 17;
+
+enum class Severity : std::uint8_t { info, warning, fault, lockout };
+
+// How long an alarm stays active (SPEC §7 "active" column).
+enum class Latch : std::uint8_t {
+  power_cycle,  // lockout: until power cycle
+  reset,        // latched until a `reset` succeeds
+  condition,    // while the condition lasts
+  until_ok,     // from the event until the next command answered OK
+};
+
+struct AlarmInfo {
+  AlarmId id;
+  const char* name;
+  std::uint16_t number;
+  Severity severity;
+  Latch latch;
+  const char* text;
+  const char* remedy;
+};
+
+// clang-format off
+inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
+  {AlarmId::ESTOP_DISCREPANCY, "ESTOP_DISCREPANCY", 101, Severity::lockout, Latch::power_cycle,
+   "The two E-stop channels disagreed for longer than the discrepancy time.",
+   "Check the E-stop wiring and contacts of the named channel, then power-cycle the controller."},
+  {AlarmId::GATE_DISCREPANCY, "GATE_DISCREPANCY", 102, Severity::lockout, Latch::power_cycle,
+   "The two guard / light-curtain channels disagreed for longer than the discrepancy time.",
+   "Check the guard switch or light curtain and its wiring on the named channel, then power-cycle."},
+  {AlarmId::ENABLE_DISCREPANCY, "ENABLE_DISCREPANCY", 103, Severity::lockout, Latch::power_cycle,
+   "The two centre contacts of the enabling device disagreed for longer than the discrepancy time.",
+   "Replace or repair the enabling device and its cable, then power-cycle."},
+  {AlarmId::FIELDBUS_LOST, "FIELDBUS_LOST", 104, Severity::lockout, Latch::power_cycle,
+   "Cyclic process data from the drives stopped being valid.",
+   "Check the fieldbus cable, drive power and the real-time host, then power-cycle."},
+  {AlarmId::INTEGRITY_FAULT, "INTEGRITY_FAULT", 105, Severity::lockout, Latch::power_cycle,
+   "An internal consistency check of the safety supervisor failed.",
+   "Record the event history, power-cycle, and report it: the controller must be inspected."},
+  {AlarmId::BOOT_FAILED, "BOOT_FAILED", 106, Severity::lockout, Latch::power_cycle,
+   "Start-up self-test failed, or the fieldbus and drives did not answer in time.",
+   "Check that every drive is powered and on the bus, then power-cycle."},
+  {AlarmId::PROTECTIVE_STOP, "PROTECTIVE_STOP", 201, Severity::fault, Latch::reset,
+   "The guard opened (or the light curtain was interrupted) while the mode was AUTO.",
+   "Leave the cell, close the guard, then reset."},
+  {AlarmId::DRIVE_FAULT, "DRIVE_FAULT", 202, Severity::fault, Latch::reset,
+   "A drive reported a fault, an unknown status, or left Operation enabled on its own.",
+   "Read the drive's own fault code, remove the cause, then reset (this acknowledges the drive)."},
+  {AlarmId::ARMING_TIMEOUT, "ARMING_TIMEOUT", 203, Severity::fault, Latch::reset,
+   "Power-up did not complete the named step in time (contactor, drives or brakes).",
+   "Check the feedback of the named step (contactor, drive enable or brake release), then reset."},
+  {AlarmId::T1_SPEED_EXCEEDED, "T1_SPEED_EXCEEDED", 204, Severity::fault, Latch::reset,
+   "In T1, the measured speed of the TCP or a link origin exceeded the reduced-speed limit.",
+   "Check the drive of the named axis and the motion limits, then reset."},
+  {AlarmId::STOP_TIME_EXCEEDED, "STOP_TIME_EXCEEDED", 205, Severity::fault, Latch::reset,
+   "A controlled stop did not reach standstill within the maximum stop time; power was cut.",
+   "Check the named axis' drive, brake and load, then reset."},
+  {AlarmId::ESTOP_PRESSED, "ESTOP_PRESSED", 301, Severity::info, Latch::condition,
+   "An emergency stop is pressed.",
+   "Remove the hazard, release the E-stop, then reset."},
+  {AlarmId::MODE_SELECTOR_INVALID, "MODE_SELECTOR_INVALID", 302, Severity::warning, Latch::condition,
+   "The mode selector has no position (or several) selected.",
+   "Turn the key fully to AUTO, T1 or T2."},
+  {AlarmId::RESET_BUTTON_STUCK, "RESET_BUTTON_STUCK", 303, Severity::info, Latch::condition,
+   "The reset button has been held longer than 5 s; this press is not a reset.",
+   "Release the reset button; press and release it once to reset."},
+  {AlarmId::MODE_CHANGED, "MODE_CHANGED", 401, Severity::info, Latch::until_ok,
+   "The operating mode changed while the servos were on; the robot was stopped.",
+   "Confirm the new mode, then switch the servos on again."},
+  {AlarmId::ENABLING_PANIC, "ENABLING_PANIC", 402, Severity::info, Latch::until_ok,
+   "The enabling device was squeezed to the panic position.",
+   "Release the enabling device fully, then hold it at the centre position again."},
+  {AlarmId::JOG_LINK_LOST, "JOG_LINK_LOST", 403, Severity::info, Latch::until_ok,
+   "Jog keep-alive messages stopped arriving; the jog was stopped.",
+   "Check the pendant connection, then jog again."},
+}};
+// clang-format on
+
+[[nodiscard]] constexpr const AlarmInfo& alarm_info(AlarmId id) noexcept {
+  return kAlarms[static_cast<std::size_t>(id)];
+}
+[[nodiscard]] const char* to_string(AlarmId id) noexcept;
+[[nodiscard]] const char* to_string(Severity s) noexcept;
+bool parse_alarm(const char* name, AlarmId& out) noexcept;
+
+using AlarmMask = std::uint32_t;
+[[nodiscard]] constexpr AlarmMask bit(AlarmId id) noexcept {
+  return AlarmMask{1U} << static_cast<unsigned>(id);
+}
+
+// What an alarm (or a stop) is about: which input and channel, which axis, which step.
+struct AlarmDetail {
+  Signal signal = Signal::none;
+  Channel channel = Channel::none;
+  std::uint8_t axis = 0;  // 1..6, 0 = none
+  ArmingStep step = ArmingStep::CONTACTOR;
+  bool has_step = false;
+  std::uint16_t code = 0;  // e.g. the drive statusword, or the command id
+};
+
+// The set of active alarms with since-when and cause detail. Fixed size, no heap.
+class AlarmSet {
+ public:
+  void begin_cycle() noexcept {
+    raised_ = 0;
+    cleared_ = 0;
+  }
+  // Raises `id` (no effect when already active: the first cause is kept).
+  void raise(AlarmId id, const AlarmDetail& d, Cycle now) noexcept;
+  void clear(AlarmId id) noexcept;
+  // Clears every active alarm in `mask` whose since-cycle is before `now`.
+  void clear_older(AlarmMask mask, Cycle now) noexcept;
+
+  [[nodiscard]] bool active(AlarmId id) const noexcept { return (active_ & bit(id)) != 0U; }
+  [[nodiscard]] AlarmMask mask() const noexcept { return active_; }
+  [[nodiscard]] AlarmMask raised() const noexcept { return raised_; }
+  [[nodiscard]] AlarmMask cleared() const noexcept { return cleared_; }
+  [[nodiscard]] Cycle since(AlarmId id) const noexcept { return since_[static_cast<std::size_t>(id)]; }
+  [[nodiscard]] const AlarmDetail& detail(AlarmId id) const noexcept {
+    return detail_[static_cast<std::size_t>(id)];
+  }
+
+ private:
+  AlarmMask active_ = 0;
+  AlarmMask raised_ = 0;
+  AlarmMask cleared_ = 0;
+  std::array<Cycle, kAlarmCount> since_{};
+  std::array<AlarmDetail, kAlarmCount> detail_{};
+};
+
+// Masks by latch kind, derived from the table at compile time.
+[[nodiscard]] constexpr AlarmMask alarms_with(Latch l) noexcept {
+  AlarmMask m = 0;
+  for (const AlarmInfo& a : kAlarms) {
+    if (a.latch == l) {
+      m |= bit(a.id);
+    }
+  }
+  return m;
+}
+inline constexpr AlarmMask kLockoutAlarms = alarms_with(Latch::power_cycle);
+inline constexpr AlarmMask kLatchedAlarms = alarms_with(Latch::reset);
+inline constexpr AlarmMask kUntilOkAlarms = alarms_with(Latch::until_ok);
+
+}  // namespace safestate::core

@@ -1,0 +1,84 @@
+// CiA 402 (IEC 61800-7-201) statusword decode and controlword encode, exactly as the
+// table of SPEC §6. Shared by the core (which decides) and the motion layer and
+// drives (which act), so all three read the bits the same way.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace safestate::core::cia402 {
+
+enum class DriveState : std::uint8_t {
+  NotReadyToSwitchOn,
+  SwitchOnDisabled,
+  ReadyToSwitchOn,
+  SwitchedOn,
+  OperationEnabled,
+  QuickStopActive,
+  FaultReactionActive,
+  Fault,
+  Unknown,  // matches no row: treated as a drive fault (unknown is unsafe)
+};
+
+struct StatusPattern {
+  DriveState state;
+  std::uint16_t mask;
+  std::uint16_t value;
+  const char* name;
+};
+
+// Order matters only for readability: the patterns are mutually exclusive.
+inline constexpr std::array<StatusPattern, 8> kStatusPatterns{{
+    {DriveState::NotReadyToSwitchOn, 0x4F, 0x00, "Not ready to switch on"},
+    {DriveState::SwitchOnDisabled, 0x4F, 0x40, "Switch on disabled"},
+    {DriveState::ReadyToSwitchOn, 0x6F, 0x21, "Ready to switch on"},
+    {DriveState::SwitchedOn, 0x6F, 0x23, "Switched on"},
+    {DriveState::OperationEnabled, 0x6F, 0x27, "Operation enabled"},
+    {DriveState::QuickStopActive, 0x6F, 0x07, "Quick stop active"},
+    {DriveState::FaultReactionActive, 0x4F, 0x0F, "Fault reaction active"},
+    {DriveState::Fault, 0x4F, 0x08, "Fault"},
+}};
+
+[[nodiscard]] constexpr DriveState decode(std::uint16_t statusword) noexcept {
+  for (const StatusPattern& p : kStatusPatterns) {
+    if ((statusword & p.mask) == p.value) {
+      return p.state;
+    }
+  }
+  return DriveState::Unknown;
+}
+
+[[nodiscard]] constexpr bool is_fault(DriveState s) noexcept {
+  return (s == DriveState::Fault) || (s == DriveState::FaultReactionActive) || (s == DriveState::Unknown);
+}
+
+// Controlword commands (0x6040).
+namespace cw {
+inline constexpr std::uint16_t kShutdown = 0x0006;
+inline constexpr std::uint16_t kSwitchOn = 0x0007;
+inline constexpr std::uint16_t kEnableOperation = 0x000F;
+inline constexpr std::uint16_t kDisableVoltage = 0x0000;
+inline constexpr std::uint16_t kQuickStop = 0x0002;
+inline constexpr std::uint16_t kDisableOperation = 0x0007;
+inline constexpr std::uint16_t kFaultReset = 0x0080;  // acts on the rising edge of bit 7
+}  // namespace cw
+
+// Canonical statusword of each state (what a simulated drive reports).
+[[nodiscard]] constexpr std::uint16_t statusword_of(DriveState s) noexcept {
+  switch (s) {
+    case DriveState::NotReadyToSwitchOn: return 0x0000;
+    case DriveState::SwitchOnDisabled: return 0x0040;
+    case DriveState::ReadyToSwitchOn: return 0x0021;
+    case DriveState::SwitchedOn: return 0x0023;
+    case DriveState::OperationEnabled: return 0x0027;
+    case DriveState::QuickStopActive: return 0x0007;
+    case DriveState::FaultReactionActive: return 0x000F;
+    case DriveState::Fault: return 0x0008;
+    case DriveState::Unknown: break;
+  }
+  return 0x004F;  // matches no pattern
+}
+
+const char* to_string(DriveState s) noexcept;
+
+}  // namespace safestate::core::cia402

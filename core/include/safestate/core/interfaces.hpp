@@ -1,0 +1,65 @@
+// The plain data the core exchanges with the layers around it, once per cycle:
+//  - Feedback: what the HAL read this cycle (drives, contactor, brakes, fieldbus) plus
+//    what the motion layer measured (TCP and link-origin speeds from measured joint
+//    positions) and reports about its program;
+//  - MotionRequest: what motion is allowed this cycle and how to stop.
+// The motion layer and any HAL backend implement against these structs only.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/types.hpp"
+
+namespace safestate::core {
+
+struct DriveFeedback {
+  std::uint16_t statusword = 0;  // CiA 402 0x6041
+  float position_rad = 0.0F;     // measured joint position
+  float velocity_rad_s = 0.0F;   // measured joint velocity
+  bool online = true;            // the drive answers on the fieldbus
+};
+
+struct Feedback {
+  std::array<DriveFeedback, kAxes> drive{};
+  bool contactor_closed = false;                 // main contactor auxiliary contact
+  std::array<bool, kAxes> brake_released{};      // brake feedback: true = released
+  bool fieldbus_ok = true;                       // cyclic data valid this cycle
+  bool integrity_ok = true;                      // external integrity checks (HAL, memory)
+  // From the motion layer, computed from measured joint positions (forward kinematics):
+  float tcp_speed_mm_s = 0.0F;
+  float max_point_speed_mm_s = 0.0F;  // max over the TCP and every link-frame origin
+  std::uint8_t fastest_axis = 0;      // 1..6: link whose origin (or the TCP: 6) is fastest
+  bool program_loaded = true;
+  bool program_finished = false;  // the running program reached its last waypoint
+};
+
+// What motion the core allows this cycle. The motion layer must not move otherwise.
+enum class MotionMode : std::uint8_t {
+  Track,      // power off or arming: set-points follow measured positions, no motion
+  Hold,       // powered, holding the set-point (equal to the measured position on entry)
+  Jog,        // per-axis jog (MANUAL_JOGGING)
+  Program,    // run the program (AUTO_RUNNING / MANUAL_RUNNING)
+  QuickStop,  // Cat 1: ramp every axis down on the quick-stop ramp
+  Ramp2,      // Cat 2: ramp down, then hold with drives enabled
+};
+
+// One-cycle pulses for the program executor.
+enum class ProgramCmd : std::uint8_t { None, Start, Resume, Abort };
+
+struct JogTarget {
+  std::uint8_t axis = 0;   // 1..6
+  std::int8_t dir = 0;     // +1 / -1
+  std::uint8_t speed = 0;  // percent
+};
+
+struct MotionRequest {
+  MotionMode mode = MotionMode::Track;
+  ProgramCmd program = ProgramCmd::None;
+  JogTarget jog{};
+  bool t1_limit = false;     // limit TCP and link origins to the T1 speed
+  bool discard = false;      // a stop began: drop every queued motion now
+  bool fault_reset = false;  // give faulted drives a CiA 402 fault reset (bit 7 edge)
+};
+
+}  // namespace safestate::core

@@ -1,0 +1,135 @@
+// SystemStateManager: one step per scan cycle (SPEC §1). Conditions first in the
+// priority of §4, then internal events, then commands in arrival order; outputs from
+// the resulting state, written in the same cycle. Deterministic, no heap, no clock.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "safestate/core/alarms.hpp"
+#include "safestate/core/config.hpp"
+#include "safestate/core/interfaces.hpp"
+#include "safestate/core/signals.hpp"
+#include "safestate/core/states.hpp"
+#include "safestate/core/transitions.hpp"
+#include "safestate/core/types.hpp"
+
+namespace safestate::core {
+
+inline constexpr std::size_t kMaxCommandsPerCycle = 16;  // Config may ask for fewer
+// Queued commands, plus a deferred reset answer and the reset button.
+inline constexpr std::size_t kMaxRepliesPerCycle = kMaxCommandsPerCycle + 2;
+inline constexpr std::size_t kMaxTransitionsPerCycle = 4;
+
+struct TransitionEvent {
+  Leaf from = Leaf::BOOT;
+  Leaf to = Leaf::BOOT;
+  StopCat stop = StopCat::NONE;
+  Trigger trigger = Trigger::boot_passed;
+  std::uint8_t row = kNoRow;
+};
+
+struct SupervisorOut {
+  State state = State::BOOT;
+  Sub sub = Sub::NONE;
+  Mode mode = Mode::NONE;
+  Mode mode_requested = Mode::NONE;  // what the selector contacts say, when it differs
+  StopCat stop = StopCat::NONE;      // CAT1/CAT2 in STOPPING; CAT0 in the cycle it happened
+  Leaf target = Leaf::SAME;          // in STOPPING: where the stop ends
+  // Outputs of SPEC §3, true = energised / closed / released / lit.
+  bool contactor = false;
+  bool drives_enable = false;
+  bool brakes_release = false;
+  bool reset_lamp = false;
+  MotionRequest motion{};
+  ArmingStep arming_step = ArmingStep::CONTACTOR;
+  std::uint8_t arming_progress = 0;
+  bool t2_confirmed = false;
+  bool at_standstill = false;
+  Cause cause{};  // first-out cause of the current stop or lockout
+  AlarmMask alarms = 0;
+  AlarmMask alarms_raised = 0;   // this cycle
+  AlarmMask alarms_cleared = 0;  // this cycle
+  std::array<Reply, kMaxRepliesPerCycle> replies{};
+  std::uint8_t reply_count = 0;
+  std::array<TransitionEvent, kMaxTransitionsPerCycle> transitions{};
+  std::uint8_t transition_count = 0;
+};
+
+class SystemStateManager {
+ public:
+  explicit SystemStateManager(const Timing& timing) noexcept;
+
+  // One scan cycle. Takes at most `max_commands_per_cycle` of `cmds` (the caller keeps
+  // the rest queued) and returns how many it took.
+  std::size_t step(const SafetyInputs& in, const Feedback& fb, const Command* cmds, std::size_t n,
+                   SupervisorOut& out) noexcept;
+
+  [[nodiscard]] Leaf leaf() const noexcept { return leaf_; }
+  [[nodiscard]] State state() const noexcept { return state_of(leaf_); }
+  [[nodiscard]] const StateVariant& variant() const noexcept { return state_; }
+  [[nodiscard]] const AlarmSet& alarms() const noexcept { return alarms_; }
+  [[nodiscard]] Cycle now() const noexcept { return now_; }
+  [[nodiscard]] bool t2_confirmed() const noexcept { return t2_confirmed_; }
+  [[nodiscard]] bool boot_pending() const noexcept { return boot_pending_; }
+  [[nodiscard]] const Timing& timing() const noexcept { return timing_; }
+
+ private:
+  struct CycleCtx;  // per-cycle scratch, defined in supervisor.cpp
+
+  void update_monitors(CycleCtx& c) noexcept;
+  bool evaluate_conditions(CycleCtx& c) noexcept;
+  void evaluate_events(CycleCtx& c) noexcept;
+  void finish_pending_reset(CycleCtx& c) noexcept;
+  void handle_reset_button(CycleCtx& c) noexcept;
+  Result dispatch_command(CycleCtx& c, const Command& cmd) noexcept;
+  Result apply(CycleCtx& c, const Transition& row, const Cause& cause, const Command* cmd) noexcept;
+  void enter(CycleCtx& c, Leaf to, StopCat stop) noexcept;
+  void set_cause(const Cause& cause) noexcept;
+  void reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept;
+  void write_outputs(CycleCtx& c) noexcept;
+  [[nodiscard]] bool outputs_consistent(const CycleCtx& c) const noexcept;
+  [[nodiscard]] GuardView view(const CycleCtx& c) const noexcept;
+
+  Timing timing_;
+  StateVariant state_{StBoot{}};
+  Leaf leaf_ = Leaf::BOOT;
+  AlarmSet alarms_;
+  Cause cause_{};
+  Cycle now_ = 0;
+  bool self_test_ok_ = false;
+  bool boot_pending_ = true;
+  bool integrity_fault_ = false;
+  bool t2_confirmed_ = false;
+  Cycle standstill_count_ = 0;
+  Cycle last_jog_ = 0;
+  JogTarget jog_{};
+  Cycle reset_possible_since_ = 0;
+  // A `reset` waiting for the drives to answer their fault reset (SPEC §5).
+  bool reset_pending_ = false;
+  Cycle reset_pending_since_ = 0;
+  std::uint32_t reset_seq_ = 0;
+  std::uint8_t reset_source_ = 0;
+  bool lockout_entered_ = false;
+};
+
+// The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.
+class Supervisor {
+ public:
+  explicit Supervisor(const Timing& t) noexcept : timing_(t), ssm_(t) {}
+  std::size_t step(const RawInputs& raw, const Feedback& fb, const Command* cmds, std::size_t n,
+                   SupervisorOut& out) noexcept {
+    signals_.update(raw, ssm_.now(), timing_);
+    return ssm_.step(signals_.inputs(), fb, cmds, n, out);
+  }
+  [[nodiscard]] const SafetyInputs& inputs() const noexcept { return signals_.inputs(); }
+  [[nodiscard]] const SystemStateManager& manager() const noexcept { return ssm_; }
+
+ private:
+  Timing timing_;
+  SignalLayer signals_;
+  SystemStateManager ssm_;
+};
+
+}  // namespace safestate::core

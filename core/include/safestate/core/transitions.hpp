@@ -1,0 +1,280 @@
+// The transition table of SPEC §4: one constexpr array, one row per transition, the
+// columns in the spec's order (from, trigger, guard, to, stop, alarm), plus the effect
+// the row has on the state's data. docs/transitions.md and docs/states.mmd are
+// generated from this array; a safety engineer audits this file, not the dispatcher.
+//
+// Reading a row: `from + trigger [guard] / stop, effect = to`, as in Boost.SML.
+// A row with stop CAT1/CAT2 goes to STOPPING first and to `to` at standstill; a row with
+// stop CAT0 cuts power in the same cycle and goes straight to `to`.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/alarms.hpp"
+#include "safestate/core/config.hpp"
+#include "safestate/core/interfaces.hpp"
+#include "safestate/core/signals.hpp"
+#include "safestate/core/states.hpp"
+#include "safestate/core/types.hpp"
+
+namespace safestate::core {
+
+enum class Trigger : std::uint8_t {
+  // Conditions, checked every cycle in this priority (SPEC §4 rules 1..7).
+  lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure
+  estop_pressed,       // 2
+  stop_fault,          // 3: drive fault, T1 speed, stop time exceeded
+  gate_open_in_auto,   // 4, 4b
+  enable_left_centre,  // 5, 5b
+  mode_changed,        // 6
+  jog_timeout,         // 7
+  // Internal events.
+  boot_passed,
+  estop_released,
+  arming_complete,
+  arming_timeout,
+  program_finished,
+  standstill,
+  // Commands, in the order of CommandId.
+  reset,
+  servo_on,
+  servo_off,
+  start,
+  pause,
+  resume,
+  stop,
+  jog,
+  jog_stop,
+  confirm_t2,
+  set_mode,
+};
+inline constexpr std::size_t kTriggerCount = 24;
+inline constexpr std::size_t kConditionCount = 7;
+inline constexpr std::size_t kFirstCommandTrigger = static_cast<std::size_t>(Trigger::reset);
+
+[[nodiscard]] constexpr Trigger trigger_of(CommandId c) noexcept {
+  return static_cast<Trigger>(kFirstCommandTrigger + static_cast<std::size_t>(c));
+}
+[[nodiscard]] constexpr bool is_condition(Trigger t) noexcept {
+  return static_cast<std::size_t>(t) < kConditionCount;
+}
+const char* to_string(Trigger t) noexcept;
+
+// What a guard may look at. Built once per cycle by the manager; guards are pure.
+struct GuardView {
+  const SafetyInputs& in;
+  const Feedback& fb;
+  const AlarmSet& alarms;
+  const Timing& timing;
+  bool t2_confirmed;
+  bool boot_pending;
+  bool reset_pending;
+  bool at_standstill;
+};
+
+using GuardFn = Result (*)(const GuardView&) noexcept;
+struct Guard {
+  GuardFn fn;        // nullptr: always OK
+  const char* text;  // for the generated documentation
+};
+
+// Guards: each returns OK or the reject code of SPEC §4/§5, checks in the spec's order.
+Result guard_boot_done(const GuardView& v) noexcept;
+Result guard_reset_causes_gone(const GuardView& v) noexcept;
+Result guard_servo_on(const GuardView& v) noexcept;
+Result guard_start_auto(const GuardView& v) noexcept;
+Result guard_gate_closed(const GuardView& v) noexcept;
+Result guard_enable_held(const GuardView& v) noexcept;
+Result guard_start_manual(const GuardView& v) noexcept;
+Result guard_t2_selected(const GuardView& v) noexcept;
+
+inline constexpr Guard kNoGuard{nullptr, "-"};
+inline constexpr Guard kBootDone{&guard_boot_done, "start-up self-test finished (BUSY)"};
+inline constexpr Guard kCausesGone{&guard_reset_causes_gone,
+                                   "every latched alarm's cause is gone (FAULT_PRESENT)"};
+inline constexpr Guard kServoOn{&guard_servo_on,
+                                "no latched alarm (RESET_REQUIRED); mode != NONE (MODE_INVALID); "
+                                "AUTO: gate closed (GATE_OPEN); T1/T2: enable at centre "
+                                "(ENABLING_NOT_HELD); T2: confirmed (T2_NOT_CONFIRMED)"};
+inline constexpr Guard kStartAuto{&guard_start_auto, "gate closed (GATE_OPEN); program loaded (NO_PROGRAM)"};
+inline constexpr Guard kGateClosed{&guard_gate_closed, "gate closed (GATE_OPEN)"};
+inline constexpr Guard kEnableHeld{&guard_enable_held, "enable at centre (ENABLING_NOT_HELD)"};
+inline constexpr Guard kStartManual{&guard_start_manual,
+                                    "enable at centre (ENABLING_NOT_HELD); program loaded (NO_PROGRAM)"};
+inline constexpr Guard kT2Selected{&guard_t2_selected, "mode is T2 (MODE_INVALID)"};
+
+// What a row does to the state's own data besides changing state.
+enum class Effect : std::uint8_t {
+  none,
+  reset_alarms,    // clear latched alarms; acknowledge drive faults (answer may come later)
+  begin_arming,    // ARMING from step CONTACTOR
+  start_program,   // program from its first waypoint, planned from the measured position
+  resume_program,  // program from where it paused, re-planned from the measured position
+  abort_program,   // discard the program
+  jog_keepalive,   // (re)start the jog keep-alive timer, take axis/direction/speed
+  set_t2_confirmed,  // T2 confirmed until the mode next changes
+};
+const char* to_string(Effect e) noexcept;
+
+using LeafMask = std::uint16_t;
+[[nodiscard]] constexpr LeafMask mask_of(Leaf l) noexcept {
+  return static_cast<LeafMask>(1U << static_cast<unsigned>(l));
+}
+[[nodiscard]] constexpr LeafMask only(Leaf l) noexcept { return mask_of(l); }
+template <typename... L>
+[[nodiscard]] constexpr LeafMask any_of(L... leaves) noexcept {
+  return static_cast<LeafMask>((mask_of(leaves) | ...));
+}
+
+inline constexpr LeafMask kAnyLeaf = static_cast<LeafMask>((1U << kLeafCount) - 1U);
+inline constexpr LeafMask kOperational = any_of(Leaf::AUTO_IDLE, Leaf::AUTO_RUNNING, Leaf::AUTO_PAUSED,
+                                                Leaf::MANUAL_IDLE, Leaf::MANUAL_JOGGING, Leaf::MANUAL_RUNNING);
+inline constexpr LeafMask kStopping = any_of(Leaf::STOPPING_CAT1, Leaf::STOPPING_CAT2);
+inline constexpr LeafMask kPowered = static_cast<LeafMask>(mask_of(Leaf::ARMING) | kOperational | kStopping);
+inline constexpr LeafMask kOperationalOrCat2 = static_cast<LeafMask>(kOperational | mask_of(Leaf::STOPPING_CAT2));
+inline constexpr LeafMask kAnyButLockout = static_cast<LeafMask>(kAnyLeaf & ~mask_of(Leaf::ERROR_LOCKOUT));
+inline constexpr LeafMask kIdleOrPowered = static_cast<LeafMask>(mask_of(Leaf::IDLE) | kPowered);
+
+struct Transition {
+  LeafMask from;
+  Trigger trigger;
+  Guard guard;
+  Leaf to;
+  StopCat stop;
+  AlarmMask alarms;  // alarms this row's condition raises
+  Effect effect;
+  const char* rule;  // SPEC §4 reference, for the documentation
+};
+
+// clang-format off
+inline constexpr auto kTransitions = [] {
+  using enum Leaf;
+  using enum Trigger;
+  using enum StopCat;
+  using enum AlarmId;
+  using enum Effect;
+  constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
+                               bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED);
+  constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED);
+  return std::array<Transition, 35>{{
+  // from                       trigger             guard         to                  stop  alarm                  effect            rule
+  // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
+  {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1"},
+  {kAnyButLockout,              estop_pressed,      kNoGuard,     ESTOP_ACTIVE,       CAT0, bit(ESTOP_PRESSED),    abort_program,    "2"},
+  {kPowered,                    stop_fault,         kNoGuard,     IDLE,               CAT0, kRule3,                abort_program,    "3"},
+  {kOperationalOrCat2,          gate_open_in_auto,  kNoGuard,     IDLE,               CAT1, bit(PROTECTIVE_STOP),  abort_program,    "4"},
+  {only(ARMING),                gate_open_in_auto,  kNoGuard,     IDLE,               CAT0, bit(PROTECTIVE_STOP),  abort_program,    "4b"},
+  {kOperationalOrCat2,          enable_left_centre, kNoGuard,     IDLE,               CAT1, bit(ENABLING_PANIC),   abort_program,    "5"},
+  {only(ARMING),                enable_left_centre, kNoGuard,     IDLE,               CAT0, bit(ENABLING_PANIC),   abort_program,    "5b"},
+  {kOperationalOrCat2,          mode_changed,       kNoGuard,     IDLE,               CAT1, bit(MODE_CHANGED),     abort_program,    "6"},
+  {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6"},
+  {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7"},
+  // ---- events and commands (SPEC §4, second table) --------------------------------------------------------------------------------------
+  {only(BOOT),                  boot_passed,        kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "boot"},
+  {only(ESTOP_ACTIVE),          estop_released,     kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "estop"},
+  {only(ESTOP_RESET_NEEDED),    reset,              kBootDone,    IDLE,               NONE, 0,                     none,             "reset"},
+  {only(IDLE),                  reset,              kCausesGone,  SAME,               NONE, 0,                     reset_alarms,     "reset"},
+  {kOperational,                reset,              kNoGuard,     SAME,               NONE, 0,                     none,             "reset"},
+  {only(IDLE),                  servo_on,           kServoOn,     ARMING,             NONE, 0,                     begin_arming,     "servo_on"},
+  {only(ARMING),                arming_complete,    kNoGuard,     OP_IDLE,            NONE, 0,                     none,             "arming"},
+  {only(ARMING),                arming_timeout,     kNoGuard,     IDLE,               CAT0, bit(ARMING_TIMEOUT),   none,             "arming"},
+  {only(ARMING),                servo_off,          kNoGuard,     IDLE,               CAT0, 0,                     none,             "servo_off"},
+  {kOperationalOrCat2,          servo_off,          kNoGuard,     IDLE,               CAT1, 0,                     abort_program,    "servo_off"},
+  {only(AUTO_IDLE),             start,              kStartAuto,   AUTO_RUNNING,       NONE, 0,                     start_program,    "start"},
+  {only(AUTO_RUNNING),          pause,              kNoGuard,     AUTO_PAUSED,        CAT2, 0,                     none,             "pause"},
+  {only(AUTO_RUNNING),          stop,               kNoGuard,     AUTO_IDLE,          CAT2, 0,                     abort_program,    "stop"},
+  {only(AUTO_PAUSED),           stop,               kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "stop"},
+  {only(AUTO_PAUSED),           resume,             kGateClosed,  AUTO_RUNNING,       NONE, 0,                     resume_program,   "resume"},
+  {only(AUTO_RUNNING),          program_finished,   kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "program"},
+  {only(MANUAL_IDLE),           jog,                kEnableHeld,  MANUAL_JOGGING,     NONE, 0,                     jog_keepalive,    "jog"},
+  {only(MANUAL_JOGGING),        jog,                kEnableHeld,  SAME,               NONE, 0,                     jog_keepalive,    "jog"},
+  {only(MANUAL_JOGGING),        jog_stop,           kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     none,             "jog_stop"},
+  {only(MANUAL_IDLE),           start,              kStartManual, MANUAL_RUNNING,     NONE, 0,                     start_program,    "start"},
+  {only(MANUAL_RUNNING),        pause,              kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "pause"},
+  {only(MANUAL_RUNNING),        stop,               kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "stop"},
+  {only(MANUAL_RUNNING),        program_finished,   kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "program"},
+  {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill"},
+  {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2"},
+  }};
+}();
+// clang-format on
+inline constexpr std::size_t kTransitionCount = kTransitions.size();
+
+// Index: for each (leaf, trigger) the one row that applies, or kNoRow. Built at compile
+// time from the table, so a dispatch is one lookup.
+inline constexpr std::uint8_t kNoRow = 0xFF;
+using TransitionIndex = std::array<std::array<std::uint8_t, kTriggerCount>, kLeafCount>;
+
+[[nodiscard]] constexpr TransitionIndex build_index() noexcept {
+  TransitionIndex idx{};
+  for (auto& row : idx) {
+    row.fill(kNoRow);
+  }
+  for (std::size_t r = 0; r < kTransitions.size(); ++r) {
+    for (std::size_t l = 0; l < kLeafCount; ++l) {
+      if ((kTransitions[r].from & (1U << l)) != 0U) {
+        auto& cell = idx[l][static_cast<std::size_t>(kTransitions[r].trigger)];
+        if (cell == kNoRow) {
+          cell = static_cast<std::uint8_t>(r);
+        }
+      }
+    }
+  }
+  return idx;
+}
+inline constexpr TransitionIndex kIndex = build_index();
+
+// Table well-formedness, checked at compile time: at most one row per (leaf, trigger),
+// targets that exist, stop categories that make sense for their target.
+[[nodiscard]] constexpr bool table_is_well_formed() noexcept {
+  for (std::size_t a = 0; a < kTransitions.size(); ++a) {
+    const Transition& t = kTransitions[a];
+    if (t.from == 0U || (t.from & ~kAnyLeaf) != 0U) {
+      return false;
+    }
+    if (t.stop == StopCat::CAT0 && (t.to == Leaf::SAME || t.to == Leaf::STOP_TARGET)) {
+      return false;
+    }
+    if ((t.stop == StopCat::CAT1 || t.stop == StopCat::CAT2) && (t.to == Leaf::SAME || t.to == Leaf::STOP_TARGET)) {
+      return false;
+    }
+    for (std::size_t b = a + 1; b < kTransitions.size(); ++b) {
+      if (kTransitions[b].trigger == t.trigger && (kTransitions[b].from & t.from) != 0U) {
+        return false;
+      }
+    }
+  }
+  return kTransitions.size() < kNoRow;
+}
+static_assert(table_is_well_formed(), "transition table: overlapping rows or impossible targets");
+
+[[nodiscard]] constexpr const Transition* find_row(Leaf from, Trigger trigger) noexcept {
+  const std::uint8_t r = kIndex[static_cast<std::size_t>(from)][static_cast<std::size_t>(trigger)];
+  return (r == kNoRow) ? nullptr : &kTransitions[r];
+}
+
+// Refusals that do not depend on a row (SPEC §5): per leaf, the answer to a command
+// for which the leaf has no row. `refuse_all`: the leaf answers every command so.
+struct LeafPolicy {
+  Result no_row;
+  bool refuse_all;
+};
+inline constexpr std::array<LeafPolicy, kLeafCount> kLeafPolicy{{
+    {Result::WRONG_STATE, false},     // BOOT
+    {Result::LOCKED_OUT, true},       // ERROR_LOCKOUT
+    {Result::ESTOP_ACTIVE, true},     // ESTOP_ACTIVE
+    {Result::RESET_REQUIRED, false},  // ESTOP_RESET_NEEDED: anything but reset
+    {Result::WRONG_STATE, false},     // IDLE
+    {Result::BUSY, false},            // ARMING
+    {Result::WRONG_STATE, false},     // AUTO_IDLE
+    {Result::WRONG_STATE, false},     // AUTO_RUNNING
+    {Result::WRONG_STATE, false},     // AUTO_PAUSED
+    {Result::WRONG_STATE, false},     // MANUAL_IDLE
+    {Result::WRONG_STATE, false},     // MANUAL_JOGGING
+    {Result::WRONG_STATE, false},     // MANUAL_RUNNING
+    {Result::BUSY, false},            // STOPPING_CAT1
+    {Result::BUSY, false},            // STOPPING_CAT2
+}};
+
+}  // namespace safestate::core

@@ -1,0 +1,138 @@
+// SafeState core vocabulary: every name of SPEC.md spelled the same way, so one grep
+// finds the contract and the code. No heap, no exceptions, no OS: builds for a
+// Cortex-M4 as well as Linux.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+namespace safestate::core {
+
+inline constexpr std::size_t kAxes = 6;
+
+// All timing inside the core is counted in scan cycles (SPEC §1), never read from a clock.
+using Cycle = std::uint64_t;
+
+// SPEC §3 `state`. Order is the order of the alternatives of StateVariant.
+enum class State : std::uint8_t {
+  BOOT,
+  ERROR_LOCKOUT,
+  ESTOP_ACTIVE,
+  ESTOP_RESET_NEEDED,
+  IDLE,
+  ARMING,
+  OPERATIONAL,
+  STOPPING,
+};
+inline constexpr std::size_t kStateCount = 8;
+
+// SPEC §3 `sub` (NONE = null outside OPERATIONAL).
+enum class Sub : std::uint8_t {
+  NONE,
+  AUTO_IDLE,
+  AUTO_RUNNING,
+  AUTO_PAUSED,
+  MANUAL_IDLE,
+  MANUAL_JOGGING,
+  MANUAL_RUNNING,
+};
+
+// SPEC §2 mode selector.
+enum class Mode : std::uint8_t { NONE, AUTO, T1, T2 };
+
+// IEC 60204-1 stop categories; NONE = null.
+enum class StopCat : std::uint8_t { NONE, CAT0, CAT1, CAT2 };
+
+// SPEC §5 command results, in the spec's order.
+enum class Result : std::uint8_t {
+  OK,
+  UNKNOWN_COMMAND,
+  BAD_ARGUMENT,
+  NOT_CONTROL_OWNER,
+  LOCKED_OUT,
+  ESTOP_ACTIVE,
+  RESET_REQUIRED,
+  FAULT_PRESENT,
+  MODE_INVALID,
+  MODE_BY_SELECTOR_ONLY,
+  GATE_OPEN,
+  ENABLING_NOT_HELD,
+  T2_NOT_CONFIRMED,
+  JOG_NOT_IN_AUTO,
+  NO_PROGRAM,
+  BUSY,
+  WRONG_STATE,
+  QUEUE_FULL,
+};
+inline constexpr std::size_t kResultCount = 18;
+
+// SPEC §4 commands, spelled as on the wire and in .scn files.
+enum class CommandId : std::uint8_t {
+  reset,
+  servo_on,
+  servo_off,
+  start,
+  pause,
+  resume,
+  stop,
+  jog,
+  jog_stop,
+  confirm_t2,
+  set_mode,
+};
+inline constexpr std::size_t kCommandCount = 11;
+
+// Who sent a command (single point of control, ISO 10218-1 5.3.5).
+enum class Source : std::uint8_t { pendant, remote, observer, reset_button };
+inline constexpr std::size_t kSourceCount = 4;
+
+// The fixed-size binary command record: raw fields so that the core itself validates
+// them (a malformed command is refused with UNKNOWN_COMMAND / BAD_ARGUMENT, SPEC §5).
+struct Command {
+  std::uint32_t seq = 0;
+  std::uint8_t id = 0;      // CommandId value
+  std::uint8_t source = 0;  // Source value
+  std::int8_t axis = 0;     // jog: 1..6
+  std::int8_t dir = 0;      // jog: +1 / -1
+  std::uint8_t speed = 0;   // jog: percent 1..100
+  std::uint8_t mode = 0;    // set_mode: Mode value
+};
+
+// One answer per command. `cmd`/`source` are the raw values received, so that an
+// unknown command is reported as what it was, not as a valid one.
+struct Reply {
+  std::uint32_t seq = 0;
+  std::uint8_t cmd = 0;     // CommandId value, or the unknown value received
+  std::uint8_t source = 0;  // Source value, or the unknown value received
+  Result result = Result::OK;
+};
+
+// Which physical contact a cause refers to.
+enum class Signal : std::uint8_t { none, estop, gate, enable, mode, reset_button, drive, contactor, brake, fieldbus, command, internal };
+enum class Channel : std::uint8_t { none, a, b, both, panic };
+
+// ARMING steps (SPEC §4): contactor, then drives, then brakes.
+enum class ArmingStep : std::uint8_t { CONTACTOR, DRIVES, BRAKES };
+
+// Names, exactly as in SPEC.md. Pure lookups, usable on a microcontroller.
+const char* to_string(State s) noexcept;
+const char* to_string(Sub s) noexcept;   // "-" for NONE
+const char* to_string(Mode m) noexcept;
+const char* to_string(StopCat c) noexcept;  // "-" for NONE
+const char* to_string(Result r) noexcept;
+const char* to_string(CommandId c) noexcept;
+const char* to_string(Source s) noexcept;
+const char* to_string(Signal s) noexcept;
+const char* to_string(Channel c) noexcept;
+const char* to_string(ArmingStep s) noexcept;
+
+// Reverse lookups for parsers at the boundary (scenario files, gateway). Return false
+// and leave `out` untouched when the name is unknown.
+bool parse_command(const char* name, CommandId& out) noexcept;
+bool parse_mode(const char* name, Mode& out) noexcept;
+bool parse_result(const char* name, Result& out) noexcept;
+bool parse_state(const char* name, State& out) noexcept;
+bool parse_sub(const char* name, Sub& out) noexcept;
+
+}  // namespace safestate::core

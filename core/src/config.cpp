@@ -1,0 +1,74 @@
+#include "safestate/core/config.hpp"
+
+#include "safestate/core/supervisor.hpp"
+
+namespace safestate::core {
+
+namespace {
+struct Range {
+  const char* field;
+  std::uint32_t value;
+  std::uint32_t min;
+  std::uint32_t max;
+  const char* reason;
+};
+}  // namespace
+
+ConfigError validate(const Config& c) noexcept {
+  const Range ranges[] = {
+      {"cycle_us", c.cycle_us, 250U, 4000U, "must be 250..4000 (SPEC 1: 0.25-4 ms)"},
+      {"discrepancy_ms", c.discrepancy_ms, 1U, 1000U, "must be 1..1000"},
+      {"jog_timeout_ms", c.jog_timeout_ms, 1U, 10000U, "must be 1..10000"},
+      {"max_stop_ms", c.max_stop_ms, 1U, 60000U, "must be 1..60000"},
+      {"boot_timeout_ms", c.boot_timeout_ms, 1U, 600000U, "must be 1..600000"},
+      {"standstill_cycles", c.standstill_cycles, 1U, 10000U, "must be 1..10000"},
+      {"max_commands_per_cycle", c.max_commands_per_cycle, 1U, static_cast<std::uint32_t>(kMaxCommandsPerCycle),
+       "must be 1..16"},
+      {"contactor_timeout_ms", c.contactor_timeout_ms, 1U, 60000U, "must be 1..60000"},
+      {"drives_timeout_ms", c.drives_timeout_ms, 1U, 60000U, "must be 1..60000"},
+      {"brakes_timeout_ms", c.brakes_timeout_ms, 1U, 60000U, "must be 1..60000"},
+      {"reset_hold_max_ms", c.reset_hold_max_ms, 1U, 60000U, "must be 1..60000"},
+      {"fault_reset_reply_cycles", c.fault_reset_reply_cycles, 1U, 10000U, "must be 1..10000"},
+  };
+  for (const Range& r : ranges) {
+    if ((r.value < r.min) || (r.value > r.max)) {
+      return ConfigError{r.field, r.reason};
+    }
+  }
+  // `!(x > 0)` also rejects NaN.
+  if (!(c.standstill_rad_s > 0.0F) || !(c.standstill_rad_s < 10.0F)) {
+    return ConfigError{"standstill_rad_s", "must be > 0 and < 10"};
+  }
+  if (!(c.t1_speed_limit_mm_s > 0.0F) || !(c.t1_speed_limit_mm_s <= 250.0F)) {
+    return ConfigError{"t1_speed_limit_mm_s", "must be > 0 and <= 250 (ISO 10218-1 reduced speed)"};
+  }
+  // Every timer must span at least one cycle, or it would fire in the cycle it starts.
+  const std::uint32_t timed[] = {c.discrepancy_ms, c.jog_timeout_ms, c.max_stop_ms, c.contactor_timeout_ms,
+                                 c.drives_timeout_ms, c.brakes_timeout_ms};
+  for (const std::uint32_t ms : timed) {
+    if (ms_to_cycles(ms, c.cycle_us) < 1U) {
+      return ConfigError{"cycle_us", "is longer than one of the timeouts: every timeout must span at least one cycle"};
+    }
+  }
+  return ConfigError{};
+}
+
+Timing to_timing(const Config& c) noexcept {
+  Timing t{};
+  t.discrepancy = ms_to_cycles(c.discrepancy_ms, c.cycle_us);
+  t.jog_timeout = ms_to_cycles(c.jog_timeout_ms, c.cycle_us);
+  t.max_stop = ms_to_cycles(c.max_stop_ms, c.cycle_us);
+  t.boot_timeout = ms_to_cycles(c.boot_timeout_ms, c.cycle_us);
+  t.standstill_cycles = c.standstill_cycles;
+  t.standstill_rad_s = c.standstill_rad_s;
+  t.max_commands_per_cycle = c.max_commands_per_cycle;
+  t.t1_speed_limit_mm_s = c.t1_speed_limit_mm_s;
+  t.contactor_timeout = ms_to_cycles(c.contactor_timeout_ms, c.cycle_us);
+  t.drives_timeout = ms_to_cycles(c.drives_timeout_ms, c.cycle_us);
+  t.brakes_timeout = ms_to_cycles(c.brakes_timeout_ms, c.cycle_us);
+  t.reset_hold_max = ms_to_cycles(c.reset_hold_max_ms, c.cycle_us);
+  t.fault_reset_reply = c.fault_reset_reply_cycles;
+  return t;
+}
+
+}  // namespace safestate::core

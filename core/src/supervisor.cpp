@@ -1,0 +1,786 @@
+#include "safestate/core/supervisor.hpp"
+
+#include "safestate/core/cia402.hpp"
+
+namespace safestate::core {
+
+namespace {
+
+constexpr bool in_mask(LeafMask m, Leaf l) noexcept { return (m & mask_of(l)) != 0U; }
+
+constexpr auto kResetId = static_cast<std::uint8_t>(CommandId::reset);
+
+constexpr bool is_manual(Mode m) noexcept { return (m == Mode::T1) || (m == Mode::T2); }
+
+// Outputs per leaf (SPEC §3). ARMING (by step), STOPPING (brake phase) and IDLE (lamp)
+// refine these in write_outputs().
+struct LeafOutputs {
+  bool contactor;
+  bool drives;
+  bool brakes_release;
+  bool reset_lamp;
+  MotionMode motion;
+};
+constexpr std::array<LeafOutputs, kLeafCount> kLeafOutputs{{
+    {false, false, false, false, MotionMode::Track},  // BOOT
+    {false, false, false, false, MotionMode::Track},  // ERROR_LOCKOUT
+    {false, false, false, false, MotionMode::Track},  // ESTOP_ACTIVE
+    {false, false, false, true, MotionMode::Track},   // ESTOP_RESET_NEEDED
+    {false, false, false, false, MotionMode::Track},  // IDLE (lamp: latched alarm waiting)
+    {true, false, false, false, MotionMode::Track},   // ARMING (drives/brakes by step)
+    {true, true, true, false, MotionMode::Hold},      // AUTO_IDLE
+    {true, true, true, false, MotionMode::Program},   // AUTO_RUNNING
+    {true, true, true, false, MotionMode::Hold},      // AUTO_PAUSED
+    {true, true, true, false, MotionMode::Hold},      // MANUAL_IDLE
+    {true, true, true, false, MotionMode::Jog},       // MANUAL_JOGGING
+    {true, true, true, false, MotionMode::Program},   // MANUAL_RUNNING
+    {true, true, true, false, MotionMode::QuickStop}, // STOPPING_CAT1
+    {true, true, true, false, MotionMode::Ramp2},     // STOPPING_CAT2
+}};
+
+// Priority of a cause for the first-out display: a cause is replaced only by a more
+// severe one (lockout, then E-stop, then faults, then protective/enabling/mode stops).
+constexpr std::uint8_t rank(const Cause& c) noexcept {
+  if (c.kind == CauseKind::none) {
+    return 255U;
+  }
+  if (c.rule != 0U) {
+    return c.rule;
+  }
+  if ((c.kind == CauseKind::alarm) && (c.alarm == AlarmId::ARMING_TIMEOUT)) {
+    return 3U;
+  }
+  return 10U;
+}
+
+Cause alarm_cause(std::uint8_t rule, AlarmId a, const AlarmDetail& d, Mode m) noexcept {
+  Cause c{};
+  c.kind = CauseKind::alarm;
+  c.rule = rule;
+  c.alarm = a;
+  c.detail = d;
+  c.mode = m;
+  return c;
+}
+
+AlarmDetail detail_of(Signal s, Channel ch = Channel::none, std::uint8_t axis = 0U, std::uint16_t code = 0U) noexcept {
+  AlarmDetail d{};
+  d.signal = s;
+  d.channel = ch;
+  d.axis = axis;
+  d.code = code;
+  return d;
+}
+
+}  // namespace
+
+struct SystemStateManager::CycleCtx {
+  const SafetyInputs& in;
+  const Feedback& fb;
+  SupervisorOut& out;
+  Leaf start_leaf;
+  bool cat0 = false;
+  bool discard = false;
+  bool deferred = false;  // the current command's answer comes later
+  ProgramCmd program = ProgramCmd::None;
+  bool at_standstill = false;
+  bool boot_passed = false;
+  bool boot_failed = false;
+  AlarmDetail boot_detail{};
+  bool any_drive_faulted = false;  // a statusword decodes to Fault / reaction / unknown
+  bool drive_fault = false;        // rule 3: the above, or left Operation enabled on its own
+  AlarmDetail drive_detail{};
+  bool drive_offline = false;
+  std::uint8_t offline_axis = 0;
+  std::uint8_t fastest_moving_axis = 0;
+};
+
+SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(timing) {
+  // Start-up self-test: the table is checked at compile time (static_assert); what can
+  // still be wrong at run time is the configuration this instance was given, and the
+  // alarm table's numbering.
+  bool ok = (timing_.standstill_cycles > 0U) && (timing_.max_commands_per_cycle > 0U) &&
+            (timing_.max_commands_per_cycle <= kMaxCommandsPerCycle) && (timing_.standstill_rad_s > 0.0F);
+  for (std::size_t i = 0; i < kAlarmCount; ++i) {
+    ok = ok && (static_cast<std::size_t>(kAlarms[i].id) == i);
+  }
+  self_test_ok_ = ok;
+}
+
+GuardView SystemStateManager::view(const CycleCtx& c) const noexcept {
+  return GuardView{c.in, c.fb, alarms_, timing_, t2_confirmed_, boot_pending_, reset_pending_, c.at_standstill};
+}
+
+void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
+  const SafetyInputs& in = c.in;
+  const Feedback& fb = c.fb;
+  alarms_.begin_cycle();
+
+  // Standstill: every axis below the threshold for N consecutive cycles (SPEC §3).
+  bool still = true;
+  float fastest = 0.0F;
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    const float v = fb.drive[i].velocity_rad_s;
+    const float av = (v < 0.0F) ? -v : v;
+    if (!(av < timing_.standstill_rad_s)) {  // NaN is not standstill
+      still = false;
+    }
+    if (av > fastest) {
+      fastest = av;
+      c.fastest_moving_axis = static_cast<std::uint8_t>(i + 1U);
+    }
+  }
+  standstill_count_ = still ? ((standstill_count_ < timing_.standstill_cycles) ? standstill_count_ + 1U : standstill_count_) : 0U;
+  c.at_standstill = standstill_count_ >= timing_.standstill_cycles;
+
+  if (in.mode_changed) {
+    t2_confirmed_ = false;  // "T2 confirmed until the mode next changes"
+  }
+
+  // Alarms that are active while their condition lasts.
+  const AlarmId cond[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK};
+  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck};
+  const AlarmDetail what[] = {detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
+                              detail_of(Signal::reset_button)};
+  for (std::size_t i = 0; i < 3U; ++i) {
+    if (holds[i]) {
+      alarms_.raise(cond[i], what[i], now_);
+    } else {
+      alarms_.clear(cond[i]);
+    }
+  }
+  if (in.enable_panic_edge) {
+    alarms_.raise(AlarmId::ENABLING_PANIC, detail_of(Signal::enable, Channel::panic), now_);
+  }
+
+  // Drives: decoded state, unknown is a fault (SPEC §3 "unknown is unsafe").
+  const auto* arming = std::get_if<StArming>(&state_);
+  const bool expect_enabled = in_mask(static_cast<LeafMask>(kOperational | kStopping), leaf_) ||
+                              ((arming != nullptr) && (arming->step == ArmingStep::BRAKES));
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    const DriveFeedback& d = fb.drive[i];
+    const auto axis = static_cast<std::uint8_t>(i + 1U);
+    if (!d.online) {
+      if (!c.drive_offline) {
+        c.drive_offline = true;
+        c.offline_axis = axis;
+      }
+      continue;
+    }
+    const cia402::DriveState ds = cia402::decode(d.statusword);
+    const bool faulted = cia402::is_fault(ds);
+    c.any_drive_faulted = c.any_drive_faulted || faulted;
+    const bool bad = faulted || (expect_enabled && (ds != cia402::DriveState::OperationEnabled));
+    if (bad && !c.drive_fault) {
+      c.drive_fault = true;
+      c.drive_detail = detail_of(Signal::drive, Channel::none, axis, d.statusword);
+    }
+  }
+  if (c.any_drive_faulted && (leaf_ != Leaf::BOOT)) {
+    // Every condition raises its alarm, also in states where rule 3 stops nothing.
+    alarms_.raise(AlarmId::DRIVE_FAULT, c.drive_detail, now_);
+  }
+
+  // BOOT: self-test, fieldbus up, every drive answers, within boot_timeout.
+  if (boot_pending_) {
+    bool answered = fb.fieldbus_ok;
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      const DriveFeedback& d = fb.drive[i];
+      // A drive answers once it is on the bus and past its own initialisation
+      // ("Not ready to switch on" is the drive still starting up).
+      const cia402::DriveState ds = cia402::decode(d.statusword);
+      if (!d.online || (ds == cia402::DriveState::Unknown) || (ds == cia402::DriveState::NotReadyToSwitchOn)) {
+        if (answered) {
+          c.boot_detail = detail_of(Signal::drive, Channel::none, static_cast<std::uint8_t>(i + 1U), d.statusword);
+        }
+        answered = false;
+      }
+    }
+    if (!fb.fieldbus_ok) {
+      c.boot_detail = detail_of(Signal::fieldbus);
+    }
+    if (self_test_ok_ && answered) {
+      boot_pending_ = false;
+      c.boot_passed = true;
+    } else if (!self_test_ok_ || (now_ > timing_.boot_timeout)) {
+      c.boot_failed = true;
+      if (!self_test_ok_) {
+        c.boot_detail = detail_of(Signal::internal);
+      }
+    }
+  }
+
+  // Timers carried by the states themselves.
+  if (auto* a = std::get_if<StArming>(&state_)) {
+    ++a->step_elapsed;
+  } else if (auto* s = std::get_if<StStopping>(&state_)) {
+    ++s->elapsed;
+    if (s->braking) {
+      ++s->brake_elapsed;
+    }
+  } else if (auto* b = std::get_if<StBoot>(&state_)) {
+    ++b->elapsed;
+  }
+}
+
+bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
+  const SafetyInputs& in = c.in;
+  const Feedback& fb = c.fb;
+  bool decided = false;
+  for (std::size_t t = 0; t < kConditionCount; ++t) {
+    const auto trig = static_cast<Trigger>(t);
+    const Transition* row = find_row(c.start_leaf, trig);
+    if (row == nullptr) {
+      continue;  // this rule does not apply in this state
+    }
+    const auto rule = static_cast<std::uint8_t>(t + 1U);
+    bool holds = false;
+    Cause cause{};
+    // Evaluate the condition; raise every alarm it implies; remember the first as cause.
+    auto hit = [&](AlarmId a, const AlarmDetail& d) {
+      alarms_.raise(a, d, now_);
+      if (!holds) {
+        cause = alarm_cause(rule, a, d, in.mode);
+      }
+      holds = true;
+    };
+    switch (trig) {
+      case Trigger::lockout_condition:
+        if (in.estop_discrepancy) {
+          hit(AlarmId::ESTOP_DISCREPANCY, detail_of(Signal::estop, in.estop_fault_channel));
+        }
+        if (in.gate_discrepancy) {
+          hit(AlarmId::GATE_DISCREPANCY, detail_of(Signal::gate, in.gate_fault_channel));
+        }
+        if (in.enable_discrepancy) {
+          hit(AlarmId::ENABLE_DISCREPANCY, detail_of(Signal::enable, in.enable_fault_channel));
+        }
+        if (!boot_pending_ && !fb.fieldbus_ok) {
+          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus));
+        }
+        if (!boot_pending_ && c.drive_offline) {
+          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::drive, Channel::none, c.offline_axis));
+        }
+        if (!fb.integrity_ok || integrity_fault_) {
+          hit(AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal));
+        }
+        if (c.boot_failed) {
+          hit(AlarmId::BOOT_FAILED, c.boot_detail);
+        }
+        break;
+      case Trigger::estop_pressed:
+        if (in.estop_pressed) {
+          hit(AlarmId::ESTOP_PRESSED, detail_of(Signal::estop, in.estop_cause));
+        }
+        break;
+      case Trigger::stop_fault: {
+        if (c.drive_fault) {
+          hit(AlarmId::DRIVE_FAULT, c.drive_detail);
+        }
+        // `!(x <= limit)` so that a NaN speed counts as exceeded (unknown is unsafe).
+        if ((in.mode == Mode::T1) && !(fb.max_point_speed_mm_s <= timing_.t1_speed_limit_mm_s)) {
+          hit(AlarmId::T1_SPEED_EXCEEDED, detail_of(Signal::drive, Channel::none, fb.fastest_axis,
+                                                    static_cast<std::uint16_t>(fb.max_point_speed_mm_s)));
+        }
+        const auto* s = std::get_if<StStopping>(&state_);
+        if ((s != nullptr) && !s->braking && (s->elapsed > timing_.max_stop)) {
+          hit(AlarmId::STOP_TIME_EXCEEDED, detail_of(Signal::drive, Channel::none, c.fastest_moving_axis));
+        }
+        break;
+      }
+      case Trigger::gate_open_in_auto:
+        if (in.gate_open && (in.mode == Mode::AUTO)) {
+          hit(AlarmId::PROTECTIVE_STOP, detail_of(Signal::gate, in.gate_cause));
+        }
+        break;
+      case Trigger::enable_left_centre:
+        if (is_manual(in.mode) && !in.enable_ok) {
+          if (in.enable == EnablePos::panic) {
+            hit(AlarmId::ENABLING_PANIC, detail_of(Signal::enable, Channel::panic));
+          } else {
+            holds = true;  // a release raises no alarm: it is the normal way to stop
+            cause.kind = CauseKind::event;
+            cause.rule = rule;
+            cause.mode = in.mode;
+            cause.detail = detail_of(Signal::enable);
+          }
+        }
+        break;
+      case Trigger::mode_changed:
+        if (in.mode_changed) {
+          hit(AlarmId::MODE_CHANGED, detail_of(Signal::mode, Channel::none, 0U, static_cast<std::uint16_t>(in.mode)));
+        }
+        break;
+      case Trigger::jog_timeout:
+        if ((now_ - last_jog_) > timing_.jog_timeout) {
+          hit(AlarmId::JOG_LINK_LOST, detail_of(Signal::command));
+        }
+        break;
+      default:
+        break;
+    }
+    if (holds && !decided) {
+      decided = true;
+      static_cast<void>(apply(c, *row, cause, nullptr));
+    }
+  }
+  return decided;
+}
+
+void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
+  Trigger trig = Trigger::boot_passed;
+  bool fired = false;
+  Cause cause{};
+  cause.kind = CauseKind::event;
+  cause.mode = c.in.mode;
+
+  if (leaf_ == Leaf::BOOT) {
+    fired = c.boot_passed;
+  } else if (leaf_ == Leaf::ESTOP_ACTIVE) {
+    trig = Trigger::estop_released;
+    fired = !c.in.estop_pressed;
+  } else if (auto* a = std::get_if<StArming>(&state_)) {
+    bool done = false;
+    Cycle limit = timing_.contactor_timeout;
+    switch (a->step) {
+      case ArmingStep::CONTACTOR:
+        done = c.fb.contactor_closed;
+        break;
+      case ArmingStep::DRIVES:
+        limit = timing_.drives_timeout;
+        done = true;
+        for (const DriveFeedback& d : c.fb.drive) {
+          done = done && (cia402::decode(d.statusword) == cia402::DriveState::OperationEnabled);
+        }
+        break;
+      case ArmingStep::BRAKES:
+        limit = timing_.brakes_timeout;
+        done = true;
+        for (const bool released : c.fb.brake_released) {
+          done = done && released;
+        }
+        break;
+    }
+    const auto step_index = static_cast<std::uint8_t>(a->step);
+    if (done && (a->step == ArmingStep::BRAKES)) {
+      trig = Trigger::arming_complete;
+      fired = true;
+      a->progress = 100U;
+    } else if (done) {
+      a->step = static_cast<ArmingStep>(step_index + 1U);
+      a->step_elapsed = 0;
+    } else if (a->step_elapsed > limit) {
+      trig = Trigger::arming_timeout;
+      fired = true;
+      AlarmDetail d{};
+      d.signal = (a->step == ArmingStep::CONTACTOR) ? Signal::contactor
+                                                    : ((a->step == ArmingStep::DRIVES) ? Signal::drive : Signal::brake);
+      d.step = a->step;
+      d.has_step = true;
+      alarms_.raise(AlarmId::ARMING_TIMEOUT, d, now_);
+      cause = alarm_cause(0U, AlarmId::ARMING_TIMEOUT, d, c.in.mode);
+    }
+    if (!fired) {
+      const Cycle span = (a->step == ArmingStep::CONTACTOR)
+                             ? timing_.contactor_timeout
+                             : ((a->step == ArmingStep::DRIVES) ? timing_.drives_timeout : timing_.brakes_timeout);
+      const Cycle part = (span > 0U) ? ((a->step_elapsed * 33U) / (span + 1U)) : 0U;
+      a->progress = static_cast<std::uint8_t>((static_cast<Cycle>(a->step) * 33U) + part);
+    }
+  } else if ((leaf_ == Leaf::AUTO_RUNNING) || (leaf_ == Leaf::MANUAL_RUNNING)) {
+    trig = Trigger::program_finished;
+    fired = c.fb.program_finished;
+  } else if (auto* s = std::get_if<StStopping>(&state_)) {
+    trig = Trigger::standstill;
+    if (!s->braking) {
+      if (c.at_standstill) {
+        if (s->category == StopCat::CAT2) {
+          fired = true;
+        } else {
+          // IEC 60204-1 Cat 1: at standstill engage the brakes while the drives still
+          // hold, and remove power once the brakes have engaged.
+          s->braking = true;
+          s->brake_elapsed = 0;
+        }
+      }
+    } else {
+      bool engaged = true;
+      for (const bool released : c.fb.brake_released) {
+        engaged = engaged && !released;
+      }
+      fired = engaged || (s->brake_elapsed > timing_.brakes_timeout);
+    }
+  }
+  if (fired) {
+    const Transition* row = find_row(leaf_, trig);
+    if (row != nullptr) {
+      static_cast<void>(apply(c, *row, cause, nullptr));
+    }
+  }
+}
+
+void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
+  if (!reset_pending_) {
+    return;
+  }
+  if (!c.any_drive_faulted) {
+    for (std::size_t i = 0; i < kAlarmCount; ++i) {
+      const auto a = static_cast<AlarmId>(i);
+      if ((kLatchedAlarms & bit(a)) != 0U) {
+        alarms_.clear(a);
+      }
+    }
+    cause_ = Cause{};
+    reset_pending_ = false;
+    reply(c, reset_seq_, kResetId, reset_source_, Result::OK);
+  } else if ((now_ - reset_pending_since_) > timing_.fault_reset_reply) {
+    reset_pending_ = false;
+    reply(c, reset_seq_, kResetId, reset_source_, Result::FAULT_PRESENT);
+  }
+}
+
+void SystemStateManager::handle_reset_button(CycleCtx& c) noexcept {
+  // ISO 13849-1 5.2.2: only a press that began after the reset became possible, and
+  // was released within the hold limit, is a reset.
+  if (!c.in.reset_released || (c.in.reset_press_start <= reset_possible_since_) ||
+      ((leaf_ != Leaf::ESTOP_RESET_NEEDED) && (leaf_ != Leaf::IDLE))) {
+    return;
+  }
+  Command cmd{};
+  cmd.id = static_cast<std::uint8_t>(CommandId::reset);
+  cmd.source = static_cast<std::uint8_t>(Source::reset_button);
+  c.deferred = false;
+  const Result r = dispatch_command(c, cmd);
+  if (!c.deferred) {
+    reply(c, 0U, cmd.id, cmd.source, r);
+  }
+}
+
+Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noexcept {
+  // 1. Malformed (SPEC §5 check order).
+  if (cmd.id >= kCommandCount) {
+    return Result::UNKNOWN_COMMAND;
+  }
+  const auto id = static_cast<CommandId>(cmd.id);
+  if (cmd.source >= kSourceCount) {
+    return Result::BAD_ARGUMENT;
+  }
+  if (id == CommandId::jog) {
+    const bool axis_ok = (cmd.axis >= 1) && (cmd.axis <= static_cast<std::int8_t>(kAxes));
+    const bool dir_ok = (cmd.dir == 1) || (cmd.dir == -1);
+    const bool speed_ok = (cmd.speed >= 1U) && (cmd.speed <= 100U);
+    if (!axis_ok || !dir_ok || !speed_ok) {
+      return Result::BAD_ARGUMENT;
+    }
+  }
+  if ((id == CommandId::set_mode) && ((cmd.mode == 0U) || (cmd.mode > static_cast<std::uint8_t>(Mode::T2)))) {
+    return Result::BAD_ARGUMENT;
+  }
+  // 2. Lockout.
+  if (leaf_ == Leaf::ERROR_LOCKOUT) {
+    return Result::LOCKED_OUT;
+  }
+  // 3. Ownership (single point of control, ISO 10218-1 5.3.5).
+  const auto src = static_cast<Source>(cmd.source);
+  if (src == Source::observer) {
+    return Result::NOT_CONTROL_OWNER;
+  }
+  if ((src == Source::remote) && ((id == CommandId::reset) || (c.in.mode != Mode::AUTO))) {
+    return Result::NOT_CONTROL_OWNER;
+  }
+  if ((src == Source::reset_button) && (id != CommandId::reset)) {
+    return Result::NOT_CONTROL_OWNER;
+  }
+  // 4. State rules.
+  if (id == CommandId::set_mode) {
+    return Result::MODE_BY_SELECTOR_ONLY;
+  }
+  const LeafPolicy& policy = kLeafPolicy[static_cast<std::size_t>(leaf_)];
+  if (policy.refuse_all) {
+    return policy.no_row;
+  }
+  const Transition* row = find_row(leaf_, trigger_of(id));
+  if (row == nullptr) {
+    const bool generic = (policy.no_row == Result::WRONG_STATE) || (policy.no_row == Result::BUSY);
+    if ((id == CommandId::jog) && (c.in.mode == Mode::AUTO) && generic) {
+      return Result::JOG_NOT_IN_AUTO;
+    }
+    return policy.no_row;
+  }
+  if (row->guard.fn != nullptr) {
+    const Result g = row->guard.fn(view(c));
+    if (g != Result::OK) {
+      return g;  // a refused command changes nothing
+    }
+  }
+  Cause cause{};
+  cause.kind = CauseKind::command;
+  cause.command = id;
+  cause.source = src;
+  cause.mode = c.in.mode;
+  cause.detail.signal = Signal::command;
+  cause.detail.code = static_cast<std::uint16_t>(id);
+  return apply(c, *row, cause, &cmd);
+}
+
+Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause& cause, const Command* cmd) noexcept {
+  const Leaf from = leaf_;
+  Leaf to = row.to;
+  if (to == Leaf::SAME) {
+    to = from;
+  } else if (to == Leaf::OP_IDLE) {
+    to = (c.in.mode == Mode::AUTO) ? Leaf::AUTO_IDLE : Leaf::MANUAL_IDLE;
+  } else if (to == Leaf::STOP_TARGET) {
+    const auto* s = std::get_if<StStopping>(&state_);
+    to = (s != nullptr) ? s->target : Leaf::IDLE;
+  }
+
+  switch (row.effect) {
+    case Effect::reset_alarms:
+      if (c.any_drive_faulted) {
+        // SPEC §5: the drives get a fault reset; the answer comes once they reply.
+        reset_pending_ = true;
+        reset_pending_since_ = now_;
+        reset_seq_ = (cmd != nullptr) ? cmd->seq : 0U;
+        reset_source_ = (cmd != nullptr) ? cmd->source : static_cast<std::uint8_t>(Source::pendant);
+        c.deferred = true;
+      } else {
+        for (std::size_t i = 0; i < kAlarmCount; ++i) {
+          const auto a = static_cast<AlarmId>(i);
+          if ((kLatchedAlarms & bit(a)) != 0U) {
+            alarms_.clear(a);
+          }
+        }
+      }
+      break;
+    case Effect::start_program:
+      c.program = ProgramCmd::Start;
+      break;
+    case Effect::resume_program:
+      c.program = ProgramCmd::Resume;
+      break;
+    case Effect::abort_program:
+      c.program = ProgramCmd::Abort;
+      break;
+    case Effect::jog_keepalive:
+      last_jog_ = now_;
+      if (cmd != nullptr) {
+        jog_.axis = static_cast<std::uint8_t>(cmd->axis);
+        jog_.dir = cmd->dir;
+        jog_.speed = cmd->speed;
+      }
+      break;
+    case Effect::set_t2_confirmed:
+      t2_confirmed_ = true;
+      break;
+    case Effect::begin_arming:
+    case Effect::none:
+      break;
+  }
+
+  const bool stops = row.stop != StopCat::NONE;
+  if (stops || (to == Leaf::ERROR_LOCKOUT) || (to == Leaf::ESTOP_ACTIVE)) {
+    set_cause(cause);
+  } else if ((cmd != nullptr) && ((row.to != Leaf::SAME) || (row.effect == Effect::reset_alarms))) {
+    cause_ = Cause{};  // an accepted command that starts something: no stop is current
+  }
+
+  if (stops) {
+    c.discard = true;  // every stop discards all queued motion (SPEC §3)
+  }
+  if ((row.stop == StopCat::CAT1) || (row.stop == StopCat::CAT2)) {
+    StStopping s{};
+    s.category = row.stop;
+    s.target = to;
+    if (const auto* prev = std::get_if<StStopping>(&state_)) {
+      s.elapsed = prev->elapsed;  // an escalated stop keeps its original start (SS1-t)
+    }
+    state_ = s;
+    leaf_ = (row.stop == StopCat::CAT1) ? Leaf::STOPPING_CAT1 : Leaf::STOPPING_CAT2;
+    if (reset_pending_) {
+      reset_pending_ = false;
+      reply(c, reset_seq_, kResetId, reset_source_, kLeafPolicy[static_cast<std::size_t>(leaf_)].no_row);
+    }
+  } else {
+    if (row.stop == StopCat::CAT0) {
+      c.cat0 = true;
+    }
+    if ((to != from) || (row.effect == Effect::begin_arming)) {
+      enter(c, to, row.stop);
+    }
+  }
+
+  if ((leaf_ != from) && (c.out.transition_count < kMaxTransitionsPerCycle)) {
+    TransitionEvent& e = c.out.transitions[c.out.transition_count];
+    e.from = from;
+    e.to = leaf_;
+    e.stop = row.stop;
+    e.trigger = row.trigger;
+    e.row = static_cast<std::uint8_t>(&row - kTransitions.data());
+    ++c.out.transition_count;
+  }
+  return Result::OK;
+}
+
+void SystemStateManager::enter(CycleCtx& c, Leaf to, StopCat /*stop*/) noexcept {
+  const Leaf from = leaf_;
+  switch (to) {
+    case Leaf::BOOT: state_ = StBoot{}; break;
+    case Leaf::ERROR_LOCKOUT: state_ = StErrorLockout{cause_}; break;
+    case Leaf::ESTOP_ACTIVE: state_ = StEstopActive{}; break;
+    case Leaf::ESTOP_RESET_NEEDED: state_ = StEstopResetNeeded{}; break;
+    case Leaf::IDLE: state_ = StIdle{}; break;
+    case Leaf::ARMING: state_ = StArming{}; break;
+    case Leaf::STOPPING_CAT1:
+    case Leaf::STOPPING_CAT2:
+    case Leaf::SAME:
+    case Leaf::OP_IDLE:
+    case Leaf::STOP_TARGET:
+      // Not reachable through enter(): STOPPING is entered by apply() with its data.
+      integrity_fault_ = true;
+      state_ = StIdle{};
+      to = Leaf::IDLE;
+      break;
+    default: state_ = StOperational{sub_of(to)}; break;
+  }
+  leaf_ = to;
+  const bool resettable_before = (from == Leaf::ESTOP_RESET_NEEDED) || (from == Leaf::IDLE);
+  const bool resettable_now = (to == Leaf::ESTOP_RESET_NEEDED) || (to == Leaf::IDLE);
+  if (resettable_now && !resettable_before) {
+    reset_possible_since_ = now_;
+  }
+  if (reset_pending_ && (to != Leaf::IDLE)) {
+    reset_pending_ = false;
+    reply(c, reset_seq_, kResetId, reset_source_, kLeafPolicy[static_cast<std::size_t>(to)].no_row);
+  }
+}
+
+void SystemStateManager::set_cause(const Cause& cause) noexcept {
+  if (rank(cause) < rank(cause_)) {
+    cause_ = cause;
+  }
+}
+
+void SystemStateManager::reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept {
+  if (c.out.reply_count < kMaxRepliesPerCycle) {
+    Reply& rp = c.out.replies[c.out.reply_count];
+    rp.seq = seq;
+    rp.cmd = id;
+    rp.source = src;
+    rp.result = r;
+    ++c.out.reply_count;
+  }
+  if (r == Result::OK) {
+    alarms_.clear_older(kUntilOkAlarms, now_);  // "until the next command answered OK"
+  }
+}
+
+void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
+  SupervisorOut& o = c.out;
+  const LeafOutputs& lo = kLeafOutputs[static_cast<std::size_t>(leaf_)];
+  o.state = state_of(leaf_);
+  o.sub = sub_of(leaf_);
+  o.mode = c.in.mode;
+  o.mode_requested = c.in.mode_requested;
+  o.contactor = lo.contactor;
+  o.drives_enable = lo.drives;
+  o.brakes_release = lo.brakes_release;
+  o.reset_lamp = lo.reset_lamp;
+  o.motion.mode = lo.motion;
+  o.stop = c.cat0 ? StopCat::CAT0 : StopCat::NONE;
+  o.target = Leaf::SAME;
+  o.arming_step = ArmingStep::CONTACTOR;
+  o.arming_progress = 0;
+
+  if (const auto* a = std::get_if<StArming>(&state_)) {
+    o.drives_enable = a->step != ArmingStep::CONTACTOR;
+    o.brakes_release = a->step == ArmingStep::BRAKES;
+    o.arming_step = a->step;
+    o.arming_progress = a->progress;
+  } else if (const auto* s = std::get_if<StStopping>(&state_)) {
+    o.stop = s->category;
+    o.target = s->target;
+    if (s->braking) {
+      o.brakes_release = false;
+      o.motion.mode = MotionMode::Hold;
+    }
+  } else if (leaf_ == Leaf::IDLE) {
+    o.reset_lamp = ((alarms_.mask() & kLatchedAlarms) != 0U) || reset_pending_;
+  }
+
+  o.motion.program = c.program;
+  o.motion.discard = c.discard;
+  o.motion.jog = jog_;
+  o.motion.t1_limit = c.in.mode == Mode::T1;
+  o.motion.fault_reset = reset_pending_;
+  o.t2_confirmed = t2_confirmed_;
+  o.at_standstill = c.at_standstill;
+  o.cause = cause_;
+  o.alarms = alarms_.mask();
+  o.alarms_raised = alarms_.raised();
+  o.alarms_cleared = alarms_.cleared();
+}
+
+bool SystemStateManager::outputs_consistent(const CycleCtx& c) const noexcept {
+  // A second, independent reading of the safety outputs (diverse check): power only in
+  // the powered states, nothing powered while the E-stop is pressed, and the state data
+  // agreeing with the state the table believes in.
+  const SupervisorOut& o = c.out;
+  const bool powered_state = in_mask(kPowered, leaf_);
+  const bool any_power = o.contactor || o.drives_enable || o.brakes_release;
+  if (any_power && !powered_state) {
+    return false;
+  }
+  if (c.in.estop_pressed && any_power) {
+    return false;
+  }
+  if ((o.motion.mode == MotionMode::Jog) && (leaf_ != Leaf::MANUAL_JOGGING)) {
+    return false;
+  }
+  if ((o.motion.mode == MotionMode::Program) && (leaf_ != Leaf::AUTO_RUNNING) && (leaf_ != Leaf::MANUAL_RUNNING)) {
+    return false;
+  }
+  return leaf_of(state_) == leaf_;
+}
+
+std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb, const Command* cmds, std::size_t n,
+                                     SupervisorOut& out) noexcept {
+  out.reply_count = 0;
+  out.transition_count = 0;
+  CycleCtx c{in, fb, out, leaf_};
+
+  update_monitors(c);
+  if (!evaluate_conditions(c)) {
+    evaluate_events(c);
+  }
+  finish_pending_reset(c);
+  handle_reset_button(c);
+
+  const std::size_t limit = (timing_.max_commands_per_cycle < kMaxCommandsPerCycle)
+                                ? static_cast<std::size_t>(timing_.max_commands_per_cycle)
+                                : kMaxCommandsPerCycle;
+  const std::size_t taken = ((cmds == nullptr) ? 0U : ((n < limit) ? n : limit));
+  for (std::size_t i = 0; i < taken; ++i) {
+    c.deferred = false;
+    const Result r = dispatch_command(c, cmds[i]);
+    if (!c.deferred) {
+      reply(c, cmds[i].seq, cmds[i].id, cmds[i].source, r);
+    }
+  }
+
+  write_outputs(c);
+  if (!outputs_consistent(c)) {
+    integrity_fault_ = true;
+    alarms_.raise(AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), now_);
+    set_cause(alarm_cause(1U, AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), in.mode));
+    c.cat0 = true;
+    enter(c, Leaf::ERROR_LOCKOUT, StopCat::CAT0);
+    c.program = ProgramCmd::Abort;
+    c.discard = true;
+    write_outputs(c);
+  }
+  ++now_;
+  return taken;
+}
+
+}  // namespace safestate::core

@@ -1,0 +1,143 @@
+#include "safestate/motion/kinematics.hpp"
+
+#include <cmath>
+
+namespace safestate::motion {
+namespace {
+
+Vec3 add(const Vec3& a, const Vec3& b) noexcept { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+
+Vec3 sub(const Vec3& a, const Vec3& b) noexcept { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+
+Vec3 scale(const Vec3& a, float s) noexcept { return {a[0] * s, a[1] * s, a[2] * s}; }
+
+Vec3 cross(const Vec3& a, const Vec3& b) noexcept {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+float norm(const Vec3& a) noexcept { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+
+Vec3 mul(const Mat3& R, const Vec3& v) noexcept {
+  return {R[0][0] * v[0] + R[0][1] * v[1] + R[0][2] * v[2],
+          R[1][0] * v[0] + R[1][1] * v[1] + R[1][2] * v[2],
+          R[2][0] * v[0] + R[2][1] * v[1] + R[2][2] * v[2]};
+}
+
+Mat3 mul(const Mat3& A, const Mat3& B) noexcept {
+  Mat3 C{};
+  for (std::size_t r = 0; r < 3; ++r) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      C[r][c] = A[r][0] * B[0][c] + A[r][1] * B[1][c] + A[r][2] * B[2][c];
+    }
+  }
+  return C;
+}
+
+Vec3 column(const Mat3& R, std::size_t c) noexcept { return {R[0][c], R[1][c], R[2][c]}; }
+
+// One standard-DH link transform A_k, written out rather than as four matrix products:
+// it runs 6 times per scan on the M4.
+Pose dh_link(const DhRow& row, float q) noexcept {
+  const float th = q + row.theta_offset_rad;
+  const float ct = std::cos(th);
+  const float st = std::sin(th);
+  const float ca = std::cos(row.alpha_rad);
+  const float sa = std::sin(row.alpha_rad);
+  return Pose{{row.a_mm * ct, row.a_mm * st, row.d_mm},
+              {{{ct, -st * ca, st * sa}, {st, ct * ca, -ct * sa}, {0.0F, sa, ca}}}};
+}
+
+// Geometric Jacobian column sum: joint j+1 turns about z[j] through origin[j], so it moves
+// point p with z[j] x (p - origin[j]) per rad/s. Only joints before the point count.
+Vec3 velocity_of(const Frames& f, const Joints& qdot, const Vec3& p, std::size_t joints) noexcept {
+  Vec3 v{0.0F, 0.0F, 0.0F};
+  for (std::size_t j = 0; j < joints; ++j) {
+    v = add(v, scale(cross(f.z[j], sub(p, f.origin[j])), qdot[j]));
+  }
+  return v;
+}
+
+// A NaN would lose every comparison and hide as "slow"; as +inf it forces a stop.
+float sane_speed(float s) noexcept { return std::isfinite(s) ? s : HUGE_VALF; }
+
+void find_fastest(PointSpeeds& out) noexcept {
+  out.max_speed = 0.0F;
+  out.fastest_point = 0;
+  out.fastest_axis = 0;
+  // Distal first with a strict '>': on a tie (wrist centre 4 = 5, TCP = flange with no
+  // tool) the outer point is named, the one an operator looks at.
+  for (std::size_t i = kPoints - 1; i >= 1; --i) {
+    if (out.speed[i] > out.max_speed) {
+      out.max_speed = out.speed[i];
+      out.fastest_point = static_cast<std::uint8_t>(i);
+      out.fastest_axis = static_cast<std::uint8_t>(i < kJoints ? i : kJoints);
+    }
+  }
+}
+
+}  // namespace
+
+void forward(const RobotModel& model, const Joints& q, Frames& out) noexcept {
+  Pose T{{0.0F, 0.0F, 0.0F}, {{{1.0F, 0.0F, 0.0F}, {0.0F, 1.0F, 0.0F}, {0.0F, 0.0F, 1.0F}}}};
+  out.origin[0] = T.p;
+  out.z[0] = column(T.R, 2);
+  for (std::size_t k = 0; k < kJoints; ++k) {
+    const Pose A = dh_link(model.dh[k], q[k]);
+    T.p = add(T.p, mul(T.R, A.p));
+    T.R = mul(T.R, A.R);
+    out.origin[k + 1] = T.p;
+    out.z[k + 1] = column(T.R, 2);
+  }
+  out.tcp = add(T.p, mul(T.R, model.tcp_offset_mm));
+  out.R = T.R;
+}
+
+Pose tcp_pose(const Frames& frames) noexcept { return Pose{frames.tcp, frames.R}; }
+
+Rpy to_rpy(const Mat3& R) noexcept {
+  const float cos_pitch = std::sqrt(R[0][0] * R[0][0] + R[1][0] * R[1][0]);
+  const float pitch = std::atan2(-R[2][0], cos_pitch);
+  // Below this cos(pitch) the yaw/roll split is numerically meaningless in float.
+  if (cos_pitch < 1.0e-5F) {
+    const float roll = R[2][0] < 0.0F ? std::atan2(R[0][1], R[1][1]) : std::atan2(-R[0][1], R[1][1]);
+    return Rpy{roll, pitch, 0.0F};
+  }
+  return Rpy{std::atan2(R[2][1], R[2][2]), pitch, std::atan2(R[1][0], R[0][0])};
+}
+
+void point_speeds(const Frames& frames, const Joints& qdot, PointSpeeds& out) noexcept {
+  out.velocity[0] = Vec3{0.0F, 0.0F, 0.0F};
+  out.speed[0] = 0.0F;
+  for (std::size_t i = 1; i < kLinks; ++i) {
+    out.velocity[i] = velocity_of(frames, qdot, frames.origin[i], i);
+    out.speed[i] = sane_speed(norm(out.velocity[i]));
+  }
+  out.velocity[kTcpPoint] = velocity_of(frames, qdot, frames.tcp, kJoints);
+  out.speed[kTcpPoint] = sane_speed(norm(out.velocity[kTcpPoint]));
+  find_fastest(out);
+}
+
+void point_speeds(const RobotModel& model, const Joints& q, const Joints& qdot,
+                  PointSpeeds& out) noexcept {
+  Frames frames{};
+  forward(model, q, frames);
+  point_speeds(frames, qdot, out);
+}
+
+float t1_scale(const RobotModel& model, const Joints& q, const Joints& qdot,
+               float limit_mm_s) noexcept {
+  if (!(limit_mm_s > 0.0F)) {
+    return 0.0F;  // also catches a NaN limit
+  }
+  PointSpeeds ps{};
+  point_speeds(model, q, qdot, ps);
+  if (!std::isfinite(ps.max_speed)) {
+    return 0.0F;
+  }
+  if (ps.max_speed <= limit_mm_s) {
+    return 1.0F;
+  }
+  return limit_mm_s / ps.max_speed;
+}
+
+}  // namespace safestate::motion

@@ -1,0 +1,272 @@
+// Test bench for the core: the whole Supervisor (signal layer + state manager) driven
+// by raw contacts, with a minimal plant double so that arming and stopping complete.
+// The plant is deliberately simple and obviously right; the realistic simulated cell
+// (sim/) is tested through scenarios.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <deque>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "safestate/core/cia402.hpp"
+#include "safestate/core/supervisor.hpp"
+
+// Readable gtest failure messages: names, not bytes.
+namespace safestate::core {
+inline void PrintTo(State v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Sub v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Mode v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(StopCat v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Result v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Leaf v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(ArmingStep v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(AlarmId v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Channel v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(Signal v, std::ostream* os) { *os << to_string(v); }
+inline void PrintTo(MotionMode v, std::ostream* os) { *os << static_cast<int>(v); }
+inline void PrintTo(ProgramCmd v, std::ostream* os) { *os << static_cast<int>(v); }
+namespace cia402 {
+inline void PrintTo(DriveState v, std::ostream* os) { *os << to_string(v); }
+}  // namespace cia402
+}  // namespace safestate::core
+
+namespace safestate::test {
+
+using namespace safestate::core;
+namespace c402 = safestate::core::cia402;
+
+struct Plant {
+  int contactor_delay = 10;  // SPEC §6: feedback 10 ms after the command
+  int brake_delay = 60;      // SPEC §6: 60 ms
+  bool contactor_stuck_open = false;
+  std::array<bool, kAxes> brake_stuck{};
+  std::array<bool, kAxes> drive_fault{};       // cause present: drive reports Fault
+  std::array<bool, kAxes> drive_nostop{};      // ignores stop ramps
+  std::array<c402::DriveState, kAxes> ds{};
+  std::array<float, kAxes> vel{};              // rad/s, set by tests while moving
+  float decel = 0.05F;                         // rad/s per cycle in a stop ramp
+  int contactor_count = 0;
+  bool contactor_fb = false;
+  std::array<int, kAxes> brake_count{};
+  std::array<bool, kAxes> brake_fb{};
+  bool fieldbus = true;
+  bool program_loaded = true;
+  bool program_finished = false;
+  float point_speed = 0.0F;  // max TCP / link-origin speed the motion layer reports
+  int boot_cycles = 20;      // drives answer "Not ready" then "Switch on disabled"
+  int age = 0;
+
+  Plant() { ds.fill(c402::DriveState::NotReadyToSwitchOn); }
+
+  void fill(Feedback& fb) const {
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      fb.drive[i].statusword = c402::statusword_of(drive_fault[i] ? c402::DriveState::Fault : ds[i]);
+      fb.drive[i].velocity_rad_s = vel[i];
+      fb.brake_released[i] = brake_fb[i];
+    }
+    fb.contactor_closed = contactor_fb;
+    fb.fieldbus_ok = fieldbus;
+    fb.program_loaded = program_loaded;
+    fb.program_finished = program_finished;
+    fb.max_point_speed_mm_s = point_speed;
+    fb.tcp_speed_mm_s = point_speed;
+    fb.fastest_axis = 1;
+  }
+
+  void follow(const SupervisorOut& o) {
+    ++age;
+    contactor_count = (o.contactor && !contactor_stuck_open) ? contactor_count + 1 : 0;
+    contactor_fb = contactor_count >= contactor_delay;
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      brake_count[i] = (o.brakes_release && !brake_stuck[i]) ? brake_count[i] + 1 : 0;
+      brake_fb[i] = brake_count[i] >= brake_delay;
+      auto& s = ds[i];
+      if (age < boot_cycles) {
+        continue;
+      }
+      if (drive_fault[i]) {
+        s = c402::DriveState::Fault;
+        continue;
+      }
+      if (s == c402::DriveState::Fault || s == c402::DriveState::NotReadyToSwitchOn) {
+        s = (s == c402::DriveState::Fault && !o.motion.fault_reset) ? s : c402::DriveState::SwitchOnDisabled;
+        continue;
+      }
+      if (!o.drives_enable) {
+        s = c402::DriveState::SwitchOnDisabled;  // safe torque off
+      } else if (s == c402::DriveState::SwitchOnDisabled) {
+        s = c402::DriveState::ReadyToSwitchOn;
+      } else if (s == c402::DriveState::ReadyToSwitchOn) {
+        s = c402::DriveState::SwitchedOn;
+      } else if (s == c402::DriveState::SwitchedOn) {
+        s = c402::DriveState::OperationEnabled;
+      }
+      const bool ramping = o.motion.mode == MotionMode::QuickStop || o.motion.mode == MotionMode::Ramp2 ||
+                           o.motion.mode == MotionMode::Hold;
+      if (!o.drives_enable && !drive_nostop[i]) {
+        vel[i] = 0.0F;  // brakes and no torque: the bench arm stops at once
+      } else if (ramping && !drive_nostop[i]) {
+        vel[i] = (vel[i] > decel) ? vel[i] - decel : ((vel[i] < -decel) ? vel[i] + decel : 0.0F);
+      }
+    }
+  }
+};
+
+class Bench {
+ public:
+  explicit Bench(const Config& cfg = Config{}) : timing_(to_timing(cfg)), sup_(timing_) {}
+
+  RawInputs raw{};
+  Plant plant{};
+  Feedback fb{};
+  SupervisorOut out{};
+  std::deque<Command> queue;
+  std::vector<Reply> replies;  // every reply ever given, in order
+
+  // Runs `n` cycles. Returns the output of the last one.
+  const SupervisorOut& cycle(int n = 1) {
+    for (int k = 0; k < n; ++k) {
+      plant.fill(fb);
+      std::array<Command, kMaxCommandsPerCycle> cmds{};
+      std::size_t count = 0;
+      for (const Command& c : queue) {
+        if (count == cmds.size()) {
+          break;
+        }
+        cmds[count++] = c;
+      }
+      const std::size_t taken = sup_.step(raw, fb, cmds.data(), count, out);
+      queue.erase(queue.begin(), queue.begin() + static_cast<std::ptrdiff_t>(taken));
+      for (std::size_t i = 0; i < out.reply_count; ++i) {
+        replies.push_back(out.replies[i]);
+      }
+      plant.follow(out);
+    }
+    return out;
+  }
+
+  // Cycles until `pred` holds or `limit` cycles have run; returns cycles used (or -1).
+  template <typename P>
+  int until(P pred, int limit = 5000) {
+    for (int k = 1; k <= limit; ++k) {
+      cycle();
+      if (pred(out)) {
+        return k;
+      }
+    }
+    return -1;
+  }
+
+  Command make(CommandId id, Source src = Source::pendant) {
+    Command c{};
+    c.seq = ++seq_;
+    c.id = static_cast<std::uint8_t>(id);
+    c.source = static_cast<std::uint8_t>(src);
+    return c;
+  }
+  void send(const Command& c) { queue.push_back(c); }
+  void send(CommandId id, Source src = Source::pendant) { send(make(id, src)); }
+
+  // Sends one command, runs one cycle, returns its result.
+  Result command(const Command& c) {
+    send(c);
+    const std::size_t before = replies.size();
+    cycle();
+    for (std::size_t i = before; i < replies.size(); ++i) {
+      if (replies[i].seq == c.seq) {
+        return replies[i].result;
+      }
+    }
+    ADD_FAILURE() << "no reply in the cycle for command seq " << c.seq;
+    return Result::QUEUE_FULL;
+  }
+  Result command(CommandId id, Source src = Source::pendant) { return command(make(id, src)); }
+  Result jog(int axis, int dir, int speed = 10, Source src = Source::pendant) {
+    Command c = make(CommandId::jog, src);
+    c.axis = static_cast<std::int8_t>(axis);
+    c.dir = static_cast<std::int8_t>(dir);
+    c.speed = static_cast<std::uint8_t>(speed);
+    return command(c);
+  }
+
+  // Raw-input helpers named like the .scn shorthands.
+  void estop(bool pressed) { raw.estop_a = raw.estop_b = !pressed; }
+  void gate(bool open) { raw.gate_a = raw.gate_b = !open; }
+  void enable_centre() { raw.enable_a = raw.enable_b = true; raw.enable_panic = false; }
+  void enable_released() { raw.enable_a = raw.enable_b = false; raw.enable_panic = false; }
+  void enable_panic() { raw.enable_panic = true; }
+  void mode(Mode m) {
+    raw.mode_auto = m == Mode::AUTO;
+    raw.mode_t1 = m == Mode::T1;
+    raw.mode_t2 = m == Mode::T2;
+  }
+
+  // Scripted paths through the machine.
+  void boot() {
+    const int k = until([](const SupervisorOut& o) { return o.state != State::BOOT; }, 200);
+    ASSERT_GT(k, 0) << "BOOT did not end";
+  }
+  void to_idle() {
+    if (out.state == State::BOOT) {
+      boot();
+    }
+    if (out.state == State::ESTOP_RESET_NEEDED) {
+      ASSERT_EQ(command(CommandId::reset), Result::OK);
+    }
+    ASSERT_EQ(out.state, State::IDLE);
+  }
+  void to_operational(Mode m = Mode::AUTO) {
+    mode(m);
+    cycle();
+    to_idle();
+    if (m != Mode::AUTO) {
+      enable_released();
+      cycle();
+      enable_centre();
+      cycle();
+    }
+    if (m == Mode::T2) {
+      ASSERT_EQ(command(CommandId::confirm_t2), Result::OK);
+    }
+    ASSERT_EQ(command(CommandId::servo_on), Result::OK);
+    ASSERT_EQ(out.state, State::ARMING);
+    const int k = until([](const SupervisorOut& o) { return o.state != State::ARMING; }, 1000);
+    ASSERT_GT(k, 0);
+    ASSERT_EQ(out.state, State::OPERATIONAL);
+  }
+  void to_auto_running() {
+    to_operational(Mode::AUTO);
+    ASSERT_EQ(command(CommandId::start), Result::OK);
+    ASSERT_EQ(out.sub, Sub::AUTO_RUNNING);
+    plant.vel.fill(0.5F);
+  }
+  void to_jogging(Mode m = Mode::T1) {
+    to_operational(m);
+    ASSERT_EQ(jog(1, +1, 50), Result::OK);
+    ASSERT_EQ(out.sub, Sub::MANUAL_JOGGING);
+    plant.vel[0] = 0.2F;
+  }
+  // Runs until the state leaves STOPPING; returns the cycles it took.
+  int finish_stop(int limit = 3000) {
+    return until([](const SupervisorOut& o) { return o.state != State::STOPPING; }, limit);
+  }
+
+  bool alarm(AlarmId a) const { return (out.alarms & bit(a)) != 0U; }
+  const SystemStateManager& ssm() const { return sup_.manager(); }
+  const Timing& timing() const { return timing_; }
+
+ private:
+  Timing timing_;
+  Supervisor sup_;
+  std::uint32_t seq_ = 0;
+};
+
+inline bool all_outputs_safe(const SupervisorOut& o) {
+  return !o.contactor && !o.drives_enable && !o.brakes_release;
+}
+
+}  // namespace safestate::test

@@ -1,0 +1,775 @@
+// Every row of SPEC §4 as its own named test, through the whole supervisor.
+#include "bench.hpp"
+
+using namespace safestate::test;
+
+// ================================================================ the table itself
+TEST(TransitionTable, EveryRowIsReachableThroughTheIndex) {
+  for (std::size_t r = 0; r < kTransitions.size(); ++r) {
+    bool found = false;
+    for (std::size_t l = 0; l < kLeafCount; ++l) {
+      if ((kTransitions[r].from & (1U << l)) != 0U) {
+        EXPECT_EQ(find_row(static_cast<Leaf>(l), kTransitions[r].trigger), &kTransitions[r]) << "row " << r;
+        found = true;
+      }
+    }
+    EXPECT_TRUE(found) << "row " << r << " has no from-state";
+  }
+}
+
+TEST(TransitionTable, ConditionRowsComeFirstInPriorityOrder) {
+  std::size_t last = 0;
+  bool in_conditions = true;
+  for (const Transition& t : kTransitions) {
+    if (is_condition(t.trigger)) {
+      ASSERT_TRUE(in_conditions) << "condition row after an event/command row";
+      ASSERT_GE(static_cast<std::size_t>(t.trigger), last);
+      last = static_cast<std::size_t>(t.trigger);
+    } else {
+      in_conditions = false;
+    }
+  }
+}
+
+TEST(TransitionTable, LockoutIsNeverLeftByAnyRow) {
+  for (const Transition& t : kTransitions) {
+    if ((t.from & mask_of(Leaf::ERROR_LOCKOUT)) != 0U) {
+      EXPECT_EQ(t.to, Leaf::ERROR_LOCKOUT) << to_string(t.trigger);
+    }
+  }
+}
+
+// ================================================================ BOOT
+TEST(Boot, PassedGoesToEstopResetNeeded) {
+  Bench b;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::BOOT);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  b.boot();
+  EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
+  EXPECT_TRUE(b.out.reset_lamp);
+  EXPECT_LE(b.ssm().now(), 100U) << "the simulated BOOT ends within 100 cycles";
+}
+
+TEST(Boot, EstopPressedGoesToEstopActive) {
+  Bench b;
+  b.estop(true);
+  b.cycle(150);
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
+  EXPECT_FALSE(b.ssm().boot_pending());
+  b.estop(false);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
+}
+
+TEST(Boot, ResetBeforeTheSelfTestEndsIsBusy) {
+  Bench b;
+  b.plant.boot_cycles = 1000;  // drives slow to answer
+  b.estop(true);
+  b.cycle();
+  b.estop(false);
+  b.cycle();
+  ASSERT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
+  EXPECT_EQ(b.command(CommandId::reset), Result::BUSY);
+}
+
+TEST(Boot, TimeoutLocksOutWithBootFailed) {
+  Bench b;
+  b.plant.fieldbus = false;
+  b.cycle(3001);  // cycles 0..3000: not yet more than 3000 ms
+  EXPECT_EQ(b.out.state, State::BOOT);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::BOOT_FAILED));
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::BOOT_FAILED);
+  EXPECT_EQ(b.out.cause.detail.signal, Signal::fieldbus);
+}
+
+TEST(Boot, ADriveThatNeverAnswersNamesItsAxis) {
+  Bench b;
+  b.fb.drive[3].online = false;  // the bench refills statuswords, never `online`  // bench refills statuswords, not `online`
+  b.cycle(3001);  // cycles 0..3000
+  EXPECT_EQ(b.out.state, State::BOOT);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.detail.axis, 4U);
+}
+
+// ================================================================ rule 1: lockout
+TEST(Rule1, EstopDiscrepancyLocksOutFromOperational) {
+  Bench b;
+  b.to_operational();
+  b.raw.estop_b = false;  // channel B opens alone
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE) << "one channel is enough to stop";
+  b.cycle(49);
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
+  b.cycle();  // 51st cycle of disagreement
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::ESTOP_DISCREPANCY));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ESTOP_DISCREPANCY).channel, Channel::b);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+TEST(Rule1, GateDiscrepancyLocksOutFromIdle) {
+  Bench b;
+  b.to_idle();
+  b.raw.gate_a = false;
+  b.cycle(51);
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::GATE_DISCREPANCY));
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+}
+
+TEST(Rule1, EnableDiscrepancyLocksOutFromManual) {
+  Bench b;
+  b.to_operational(Mode::T1);
+  b.raw.enable_b = false;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING) << "centre lost on one contact: Cat 1 at once";
+  b.cycle(50);
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::ENABLE_DISCREPANCY));
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+TEST(Rule1, FieldbusLostLocksOutInTheSameCycle) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.fieldbus = false;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(b.alarm(AlarmId::FIELDBUS_LOST));
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+TEST(Rule1, IntegrityFaultLocksOut) {
+  Bench b;
+  b.to_idle();
+  b.fb.integrity_ok = false;  // not refilled by the plant: stays for the next cycle
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::INTEGRITY_FAULT));
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::INTEGRITY_FAULT);
+}
+
+TEST(Rule1, LockoutIsNeverLeft) {
+  Bench b;
+  b.to_idle();
+  b.plant.fieldbus = false;
+  b.cycle();
+  ASSERT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  b.plant.fieldbus = true;
+  b.estop(true);
+  b.cycle(10);
+  b.estop(false);
+  b.cycle(10);
+  EXPECT_EQ(b.command(CommandId::reset), Result::LOCKED_OUT);
+  b.raw.reset_button = true;
+  b.cycle(5);
+  b.raw.reset_button = false;
+  b.cycle(5);
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::FIELDBUS_LOST)) << "lockout alarms last until power cycle";
+}
+
+// ================================================================ rule 2: E-stop
+TEST(Rule2, EstopFromEveryStateButLockoutIsCat0InTheSameCycle) {
+  struct Path {
+    const char* name;
+    void (*go)(Bench&);
+  };
+  const Path paths[] = {
+      {"ESTOP_RESET_NEEDED", [](Bench& b) { b.boot(); }},
+      {"IDLE", [](Bench& b) { b.to_idle(); }},
+      {"ARMING",
+       [](Bench& b) {
+         b.to_idle();
+         ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+         b.cycle(30);
+       }},
+      {"AUTO_RUNNING", [](Bench& b) { b.to_auto_running(); }},
+      {"MANUAL_JOGGING", [](Bench& b) { b.to_jogging(); }},
+      {"STOPPING", [](Bench& b) {
+         b.to_auto_running();
+         ASSERT_EQ(b.command(CommandId::pause), Result::OK);
+       }},
+  };
+  for (const Path& p : paths) {
+    Bench b;
+    p.go(b);
+    b.raw.estop_a = false;
+    b.cycle();
+    EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE) << p.name;
+    EXPECT_EQ(b.out.stop, StopCat::CAT0) << p.name;
+    EXPECT_TRUE(all_outputs_safe(b.out)) << p.name;
+    EXPECT_TRUE(b.alarm(AlarmId::ESTOP_PRESSED)) << p.name;
+    EXPECT_EQ(b.out.cause.detail.channel, Channel::a) << p.name;
+  }
+}
+
+TEST(Rule2, EstopPressedAlarmLastsWhileTheConditionLasts) {
+  Bench b;
+  b.to_idle();
+  b.estop(true);
+  b.cycle(5);
+  EXPECT_TRUE(b.alarm(AlarmId::ESTOP_PRESSED));
+  b.estop(false);
+  b.cycle();
+  EXPECT_FALSE(b.alarm(AlarmId::ESTOP_PRESSED));
+}
+
+// ================================================================ rule 3
+TEST(Rule3, DriveFaultIsCat0ToIdleLatched) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.drive_fault[2] = true;
+  b.cycle();  // the statusword reads Fault in this cycle
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  EXPECT_TRUE(b.alarm(AlarmId::DRIVE_FAULT));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 3U);
+  EXPECT_TRUE(b.out.reset_lamp);
+}
+
+TEST(Rule3, DriveLeavingOperationEnabledOnItsOwnIsADriveFault) {
+  Bench b;
+  b.to_operational();
+  b.plant.ds[4] = c402::DriveState::SwitchOnDisabled;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 5U);
+}
+
+TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  b.plant.point_speed = 250.0F;
+  b.cycle(5);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING) << "exactly the limit is allowed";
+  b.plant.point_speed = 250.5F;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
+}
+
+TEST(Rule3, T1SpeedIsNotMonitoredInT2) {
+  Bench b;
+  b.to_jogging(Mode::T2);
+  b.plant.point_speed = 900.0F;
+  b.cycle(5);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+}
+
+TEST(Rule3, StopTimeExceededEscalatesToCat0AtTheFirstCycleBeyond) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.drive_nostop[1] = true;
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_EQ(b.out.state, State::STOPPING);
+  b.cycle(1000);
+  EXPECT_EQ(b.out.state, State::STOPPING) << "1000 ms is still within max_stop_ms";
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(b.alarm(AlarmId::STOP_TIME_EXCEEDED));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::STOP_TIME_EXCEEDED).axis, 2U);
+}
+
+// ================================================================ rule 4 / 4b
+TEST(Rule4, GateOpenInAutoIsCat1ToIdleLatched) {
+  Bench b;
+  b.to_auto_running();
+  b.gate(true);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_EQ(b.out.target, Leaf::IDLE);
+  EXPECT_EQ(b.out.motion.mode, MotionMode::QuickStop);
+  EXPECT_TRUE(b.out.drives_enable) << "Cat 1 keeps power to ramp down";
+  EXPECT_TRUE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  EXPECT_TRUE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  EXPECT_TRUE(b.out.reset_lamp);
+}
+
+TEST(Rule4, GateOpenDuringACat2StopBecomesCat1) {
+  Bench b;
+  b.to_auto_running();
+  ASSERT_EQ(b.command(CommandId::pause), Result::OK);
+  ASSERT_EQ(b.out.stop, StopCat::CAT2);
+  b.gate(true);
+  b.cycle();
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_EQ(b.out.target, Leaf::IDLE);
+}
+
+TEST(Rule4b, GateOpenInArmingIsCat0ToIdle) {
+  Bench b;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  b.cycle(20);
+  ASSERT_EQ(b.out.state, State::ARMING);
+  b.gate(true);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+TEST(Rule4, GateOpenInT1IsNotAProtectiveStop) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  b.gate(true);
+  b.cycle(5);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+  EXPECT_FALSE(b.alarm(AlarmId::PROTECTIVE_STOP));
+}
+
+// ================================================================ rule 5 / 5b
+TEST(Rule5, EnableReleasedInT1IsCat1ToIdle) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  b.enable_released();
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_FALSE(b.alarm(AlarmId::ENABLING_PANIC));
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_FALSE(b.out.reset_lamp) << "a release latches nothing";
+}
+
+TEST(Rule5, PanicIsACat1StopAndRaisesEnablingPanic) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  b.enable_panic();
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_TRUE(b.alarm(AlarmId::ENABLING_PANIC));
+  EXPECT_EQ(alarm_info(AlarmId::ENABLING_PANIC).severity, Severity::info);
+}
+
+TEST(Rule5b, EnableReleasedInArmingIsCat0ToIdle) {
+  Bench b;
+  b.mode(Mode::T1);
+  b.to_idle();
+  b.enable_centre();
+  b.cycle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  b.cycle(5);
+  b.enable_released();
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+}
+
+// ================================================================ rule 6
+TEST(Rule6, ModeChangeInOperationalIsCat1WithModeChanged) {
+  Bench b;
+  b.to_auto_running();
+  b.mode(Mode::T1);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
+}
+
+TEST(Rule6, ModeChangeInArmingIsIdleAtOnce) {
+  Bench b;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  b.cycle(3);
+  b.mode(Mode::T2);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
+}
+
+TEST(Rule6, SelectorWithNoPositionStopsOnlyAfterTheDiscrepancyTime) {
+  Bench b;
+  b.to_operational();
+  b.mode(Mode::NONE);
+  b.cycle(50);
+  EXPECT_EQ(b.out.state, State::OPERATIONAL) << "a key switch breaks before it makes";
+  EXPECT_EQ(b.out.mode, Mode::AUTO);
+  EXPECT_EQ(b.out.mode_requested, Mode::NONE);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.mode, Mode::NONE);
+  EXPECT_TRUE(b.alarm(AlarmId::MODE_SELECTOR_INVALID));
+  EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
+}
+
+// ================================================================ rule 7
+TEST(Rule7, JogKeepAliveOlderThanTheTimeoutIsCat2ToManualIdle) {
+  Bench b;
+  b.to_jogging(Mode::T1);  // jog accepted at cycle J
+  b.cycle(99);             // J+99: keep-alive 99 cycles old
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+  b.cycle();  // J+100: exactly 100 ms is not older than 100 ms
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+  b.cycle();  // J+101
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT2);
+  EXPECT_TRUE(b.alarm(AlarmId::JOG_LINK_LOST));
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE);
+  EXPECT_TRUE(b.out.drives_enable) << "Cat 2 keeps the drives holding";
+}
+
+TEST(Rule7, KeepAliveKeepsTheJogGoing) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  for (int k = 0; k < 20; ++k) {
+    b.cycle(60);
+    ASSERT_EQ(b.jog(1, +1, 50), Result::OK);
+  }
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+}
+
+// ================================================================ E-stop rows
+TEST(EstopActive, ReleasedOnBothChannelsGoesToResetNeeded) {
+  Bench b;
+  b.to_idle();
+  b.estop(true);
+  b.cycle(10);
+  b.raw.estop_a = true;  // one channel back: still active
+  b.cycle(5);
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
+  b.raw.estop_b = true;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
+  EXPECT_TRUE(b.out.reset_lamp);
+  b.cycle(500);
+  EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED) << "release alone never restarts";
+}
+
+TEST(EstopResetNeeded, ResetGoesToIdle) {
+  Bench b;
+  b.boot();
+  EXPECT_EQ(b.command(CommandId::reset), Result::OK);
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_FALSE(b.out.reset_lamp);
+}
+
+// ================================================================ IDLE rows
+TEST(Idle, ResetClearsLatchedAlarmsWhenTheirCauseIsGone) {
+  Bench b;
+  b.to_auto_running();
+  b.gate(true);
+  b.cycle();
+  ASSERT_GT(b.finish_stop(), 0);
+  ASSERT_TRUE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT) << "guard still open";
+  EXPECT_TRUE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  b.gate(false);
+  b.cycle();
+  EXPECT_EQ(b.command(CommandId::reset), Result::OK);
+  EXPECT_FALSE(b.alarm(AlarmId::PROTECTIVE_STOP));
+  EXPECT_FALSE(b.out.reset_lamp);
+}
+
+TEST(Idle, ResetAcknowledgesDriveFaultsAndAnswersWhenTheyReply) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.drive_fault[0] = true;
+  b.cycle(3);
+  ASSERT_EQ(b.out.state, State::IDLE);
+  b.plant.drive_fault[0] = false;  // cause gone; the drive still shows Fault until reset
+  b.cycle(3);
+  ASSERT_TRUE(b.alarm(AlarmId::DRIVE_FAULT));
+  const Command c = b.make(CommandId::reset);
+  b.send(c);
+  b.cycle();
+  EXPECT_TRUE(b.out.motion.fault_reset) << "the drives get a fault reset";
+  const auto answered = [&] {
+    for (const Reply& r : b.replies) {
+      if (r.seq == c.seq) return true;
+    }
+    return false;
+  };
+  EXPECT_FALSE(answered()) << "the answer waits for the drives";
+  ASSERT_GT(b.until([&](const SupervisorOut&) { return answered(); }, 50), 0);
+  EXPECT_EQ(b.replies.back().result, Result::OK);
+  EXPECT_FALSE(b.alarm(AlarmId::DRIVE_FAULT));
+}
+
+TEST(Idle, ResetWithADriveStillFaultedAnswersFaultPresentWithin50Cycles) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.drive_fault[5] = true;  // cause stays
+  b.cycle(3);
+  const Command c = b.make(CommandId::reset);
+  b.send(c);
+  b.cycle(51);
+  EXPECT_TRUE(b.replies.empty() || b.replies.back().seq != c.seq);
+  b.cycle();
+  ASSERT_FALSE(b.replies.empty());
+  EXPECT_EQ(b.replies.back().seq, c.seq);
+  EXPECT_EQ(b.replies.back().result, Result::FAULT_PRESENT);
+  EXPECT_TRUE(b.alarm(AlarmId::DRIVE_FAULT));
+}
+
+TEST(Idle, ServoOnStartsArming) {
+  Bench b;
+  b.to_idle();
+  EXPECT_EQ(b.command(CommandId::servo_on), Result::OK);
+  EXPECT_EQ(b.out.state, State::ARMING);
+  EXPECT_EQ(b.out.arming_step, ArmingStep::CONTACTOR);
+  EXPECT_TRUE(b.out.contactor);
+  EXPECT_FALSE(b.out.drives_enable);
+  EXPECT_FALSE(b.out.brakes_release);
+}
+
+// ================================================================ ARMING rows
+TEST(Arming, StepsInOrderToAutoIdle) {
+  Bench b;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return o.arming_step == ArmingStep::DRIVES; }, 100), 0);
+  EXPECT_TRUE(b.out.drives_enable);
+  EXPECT_FALSE(b.out.brakes_release);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return o.arming_step == ArmingStep::BRAKES; }, 500), 0);
+  EXPECT_TRUE(b.out.brakes_release);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return o.state != State::ARMING; }, 300), 0);
+  EXPECT_EQ(b.out.state, State::OPERATIONAL);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
+  EXPECT_EQ(b.out.motion.mode, MotionMode::Hold);
+}
+
+TEST(Arming, InT1EndsInManualIdle) {
+  Bench b;
+  b.to_operational(Mode::T1);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE);
+}
+
+TEST(Arming, ContactorTimeoutAtTheFirstCycleBeyond100ms) {
+  Bench b;
+  b.plant.contactor_stuck_open = true;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);  // entered at cycle S
+  b.cycle(100);                                           // S+100: not yet
+  EXPECT_EQ(b.out.state, State::ARMING);
+  b.cycle();  // S+101
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(b.alarm(AlarmId::ARMING_TIMEOUT));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).step, ArmingStep::CONTACTOR);
+  EXPECT_TRUE(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).has_step);
+}
+
+TEST(Arming, DrivesTimeoutNamesTheStep) {
+  Bench b;
+  b.to_idle();
+  b.plant.boot_cycles = 1000000;  // drives stop walking the state machine
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return o.state != State::ARMING; }, 1000), 0);
+  EXPECT_TRUE(b.alarm(AlarmId::ARMING_TIMEOUT));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).step, ArmingStep::DRIVES);
+}
+
+TEST(Arming, BrakeStuckTimesOutInStepBrakes) {
+  Bench b;
+  b.plant.brake_stuck[3] = true;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return o.arming_step == ArmingStep::BRAKES; }, 500), 0);
+  b.cycle(300);
+  EXPECT_EQ(b.out.state, State::ARMING);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).step, ArmingStep::BRAKES);
+}
+
+TEST(Arming, ServoOffGoesToIdleAtOnce) {
+  Bench b;
+  b.to_idle();
+  ASSERT_EQ(b.command(CommandId::servo_on), Result::OK);
+  b.cycle(20);
+  EXPECT_EQ(b.command(CommandId::servo_off), Result::OK);
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+// ================================================================ OPERATIONAL rows
+TEST(Operational, ServoOffIsCat1ToIdle) {
+  Bench b;
+  b.to_auto_running();
+  EXPECT_EQ(b.command(CommandId::servo_off), Result::OK);
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  EXPECT_FALSE(b.out.reset_lamp);
+}
+
+TEST(Operational, Cat1EngagesBrakesAtStandstillBeforeCuttingPower) {
+  Bench b;
+  b.to_auto_running();
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 500), 0);
+  EXPECT_EQ(b.out.state, State::STOPPING) << "brakes engage while the drives still hold";
+  EXPECT_TRUE(b.out.drives_enable);
+  EXPECT_TRUE(b.out.contactor);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.state, State::IDLE);
+}
+
+TEST(AutoIdle, StartRunsTheProgram) {
+  Bench b;
+  b.to_operational();
+  EXPECT_EQ(b.command(CommandId::start), Result::OK);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_RUNNING);
+  EXPECT_EQ(b.out.motion.mode, MotionMode::Program);
+  EXPECT_EQ(b.out.motion.program, ProgramCmd::Start);
+}
+
+TEST(AutoRunning, PauseIsCat2ToAutoPaused) {
+  Bench b;
+  b.to_auto_running();
+  EXPECT_EQ(b.command(CommandId::pause), Result::OK);
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT2);
+  EXPECT_NE(b.out.motion.program, ProgramCmd::Abort) << "a pause keeps the program";
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_PAUSED);
+  EXPECT_TRUE(b.out.drives_enable);
+  EXPECT_TRUE(b.out.brakes_release);
+}
+
+TEST(AutoRunning, StopIsCat2ToAutoIdle) {
+  Bench b;
+  b.to_auto_running();
+  EXPECT_EQ(b.command(CommandId::stop), Result::OK);
+  EXPECT_EQ(b.out.stop, StopCat::CAT2);
+  EXPECT_EQ(b.out.motion.program, ProgramCmd::Abort);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
+}
+
+TEST(AutoPaused, StopGoesToAutoIdleAtOnce) {
+  Bench b;
+  b.to_auto_running();
+  ASSERT_EQ(b.command(CommandId::pause), Result::OK);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.command(CommandId::stop), Result::OK);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
+  EXPECT_EQ(b.out.motion.program, ProgramCmd::Abort);
+}
+
+TEST(AutoPaused, ResumeReturnsToAutoRunning) {
+  Bench b;
+  b.to_auto_running();
+  ASSERT_EQ(b.command(CommandId::pause), Result::OK);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.command(CommandId::resume), Result::OK);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_RUNNING);
+  EXPECT_EQ(b.out.motion.program, ProgramCmd::Resume);
+}
+
+TEST(AutoRunning, ProgramFinishedGoesToAutoIdle) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.program_finished = true;
+  b.cycle();
+  EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
+}
+
+TEST(ManualIdle, JogStartsJogging) {
+  Bench b;
+  b.to_operational(Mode::T1);
+  EXPECT_EQ(b.jog(3, -1, 25), Result::OK);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+  EXPECT_EQ(b.out.motion.mode, MotionMode::Jog);
+  EXPECT_EQ(b.out.motion.jog.axis, 3U);
+  EXPECT_EQ(b.out.motion.jog.dir, -1);
+  EXPECT_EQ(b.out.motion.jog.speed, 25U);
+  EXPECT_TRUE(b.out.motion.t1_limit);
+}
+
+TEST(ManualJogging, JogStopIsCat2ToManualIdle) {
+  Bench b;
+  b.to_jogging(Mode::T1);
+  EXPECT_EQ(b.command(CommandId::jog_stop), Result::OK);
+  EXPECT_EQ(b.out.stop, StopCat::CAT2);
+  ASSERT_GT(b.finish_stop(), 0);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE);
+}
+
+TEST(ManualIdle, StartRunsTheProgramInManual) {
+  Bench b;
+  b.to_operational(Mode::T1);
+  EXPECT_EQ(b.command(CommandId::start), Result::OK);
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_RUNNING);
+  EXPECT_EQ(b.out.motion.program, ProgramCmd::Start);
+}
+
+TEST(ManualRunning, PauseStopAndFinishAreCat2ToManualIdle) {
+  for (int how = 0; how < 3; ++how) {
+    Bench b;
+    b.to_operational(Mode::T1);
+    ASSERT_EQ(b.command(CommandId::start), Result::OK);
+    if (how == 0) {
+      EXPECT_EQ(b.command(CommandId::pause), Result::OK);
+    } else if (how == 1) {
+      EXPECT_EQ(b.command(CommandId::stop), Result::OK);
+    } else {
+      b.plant.program_finished = true;
+      b.cycle();
+    }
+    EXPECT_EQ(b.out.state, State::STOPPING) << how;
+    EXPECT_EQ(b.out.stop, StopCat::CAT2) << how;
+    ASSERT_GT(b.finish_stop(), 0);
+    EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE) << how;
+  }
+}
+
+TEST(Stopping, StandstillNeedsTenConsecutiveQuietCycles) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.02F);  // just above standstill_rad_s; the bench ramp zeroes it next cycle
+  ASSERT_EQ(b.command(CommandId::stop), Result::OK);
+  ASSERT_EQ(b.out.state, State::STOPPING);
+  b.cycle(9);
+  EXPECT_EQ(b.out.state, State::STOPPING) << "9 quiet cycles are not standstill";
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::OPERATIONAL) << "the 10th quiet cycle is";
+  EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
+}
+
+TEST(Stopping, AxisAlreadyAtRestStopsAtOnce) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.cycle(10);
+  ASSERT_EQ(b.command(CommandId::stop), Result::OK);
+  EXPECT_EQ(b.finish_stop(), 1) << "standstill counts from before the stop";
+}
+
+TEST(ConfirmT2, ConfirmsUntilTheModeChanges) {
+  Bench b;
+  b.mode(Mode::T2);
+  b.to_idle();
+  b.enable_released();
+  b.cycle();
+  b.enable_centre();
+  b.cycle();
+  EXPECT_EQ(b.command(CommandId::servo_on), Result::T2_NOT_CONFIRMED);
+  EXPECT_EQ(b.command(CommandId::confirm_t2), Result::OK);
+  EXPECT_TRUE(b.out.t2_confirmed);
+  b.mode(Mode::T1);
+  b.cycle();
+  b.mode(Mode::T2);
+  b.cycle();
+  EXPECT_FALSE(b.out.t2_confirmed);
+}

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Installs, once, only the Debian packages that are missing. Usage: install-deps.sh GROUP...
+# Groups: build (compilers, CMake, GoogleTest), embedded (Cortex-M4 toolchain).
+set -euo pipefail
+
+declare -A GROUPS_PKGS=(
+  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev python3"
+  [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
+)
+
+missing=()
+for group in "$@"; do
+  pkgs=${GROUPS_PKGS[$group]:-}
+  if [[ -z "$pkgs" ]]; then
+    echo "install-deps: unknown group '$group' (known: ${!GROUPS_PKGS[*]})" >&2
+    exit 2
+  fi
+  for p in $pkgs; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+      missing+=("$p")
+    fi
+  done
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  SUDO="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
