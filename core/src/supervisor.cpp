@@ -176,6 +176,11 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
       c.drive_detail = detail_of(Signal::drive, Channel::none, axis, d.statusword);
     }
   }
+  if (expect_enabled && (fb.following_error_axis != 0U) && !c.drive_fault) {
+    c.drive_fault = true;
+    c.drive_detail = detail_of(Signal::drive, Channel::none, fb.following_error_axis,
+                               fb.drive[static_cast<std::size_t>(fb.following_error_axis - 1U) % kAxes].statusword);
+  }
   if (c.any_drive_faulted && (leaf_ != Leaf::BOOT)) {
     // Every condition raises its alarm, also in states where rule 3 stops nothing.
     alarms_.raise(AlarmId::DRIVE_FAULT, c.drive_detail, now_);

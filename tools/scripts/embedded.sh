@@ -24,7 +24,7 @@ done
   "$out/main.o" "$out"/core/*.o -o "$out/image.elf"
 
 # Nothing that allocates or throws may be linked into the image.
-forbidden='^(malloc|_malloc_r|calloc|realloc|free|_Znwj|_Znaj|_Znwm|_Znam|__cxa_allocate_exception|__cxa_throw|__gxx_personality_v0|_ZTI.*|_ZTS.*)$'
+forbidden='^(malloc|_malloc_r|calloc|realloc|free|_free_r|_ZdlPv|_ZdlPvj|_ZdaPv|_ZdaPvj|_Znwj|_Znaj|_Znwm|_Znam|__cxa_allocate_exception|__cxa_throw|__gxx_personality_v0|_ZTI.*|_ZTS.*)$'
 if arm-none-eabi-nm "$out/image.elf" | awk '{print $NF}' | grep -E "$forbidden" > "$out/forbidden.txt"; then
   echo "embedded: the image links heap / exception / RTTI symbols:" >&2
   cat "$out/forbidden.txt" >&2

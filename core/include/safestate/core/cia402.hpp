@@ -79,6 +79,52 @@ inline constexpr std::uint16_t kFaultReset = 0x0080;  // acts on the rising edge
   return 0x004F;  // matches no pattern
 }
 
+// Device control commands carried by controlword bits 0..3 and 7 (IEC 61800-7-201).
+[[nodiscard]] constexpr bool is_shutdown(std::uint16_t c) noexcept { return (c & 0x0087U) == 0x0006U; }
+[[nodiscard]] constexpr bool is_switch_on(std::uint16_t c) noexcept { return (c & 0x008FU) == 0x0007U; }
+[[nodiscard]] constexpr bool is_enable_operation(std::uint16_t c) noexcept { return (c & 0x008FU) == 0x000FU; }
+[[nodiscard]] constexpr bool is_disable_voltage(std::uint16_t c) noexcept { return (c & 0x0082U) == 0x0000U; }
+[[nodiscard]] constexpr bool is_quick_stop(std::uint16_t c) noexcept { return (c & 0x0086U) == 0x0002U; }
+[[nodiscard]] constexpr bool fault_reset_edge(std::uint16_t prev, std::uint16_t c) noexcept {
+  return ((prev & 0x0080U) == 0U) && ((c & 0x0080U) != 0U);
+}
+
+// The drive's side of the CiA 402 state machine: the next state for a controlword,
+// one transition per cycle. `power`: the DC link is charged (main contactor closed).
+// Fault handling (entering Fault) is the drive's own business; leaving it needs a
+// fault-reset edge.
+[[nodiscard]] constexpr DriveState next_state(DriveState s, std::uint16_t prev_cw, std::uint16_t cw,
+                                              bool power) noexcept {
+  switch (s) {
+    case DriveState::NotReadyToSwitchOn:
+      return DriveState::SwitchOnDisabled;  // 1: self-initialisation done
+    case DriveState::SwitchOnDisabled:
+      return is_shutdown(cw) ? DriveState::ReadyToSwitchOn : s;  // 2
+    case DriveState::ReadyToSwitchOn:
+      if (is_disable_voltage(cw) || is_quick_stop(cw)) return DriveState::SwitchOnDisabled;  // 7
+      return (is_switch_on(cw) && power) ? DriveState::SwitchedOn : s;                       // 3
+    case DriveState::SwitchedOn:
+      if (!power || is_disable_voltage(cw) || is_quick_stop(cw)) return DriveState::SwitchOnDisabled;  // 10
+      if (is_shutdown(cw)) return DriveState::ReadyToSwitchOn;                                         // 6
+      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;                               // 4
+    case DriveState::OperationEnabled:
+      if (!power || is_disable_voltage(cw)) return DriveState::SwitchOnDisabled;  // 9
+      if (is_quick_stop(cw)) return DriveState::QuickStopActive;                  // 11
+      if (is_shutdown(cw)) return DriveState::ReadyToSwitchOn;                    // 8
+      return is_switch_on(cw) ? DriveState::SwitchedOn : s;                       // 5 (disable operation)
+    case DriveState::QuickStopActive:
+      if (is_disable_voltage(cw) || !power) return DriveState::SwitchOnDisabled;  // 12
+      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;          // 16
+    case DriveState::FaultReactionActive:
+      return DriveState::Fault;  // 14
+    case DriveState::Fault:
+      return fault_reset_edge(prev_cw, cw) ? DriveState::SwitchOnDisabled : s;  // 15
+    case DriveState::Unknown:
+      break;
+  }
+  return DriveState::Fault;
+}
+
 const char* to_string(DriveState s) noexcept;
 
 }  // namespace safestate::core::cia402

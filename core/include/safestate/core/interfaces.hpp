@@ -30,6 +30,10 @@ struct Feedback {
   float tcp_speed_mm_s = 0.0F;
   float max_point_speed_mm_s = 0.0F;  // max over the TCP and every link-frame origin
   std::uint8_t fastest_axis = 0;      // 1..6: link whose origin (or the TCP: 6) is fastest
+  // Axis (1..6) whose measured position left its set-point by more than the following-
+  // error window while the motion layer was commanding it (0 = none): a drive that does
+  // not follow is a drive fault, however healthy its statusword looks.
+  std::uint8_t following_error_axis = 0;
   bool program_loaded = true;
   bool program_finished = false;  // the running program reached its last waypoint
 };

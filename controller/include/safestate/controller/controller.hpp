@@ -1,0 +1,43 @@
+// One scan cycle of the robot controller (DESIGN.md "the cycle is the spine"):
+//   process image in -> motion.measure -> supervisor.step -> motion.step -> image out.
+// Composes core/ and motion/ over the HAL's process image; no heap, no OS, so the same
+// cycle runs in the simulator, in the Linux real-time loop and on a microcontroller.
+#pragma once
+
+#include <cstddef>
+
+#include "safestate/core/config.hpp"
+#include "safestate/core/supervisor.hpp"
+#include "safestate/hal/process_image.hpp"
+#include "safestate/motion/motion_controller.hpp"
+
+namespace safestate::controller {
+
+class Controller {
+ public:
+  // `cfg` must have passed core::validate().
+  Controller(const core::Config& cfg, const motion::RobotModel& model) noexcept;
+
+  void load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
+    motion_.load_program(points, count);
+  }
+
+  // Runs one cycle; takes at most max_commands_per_cycle of `cmds` and returns how many.
+  std::size_t step(const hal::ProcessImageIn& in, const core::Command* cmds, std::size_t n,
+                   hal::ProcessImageOut& out) noexcept;
+
+  [[nodiscard]] const core::SupervisorOut& status() const noexcept { return status_; }
+  [[nodiscard]] const core::Feedback& feedback() const noexcept { return feedback_; }
+  [[nodiscard]] const core::Supervisor& supervisor() const noexcept { return supervisor_; }
+  [[nodiscard]] const motion::MotionController& motion() const noexcept { return motion_; }
+
+ private:
+  static motion::MotionConfig motion_config(const core::Config& cfg) noexcept;
+
+  core::Supervisor supervisor_;
+  motion::MotionController motion_;
+  core::Feedback feedback_{};
+  core::SupervisorOut status_{};
+};
+
+}  // namespace safestate::controller

@@ -1,0 +1,30 @@
+#include "safestate/controller/controller.hpp"
+
+namespace safestate::controller {
+
+motion::MotionConfig Controller::motion_config(const core::Config& cfg) noexcept {
+  motion::MotionConfig m{};
+  m.cycle_s = static_cast<float>(cfg.cycle_us) * 1.0e-6F;
+  m.t1_limit_mm_s = cfg.t1_speed_limit_mm_s;
+  return m;
+}
+
+Controller::Controller(const core::Config& cfg, const motion::RobotModel& model) noexcept
+    : supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {}
+
+std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command* cmds, std::size_t n,
+                             hal::ProcessImageOut& out) noexcept {
+  feedback_.drive = in.drive;
+  feedback_.contactor_closed = in.contactor_closed;
+  feedback_.brake_released = in.brake_released;
+  feedback_.fieldbus_ok = in.fieldbus_ok;
+  motion_.measure(in.drive, feedback_);
+  const std::size_t taken = supervisor_.step(in.safety, feedback_, cmds, n, status_);
+  motion_.step(status_, in.drive, out.drive);
+  out.contactor = status_.contactor;
+  out.brakes_release = status_.brakes_release;
+  out.reset_lamp = status_.reset_lamp;
+  return taken;
+}
+
+}  // namespace safestate::controller

@@ -1,0 +1,43 @@
+// The process image: everything a HAL backend reads and writes once per cycle, as
+// plain data (PLC thinking: the cycle works on a copy, never on live I/O).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/interfaces.hpp"
+#include "safestate/core/signals.hpp"
+
+namespace safestate::hal {
+
+inline constexpr std::size_t kAxes = core::kAxes;
+
+struct ProcessImageIn {
+  core::RawInputs safety{};                          // both channels of every safety input
+  std::array<core::DriveFeedback, kAxes> drive{};    // statusword, position, velocity, online
+  bool contactor_closed = false;                     // main contactor auxiliary contact
+  std::array<bool, kAxes> brake_released{};          // brake feedback contacts
+  bool fieldbus_ok = true;                           // cyclic data valid this cycle
+};
+
+struct DriveOut {
+  std::uint16_t controlword = 0;     // CiA 402 0x6040
+  float target_position_rad = 0.0F; // CSP 0x607A
+};
+
+struct ProcessImageOut {
+  bool contactor = false;        // close the main contactor
+  bool brakes_release = false;   // release the holding brakes
+  bool reset_lamp = false;
+  std::array<DriveOut, kAxes> drive{};
+};
+
+// A HAL backend: the simulated cell, or a fieldbus master driving real hardware.
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual void read(ProcessImageIn& in) noexcept = 0;
+  virtual void write(const ProcessImageOut& out) noexcept = 0;
+};
+
+}  // namespace safestate::hal

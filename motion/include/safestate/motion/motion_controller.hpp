@@ -1,0 +1,139 @@
+// The motion layer: turns the supervisor's MotionRequest into CSP set-points and CiA 402
+// controlwords for six drives, and measures the TCP and link-origin speeds the
+// supervisor monitors. Same rules as core/: no heap, no exceptions, no clock; time is
+// the cycle period given at construction.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/interfaces.hpp"
+#include "safestate/core/supervisor.hpp"
+#include "safestate/hal/process_image.hpp"
+#include "safestate/motion/kinematics.hpp"
+#include "safestate/motion/robot.hpp"
+
+namespace safestate::motion {
+
+// PLCopen Motion axis states (names as in SPEC §6).
+enum class AxisState : std::uint8_t {
+  Disabled,
+  Standstill,
+  Homing,
+  DiscreteMotion,
+  ContinuousMotion,
+  SynchronizedMotion,
+  Stopping,
+  ErrorStop,
+};
+const char* to_string(AxisState s) noexcept;
+
+// A program is a list of joint waypoints, each reached by a synchronized point-to-point
+// move at a programmed fraction of the axis speed limits, then an optional dwell.
+struct Waypoint {
+  Joints q{};
+  float speed = 1.0F;         // fraction of every axis' velocity limit, 0 < speed <= 1
+  std::uint16_t dwell_ms = 0; // wait at the waypoint (gripper, process)
+};
+
+struct MotionConfig {
+  float cycle_s = 0.001F;
+  float t1_limit_mm_s = 250.0F;  // ISO 10218-1 reduced speed
+  float t1_margin = 0.96F;       // plan to 240 mm/s so the monitor's 250 is never reached
+  float jog_speed = 0.5F;        // fraction of the axis velocity limit at jog speed 100 %
+  float quick_stop_decel = 1.0F; // Cat 1 ramp, fraction of the axis acceleration limit
+  float cat2_decel = 0.5F;       // Cat 2 ramp (pause, jog stop)
+  float speed_override = 1.0F;   // program speed override, 0 < x <= 1
+  float limit_margin_rad = 0.02F;  // stop this far inside the joint limits
+  float following_error_rad = 0.05F;  // drive more than this behind its set-point: not following
+};
+
+// Synchronized point-to-point executor: every axis follows the same normalized
+// trapezoidal profile, so the path in joint space is a straight line and velocity is
+// continuous. Re-planned from the measured position on start and on resume.
+class ProgramExecutor {
+ public:
+  void load(const Waypoint* points, std::uint8_t count) noexcept;
+  void start(const Joints& from, const RobotModel& m, float override) noexcept;   // first waypoint
+  void resume(const Joints& from, const RobotModel& m, float override) noexcept;  // current waypoint
+  void abort() noexcept;
+  // Advances by `dt` seconds of program time; returns the set-point position.
+  Joints advance(float dt, const RobotModel& m, float override) noexcept;
+  // Joint velocity the profile commands at the current instant (for T1 scaling).
+  [[nodiscard]] Joints velocity() const noexcept;
+
+  [[nodiscard]] bool loaded() const noexcept { return count_ > 0U; }
+  [[nodiscard]] bool active() const noexcept { return active_; }
+  [[nodiscard]] bool finished() const noexcept { return finished_; }
+  [[nodiscard]] std::uint8_t index() const noexcept { return index_; }
+  [[nodiscard]] std::uint8_t count() const noexcept { return count_; }
+
+ private:
+  void plan(const Joints& from, const RobotModel& m, float override) noexcept;
+  [[nodiscard]] float s_of(float tau) const noexcept;
+  [[nodiscard]] float ds_of(float tau) const noexcept;
+
+  const Waypoint* points_ = nullptr;
+  std::uint8_t count_ = 0;
+  std::uint8_t index_ = 0;
+  bool active_ = false;
+  bool finished_ = false;
+  bool dwelling_ = false;
+  Joints q0_{};
+  Joints delta_{};
+  float tau_ = 0.0F;   // time into the current segment (s)
+  float T_ = 0.0F;     // segment duration
+  float ta_ = 0.0F;    // acceleration time of the normalized profile
+  float dwell_left_ = 0.0F;
+};
+
+class MotionController {
+ public:
+  MotionController(const RobotModel& model, const MotionConfig& cfg) noexcept;
+  void load_program(const Waypoint* points, std::uint8_t count) noexcept { program_.load(points, count); }
+
+  // Before the supervisor runs: the measured speeds of the TCP and every link origin,
+  // from measured joint positions (this cycle's and the last), and the program status.
+  void measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb) noexcept;
+
+  // After the supervisor ran: set-points and controlwords for this cycle.
+  void step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
+            std::array<hal::DriveOut, kJoints>& out) noexcept;
+
+  [[nodiscard]] AxisState axis_state(std::size_t i) const noexcept { return axis_[i]; }
+  [[nodiscard]] const Joints& setpoint() const noexcept { return q_sp_; }
+  [[nodiscard]] const Joints& setpoint_velocity() const noexcept { return v_sp_; }
+  [[nodiscard]] const Joints& measured() const noexcept { return q_meas_; }
+  [[nodiscard]] const Frames& frames() const noexcept { return frames_; }
+  [[nodiscard]] const PointSpeeds& speeds() const noexcept { return speeds_; }
+  [[nodiscard]] const ProgramExecutor& program() const noexcept { return program_; }
+
+ private:
+  void follow_program(const core::SupervisorOut& so) noexcept;
+  void jog(const core::JogTarget& j, bool t1) noexcept;
+  void ramp(float decel_fraction) noexcept;
+  void limit_t1() noexcept;
+  void integrate() noexcept;
+  void drive_control(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
+                     std::array<hal::DriveOut, kJoints>& out) noexcept;
+  void axis_states(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives) noexcept;
+
+  const RobotModel& model_;
+  MotionConfig cfg_;
+  ProgramExecutor program_;
+  Joints q_sp_{};
+  Joints v_sp_{};
+  Joints q_meas_{};
+  Joints q_prev_{};
+  bool have_prev_ = false;
+  Frames frames_{};
+  PointSpeeds speeds_{};
+  std::array<AxisState, kJoints> axis_{};
+  std::array<std::uint16_t, kJoints> last_cw_{};
+  std::array<bool, kJoints> reached_enabled_{};  // reached Operation enabled in this enable
+  std::array<bool, kJoints> dropped_{};          // then left it: never re-enabled by us
+  Joints q_sent_{};                               // set-points written last cycle
+  bool watch_following_ = false;                  // last cycle commanded hold, jog or program
+};
+
+}  // namespace safestate::motion

@@ -1,0 +1,378 @@
+#include "safestate/motion/motion_controller.hpp"
+
+#include <cmath>
+
+#include "safestate/core/cia402.hpp"
+
+namespace safestate::motion {
+
+namespace c402 = core::cia402;
+
+namespace {
+float clampf(float x, float lo, float hi) noexcept { return (x < lo) ? lo : ((x > hi) ? hi : x); }
+float absf(float x) noexcept { return (x < 0.0F) ? -x : x; }
+bool finite(float x) noexcept { return std::isfinite(x); }
+}  // namespace
+
+const char* to_string(AxisState s) noexcept {
+  constexpr std::array<const char*, 8> kNames{"Disabled",         "Standstill",         "Homing",   "DiscreteMotion",
+                                              "ContinuousMotion", "SynchronizedMotion", "Stopping", "ErrorStop"};
+  const auto i = static_cast<std::size_t>(s);
+  return (i < kNames.size()) ? kNames[i] : "?";
+}
+
+// ------------------------------------------------------------------ ProgramExecutor
+void ProgramExecutor::load(const Waypoint* points, std::uint8_t count) noexcept {
+  points_ = points;
+  count_ = (points == nullptr) ? 0U : count;
+  abort();
+}
+
+void ProgramExecutor::abort() noexcept {
+  active_ = false;
+  finished_ = false;
+  dwelling_ = false;
+  index_ = 0;
+  tau_ = 0.0F;
+  T_ = 0.0F;
+}
+
+void ProgramExecutor::start(const Joints& from, const RobotModel& m, float override) noexcept {
+  abort();
+  if (count_ == 0U) {
+    return;
+  }
+  active_ = true;
+  plan(from, m, override);
+}
+
+void ProgramExecutor::resume(const Joints& from, const RobotModel& m, float override) noexcept {
+  if (count_ == 0U || finished_) {
+    return;
+  }
+  active_ = true;
+  dwelling_ = false;
+  plan(from, m, override);  // from where the arm actually is, to the waypoint it was heading to
+}
+
+void ProgramExecutor::plan(const Joints& from, const RobotModel& m, float override) noexcept {
+  const Waypoint& w = points_[index_];
+  const float k = clampf(w.speed * override, 0.01F, 1.0F);
+  q0_ = from;
+  T_ = 0.0F;
+  ta_ = 0.0F;
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    delta_[i] = w.q[i] - from[i];
+    const float d = absf(delta_[i]);
+    const float v = m.qd_max_rad_s[i] * k;
+    const float a = m.qdd_max_rad_s2[i];
+    float t = 0.0F;
+    float ta = 0.0F;
+    if (d > 0.0F) {
+      if (d >= (v * v) / a) {  // reaches cruise speed: trapezoid
+        ta = v / a;
+        t = (d / v) + ta;
+      } else {  // triangle
+        ta = std::sqrt(d / a);
+        t = 2.0F * ta;
+      }
+    }
+    if (t > T_) {  // the slowest axis sets the shape every axis follows
+      T_ = t;
+      ta_ = ta;
+    }
+  }
+  tau_ = 0.0F;
+}
+
+float ProgramExecutor::s_of(float tau) const noexcept {
+  if (T_ <= 0.0F) {
+    return 1.0F;
+  }
+  const float t = clampf(tau, 0.0F, T_);
+  const float vp = 1.0F / (T_ - ta_);
+  if (t < ta_) {
+    return 0.5F * vp / ta_ * t * t;
+  }
+  if (t < T_ - ta_) {
+    return (0.5F * vp * ta_) + (vp * (t - ta_));
+  }
+  const float r = T_ - t;
+  return 1.0F - (0.5F * vp / ta_ * r * r);
+}
+
+float ProgramExecutor::ds_of(float tau) const noexcept {
+  if (T_ <= 0.0F || tau >= T_ || tau < 0.0F) {
+    return 0.0F;
+  }
+  const float vp = 1.0F / (T_ - ta_);
+  if (tau < ta_) {
+    return vp * tau / ta_;
+  }
+  if (tau < T_ - ta_) {
+    return vp;
+  }
+  return vp * (T_ - tau) / ta_;
+}
+
+Joints ProgramExecutor::velocity() const noexcept {
+  Joints v{};
+  if (!active_ || dwelling_) {
+    return v;
+  }
+  const float ds = ds_of(tau_);
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    v[i] = delta_[i] * ds;
+  }
+  return v;
+}
+
+Joints ProgramExecutor::advance(float dt, const RobotModel& m, float override) noexcept {
+  Joints q{};
+  if (!active_) {
+    return q0_;
+  }
+  if (dwelling_) {
+    dwell_left_ -= dt;
+    if (dwell_left_ <= 0.0F) {
+      dwelling_ = false;
+      ++index_;
+      if (index_ >= count_) {
+        active_ = false;
+        finished_ = true;
+        index_ = static_cast<std::uint8_t>(count_ - 1U);
+      } else {
+        plan(points_[index_ - 1U].q, m, override);
+      }
+    }
+    return dwelling_ || !active_ ? points_[index_].q : q0_;
+  }
+  tau_ += dt;
+  const float s = s_of(tau_);
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    q[i] = q0_[i] + (delta_[i] * s);
+  }
+  if (tau_ >= T_) {
+    dwelling_ = true;
+    dwell_left_ = static_cast<float>(points_[index_].dwell_ms) * 0.001F;
+    q = points_[index_].q;
+  }
+  return q;
+}
+
+// ------------------------------------------------------------------ MotionController
+MotionController::MotionController(const RobotModel& model, const MotionConfig& cfg) noexcept
+    : model_(model), cfg_(cfg) {
+  axis_.fill(AxisState::Disabled);
+}
+
+void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb) noexcept {
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    q_meas_[i] = drives[i].position_rad;
+  }
+  // ISO 10218-1 5.7.3: the reduced speed is checked on measured positions, differentiated
+  // here rather than taken from the drives' own velocity estimate (a diverse channel).
+  Joints qdot{};
+  if (have_prev_) {
+    for (std::size_t i = 0; i < kJoints; ++i) {
+      qdot[i] = (q_meas_[i] - q_prev_[i]) / cfg_.cycle_s;
+    }
+  }
+  q_prev_ = q_meas_;
+  have_prev_ = true;
+  forward(model_, q_meas_, frames_);
+  point_speeds(frames_, qdot, speeds_);
+  fb.tcp_speed_mm_s = speeds_.speed[kTcpPoint];
+  fb.max_point_speed_mm_s = speeds_.max_speed;
+  fb.fastest_axis = speeds_.fastest_axis;
+  // Following error, outside stop ramps: in a stop the supervisor's stop-time monitor
+  // (SS1-t) is the specified measure, and a drive ignoring the ramp must meet it.
+  fb.following_error_axis = 0;
+  if (watch_following_) {
+    for (std::size_t i = 0; i < kJoints; ++i) {
+      if (!(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad)) {
+        fb.following_error_axis = static_cast<std::uint8_t>(i + 1U);
+        break;
+      }
+    }
+  }
+  fb.program_loaded = program_.loaded();
+  fb.program_finished = program_.finished();
+}
+
+void MotionController::follow_program(const core::SupervisorOut& so) noexcept {
+  // T1: time-scale the program so that the path stays the same and no point exceeds
+  // the reduced speed (ISO 10218-1 5.7.3).
+  float scale = 1.0F;
+  if (so.motion.t1_limit) {
+    scale = t1_scale(model_, q_sp_, program_.velocity(), cfg_.t1_limit_mm_s * cfg_.t1_margin);
+  }
+  const Joints q = program_.advance(cfg_.cycle_s * scale, model_, cfg_.speed_override);
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    v_sp_[i] = (q[i] - q_sp_[i]) / cfg_.cycle_s;
+  }
+  if (so.motion.t1_limit) {
+    limit_t1();  // a last, exact check on the step actually taken
+  }
+}
+
+void MotionController::jog(const core::JogTarget& j, bool t1) noexcept {
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    const bool moving_axis = (j.axis >= 1U) && (static_cast<std::size_t>(j.axis - 1U) == i);
+    float target = 0.0F;
+    if (moving_axis) {
+      target = static_cast<float>(j.dir) * (static_cast<float>(j.speed) / 100.0F) * cfg_.jog_speed *
+               model_.qd_max_rad_s[i];
+    }
+    // Never drive into a joint limit: the speed from which the axis can still stop
+    // inside the limit at its acceleration.
+    const float a = model_.qdd_max_rad_s2[i];
+    const float room_hi = model_.q_max_rad[i] - cfg_.limit_margin_rad - q_sp_[i];
+    const float room_lo = q_sp_[i] - (model_.q_min_rad[i] + cfg_.limit_margin_rad);
+    const float v_hi = (room_hi > 0.0F) ? std::sqrt(2.0F * a * room_hi) : 0.0F;
+    const float v_lo = (room_lo > 0.0F) ? std::sqrt(2.0F * a * room_lo) : 0.0F;
+    target = clampf(target, -v_lo, v_hi);
+    const float dv = a * cfg_.cycle_s;
+    v_sp_[i] = clampf(target, v_sp_[i] - dv, v_sp_[i] + dv);
+  }
+  if (t1) {
+    limit_t1();
+  }
+}
+
+void MotionController::ramp(float decel_fraction) noexcept {
+  // All axes reach zero together, along the current direction of motion.
+  float t_stop = 0.0F;
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    const float t = absf(v_sp_[i]) / (model_.qdd_max_rad_s2[i] * decel_fraction);
+    t_stop = (t > t_stop) ? t : t_stop;
+  }
+  const float k = (t_stop <= cfg_.cycle_s) ? 0.0F : (1.0F - (cfg_.cycle_s / t_stop));
+  for (float& v : v_sp_) {
+    v *= k;
+  }
+}
+
+void MotionController::limit_t1() noexcept {
+  const float s = t1_scale(model_, q_sp_, v_sp_, cfg_.t1_limit_mm_s * cfg_.t1_margin);
+  for (float& v : v_sp_) {
+    v *= s;
+  }
+}
+
+void MotionController::integrate() noexcept {
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    float q = q_sp_[i] + (v_sp_[i] * cfg_.cycle_s);
+    q = clampf(q, model_.q_min_rad[i], model_.q_max_rad[i]);
+    if (!finite(q)) {
+      q = q_meas_[i];
+      v_sp_[i] = 0.0F;
+    }
+    q_sp_[i] = q;
+  }
+}
+
+void MotionController::step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
+                            std::array<hal::DriveOut, kJoints>& out) noexcept {
+  const core::MotionRequest& r = so.motion;
+  switch (r.program) {
+    case core::ProgramCmd::Start: program_.start(q_meas_, model_, cfg_.speed_override); break;
+    case core::ProgramCmd::Resume: program_.resume(q_meas_, model_, cfg_.speed_override); break;
+    case core::ProgramCmd::Abort: program_.abort(); break;
+    case core::ProgramCmd::None: break;
+  }
+  switch (r.mode) {
+    case core::MotionMode::Track:
+      q_sp_ = q_meas_;  // re-seeded from the measured position: no jump on the next arm
+      v_sp_.fill(0.0F);
+      break;
+    case core::MotionMode::Hold:
+      v_sp_.fill(0.0F);
+      break;
+    case core::MotionMode::Jog:
+      jog(r.jog, r.t1_limit);
+      integrate();
+      break;
+    case core::MotionMode::Program:
+      follow_program(so);
+      integrate();
+      break;
+    case core::MotionMode::QuickStop:
+      ramp(cfg_.quick_stop_decel);
+      integrate();
+      break;
+    case core::MotionMode::Ramp2:
+      ramp(cfg_.cat2_decel);
+      integrate();
+      break;
+  }
+  drive_control(so, drives, out);
+  axis_states(so, drives);
+  q_sent_ = q_sp_;
+  watch_following_ = so.drives_enable && so.brakes_release &&
+                     (r.mode == core::MotionMode::Hold || r.mode == core::MotionMode::Jog ||
+                      r.mode == core::MotionMode::Program);
+}
+
+void MotionController::drive_control(const core::SupervisorOut& so,
+                                     const std::array<core::DriveFeedback, kJoints>& drives,
+                                     std::array<hal::DriveOut, kJoints>& out) noexcept {
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    const c402::DriveState ds = c402::decode(drives[i].statusword);
+    std::uint16_t cw = c402::cw::kDisableVoltage;
+    if (!so.drives_enable) {
+      reached_enabled_[i] = false;
+      dropped_[i] = false;
+      if (so.motion.fault_reset && c402::is_fault(ds)) {
+        // Fault reset acts on the rising edge of bit 7: alternate 0x00 / 0x80.
+        cw = ((last_cw_[i] & c402::cw::kFaultReset) != 0U) ? c402::cw::kDisableVoltage : c402::cw::kFaultReset;
+      }
+    } else {
+      if (reached_enabled_[i] && (ds != c402::DriveState::OperationEnabled)) {
+        dropped_[i] = true;  // a drive that fell out of Operation enabled is never re-enabled by us
+      }
+      if (!dropped_[i]) {
+        switch (ds) {
+          case c402::DriveState::SwitchOnDisabled: cw = c402::cw::kShutdown; break;
+          case c402::DriveState::ReadyToSwitchOn: cw = c402::cw::kSwitchOn; break;
+          case c402::DriveState::SwitchedOn: cw = c402::cw::kEnableOperation; break;
+          case c402::DriveState::OperationEnabled:
+            cw = c402::cw::kEnableOperation;
+            reached_enabled_[i] = true;
+            break;
+          default: cw = c402::cw::kDisableVoltage; break;
+        }
+      }
+    }
+    last_cw_[i] = cw;
+    out[i].controlword = cw;
+    out[i].target_position_rad = q_sp_[i];
+  }
+}
+
+void MotionController::axis_states(const core::SupervisorOut& so,
+                                   const std::array<core::DriveFeedback, kJoints>& drives) noexcept {
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    const c402::DriveState ds = c402::decode(drives[i].statusword);
+    AxisState s = AxisState::Standstill;
+    if (c402::is_fault(ds)) {
+      s = AxisState::ErrorStop;
+    } else if (ds != c402::DriveState::OperationEnabled) {
+      s = AxisState::Disabled;
+    } else {
+      switch (so.motion.mode) {
+        case core::MotionMode::QuickStop:
+        case core::MotionMode::Ramp2: s = AxisState::Stopping; break;
+        case core::MotionMode::Program: s = AxisState::DiscreteMotion; break;
+        case core::MotionMode::Jog:
+          s = (static_cast<std::size_t>(so.motion.jog.axis) == i + 1U) ? AxisState::ContinuousMotion
+                                                                        : AxisState::Standstill;
+          break;
+        default: s = AxisState::Standstill; break;
+      }
+    }
+    axis_[i] = s;
+  }
+}
+
+}  // namespace safestate::motion

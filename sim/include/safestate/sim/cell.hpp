@@ -1,0 +1,78 @@
+// The simulated cell: the real controller (signal layer, supervisor, motion layer)
+// driving a simulated plant (six CiA 402 drives, contactor, brakes, I/O, arm physics)
+// one scan cycle at a time. Deterministic: no clock, no randomness. This facade is what
+// `safestate replay`, the tests and the runtime use.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "safestate/core/config.hpp"
+#include "safestate/core/signals.hpp"
+#include "safestate/core/supervisor.hpp"
+#include "safestate/core/types.hpp"
+
+namespace safestate::sim {
+
+// Fault injection, exactly the vocabulary of spec/scenario-format.md.
+enum class FaultKind : std::uint8_t {
+  drive_fault,      // drive N reports Fault
+  drive_clear,      // drive N's cause is gone (it still needs a fault reset)
+  drive_runaway,    // drive N accelerates at its limit, ignoring set-points
+  drive_nostop,     // drive N keeps its velocity, ignoring stop ramps
+  fieldbus_lost,    // cyclic data stops being valid
+  contactor_stuck_open,
+  brake_stuck,      // brake N never releases
+  clear_all,        // every injected cause is gone (drives still need a fault reset)
+};
+
+struct Fault {
+  FaultKind kind = FaultKind::clear_all;
+  std::uint8_t axis = 0;  // 1..6 for the drive_* and brake_stuck kinds
+};
+
+// What the simulated cell shows after a cycle, besides the supervisor's output.
+struct CellView {
+  std::array<float, 6> joints_rad{};        // measured
+  std::array<float, 6> velocities_rad_s{};  // measured
+  std::array<float, 6> tcp{};               // x, y, z mm; rx, ry, rz rad
+  float tcp_speed_mm_s = 0.0F;              // measured, from measured joint positions
+  float max_point_speed_mm_s = 0.0F;        // TCP and every link origin
+  std::array<const char*, 6> axis_state{};  // PLCopen axis state names
+  std::array<std::uint16_t, 6> statusword{};
+  std::array<std::uint16_t, 6> controlword{};
+  bool contactor_closed = false;            // feedback
+  std::array<bool, 6> brake_released{};     // feedback
+  bool fieldbus_ok = true;
+  std::uint8_t program_index = 0;           // waypoint the program is heading to
+  std::uint8_t program_length = 0;
+};
+
+class Cell {
+ public:
+  // `cfg` must have passed core::validate().
+  explicit Cell(const core::Config& cfg);
+  ~Cell();
+  Cell(const Cell&) = delete;
+  Cell& operator=(const Cell&) = delete;
+
+  // The physical contacts of SPEC §2; change them between cycles.
+  core::RawInputs& inputs() noexcept;
+  void inject(const Fault& f) noexcept;
+  // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
+  core::Result submit(const core::Command& c) noexcept;
+  // One scan cycle: read inputs and feedback, supervise, move, write, advance physics.
+  void step() noexcept;
+
+  [[nodiscard]] const core::SupervisorOut& out() const noexcept;  // of the last cycle
+  [[nodiscard]] const CellView& view() const noexcept;            // of the last cycle
+  [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
+  [[nodiscard]] const core::Config& config() const noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;  // allocated once, at construction
+};
+
+}  // namespace safestate::sim

@@ -1,0 +1,72 @@
+// The simulated plant, a HAL backend: six CiA 402 drives in CSP that walk their state
+// machine one state per cycle, a main contactor (feedback 10 ms after the command), six
+// holding brakes (60 ms), the safety inputs, fieldbus health, and the arm's joints.
+// Fault injection as in spec/scenario-format.md. Deterministic: no clock, no randomness.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/cia402.hpp"
+#include "safestate/hal/process_image.hpp"
+#include "safestate/motion/motion_controller.hpp"
+#include "safestate/motion/robot.hpp"
+#include "safestate/sim/cell.hpp"
+
+namespace safestate::sim {
+
+struct PlantTiming {
+  std::uint32_t contactor_cycles = 10;  // SPEC §6
+  std::uint32_t brake_cycles = 60;      // SPEC §6
+  std::uint32_t drive_boot_cycles = 50; // drives initialise ("Not ready to switch on")
+};
+
+class SimPlant final : public hal::Backend {
+ public:
+  SimPlant(const motion::RobotModel& model, float cycle_s, const PlantTiming& t, const motion::Joints& home) noexcept;
+
+  core::RawInputs& inputs() noexcept { return safety_; }
+  void inject(const Fault& f) noexcept;
+
+  void read(hal::ProcessImageIn& in) noexcept override;
+  // Applies the outputs and advances the physics by one cycle.
+  void write(const hal::ProcessImageOut& out) noexcept override;
+
+  [[nodiscard]] std::uint16_t controlword(std::size_t i) const noexcept { return axis_[i].last_cw; }
+
+ private:
+  struct Axis {
+    core::cia402::DriveState ds = core::cia402::DriveState::NotReadyToSwitchOn;
+    std::uint16_t last_cw = 0;
+    bool fault_cause = false;  // injected: the drive is (or goes) to Fault and cannot be reset
+    bool runaway = false;
+    bool nostop = false;
+    float q = 0.0F;
+    float v = 0.0F;
+    bool brake_cmd = false;
+    std::uint32_t brake_timer = 0;
+    bool brake_released = false;
+    bool brake_stuck = false;
+  };
+  void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
+  void physics(Axis& a, std::size_t i, float target) noexcept;
+
+  const motion::RobotModel& model_;
+  float dt_;
+  PlantTiming timing_;
+  core::RawInputs safety_{};
+  std::array<Axis, hal::kAxes> axis_{};
+  bool contactor_cmd_ = false;
+  std::uint32_t contactor_timer_ = 0;
+  bool contactor_closed_ = false;
+  bool contactor_stuck_open_ = false;
+  bool fieldbus_ok_ = true;
+  std::uint32_t age_ = 0;
+};
+
+// The demo program of the simulated cell: a pick-and-place round of joint waypoints.
+const motion::Waypoint* demo_program(std::uint8_t& count) noexcept;
+// Where the simulated arm stands at power-up.
+motion::Joints home_pose() noexcept;
+
+}  // namespace safestate::sim

@@ -1,0 +1,88 @@
+#include "safestate/sim/cell.hpp"
+
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/command_queue.hpp"
+#include "safestate/motion/kinematics.hpp"
+#include "safestate/sim/plant.hpp"
+
+namespace safestate::sim {
+
+namespace {
+PlantTiming plant_timing(const core::Config& cfg) {
+  const auto cycles = [&](std::uint32_t ms) {
+    const std::uint32_t c = (ms * 1000U + cfg.cycle_us - 1U) / cfg.cycle_us;  // round up
+    return (c == 0U) ? 1U : c;
+  };
+  PlantTiming t{};
+  t.contactor_cycles = cycles(10);
+  t.brake_cycles = cycles(60);
+  t.drive_boot_cycles = cycles(50);
+  return t;
+}
+}  // namespace
+
+struct Cell::Impl {
+  explicit Impl(const core::Config& c)
+      : cfg(c),
+        controller(c, motion::kRobot),
+        plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c), home_pose()) {
+    std::uint8_t n = 0;
+    const motion::Waypoint* p = demo_program(n);
+    controller.load_program(p, n);
+  }
+  core::Config cfg;
+  controller::Controller controller;
+  SimPlant plant;
+  core::CommandQueue<64> queue;
+  hal::ProcessImageIn in{};
+  hal::ProcessImageOut out{};
+  std::array<core::Command, core::kMaxCommandsPerCycle> batch{};
+  CellView view{};
+  core::Cycle now = 0;
+
+  void update_view() noexcept {
+    const motion::MotionController& m = controller.motion();
+    const core::Feedback& fb = controller.feedback();
+    const motion::Frames& f = m.frames();
+    const motion::Rpy r = motion::to_rpy(f.R);
+    view.tcp = {f.tcp[0], f.tcp[1], f.tcp[2], r.roll, r.pitch, r.yaw};
+    view.tcp_speed_mm_s = fb.tcp_speed_mm_s;
+    view.max_point_speed_mm_s = fb.max_point_speed_mm_s;
+    for (std::size_t i = 0; i < core::kAxes; ++i) {
+      view.joints_rad[i] = in.drive[i].position_rad;
+      view.velocities_rad_s[i] = in.drive[i].velocity_rad_s;
+      view.axis_state[i] = motion::to_string(m.axis_state(i));
+      view.statusword[i] = in.drive[i].statusword;
+      view.controlword[i] = out.drive[i].controlword;
+      view.brake_released[i] = in.brake_released[i];
+    }
+    view.contactor_closed = in.contactor_closed;
+    view.fieldbus_ok = in.fieldbus_ok;
+    view.program_index = m.program().index();
+    view.program_length = m.program().count();
+  }
+};
+
+Cell::Cell(const core::Config& cfg) : impl_(std::make_unique<Impl>(cfg)) {}
+Cell::~Cell() = default;
+
+core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
+void Cell::inject(const Fault& f) noexcept { impl_->plant.inject(f); }
+core::Result Cell::submit(const core::Command& c) noexcept { return impl_->queue.push(c); }
+
+void Cell::step() noexcept {
+  Impl& s = *impl_;
+  s.plant.read(s.in);
+  const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
+  s.queue.pop(s.controller.step(s.in, s.batch.data(), n, s.out));
+  s.plant.write(s.out);
+  s.update_view();
+  ++s.now;
+}
+
+const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
+const CellView& Cell::view() const noexcept { return impl_->view; }
+core::Cycle Cell::now() const noexcept { return impl_->now; }
+const core::Config& Cell::config() const noexcept { return impl_->cfg; }
+
+}  // namespace safestate::sim

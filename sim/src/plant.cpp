@@ -1,0 +1,137 @@
+#include "safestate/sim/plant.hpp"
+
+#include <cmath>
+
+namespace safestate::sim {
+
+namespace c402 = core::cia402;
+
+namespace {
+float clampf(float x, float lo, float hi) noexcept { return (x < lo) ? lo : ((x > hi) ? hi : x); }
+float toward_zero(float v, float dv) noexcept { return (v > dv) ? v - dv : ((v < -dv) ? v + dv : 0.0F); }
+}  // namespace
+
+SimPlant::SimPlant(const motion::RobotModel& model, float cycle_s, const PlantTiming& t,
+                   const motion::Joints& home) noexcept
+    : model_(model), dt_(cycle_s), timing_(t) {
+  for (std::size_t i = 0; i < hal::kAxes; ++i) {
+    axis_[i].q = home[i];
+  }
+}
+
+void SimPlant::inject(const Fault& f) noexcept {
+  const std::size_t i = (f.axis >= 1U && f.axis <= hal::kAxes) ? f.axis - 1U : 0U;
+  switch (f.kind) {
+    case FaultKind::drive_fault:
+      axis_[i].fault_cause = true;
+      axis_[i].ds = c402::DriveState::Fault;  // reports Fault from the next read
+      break;
+    case FaultKind::drive_clear:
+      axis_[i].fault_cause = false;
+      axis_[i].runaway = false;
+      axis_[i].nostop = false;
+      break;
+    case FaultKind::drive_runaway: axis_[i].runaway = true; break;
+    case FaultKind::drive_nostop: axis_[i].nostop = true; break;
+    case FaultKind::fieldbus_lost: fieldbus_ok_ = false; break;
+    case FaultKind::contactor_stuck_open: contactor_stuck_open_ = true; break;
+    case FaultKind::brake_stuck: axis_[i].brake_stuck = true; break;
+    case FaultKind::clear_all:
+      for (Axis& a : axis_) {
+        a.fault_cause = false;
+        a.runaway = false;
+        a.nostop = false;
+        a.brake_stuck = false;
+      }
+      contactor_stuck_open_ = false;
+      fieldbus_ok_ = true;
+      break;
+  }
+}
+
+void SimPlant::read(hal::ProcessImageIn& in) noexcept {
+  in.safety = safety_;
+  for (std::size_t i = 0; i < hal::kAxes; ++i) {
+    const Axis& a = axis_[i];
+    in.drive[i].statusword = c402::statusword_of(a.ds);
+    in.drive[i].position_rad = a.q;
+    in.drive[i].velocity_rad_s = a.v;
+    in.drive[i].online = true;
+    in.brake_released[i] = a.brake_released;
+  }
+  in.contactor_closed = contactor_closed_;
+  in.fieldbus_ok = fieldbus_ok_;
+}
+
+void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
+  if (!fieldbus_ok_ && a.ds != c402::DriveState::Fault) {
+    a.ds = c402::DriveState::FaultReactionActive;  // the drive's own bus watchdog
+  } else if (a.ds == c402::DriveState::NotReadyToSwitchOn) {
+    if (age_ >= timing_.drive_boot_cycles) {
+      a.ds = c402::DriveState::SwitchOnDisabled;
+    }
+  } else if (a.ds == c402::DriveState::Fault && a.fault_cause) {
+    // stays in Fault while its cause is present, whatever the controlword
+  } else {
+    a.ds = c402::next_state(a.ds, a.last_cw, cw, power);
+  }
+  a.last_cw = cw;
+}
+
+void SimPlant::physics(Axis& a, std::size_t i, float target) noexcept {
+  const float vmax = model_.qd_max_rad_s[i];
+  const float amax = model_.qdd_max_rad_s2[i];
+  const bool torque = (a.ds == c402::DriveState::OperationEnabled) && contactor_closed_;
+  if (torque && a.runaway) {
+    const float dir = (a.v < 0.0F) ? -1.0F : 1.0F;  // accelerates at its limit, ignoring set-points
+    a.v = clampf(a.v + (dir * amax * dt_), -vmax, vmax);
+  } else if (torque && a.brake_released) {
+    const float v_cmd = clampf((target - a.q) / dt_, -vmax, vmax);
+    const bool decelerating = std::fabs(v_cmd) < std::fabs(a.v) || (v_cmd * a.v) < 0.0F;
+    if (!(a.nostop && decelerating)) {
+      a.v = v_cmd;  // CSP: follows the set-point within its limits
+    }
+  } else if (torque) {
+    a.v = 0.0F;  // holding against the engaged brake
+  } else {
+    a.v = toward_zero(a.v, 2.0F * amax * dt_);  // no torque: the holding brake stops the axis
+  }
+  a.q += a.v * dt_;
+  if (a.q > model_.q_max_rad[i] || a.q < model_.q_min_rad[i]) {
+    a.q = clampf(a.q, model_.q_min_rad[i], model_.q_max_rad[i]);  // mechanical hard stop
+    a.v = 0.0F;
+  }
+}
+
+void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
+  ++age_;
+  if (out.contactor != contactor_cmd_) {
+    contactor_cmd_ = out.contactor;
+    contactor_timer_ = 0;
+  }
+  ++contactor_timer_;
+  if (contactor_timer_ >= timing_.contactor_cycles) {
+    contactor_closed_ = contactor_cmd_ && !contactor_stuck_open_;
+  }
+  if (contactor_stuck_open_) {
+    contactor_closed_ = false;
+  }
+  for (std::size_t i = 0; i < hal::kAxes; ++i) {
+    Axis& a = axis_[i];
+    if (out.brakes_release != a.brake_cmd) {
+      a.brake_cmd = out.brakes_release;
+      a.brake_timer = 0;
+    }
+    ++a.brake_timer;
+    if (a.brake_timer >= timing_.brake_cycles) {
+      a.brake_released = a.brake_cmd && !a.brake_stuck;
+    }
+    if (a.brake_stuck) {
+      a.brake_released = false;
+    }
+    drive_state(a, out.drive[i].controlword, contactor_closed_);
+    physics(a, i, out.drive[i].target_position_rad);
+  }
+}
+
+}  // namespace safestate::sim

@@ -1,0 +1,226 @@
+// The simulated cell with the real controller: timings of SPEC §6, the demo program,
+// T1 limiting by the motion layer, and each injected fault.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "safestate/core/cia402.hpp"
+#include "safestate/motion/motion_controller.hpp"
+#include "safestate/sim/cell.hpp"
+
+using namespace safestate;
+using core::CommandId;
+using core::Result;
+using core::State;
+using core::Sub;
+
+namespace {
+
+struct CellRun {
+  sim::Cell cell{core::Config{}};
+  std::uint32_t seq = 0;
+
+  void cycles(int n) {
+    for (int i = 0; i < n; ++i) cell.step();
+  }
+  template <typename P>
+  int until(P pred, int limit) {
+    for (int k = 1; k <= limit; ++k) {
+      cell.step();
+      if (pred(cell)) return k;
+    }
+    return -1;
+  }
+  Result cmd(CommandId id, int axis = 0, int dir = 0, int speed = 0) {
+    core::Command c{};
+    c.seq = ++seq;
+    c.id = static_cast<std::uint8_t>(id);
+    c.axis = static_cast<std::int8_t>(axis);
+    c.dir = static_cast<std::int8_t>(dir);
+    c.speed = static_cast<std::uint8_t>(speed);
+    EXPECT_EQ(cell.submit(c), Result::OK);
+    cell.step();
+    const core::SupervisorOut& o = cell.out();
+    for (std::size_t i = 0; i < o.reply_count; ++i) {
+      if (o.replies[i].seq == c.seq) return o.replies[i].result;
+    }
+    return Result::QUEUE_FULL;
+  }
+  void arm(core::Mode m = core::Mode::AUTO) {
+    auto& in = cell.inputs();
+    in.mode_auto = m == core::Mode::AUTO;
+    in.mode_t1 = m == core::Mode::T1;
+    in.mode_t2 = m == core::Mode::T2;
+    ASSERT_GT(until([](const sim::Cell& c) { return c.out().state == State::ESTOP_RESET_NEEDED; }, 100), 0);
+    ASSERT_EQ(cmd(CommandId::reset), Result::OK);
+    if (m != core::Mode::AUTO) {
+      in.enable_a = in.enable_b = true;
+      cycles(1);
+    }
+    ASSERT_EQ(cmd(CommandId::servo_on), Result::OK);
+    ASSERT_GT(until([](const sim::Cell& c) { return c.out().state == State::OPERATIONAL; }, 700), 0);
+  }
+  State state() const { return cell.out().state; }
+};
+
+}  // namespace
+
+TEST(SimCell, BootEndsWithin100Cycles) {
+  CellRun r;
+  const int k = r.until([](const sim::Cell& c) { return c.out().state != State::BOOT; }, 100);
+  EXPECT_GT(k, 0);
+  EXPECT_EQ(r.state(), State::ESTOP_RESET_NEEDED);
+}
+
+TEST(SimCell, ContactorFeedbackTenCyclesAfterTheCommand) {
+  CellRun r;
+  r.cycles(100);
+  ASSERT_EQ(r.cmd(CommandId::reset), Result::OK);
+  ASSERT_EQ(r.cmd(CommandId::servo_on), Result::OK);  // contactor commanded in this cycle
+  int k = r.until([](const sim::Cell& c) { return c.view().contactor_closed; }, 50);
+  EXPECT_EQ(k, 10);
+}
+
+TEST(SimCell, ArmingWalksTheDrivesAndReleasesTheBrakes) {
+  CellRun r;
+  r.arm();
+  EXPECT_EQ(r.cell.out().sub, Sub::AUTO_IDLE);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(core::cia402::decode(r.cell.view().statusword[i]), core::cia402::DriveState::OperationEnabled);
+    EXPECT_TRUE(r.cell.view().brake_released[i]);
+    EXPECT_STREQ(r.cell.view().axis_state[i], "Standstill");
+  }
+  EXPECT_LT(r.cell.view().tcp_speed_mm_s, 0.01F) << "no surprise motion after arming";
+}
+
+TEST(SimCell, DemoProgramLastsFiveToTenSecondsAndFinishes) {
+  CellRun r;
+  r.arm();
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  float top = 0.0F;
+  const int k = r.until(
+      [&](const sim::Cell& c) {
+        top = std::max(top, c.view().tcp_speed_mm_s);
+        return c.out().sub == Sub::AUTO_IDLE;
+      },
+      12000);
+  EXPECT_GE(k, 5000);
+  EXPECT_LE(k, 10000);
+  EXPECT_GT(top, 300.0F) << "AUTO runs at full speed";
+  EXPECT_EQ(r.state(), State::OPERATIONAL);
+}
+
+TEST(SimCell, T1JogIsCappedBelow250mmPerSecond) {
+  CellRun r;
+  r.arm(core::Mode::T1);
+  float top = 0.0F;
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_EQ(r.cmd(CommandId::jog, 1, +1, 100), Result::OK);
+    for (int i = 0; i < 40; ++i) {
+      r.cell.step();
+      top = std::max(top, r.cell.view().max_point_speed_mm_s);
+    }
+  }
+  EXPECT_EQ(r.cell.out().sub, Sub::MANUAL_JOGGING);
+  EXPECT_GT(top, 200.0F) << "the jog does move";
+  EXPECT_LE(top, 250.0F);
+  EXPECT_STREQ(r.cell.view().axis_state[0], "ContinuousMotion");
+}
+
+TEST(SimCell, T1ProgramIsTimeScaledBelow250) {
+  CellRun r;
+  r.arm(core::Mode::T1);
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  float top = 0.0F;
+  for (int i = 0; i < 3000; ++i) {
+    r.cell.step();
+    top = std::max(top, r.cell.view().max_point_speed_mm_s);
+  }
+  EXPECT_EQ(r.cell.out().sub, Sub::MANUAL_RUNNING);
+  EXPECT_LE(top, 250.0F);
+  EXPECT_GT(top, 150.0F);
+}
+
+TEST(SimCell, DriveFaultStopsAndResetAcknowledgesIt) {
+  CellRun r;
+  r.arm();
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  r.cycles(300);
+  r.cell.inject({sim::FaultKind::drive_fault, 2});
+  r.cycles(1);
+  EXPECT_EQ(r.state(), State::IDLE);
+  EXPECT_EQ(r.cmd(CommandId::reset), Result::QUEUE_FULL) << "answer deferred: no reply in this cycle";
+  r.cycles(60);
+  r.cell.inject({sim::FaultKind::drive_clear, 2});
+  core::Command c{};
+  c.seq = 999;
+  c.id = static_cast<std::uint8_t>(CommandId::reset);
+  ASSERT_EQ(r.cell.submit(c), Result::OK);
+  Result got = Result::QUEUE_FULL;
+  for (int i = 0; i < 60 && got == Result::QUEUE_FULL; ++i) {
+    r.cell.step();
+    for (std::size_t k = 0; k < r.cell.out().reply_count; ++k) {
+      if (r.cell.out().replies[k].seq == 999) got = r.cell.out().replies[k].result;
+    }
+  }
+  EXPECT_EQ(got, Result::OK);
+  EXPECT_EQ(core::cia402::decode(r.cell.view().statusword[1]), core::cia402::DriveState::SwitchOnDisabled);
+}
+
+TEST(SimCell, RunawayInAutoIsCaughtAsAFollowingError) {
+  CellRun r;
+  r.arm();
+  r.cell.inject({sim::FaultKind::drive_runaway, 3});
+  const int k = r.until([](const sim::Cell& c) { return c.out().state != State::OPERATIONAL; }, 500);
+  ASSERT_GT(k, 0);
+  EXPECT_LT(k, 150);
+  EXPECT_EQ(r.state(), State::IDLE);
+  EXPECT_TRUE((r.cell.out().alarms & core::bit(core::AlarmId::DRIVE_FAULT)) != 0U);
+}
+
+TEST(SimCell, NostopDriveMeetsTheStopTimeMonitor) {
+  CellRun r;
+  r.arm();
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  ASSERT_GT(r.until([](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 1.0F; }, 2000), 0);
+  r.cell.inject({sim::FaultKind::drive_nostop, 1});
+  ASSERT_EQ(r.cmd(CommandId::servo_off), Result::OK);
+  const int k = r.until([](const sim::Cell& c) { return c.out().state != State::STOPPING; }, 2000);
+  ASSERT_GT(k, 0);
+  EXPECT_TRUE((r.cell.out().alarms & core::bit(core::AlarmId::STOP_TIME_EXCEEDED)) != 0U);
+}
+
+TEST(SimCell, ContactorStuckOpenTimesOutArming) {
+  CellRun r;
+  r.cell.inject({sim::FaultKind::contactor_stuck_open, 0});
+  r.cycles(100);
+  ASSERT_EQ(r.cmd(CommandId::reset), Result::OK);
+  ASSERT_EQ(r.cmd(CommandId::servo_on), Result::OK);
+  r.cycles(101);
+  EXPECT_EQ(r.state(), State::IDLE);
+  EXPECT_TRUE((r.cell.out().alarms & core::bit(core::AlarmId::ARMING_TIMEOUT)) != 0U);
+}
+
+TEST(SimCell, FieldbusLostLocksOut) {
+  CellRun r;
+  r.arm();
+  r.cell.inject({sim::FaultKind::fieldbus_lost, 0});
+  r.cycles(1);
+  EXPECT_EQ(r.state(), State::ERROR_LOCKOUT);
+}
+
+TEST(SimCell, SameInputsGiveTheSameRunBitForBit) {
+  CellRun a;
+  CellRun b;
+  a.arm();
+  b.arm();
+  a.cmd(CommandId::start);
+  b.cmd(CommandId::start);
+  for (int i = 0; i < 2000; ++i) {
+    a.cell.step();
+    b.cell.step();
+    ASSERT_EQ(std::memcmp(&a.cell.view().joints_rad, &b.cell.view().joints_rad, sizeof(float) * 6), 0);
+  }
+}
