@@ -3,8 +3,12 @@
 
 #include <cstdio>
 
+#include <string>
+#include <vector>
+
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "safestate/scenario/scenario.hpp"
 
 using namespace safestate::core;
 
@@ -23,7 +27,15 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   auto* version = app.add_subcommand("version", "print the version");
   auto* table = app.add_subcommand("table", "print the transition table the core runs");
+  std::vector<std::string> files;
+  bool trace = false;
+  auto* replay = app.add_subcommand("replay", "run .scn scenarios on the simulated cell (exit 0 pass, 1 fail, 2 malformed)");
+  replay->add_option("FILE", files, "scenario files")->required();
+  replay->add_flag("--trace", trace, "print a JSON Lines trace on stdout");
   CLI11_PARSE(app, argc, argv);
+  if (replay->parsed()) {
+    return safestate::scenario::replay_main(files, trace);
+  }
   if (version->parsed()) {
     std::printf("safestate %s\n", SAFESTATE_VERSION);
     return 0;

@@ -283,7 +283,10 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::DRIVE_FAULT, c.drive_detail);
         }
         // `!(x <= limit)` so that a NaN speed counts as exceeded (unknown is unsafe).
-        if ((in.mode == Mode::T1) && !(fb.max_point_speed_mm_s <= timing_.t1_speed_limit_mm_s)) {
+        // The T1 monitor watches motion armed in T1. A key turned to T1 while the arm
+        // moves at another mode's speed is rule 6's (Cat 1), not a T1 speed fault.
+        if ((in.mode == Mode::T1) && (armed_mode_ == Mode::T1) &&
+            !(fb.max_point_speed_mm_s <= timing_.t1_speed_limit_mm_s)) {
           hit(AlarmId::T1_SPEED_EXCEEDED, detail_of(Signal::drive, Channel::none, fb.fastest_axis,
                                                     static_cast<std::uint16_t>(fb.max_point_speed_mm_s)));
         }
@@ -579,6 +582,8 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
       t2_confirmed_ = true;
       break;
     case Effect::begin_arming:
+      armed_mode_ = c.in.mode;
+      break;
     case Effect::none:
       break;
   }
@@ -607,8 +612,8 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
       reply(c, reset_seq_, kResetId, reset_source_, kLeafPolicy[static_cast<std::size_t>(leaf_)].no_row);
     }
   } else {
-    if (row.stop == StopCat::CAT0) {
-      c.cat0 = true;
+    if ((row.stop == StopCat::CAT0) && (to != from)) {
+      c.cat0 = true;  // shown for the cycle it happened, not while its cause lasts
     }
     if ((to != from) || (row.effect == Effect::begin_arming)) {
       enter(c, to, row.stop);

@@ -256,6 +256,18 @@ TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
   EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
 }
 
+TEST(Rule3, KeyToT1WhileMovingFastIsRule6NotAT1SpeedFault) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.point_speed = 900.0F;
+  b.mode(Mode::T1);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.stop, StopCat::CAT1);
+  EXPECT_FALSE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
+  EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
+}
+
 TEST(Rule3, T1SpeedIsNotMonitoredInT2) {
   Bench b;
   b.to_jogging(Mode::T2);

@@ -4,7 +4,7 @@
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
-  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev python3"
+  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev valgrind python3"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
 )
 

@@ -102,6 +102,7 @@ class SystemStateManager {
   bool boot_pending_ = true;
   bool integrity_fault_ = false;
   bool t2_confirmed_ = false;
+  Mode armed_mode_ = Mode::NONE;  // the mode in which servo_on was accepted
   Cycle standstill_count_ = 0;
   Cycle last_jog_ = 0;
   JogTarget jog_{};

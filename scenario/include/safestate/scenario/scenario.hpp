@@ -1,0 +1,169 @@
+// Scenario files (.scn, spec/scenario-format.md): the parser, the runner that replays a
+// file against the simulated cell, and `safestate replay`.
+//
+// Everything a run needs is computed when the file is parsed; the run itself keeps only
+// fixed buffers, so that with tracing off it allocates nothing per cycle (a replay of
+// 100 cycles and one of 10^6 cycles allocate the same number of times). Strings are
+// built only for a failing expect or for the trace.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "safestate/core/config.hpp"
+#include "safestate/core/signals.hpp"
+#include "safestate/core/types.hpp"
+#include "safestate/sim/cell.hpp"
+
+namespace safestate::scenario {
+
+// ---------------------------------------------------------------------------------------
+// What a file says
+
+// One physical contact of RawInputs (SPEC §2). For the NC inputs `closed` = healthy.
+enum class Contact : std::uint8_t {
+  estop_a,
+  estop_b,
+  gate_a,
+  gate_b,
+  enable_a,
+  enable_b,
+  enable_panic,
+  mode_auto,
+  mode_t1,
+  mode_t2,
+  reset_button,
+};
+
+struct ContactWrite {
+  Contact contact = Contact::estop_a;
+  bool closed = false;
+};
+
+// `in KEY=VALUE ...`: the contacts to write, in file order (a shorthand expands to the
+// contacts it sets).
+struct InputStep {
+  std::vector<ContactWrite> writes;
+};
+
+// `cmd [from=pendant|remote] NAME ARGS...`: the binary record handed to the core, and
+// the name as written (for the trace of an unknown command).
+struct CommandStep {
+  core::Command command{};
+  std::string name;
+};
+
+// `fault ...`
+struct FaultStep {
+  sim::Fault fault{};
+};
+
+enum class ExpectKey : std::uint8_t {
+  state,
+  sub,
+  mode,
+  stop,
+  contactor,
+  drives,
+  brakes,
+  reset_lamp,
+  alarm,
+  noalarm,
+  reply,
+  tcp_speed,
+};
+
+enum class Compare : std::uint8_t { lt, le, gt, ge };
+
+// One key of an `expect` line.
+struct Expectation {
+  ExpectKey key = ExpectKey::state;
+  // state/sub/mode/stop/alarm/noalarm/reply: the value of State, Sub, Mode, StopCat,
+  // AlarmId or Result. contactor/drives/brakes/reset_lamp: 1 = closed / enabled /
+  // released / on, 0 = open / disabled / engaged / off.
+  std::uint8_t value = 0;
+  Compare cmp = Compare::le;  // tcp_speed only
+  double limit = 0.0;         // tcp_speed only, mm/s
+  std::string text;           // the token as written, e.g. "state=IDLE" (for messages)
+};
+
+// `expect KEY...`: every key must hold.
+struct ExpectStep {
+  std::vector<Expectation> checks;
+};
+
+using Directive = std::variant<InputStep, CommandStep, FaultStep, ExpectStep>;
+
+struct Step {
+  std::size_t line = 0;  // 1-based line of the file
+  core::Cycle t = 0;     // @T, or T1 of @T1..T2
+  core::Cycle t_end = 0; // == t except for an expect range
+  Directive what;
+};
+
+// Times above this are refused, so that a run always ends and never overflows.
+inline constexpr core::Cycle kMaxTime = 1'000'000'000;
+
+struct Scenario {
+  std::string file;          // as given to parse(), used in messages
+  core::Config config{};     // defaults + the file's `config` lines; validate() passed
+  std::vector<Step> steps;   // by t (T1 for a range); file order within the same t
+  std::size_t expect_lines = 0;
+  core::Cycle cycles = 0;    // cycles to run: largest T (or T2) + 1; 0 without any @ line
+};
+
+struct ParseError {
+  std::string file;
+  std::size_t line = 0;
+  std::string message;
+  // "FILE:LINE: message"
+  [[nodiscard]] std::string text() const;
+};
+
+struct ParseResult {
+  Scenario scenario;                // meaningful only when ok()
+  std::optional<ParseError> error;  // set for a malformed file
+  [[nodiscard]] bool ok() const noexcept { return !error.has_value(); }
+};
+
+// Parses a whole .scn text. `file_name` is only used in messages.
+[[nodiscard]] ParseResult parse(std::string_view text, std::string file_name);
+
+// Writes the contacts of an `in` line into the raw process image.
+void apply(const InputStep& step, core::RawInputs& raw) noexcept;
+
+// ---------------------------------------------------------------------------------------
+// Running a file
+
+struct RunOptions {
+  bool trace = false;
+  std::ostream* trace_out = nullptr;  // JSON Lines, when `trace`
+  std::ostream* report = nullptr;     // human messages (failing expects); none when null
+};
+
+struct Summary {
+  std::size_t expects = 0;  // expect lines
+  std::size_t failed = 0;   // expect lines that failed (at least once)
+  core::Cycle cycles = 0;   // cycles run
+};
+
+// Replays `s` from a fresh cell for cycles 0..last T inclusive. Returns 0 when every
+// expect held, 1 when one failed (one message per failing line on `report`), 2 when the
+// scenario's config does not pass core::validate() (only for hand-built scenarios).
+int run(const Scenario& s, const RunOptions& opts, Summary& summary);
+
+// `safestate replay FILE... [--trace]`: the worst exit code over all files (2 malformed
+// or unreadable > 1 failed > 0). The trace goes to stdout; human messages go to stderr
+// when tracing, to stdout otherwise.
+int replay_main(const std::vector<std::string>& files, bool trace);
+
+// The same, with the streams given (for tests).
+int replay(const std::vector<std::string>& files, bool trace, std::ostream& trace_out, std::ostream& report);
+
+}  // namespace safestate::scenario

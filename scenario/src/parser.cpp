@@ -1,0 +1,788 @@
+// Parser of .scn files (spec/scenario-format.md). One pass, line by line; the first
+// problem stops the parse and is reported as FILE:LINE: what is wrong (exit 2).
+//
+// Decisions beyond the format spec (the spec says what is valid; these say how strictly):
+//  - `#` starts a comment anywhere on a line; blank and comment-only lines are ignored;
+//    tokens are separated by spaces, tabs or a CR (CRLF files work).
+//  - `config NAME=VALUE ...` is allowed only before the first `@` line. NAME is one of
+//    cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms (unsigned
+//    integers) and standstill_rad_s (a number). A later line overrides an earlier one.
+//    When the config section ends (first `@` line or end of file) core::validate() runs;
+//    its field and reason are reported on the line that last set that field (or on the
+//    last config line if the file did not set it).
+//  - `@T`: T is a non-negative decimal integer (no sign), at most kMaxTime. A `@T` line
+//    whose T is smaller than that of an earlier `@T` line is malformed. `@T1..T2` is only
+//    for `expect`, with T1 <= T2, and takes no part in that order: the format spec's rule
+//    is about `@T` lines, and the shared scenario t1-jog.scn (SPEC's own example set)
+//    writes `@810..1000 expect tcp_speed<=250` after `@970 cmd jog ...`, i.e. a range
+//    after the actions it watches. A range acts on nothing and is checked over its
+//    whole span whatever its place in the file, so its place cannot change a run. The
+//    steps are then sorted by their (first) cycle, keeping file order within a cycle:
+//    only ranges move.
+//  - `in`: at least one KEY=VALUE; shorthands and raw contacts exactly as in the spec;
+//    enable=panic sets panic=1 and a=b=0; mode=NONE opens all three contacts.
+//  - `cmd`: the core, not the parser, judges commands. An unknown NAME is sent with the
+//    out-of-range id core::kCommandCount (the core answers UNKNOWN_COMMAND; its arguments
+//    are ignored). A missing, unparseable or out-of-range argument of `jog` or `set_mode`
+//    (or one too many) is still sent, with an invalid value (axis 0, dir 0, speed 0,
+//    mode 0), so that the core answers BAD_ARGUMENT; a field that fits keeps the value
+//    written (axis 9 is sent as 9). A known command that takes no argument but is given
+//    one is malformed: the binary record has no room for it, so it would be dropped
+//    silently. `from=` must be the first token after `cmd` and be pendant or remote.
+//    Each command's seq is its line number (unique; the reset button's replies use 0).
+//  - `fault`: exactly the forms of the spec, N a decimal 1..6.
+//  - `expect`: at least one key; `tcp_speed` takes <=, <, >=, > and a finite number;
+//    every other key takes `=` and a value of the spec (sub and stop use `-` for null).
+//    Unknown keys or values are malformed; `reply=` accepts only result names.
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include "safestate/core/alarms.hpp"
+#include "safestate/scenario/scenario.hpp"
+
+namespace safestate::scenario {
+
+std::string ParseError::text() const { return file + ":" + std::to_string(line) + ": " + message; }
+
+void apply(const InputStep& step, core::RawInputs& raw) noexcept {
+  for (const ContactWrite& w : step.writes) {
+    switch (w.contact) {
+      case Contact::estop_a: raw.estop_a = w.closed; break;
+      case Contact::estop_b: raw.estop_b = w.closed; break;
+      case Contact::gate_a: raw.gate_a = w.closed; break;
+      case Contact::gate_b: raw.gate_b = w.closed; break;
+      case Contact::enable_a: raw.enable_a = w.closed; break;
+      case Contact::enable_b: raw.enable_b = w.closed; break;
+      case Contact::enable_panic: raw.enable_panic = w.closed; break;
+      case Contact::mode_auto: raw.mode_auto = w.closed; break;
+      case Contact::mode_t1: raw.mode_t1 = w.closed; break;
+      case Contact::mode_t2: raw.mode_t2 = w.closed; break;
+      case Contact::reset_button: raw.reset_button = w.closed; break;
+    }
+  }
+}
+
+namespace {
+
+// An empty string: no problem. Otherwise what is wrong with the line.
+using Problem = std::string;
+
+using Tokens = std::vector<std::string_view>;
+
+std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+
+bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+Tokens split(std::string_view s) {
+  Tokens out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && is_space(s[i])) {
+      ++i;
+    }
+    const std::size_t start = i;
+    while (i < s.size() && !is_space(s[i])) {
+      ++i;
+    }
+    if (i > start) {
+      out.push_back(s.substr(start, i - start));
+    }
+  }
+  return out;
+}
+
+std::string_view strip_comment(std::string_view s) noexcept {
+  const std::size_t hash = s.find('#');
+  return (hash == std::string_view::npos) ? s : s.substr(0, hash);
+}
+
+// Whole-token decimal numbers: no sign for unsigned types, nothing left over.
+template <typename T>
+bool to_number(std::string_view s, T& out) noexcept {
+  if (s.empty()) {
+    return false;
+  }
+  T v{};
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc{} || end != s.data() + s.size()) {
+    return false;
+  }
+  out = v;
+  return true;
+}
+
+bool to_real(std::string_view s, double& out) noexcept {
+  double v = 0.0;
+  if (!to_number(s, v) || !std::isfinite(v)) {
+    return false;
+  }
+  out = v;
+  return true;
+}
+
+// The core's name lookups take C strings: copy the token into a bounded buffer.
+template <typename E>
+bool lookup(std::string_view s, bool (*parse_fn)(const char*, E&) noexcept, E& out) noexcept {
+  std::array<char, 64> buf{};
+  if (s.size() >= buf.size()) {
+    return false;
+  }
+  std::memcpy(buf.data(), s.data(), s.size());
+  return parse_fn(buf.data(), out);
+}
+
+bool split_pair(std::string_view tok, std::string_view& key, std::string_view& value) noexcept {
+  const std::size_t eq = tok.find('=');
+  if (eq == std::string_view::npos || eq == 0) {
+    return false;
+  }
+  key = tok.substr(0, eq);
+  value = tok.substr(eq + 1);
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------
+// config
+
+struct ConfigField {
+  const char* name;
+  std::uint32_t core::Config::*uint_field;  // nullptr for standstill_rad_s
+};
+
+constexpr std::array<ConfigField, 6> kConfigFields{{
+    {"cycle_us", &core::Config::cycle_us},
+    {"discrepancy_ms", &core::Config::discrepancy_ms},
+    {"jog_timeout_ms", &core::Config::jog_timeout_ms},
+    {"max_stop_ms", &core::Config::max_stop_ms},
+    {"boot_timeout_ms", &core::Config::boot_timeout_ms},
+    {"standstill_rad_s", nullptr},
+}};
+
+Problem set_config(std::string_view key, std::string_view value, core::Config& cfg, std::size_t& index) {
+  for (std::size_t i = 0; i < kConfigFields.size(); ++i) {
+    const ConfigField& f = kConfigFields[i];
+    if (key != f.name) {
+      continue;
+    }
+    index = i;
+    if (f.uint_field != nullptr) {
+      return to_number(value, cfg.*(f.uint_field))
+                 ? Problem{}
+                 : "config " + std::string(key) + ": " + quoted(value) + " is not a non-negative integer";
+    }
+    double v = 0.0;
+    if (!to_real(value, v)) {
+      return "config " + std::string(key) + ": " + quoted(value) + " is not a number";
+    }
+    cfg.standstill_rad_s = static_cast<float>(v);
+    return {};
+  }
+  return "unknown config name " + quoted(key) +
+         " (expected cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms or standstill_rad_s)";
+}
+
+// ---------------------------------------------------------------------------------------
+// in
+
+struct InputWord {
+  const char* word;
+  std::array<ContactWrite, 3> writes;
+  std::size_t count;
+};
+
+struct Shorthand {
+  const char* key;
+  const char* expected;  // for messages
+  std::array<InputWord, 4> words;
+  std::size_t count;
+};
+
+constexpr ContactWrite cw(Contact c, bool closed) { return ContactWrite{c, closed}; }
+
+// clang-format off
+const std::array<Shorthand, 5> kShorthands{{
+  {"estop", "pressed|released", {{
+    {"pressed", {cw(Contact::estop_a, false), cw(Contact::estop_b, false), {}}, 2},
+    {"released", {cw(Contact::estop_a, true), cw(Contact::estop_b, true), {}}, 2}, {}, {}}}, 2},
+  {"gate", "open|closed", {{
+    {"open", {cw(Contact::gate_a, false), cw(Contact::gate_b, false), {}}, 2},
+    {"closed", {cw(Contact::gate_a, true), cw(Contact::gate_b, true), {}}, 2}, {}, {}}}, 2},
+  {"enable", "released|centre|panic", {{
+    {"released", {cw(Contact::enable_a, false), cw(Contact::enable_b, false), cw(Contact::enable_panic, false)}, 3},
+    {"centre", {cw(Contact::enable_a, true), cw(Contact::enable_b, true), cw(Contact::enable_panic, false)}, 3},
+    {"panic", {cw(Contact::enable_a, false), cw(Contact::enable_b, false), cw(Contact::enable_panic, true)}, 3},
+    {}}}, 3},
+  {"mode", "AUTO|T1|T2|NONE", {{
+    {"AUTO", {cw(Contact::mode_auto, true), cw(Contact::mode_t1, false), cw(Contact::mode_t2, false)}, 3},
+    {"T1", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, true), cw(Contact::mode_t2, false)}, 3},
+    {"T2", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, false), cw(Contact::mode_t2, true)}, 3},
+    {"NONE", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, false), cw(Contact::mode_t2, false)}, 3}}}, 4},
+  {"reset_button", "0|1", {{
+    {"0", {cw(Contact::reset_button, false), {}, {}}, 1},
+    {"1", {cw(Contact::reset_button, true), {}, {}}, 1}, {}, {}}}, 2},
+}};
+// clang-format on
+
+struct RawContact {
+  const char* key;
+  Contact contact;
+};
+
+constexpr std::array<RawContact, 10> kRawContacts{{
+    {"estop.a", Contact::estop_a},
+    {"estop.b", Contact::estop_b},
+    {"gate.a", Contact::gate_a},
+    {"gate.b", Contact::gate_b},
+    {"enable.a", Contact::enable_a},
+    {"enable.b", Contact::enable_b},
+    {"enable.panic", Contact::enable_panic},
+    {"mode.auto", Contact::mode_auto},
+    {"mode.t1", Contact::mode_t1},
+    {"mode.t2", Contact::mode_t2},
+}};
+
+// 1: key handled (problem may be set); 0: not a shorthand.
+bool parse_shorthand(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
+  for (const Shorthand& s : kShorthands) {
+    if (key != s.key) {
+      continue;
+    }
+    for (std::size_t i = 0; i < s.count; ++i) {
+      const InputWord& w = s.words[i];
+      if (value == w.word) {
+        out.writes.insert(out.writes.end(), w.writes.begin(),
+                          w.writes.begin() + static_cast<std::ptrdiff_t>(w.count));
+        return true;
+      }
+    }
+    problem = "bad value " + quoted(value) + " for input " + std::string(key) + " (expected " + s.expected + ")";
+    return true;
+  }
+  return false;
+}
+
+bool parse_raw_contact(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
+  for (const RawContact& r : kRawContacts) {
+    if (key != r.key) {
+      continue;
+    }
+    if (value != "0" && value != "1") {
+      problem = "bad value " + quoted(value) + " for contact " + std::string(key) + " (expected 0|1)";
+    } else {
+      out.writes.push_back(ContactWrite{r.contact, value == "1"});
+    }
+    return true;
+  }
+  return false;
+}
+
+Problem parse_in(const Tokens& args, InputStep& out) {
+  if (args.empty()) {
+    return "in needs at least one KEY=VALUE";
+  }
+  for (const std::string_view tok : args) {
+    std::string_view key;
+    std::string_view value;
+    if (!split_pair(tok, key, value)) {
+      return "in: expected KEY=VALUE, found " + quoted(tok);
+    }
+    Problem problem;
+    if (!parse_shorthand(key, value, out, problem) && !parse_raw_contact(key, value, out, problem)) {
+      return "unknown input " + quoted(key);
+    }
+    if (!problem.empty()) {
+      return problem;
+    }
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------
+// cmd
+
+// A field that fits keeps the value written; anything else becomes `invalid`.
+template <typename Field>
+Field field_or(std::string_view s, Field invalid) noexcept {
+  Field v{};
+  return to_number(s, v) ? v : invalid;
+}
+
+void fill_jog(const Tokens& args, std::size_t first, core::Command& c) noexcept {
+  const std::size_t n = args.size() - first;
+  c.axis = (n >= 1) ? field_or<std::int8_t>(args[first], 0) : std::int8_t{0};
+  c.dir = 0;
+  if (n >= 2) {
+    c.dir = (args[first + 1] == "+") ? std::int8_t{1} : ((args[first + 1] == "-") ? std::int8_t{-1} : std::int8_t{0});
+  }
+  c.speed = (n >= 3) ? field_or<std::uint8_t>(args[first + 2], 0) : std::uint8_t{10};
+  if (n > 3) {
+    c.axis = 0;  // too many arguments: still sent, refused by the core (BAD_ARGUMENT)
+  }
+}
+
+void fill_set_mode(const Tokens& args, std::size_t first, core::Command& c) noexcept {
+  core::Mode m = core::Mode::NONE;
+  const bool one_arg = (args.size() - first) == 1;
+  c.mode = (one_arg && lookup(args[first], &core::parse_mode, m)) ? static_cast<std::uint8_t>(m) : std::uint8_t{0};
+}
+
+Problem parse_from(std::string_view tok, core::Command& c) {
+  const std::string_view value = tok.substr(5);
+  if (value == "pendant") {
+    c.source = static_cast<std::uint8_t>(core::Source::pendant);
+  } else if (value == "remote") {
+    c.source = static_cast<std::uint8_t>(core::Source::remote);
+  } else {
+    return "bad from= value " + quoted(value) + " (expected pendant|remote)";
+  }
+  return {};
+}
+
+Problem parse_cmd(const Tokens& args, std::size_t line, CommandStep& out) {
+  core::Command& c = out.command;
+  c.seq = static_cast<std::uint32_t>(line);
+  c.source = static_cast<std::uint8_t>(core::Source::pendant);
+  std::size_t i = 0;
+  if (!args.empty() && args[0].substr(0, 5) == "from=") {
+    if (Problem p = parse_from(args[0], c); !p.empty()) {
+      return p;
+    }
+    i = 1;
+  }
+  if (i >= args.size()) {
+    return "cmd needs a command name";
+  }
+  out.name = std::string(args[i]);
+  core::CommandId id{};
+  if (!lookup(args[i], &core::parse_command, id)) {
+    c.id = static_cast<std::uint8_t>(core::kCommandCount);  // the core answers UNKNOWN_COMMAND
+    return {};
+  }
+  c.id = static_cast<std::uint8_t>(id);
+  if (id == core::CommandId::jog) {
+    fill_jog(args, i + 1, c);
+  } else if (id == core::CommandId::set_mode) {
+    fill_set_mode(args, i + 1, c);
+  } else if (i + 1 < args.size()) {
+    return "cmd " + out.name + " takes no argument, found " + quoted(args[i + 1]);
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------
+// fault
+
+bool axis_1_to_6(std::string_view s, std::uint8_t& axis) noexcept {
+  std::uint8_t v = 0;
+  if (!to_number(s, v) || v < 1 || v > core::kAxes) {
+    return false;
+  }
+  axis = v;
+  return true;
+}
+
+bool parse_drive_fault(const Tokens& a, sim::Fault& f) noexcept {
+  if (a.size() != 3 || a[0] != "drive" || !axis_1_to_6(a[1], f.axis)) {
+    return false;
+  }
+  constexpr std::array<std::pair<std::string_view, sim::FaultKind>, 4> kinds{{
+      {"fault", sim::FaultKind::drive_fault},
+      {"clear", sim::FaultKind::drive_clear},
+      {"runaway", sim::FaultKind::drive_runaway},
+      {"nostop", sim::FaultKind::drive_nostop},
+  }};
+  for (const auto& [word, kind] : kinds) {
+    if (a[2] == word) {
+      f.kind = kind;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
+  if (parse_drive_fault(a, f)) {
+    return true;
+  }
+  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], f.axis)) {
+    f.kind = sim::FaultKind::brake_stuck;
+    return true;
+  }
+  f.axis = 0;
+  if (a.size() != 2) {
+    return false;
+  }
+  constexpr std::array<std::pair<std::pair<std::string_view, std::string_view>, sim::FaultKind>, 3> pairs{{
+      {{"fieldbus", "lost"}, sim::FaultKind::fieldbus_lost},
+      {{"contactor", "stuck_open"}, sim::FaultKind::contactor_stuck_open},
+      {{"clear", "all"}, sim::FaultKind::clear_all},
+  }};
+  for (const auto& [words, kind] : pairs) {
+    if (a[0] == words.first && a[1] == words.second) {
+      f.kind = kind;
+      return true;
+    }
+  }
+  return false;
+}
+
+Problem parse_fault(const Tokens& args, FaultStep& out) {
+  if (parse_fault_words(args, out.fault)) {
+    return {};
+  }
+  std::string written;
+  for (const std::string_view a : args) {
+    written += (written.empty() ? "" : " ") + std::string(a);
+  }
+  return "bad fault " + quoted(written) +
+         " (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck,"
+         " clear all; N 1..6)";
+}
+
+// ---------------------------------------------------------------------------------------
+// expect
+
+struct Choice {
+  const char* key;
+  const char* yes;  // value 1
+  const char* no;   // value 0
+  ExpectKey id;
+};
+
+constexpr std::array<Choice, 4> kChoices{{
+    {"contactor", "closed", "open", ExpectKey::contactor},
+    {"drives", "enabled", "disabled", ExpectKey::drives},
+    {"brakes", "released", "engaged", ExpectKey::brakes},
+    {"reset_lamp", "on", "off", ExpectKey::reset_lamp},
+}};
+
+bool parse_stop(std::string_view s, core::StopCat& out) noexcept {
+  for (std::uint8_t i = 0; i < 4; ++i) {
+    const auto c = static_cast<core::StopCat>(i);
+    if (s == core::to_string(c)) {
+      out = c;
+      return true;
+    }
+  }
+  return false;
+}
+
+template <typename E>
+bool named(std::string_view value, bool (*parse_fn)(const char*, E&) noexcept, Expectation& e) noexcept {
+  E v{};
+  if (!lookup(value, parse_fn, v)) {
+    return false;
+  }
+  e.value = static_cast<std::uint8_t>(v);
+  return true;
+}
+
+bool parse_stop_value(std::string_view value, Expectation& e) noexcept {
+  core::StopCat c{};
+  if (!parse_stop(value, c)) {
+    return false;
+  }
+  e.value = static_cast<std::uint8_t>(c);
+  return true;
+}
+
+// 1 when `key` is one of the named-value keys; `ok` tells whether the value is known.
+bool parse_named_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) noexcept {
+  if (key == "state") {
+    e.key = ExpectKey::state;
+    ok = named(value, &core::parse_state, e);
+  } else if (key == "sub") {
+    e.key = ExpectKey::sub;
+    ok = named(value, &core::parse_sub, e);
+  } else if (key == "mode") {
+    e.key = ExpectKey::mode;
+    ok = named(value, &core::parse_mode, e);
+  } else if (key == "stop") {
+    e.key = ExpectKey::stop;
+    ok = parse_stop_value(value, e);
+  } else if (key == "alarm" || key == "noalarm") {
+    e.key = (key == "alarm") ? ExpectKey::alarm : ExpectKey::noalarm;
+    ok = named(value, &core::parse_alarm, e);
+  } else if (key == "reply") {
+    e.key = ExpectKey::reply;
+    ok = named(value, &core::parse_result, e);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+bool parse_choice_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) noexcept {
+  for (const Choice& c : kChoices) {
+    if (key == c.key) {
+      e.key = c.id;
+      ok = (value == c.yes) || (value == c.no);
+      e.value = (value == c.yes) ? 1U : 0U;
+      return true;
+    }
+  }
+  return false;
+}
+
+Problem parse_tcp_speed(std::string_view tok, Expectation& e) {
+  std::string_view rest = tok.substr(std::string_view("tcp_speed").size());
+  constexpr std::array<std::pair<std::string_view, Compare>, 4> ops{{
+      {"<=", Compare::le}, {">=", Compare::ge}, {"<", Compare::lt}, {">", Compare::gt}}};
+  for (const auto& [op, cmp] : ops) {
+    if (rest.substr(0, op.size()) == op) {
+      e.key = ExpectKey::tcp_speed;
+      e.cmp = cmp;
+      if (!to_real(rest.substr(op.size()), e.limit)) {
+        return "expect " + quoted(tok) + ": the speed limit is not a number";
+      }
+      return {};
+    }
+  }
+  return "expect " + quoted(tok) + ": tcp_speed takes <=, <, >= or > and a number";
+}
+
+Problem parse_expectation(std::string_view tok, Expectation& e) {
+  e.text = std::string(tok);
+  if (tok.substr(0, 9) == "tcp_speed") {
+    return parse_tcp_speed(tok, e);
+  }
+  std::string_view key;
+  std::string_view value;
+  if (!split_pair(tok, key, value)) {
+    return "expect: expected KEY=VALUE, found " + quoted(tok);
+  }
+  bool ok = false;
+  if (!parse_named_key(key, value, e, ok) && !parse_choice_key(key, value, e, ok)) {
+    return "unknown expect key " + quoted(key);
+  }
+  return ok ? Problem{} : "expect: unknown value " + quoted(value) + " for " + std::string(key);
+}
+
+Problem parse_expect(const Tokens& args, ExpectStep& out) {
+  if (args.empty()) {
+    return "expect needs at least one KEY=VALUE";
+  }
+  out.checks.reserve(args.size());
+  for (const std::string_view tok : args) {
+    Expectation e;
+    if (Problem p = parse_expectation(tok, e); !p.empty()) {
+      return p;
+    }
+    out.checks.push_back(std::move(e));
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------
+// the file
+
+Problem parse_time_value(std::string_view s, core::Cycle& t) {
+  if (!to_number(s, t)) {
+    return "bad time " + quoted(s) + " (expected a non-negative integer)";
+  }
+  if (t > kMaxTime) {
+    return "time " + std::string(s) + " is too large (at most " + std::to_string(kMaxTime) + ")";
+  }
+  return {};
+}
+
+// `tok` without its '@'.
+Problem parse_time(std::string_view tok, core::Cycle& t1, core::Cycle& t2, bool& range) {
+  const std::size_t dots = tok.find("..");
+  range = dots != std::string_view::npos;
+  if (Problem p = parse_time_value(range ? tok.substr(0, dots) : tok, t1); !p.empty()) {
+    return p;
+  }
+  t2 = t1;
+  if (!range) {
+    return {};
+  }
+  if (Problem p = parse_time_value(tok.substr(dots + 2), t2); !p.empty()) {
+    return p;
+  }
+  return (t1 <= t2) ? Problem{} : "bad range @" + std::string(tok) + " (T1 must not be after T2)";
+}
+
+class Parser {
+ public:
+  explicit Parser(std::string file) { result_.scenario.file = std::move(file); }
+
+  ParseResult parse(std::string_view text) {
+    std::size_t number = 0;
+    std::size_t pos = 0;
+    while (pos <= text.size() && ok()) {
+      const std::size_t nl = text.find('\n', pos);
+      const std::size_t end = (nl == std::string_view::npos) ? text.size() : nl;
+      ++number;
+      line(number, text.substr(pos, end - pos));
+      if (nl == std::string_view::npos) {
+        break;
+      }
+      pos = nl + 1;
+    }
+    if (ok()) {
+      end_config();
+    }
+    // Ranges may be written after later lines: order by first cycle, file order kept.
+    std::stable_sort(result_.scenario.steps.begin(), result_.scenario.steps.end(),
+                     [](const Step& a, const Step& b) { return a.t < b.t; });
+    return std::move(result_);
+  }
+
+ private:
+  [[nodiscard]] bool ok() const noexcept { return result_.ok(); }
+
+  void fail(std::size_t number, Problem message) {
+    result_.error = ParseError{result_.scenario.file, number, std::move(message)};
+  }
+
+  void line(std::size_t number, std::string_view raw) {
+    const Tokens tokens = split(strip_comment(raw));
+    if (tokens.empty()) {
+      return;
+    }
+    if (tokens[0] == "config") {
+      config_line(number, tokens);
+    } else if (tokens[0].front() == '@') {
+      end_config();
+      if (ok()) {
+        timed_line(number, tokens);
+      }
+    } else {
+      fail(number, "unknown directive " + quoted(tokens[0]) + " (a line starts with @T or config)");
+    }
+  }
+
+  void config_line(std::size_t number, const Tokens& tokens) {
+    if (timed_seen_) {
+      fail(number, "config after the first @ line (config lines come first)");
+      return;
+    }
+    if (tokens.size() < 2) {
+      fail(number, "config needs at least one NAME=VALUE");
+      return;
+    }
+    for (std::size_t i = 1; i < tokens.size() && ok(); ++i) {
+      std::string_view key;
+      std::string_view value;
+      std::size_t index = 0;
+      if (!split_pair(tokens[i], key, value)) {
+        fail(number, "config: expected NAME=VALUE, found " + quoted(tokens[i]));
+      } else if (Problem p = set_config(key, value, result_.scenario.config, index); !p.empty()) {
+        fail(number, std::move(p));
+      } else {
+        config_lines_[index] = number;
+      }
+    }
+    last_config_line_ = number;
+  }
+
+  // The config section is over: the result must pass core::validate().
+  void end_config() {
+    if (config_checked_) {
+      return;
+    }
+    config_checked_ = true;
+    const core::ConfigError e = core::validate(result_.scenario.config);
+    if (e.ok()) {
+      return;
+    }
+    std::size_t at = last_config_line_;
+    for (std::size_t i = 0; i < kConfigFields.size(); ++i) {
+      if (std::strcmp(kConfigFields[i].name, e.field) == 0 && config_lines_[i] != 0) {
+        at = config_lines_[i];
+      }
+    }
+    fail(at, std::string("invalid config ") + e.field + ": " + e.reason);
+  }
+
+  void timed_line(std::size_t number, const Tokens& tokens) {
+    timed_seen_ = true;
+    Step step;
+    step.line = number;
+    bool range = false;
+    if (Problem p = parse_time(tokens[0].substr(1), step.t, step.t_end, range); !p.empty()) {
+      fail(number, std::move(p));
+      return;
+    }
+    if (!range && step.t < last_t_) {
+      fail(number, "time @" + std::to_string(step.t) + " goes backwards (line " + std::to_string(last_t_line_) +
+                       " is at @" + std::to_string(last_t_) + ")");
+      return;
+    }
+    if (tokens.size() < 2) {
+      fail(number, "missing directive after " + std::string(tokens[0]));
+      return;
+    }
+    if (range && tokens[1] != "expect") {
+      fail(number, "a range @T1..T2 is only allowed for expect, not " + std::string(tokens[1]));
+      return;
+    }
+    if (Problem p = directive(tokens, step); !p.empty()) {
+      fail(number, std::move(p));
+      return;
+    }
+    if (!range) {
+      last_t_ = step.t;
+      last_t_line_ = number;
+    }
+    add(std::move(step));
+  }
+
+  static Problem directive(const Tokens& tokens, Step& step) {
+    const std::string_view name = tokens[1];
+    const Tokens args(tokens.begin() + 2, tokens.end());
+    if (name == "in") {
+      return parse_in(args, step.what.emplace<InputStep>());
+    }
+    if (name == "cmd") {
+      return parse_cmd(args, step.line, step.what.emplace<CommandStep>());
+    }
+    if (name == "fault") {
+      return parse_fault(args, step.what.emplace<FaultStep>());
+    }
+    if (name == "expect") {
+      return parse_expect(args, step.what.emplace<ExpectStep>());
+    }
+    if (name == "config") {
+      return "config lines come before the first @ line and take no time";
+    }
+    return "unknown directive " + quoted(name) + " (expected in, cmd, fault or expect)";
+  }
+
+  void add(Step&& step) {
+    Scenario& s = result_.scenario;
+    if (std::holds_alternative<ExpectStep>(step.what)) {
+      ++s.expect_lines;
+    }
+    if (step.t_end + 1 > s.cycles) {
+      s.cycles = step.t_end + 1;
+    }
+    s.steps.push_back(std::move(step));
+  }
+
+  ParseResult result_;
+  bool timed_seen_ = false;
+  bool config_checked_ = false;
+  std::array<std::size_t, kConfigFields.size()> config_lines_{};  // line that last set each field
+  std::size_t last_config_line_ = 0;
+  core::Cycle last_t_ = 0;
+  std::size_t last_t_line_ = 0;
+};
+
+}  // namespace
+
+ParseResult parse(std::string_view text, std::string file_name) {
+  Parser p{std::move(file_name)};
+  return p.parse(text);
+}
+
+}  // namespace safestate::scenario
