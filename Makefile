@@ -31,7 +31,7 @@ embedded:
 	tools/scripts/embedded.sh
 
 run: build
-	$(BIN)/safestate table
+	$(BIN)/safestate demo examples/demo.scn
 
 clean:
 	rm -rf $(BUILD_DIR) build-debug build-m4

@@ -12,6 +12,10 @@
 
 using namespace safestate::core;
 
+namespace safestate::app {
+int demo_main(const std::string& file);
+}
+
 namespace {
 int print_table() {
   std::printf("%-4s %-40s %-22s %-5s\n", "rule", "trigger", "to", "stop");
@@ -32,7 +36,13 @@ int main(int argc, char** argv) {
   auto* replay = app.add_subcommand("replay", "run .scn scenarios on the simulated cell (exit 0 pass, 1 fail, 2 malformed)");
   replay->add_option("FILE", files, "scenario files")->required();
   replay->add_flag("--trace", trace, "print a JSON Lines trace on stdout");
+  std::string demo_file = "examples/demo.scn";
+  auto* demo = app.add_subcommand("demo", "replay a scenario on the simulated cell and narrate it in words");
+  demo->add_option("FILE", demo_file, "scenario file (default examples/demo.scn)");
   CLI11_PARSE(app, argc, argv);
+  if (demo->parsed()) {
+    return safestate::app::demo_main(demo_file);
+  }
   if (replay->parsed()) {
     return safestate::scenario::replay_main(files, trace);
   }

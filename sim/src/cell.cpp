@@ -82,6 +82,7 @@ void Cell::step() noexcept {
 
 const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
+const core::AlarmSet& Cell::alarms() const noexcept { return impl_->controller.supervisor().manager().alarms(); }
 core::Cycle Cell::now() const noexcept { return impl_->now; }
 const core::Config& Cell::config() const noexcept { return impl_->cfg; }
 

@@ -97,7 +97,7 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
    "Release the reset button; press and release it once to reset."},
   {AlarmId::MODE_CHANGED, "MODE_CHANGED", 401, Severity::info, Latch::until_ok,
    "The operating mode changed while the servos were on; the robot was stopped.",
-   "Confirm the new mode, then switch the servos on again."},
+   "Confirm the selected mode, then switch the servos on again."},
   {AlarmId::ENABLING_PANIC, "ENABLING_PANIC", 402, Severity::info, Latch::until_ok,
    "The enabling device was squeezed to the panic position.",
    "Release the enabling device fully, then hold it at the centre position again."},

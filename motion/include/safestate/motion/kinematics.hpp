@@ -22,7 +22,7 @@ struct Pose {
   Mat3 R;
 };
 
-// Z-Y-X (yaw about z, then pitch about the new y, then roll about the new x):
+// Z-Y-X (yaw about z, then pitch about the rotated y, then roll about the rotated x):
 // R = Rz(yaw) * Ry(pitch) * Rx(roll).
 struct Rpy {
   float roll;

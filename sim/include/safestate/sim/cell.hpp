@@ -67,6 +67,7 @@ class Cell {
 
   [[nodiscard]] const core::SupervisorOut& out() const noexcept;  // of the last cycle
   [[nodiscard]] const CellView& view() const noexcept;            // of the last cycle
+  [[nodiscard]] const core::AlarmSet& alarms() const noexcept;    // with since-when and detail
   [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
   [[nodiscard]] const core::Config& config() const noexcept;
 
