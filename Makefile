@@ -19,6 +19,7 @@ build: deps $(BUILD_DIR)/build.ninja
 	cmake --build --preset default
 
 test: build
+	@$(DEPS) embedded
 	ctest --preset default
 
 # Regenerate the documentation that mirrors the code (transition table, alarm list,

@@ -5,23 +5,25 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=build-m4
-rm -rf "$out" && mkdir -p "$out/core" "$out/motion"
+rm -rf "$out" && mkdir -p "$out/core" "$out/motion" "$out/controller"
 
 CXX=arm-none-eabi-g++
 FLAGS=(-std=c++20 -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -Os
        -fno-exceptions -fno-rtti -fno-threadsafe-statics -ffunction-sections -fdata-sections
-       -Wall -Wextra -Wconversion -Wdouble-promotion -Werror -Icore/include -Imotion/include)
+       -Wall -Wextra -Wconversion -Wdouble-promotion -Werror -Icore/include -Imotion/include -Ihal/include
+       -Icontroller/include)
 
 for f in core/src/*.cpp; do
   "$CXX" "${FLAGS[@]}" -c "$f" -o "$out/core/$(basename "${f%.cpp}").o"
 done
-for f in motion/src/*.cpp; do
-  [[ -e "$f" ]] || continue
-  "$CXX" "${FLAGS[@]}" -c "$f" -o "$out/motion/$(basename "${f%.cpp}").o"
+for lib in motion controller; do
+  for f in "$lib"/src/*.cpp; do
+    "$CXX" "${FLAGS[@]}" -c "$f" -o "$out/$lib/$(basename "${f%.cpp}").o"
+  done
 done
 "$CXX" "${FLAGS[@]}" -c tools/embedded/main.cpp -o "$out/main.o"
 "$CXX" "${FLAGS[@]}" --specs=nano.specs --specs=nosys.specs -Wl,--gc-sections -Wl,-Map="$out/image.map" \
-  "$out/main.o" "$out"/core/*.o -o "$out/image.elf"
+  "$out/main.o" "$out"/controller/*.o "$out"/motion/*.o "$out"/core/*.o -lm -o "$out/image.elf"
 
 # Nothing that allocates or throws may be linked into the image.
 forbidden='^(malloc|_malloc_r|calloc|realloc|free|_free_r|_ZdlPv|_ZdlPvj|_ZdaPv|_ZdaPvj|_Znwj|_Znaj|_Znwm|_Znam|__cxa_allocate_exception|__cxa_throw|__gxx_personality_v0|_ZTI.*|_ZTS.*)$'
@@ -38,13 +40,13 @@ section_sum() {  # $1: section column (text|data|bss), rest: objects
 {
   echo "Cortex-M4F (arm-none-eabi-g++ $("$CXX" -dumpversion), -Os, -fno-exceptions -fno-rtti)"
   printf '%-8s %8s %8s %8s\n' lib .text .data .bss
-  for lib in core motion; do
+  for lib in core motion controller; do
     objs=("$out/$lib"/*.o)
     [[ -e "${objs[0]}" ]] || continue
     printf '%-8s %8s %8s %8s\n' "$lib" "$(section_sum 1 "${objs[@]}")" "$(section_sum 2 "${objs[@]}")" "$(section_sum 3 "${objs[@]}")"
   done
   echo
-  echo "linked image (supervisor + newlib-nano start-up):"
+  echo "linked image (the whole scan cycle: supervisor + motion + newlib-nano start-up and libm):"
   arm-none-eabi-size "$out/image.elf"
 } | tee "$out/size.txt"
 echo "embedded: OK (no heap, exception or RTTI symbols in the image)"
