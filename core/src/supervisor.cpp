@@ -170,7 +170,9 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     const cia402::DriveState ds = cia402::decode(d.statusword);
     const bool faulted = cia402::is_fault(ds);
     c.any_drive_faulted = c.any_drive_faulted || faulted;
-    const bool bad = faulted || (expect_enabled && (ds != cia402::DriveState::OperationEnabled));
+    // In a Cat 1 stop the motion layer may put a lagging drive into its own quick stop.
+    const bool quick_stop_ok = (leaf_ == Leaf::STOPPING_CAT1) && (ds == cia402::DriveState::QuickStopActive);
+    const bool bad = faulted || (expect_enabled && (ds != cia402::DriveState::OperationEnabled) && !quick_stop_ok);
     if (bad && !c.drive_fault) {
       c.drive_fault = true;
       c.drive_detail = detail_of(Signal::drive, Channel::none, axis, d.statusword);

@@ -188,12 +188,10 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   // Following error, outside stop ramps: in a stop the supervisor's stop-time monitor
   // (SS1-t) is the specified measure, and a drive ignoring the ramp must meet it.
   fb.following_error_axis = 0;
-  if (watch_following_) {
-    for (std::size_t i = 0; i < kJoints; ++i) {
-      if (!(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad)) {
-        fb.following_error_axis = static_cast<std::uint8_t>(i + 1U);
-        break;
-      }
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    lagging_[i] = !(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad);
+    if (watch_following_ && lagging_[i] && (fb.following_error_axis == 0U)) {
+      fb.following_error_axis = static_cast<std::uint8_t>(i + 1U);
     }
   }
   fb.program_loaded = program_.loaded();
@@ -323,15 +321,27 @@ void MotionController::drive_control(const core::SupervisorOut& so,
     if (!so.drives_enable) {
       reached_enabled_[i] = false;
       dropped_[i] = false;
+      quick_stopped_[i] = false;
       if (so.motion.fault_reset && c402::is_fault(ds)) {
         // Fault reset acts on the rising edge of bit 7: alternate 0x00 / 0x80.
         cw = ((last_cw_[i] & c402::cw::kFaultReset) != 0U) ? c402::cw::kDisableVoltage : c402::cw::kFaultReset;
       }
     } else {
-      if (reached_enabled_[i] && (ds != c402::DriveState::OperationEnabled)) {
+      // Cat 1: an axis that does not follow the controller's ramp also gets the drive's
+      // own quick-stop ramp (CiA 402 quick stop), a second, independent means to stop.
+      if ((so.motion.mode == core::MotionMode::QuickStop) && lagging_[i] &&
+          ((ds == c402::DriveState::OperationEnabled) || quick_stopped_[i])) {
+        quick_stopped_[i] = true;
+      }
+      if (so.motion.mode != core::MotionMode::QuickStop && so.motion.mode != core::MotionMode::Hold) {
+        quick_stopped_[i] = false;
+      }
+      if (reached_enabled_[i] && (ds != c402::DriveState::OperationEnabled) && !quick_stopped_[i]) {
         dropped_[i] = true;  // a drive that fell out of Operation enabled is never re-enabled by us
       }
-      if (!dropped_[i]) {
+      if (quick_stopped_[i]) {
+        cw = c402::cw::kQuickStop;  // held until power is removed; never enabled again by us
+      } else if (!dropped_[i]) {
         switch (ds) {
           case c402::DriveState::SwitchOnDisabled: cw = c402::cw::kShutdown; break;
           case c402::DriveState::ReadyToSwitchOn: cw = c402::cw::kSwitchOn; break;
@@ -357,6 +367,8 @@ void MotionController::axis_states(const core::SupervisorOut& so,
     AxisState s = AxisState::Standstill;
     if (c402::is_fault(ds)) {
       s = AxisState::ErrorStop;
+    } else if (ds == c402::DriveState::QuickStopActive) {
+      s = AxisState::Stopping;
     } else if (ds != c402::DriveState::OperationEnabled) {
       s = AxisState::Disabled;
     } else {

@@ -85,6 +85,10 @@ void SimPlant::physics(Axis& a, std::size_t i, float target) noexcept {
   if (torque && a.runaway) {
     const float dir = (a.v < 0.0F) ? -1.0F : 1.0F;  // accelerates at its limit, ignoring set-points
     a.v = clampf(a.v + (dir * amax * dt_), -vmax, vmax);
+  } else if (a.ds == c402::DriveState::QuickStopActive && contactor_closed_ && !a.nostop) {
+    a.v = toward_zero(a.v, amax * dt_);  // the drive's own quick-stop ramp (0x6085)
+  } else if (a.ds == c402::DriveState::QuickStopActive && contactor_closed_) {
+    // nostop: ignores its own quick-stop ramp too
   } else if (torque && a.brake_released) {
     const float v_cmd = clampf((target - a.q) / dt_, -vmax, vmax);
     const bool decelerating = std::fabs(v_cmd) < std::fabs(a.v) || (v_cmd * a.v) < 0.0F;

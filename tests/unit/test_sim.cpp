@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include "safestate/core/cia402.hpp"
 #include "safestate/motion/motion_controller.hpp"
@@ -223,4 +224,26 @@ TEST(SimCell, SameInputsGiveTheSameRunBitForBit) {
     b.cell.step();
     ASSERT_EQ(std::memcmp(&a.cell.view().joints_rad, &b.cell.view().joints_rad, sizeof(float) * 6), 0);
   }
+}
+
+TEST(SimCell, LaggingDriveInCat1GetsItsOwnQuickStop) {
+  CellRun r;
+  r.arm();
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  ASSERT_GT(r.until([](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[1]) > 0.5F; }, 2000), 0);
+  ASSERT_EQ(r.cmd(CommandId::servo_off), Result::OK);
+  r.cell.inject({sim::FaultKind::drive_runaway, 2});  // its set-point interface no longer works
+  bool saw_quick_stop = false;
+  const int k = r.until(
+      [&](const sim::Cell& c) {
+        saw_quick_stop = saw_quick_stop || (c.view().controlword[1] == core::cia402::cw::kQuickStop &&
+                                            std::string(c.view().axis_state[1]) == "Stopping");
+        return c.out().state != State::STOPPING;
+      },
+      2000);
+  ASSERT_GT(k, 0);
+  EXPECT_TRUE(saw_quick_stop) << "the lagging drive was sent CiA 402 quick stop";
+  EXPECT_EQ(r.state(), State::IDLE);
+  EXPECT_EQ(r.cell.out().alarms & core::bit(core::AlarmId::STOP_TIME_EXCEEDED), 0U) << "it stopped in time";
+  EXPECT_EQ(r.cell.out().alarms & core::bit(core::AlarmId::DRIVE_FAULT), 0U);
 }

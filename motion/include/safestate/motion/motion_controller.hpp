@@ -133,6 +133,8 @@ class MotionController {
   std::array<bool, kJoints> reached_enabled_{};  // reached Operation enabled in this enable
   std::array<bool, kJoints> dropped_{};          // then left it: never re-enabled by us
   Joints q_sent_{};                               // set-points written last cycle
+  std::array<bool, kJoints> lagging_{};           // measured position outside the window
+  std::array<bool, kJoints> quick_stopped_{};     // we commanded the drive's own quick stop
   bool watch_following_ = false;                  // last cycle commanded hold, jog or program
 };
 
