@@ -429,17 +429,21 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
   }
 }
 
+void SystemStateManager::clear_latched() noexcept {
+  for (std::size_t i = 0; i < kAlarmCount; ++i) {
+    const auto a = static_cast<AlarmId>(i);
+    if ((kLatchedAlarms & bit(a)) != 0U) {
+      alarms_.clear(a);
+    }
+  }
+}
+
 void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
   if (!reset_pending_) {
     return;
   }
   if (!c.any_drive_faulted) {
-    for (std::size_t i = 0; i < kAlarmCount; ++i) {
-      const auto a = static_cast<AlarmId>(i);
-      if ((kLatchedAlarms & bit(a)) != 0U) {
-        alarms_.clear(a);
-      }
-    }
+    clear_latched();
     cause_ = Cause{};
     reset_pending_ = false;
     reply(c, reset_seq_, kResetId, reset_source_, Result::OK);
@@ -555,12 +559,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
         reset_source_ = (cmd != nullptr) ? cmd->source : static_cast<std::uint8_t>(Source::pendant);
         c.deferred = true;
       } else {
-        for (std::size_t i = 0; i < kAlarmCount; ++i) {
-          const auto a = static_cast<AlarmId>(i);
-          if ((kLatchedAlarms & bit(a)) != 0U) {
-            alarms_.clear(a);
-          }
-        }
+        clear_latched();
       }
       break;
     case Effect::start_program:
@@ -609,16 +608,12 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     }
     state_ = s;
     leaf_ = (row.stop == StopCat::CAT1) ? Leaf::STOPPING_CAT1 : Leaf::STOPPING_CAT2;
-    if (reset_pending_) {
-      reset_pending_ = false;
-      reply(c, reset_seq_, kResetId, reset_source_, kLeafPolicy[static_cast<std::size_t>(leaf_)].no_row);
-    }
   } else {
     if ((row.stop == StopCat::CAT0) && (to != from)) {
       c.cat0 = true;  // shown for the cycle it happened, not while its cause lasts
     }
     if ((to != from) || (row.effect == Effect::begin_arming)) {
-      enter(c, to, row.stop);
+      enter(c, to);
     }
   }
 
@@ -634,7 +629,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
   return Result::OK;
 }
 
-void SystemStateManager::enter(CycleCtx& c, Leaf to, StopCat /*stop*/) noexcept {
+void SystemStateManager::enter(CycleCtx& c, Leaf to) noexcept {
   const Leaf from = leaf_;
   switch (to) {
     case Leaf::BOOT: state_ = StBoot{}; break;
@@ -786,7 +781,7 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
     alarms_.raise(AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), now_);
     set_cause(alarm_cause(1U, AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), in.mode));
     c.cat0 = true;
-    enter(c, Leaf::ERROR_LOCKOUT, StopCat::CAT0);
+    enter(c, Leaf::ERROR_LOCKOUT);
     c.program = ProgramCmd::Abort;
     c.discard = true;
     write_outputs(c);

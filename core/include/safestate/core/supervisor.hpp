@@ -85,7 +85,8 @@ class SystemStateManager {
   void handle_reset_button(CycleCtx& c) noexcept;
   Result dispatch_command(CycleCtx& c, const Command& cmd) noexcept;
   Result apply(CycleCtx& c, const Transition& row, const Cause& cause, const Command* cmd) noexcept;
-  void enter(CycleCtx& c, Leaf to, StopCat stop) noexcept;
+  void enter(CycleCtx& c, Leaf to) noexcept;
+  void clear_latched() noexcept;
   void set_cause(const Cause& cause) noexcept;
   void reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept;
   void write_outputs(CycleCtx& c) noexcept;
@@ -112,7 +113,6 @@ class SystemStateManager {
   Cycle reset_pending_since_ = 0;
   std::uint32_t reset_seq_ = 0;
   std::uint8_t reset_source_ = 0;
-  bool lockout_entered_ = false;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.
