@@ -8,6 +8,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "safestate/runtime/runtime.hpp"
 #include "safestate/scenario/scenario.hpp"
 
 using namespace safestate::core;
@@ -39,7 +40,25 @@ int main(int argc, char** argv) {
   std::string demo_file = "examples/demo.scn";
   auto* demo = app.add_subcommand("demo", "replay a scenario on the simulated cell and narrate it in words");
   demo->add_option("FILE", demo_file, "scenario file (default examples/demo.scn)");
+  safestate::runtime::RunOptions run_opt;
+  auto* run = app.add_subcommand("run", "run the core on the simulated cell in a real-time loop, with the gateway");
+  run->set_config("--config", "", "settings file (INI/TOML: port=8080, bind=..., db=..., cycle-us=...)");
+  run->add_option("--port", run_opt.port, "HTTP/WebSocket port")->check(CLI::Range(1, 65535));
+  run->add_option("--bind", run_opt.bind, "address to listen on (beyond loopback a token is required)");
+  run->add_option("--db", run_opt.db, "SQLite event database (survives restarts)");
+  run->add_option("--token", run_opt.token, "token a pendant must present");
+  run->add_option("--cycle-us", run_opt.rt.cycle_us, "scan cycle in microseconds (250..4000)");
+  run->add_option("--watchdog-ms", run_opt.rt.watchdog_ms, "fieldbus watchdog: a longer stall locks out")
+      ->check(CLI::Range(1, 10000));
+  run->add_option("--priority", run_opt.rt.priority, "SCHED_FIFO priority of the loop, 0 for none")
+      ->check(CLI::Range(0, 99));
+  run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
+  run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
+  run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
   CLI11_PARSE(app, argc, argv);
+  if (run->parsed()) {
+    return safestate::runtime::run_main(run_opt);
+  }
   if (demo->parsed()) {
     return safestate::app::demo_main(demo_file);
   }

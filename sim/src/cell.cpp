@@ -52,8 +52,10 @@ struct Cell::Impl {
       view.joints_rad[i] = in.drive[i].position_rad;
       view.velocities_rad_s[i] = in.drive[i].velocity_rad_s;
       view.axis_state[i] = motion::to_string(m.axis_state(i));
+      view.axis_code[i] = static_cast<std::uint8_t>(m.axis_state(i));
       view.statusword[i] = in.drive[i].statusword;
       view.controlword[i] = out.drive[i].controlword;
+      view.target_rad[i] = out.drive[i].target_position_rad;
       view.brake_released[i] = in.brake_released[i];
     }
     view.contactor_closed = in.contactor_closed;
@@ -82,6 +84,8 @@ void Cell::step() noexcept {
 
 const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
+const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->in.safety; }
+core::Leaf Cell::leaf() const noexcept { return impl_->controller.supervisor().manager().leaf(); }
 const core::AlarmSet& Cell::alarms() const noexcept { return impl_->controller.supervisor().manager().alarms(); }
 core::Cycle Cell::now() const noexcept { return impl_->now; }
 const core::Config& Cell::config() const noexcept { return impl_->cfg; }

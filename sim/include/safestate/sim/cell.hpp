@@ -40,8 +40,10 @@ struct CellView {
   float tcp_speed_mm_s = 0.0F;              // measured, from measured joint positions
   float max_point_speed_mm_s = 0.0F;        // TCP and every link origin
   std::array<const char*, 6> axis_state{};  // PLCopen axis state names
+  std::array<std::uint8_t, 6> axis_code{};   // the same, as motion::AxisState values
   std::array<std::uint16_t, 6> statusword{};
   std::array<std::uint16_t, 6> controlword{};
+  std::array<float, 6> target_rad{};        // CSP set-points written this cycle
   bool contactor_closed = false;            // feedback
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
@@ -68,6 +70,8 @@ class Cell {
   [[nodiscard]] const core::SupervisorOut& out() const noexcept;  // of the last cycle
   [[nodiscard]] const CellView& view() const noexcept;            // of the last cycle
   [[nodiscard]] const core::AlarmSet& alarms() const noexcept;    // with since-when and detail
+  [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
+  [[nodiscard]] core::Leaf leaf() const noexcept;
   [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
   [[nodiscard]] const core::Config& config() const noexcept;
 

@@ -1,0 +1,292 @@
+// The shared-memory bridge between the real-time core process and the non-real-time
+// gateway (protocol.md: "the real-time core never parses network input").
+//
+// One POSIX shared-memory segment: a header (magic, layout version, size, offsets),
+// then fixed regions located by offsets, never pointers:
+//   - command ring  (gateway -> core): fixed-size binary records with sequence numbers
+//   - reply ring    (core -> gateway): one reply per command record, echoing its seq
+//   - event ring    (core -> gateway): transitions, alarms, alarm clears, command results
+//   - status        (core -> gateway): a seqlock snapshot, rewritten every cycle
+//   - black box     (core -> gateway): the last kBlackBoxCycles cycles of inputs/outputs
+//   - metrics       (core -> gateway): cycle time / lateness histograms, overruns
+//   - heartbeats both ways.
+// Every ring is single-producer single-consumer; the core side never blocks, waits or
+// allocates: a full ring drops the record and counts it.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <type_traits>
+
+#include "safestate/core/alarms.hpp"
+#include "safestate/core/states.hpp"
+#include "safestate/core/types.hpp"
+
+namespace safestate::bridge {
+
+inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
+inline constexpr std::uint32_t kLayoutVersion = 1U;
+
+// ------------------------------------------------------------------ records
+enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
+
+// Contacts a `sim` message may set (the scenario vocabulary), in RawInputs order.
+enum class Contact : std::uint8_t {
+  estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic, mode_auto, mode_t1, mode_t2, reset_button,
+};
+inline constexpr std::size_t kContactCount = 11;
+
+struct CommandRecord {
+  std::uint32_t seq = 0;  // assigned by the gateway, echoed in the reply
+  RecordKind kind = RecordKind::command;
+  std::uint8_t pad[3]{};
+  core::Command command{};        // kind == command (command.seq == seq)
+  std::uint16_t set_mask = 0;     // kind == sim_set: bit i = Contact i is written ...
+  std::uint16_t set_values = 0;   // ... with this value (1 = closed)
+  std::uint8_t fault_kind = 0;    // kind == sim_fault: sim::FaultKind
+  std::uint8_t fault_axis = 0;
+  std::uint8_t pad2[2]{};
+};
+
+// Answer to a record: a command's result, or for sim records OK / NOT_SIMULATED.
+enum class SimResult : std::uint8_t { ok, not_simulated };
+struct ReplyRecord {
+  std::uint32_t seq = 0;
+  RecordKind kind = RecordKind::command;
+  std::uint8_t cmd = 0;     // raw command id
+  std::uint8_t source = 0;  // raw source
+  core::Result result = core::Result::OK;
+  SimResult sim = SimResult::ok;
+  std::uint8_t pad[3]{};
+  std::uint64_t t = 0;  // cycle of the answer
+};
+
+enum class EventKind : std::uint8_t { transition, alarm, alarm_cleared, command };
+struct EventRecord {
+  std::uint64_t t = 0;  // cycle
+  EventKind kind = EventKind::transition;
+  // transition
+  core::Leaf from = core::Leaf::BOOT;
+  core::Leaf to = core::Leaf::BOOT;
+  core::StopCat stop = core::StopCat::NONE;
+  std::uint8_t trigger = 0;  // core::Trigger
+  std::uint8_t row = 0;      // index in kTransitions
+  // alarm / alarm_cleared
+  core::AlarmId alarm = core::AlarmId::ESTOP_PRESSED;
+  std::uint8_t pad = 0;
+  core::AlarmDetail detail{};
+  // command
+  core::Reply reply{};
+  // the first-out cause in force after the event
+  core::Cause cause{};
+};
+
+// Everything the gateway shows, rewritten every cycle.
+struct Status {
+  std::uint64_t t = 0;
+  core::State state = core::State::BOOT;
+  core::Sub sub = core::Sub::NONE;
+  core::Mode mode = core::Mode::NONE;
+  core::Mode mode_requested = core::Mode::NONE;
+  core::StopCat stop = core::StopCat::NONE;
+  core::Leaf target = core::Leaf::SAME;
+  bool contactor = false;
+  bool drives = false;
+  bool brakes_released = false;
+  bool reset_lamp = false;
+  bool t2_confirmed = false;
+  bool simulated = false;
+  core::ArmingStep arming_step = core::ArmingStep::CONTACTOR;
+  std::uint8_t arming_progress = 0;
+  std::uint8_t program_index = 0;
+  std::uint8_t program_length = 0;
+  core::AlarmMask alarms = 0;
+  core::Cause cause{};
+  float tcp_speed_mm_s = 0.0F;
+  float max_point_speed_mm_s = 0.0F;
+  std::array<float, 6> joints{};
+  std::array<float, 6> tcp{};  // x, y, z mm; rx, ry, rz rad
+  std::array<std::uint8_t, 6> axis_state{};  // motion::AxisState
+  std::array<std::uint16_t, 6> statusword{};
+  std::array<std::uint64_t, core::kAlarmCount> alarm_since{};
+  std::array<core::AlarmDetail, core::kAlarmCount> alarm_detail{};
+};
+
+// One cycle of the black box: what the cycle read and what it wrote.
+struct BlackBoxRecord {
+  std::uint64_t t = 0;
+  std::uint16_t contacts = 0;  // bit i = Contact i closed
+  std::uint8_t contactor_fb = 0;
+  std::uint8_t brakes_fb = 0;  // bit i = brake i released
+  std::uint8_t fieldbus_ok = 0;
+  std::uint8_t leaf = 0;       // core::Leaf after the cycle
+  std::uint8_t outputs = 0;    // bit0 contactor, bit1 drives, bit2 brakes release, bit3 reset lamp
+  std::uint8_t pad = 0;
+  std::array<std::uint16_t, 6> statusword{};
+  std::array<std::uint16_t, 6> controlword{};
+  std::array<float, 6> position{};
+  std::array<float, 6> target{};
+};
+inline constexpr std::size_t kBlackBoxCycles = 1024;  // the gateway keeps 50 per stop event
+
+inline constexpr std::size_t kHistogramBuckets = 32;  // bucket i: [2^i, 2^(i+1)) ns, bucket 0 includes 0
+struct Metrics {
+  std::array<std::atomic<std::uint64_t>, kHistogramBuckets> exec_ns{};
+  std::array<std::atomic<std::uint64_t>, kHistogramBuckets> lateness_ns{};
+  std::atomic<std::uint64_t> cycles{0};
+  std::atomic<std::uint64_t> overruns{0};
+  std::atomic<std::uint64_t> exec_max_ns{0};
+  std::atomic<std::uint64_t> lateness_max_ns{0};
+  std::atomic<std::uint64_t> watchdog_trips{0};
+  std::atomic<std::uint64_t> events_dropped{0};
+  std::atomic<std::uint64_t> replies_dropped{0};
+  std::atomic<std::uint32_t> command_queue_depth{0};
+  std::atomic<std::uint32_t> cycle_us{0};
+  std::atomic<std::uint32_t> rt_priority{0};  // 0: not SCHED_FIFO
+};
+
+[[nodiscard]] inline std::size_t histogram_bucket(std::uint64_t ns) noexcept {
+  std::size_t b = 0;
+  while ((ns > 1U) && (b + 1U < kHistogramBuckets)) {
+    ns >>= 1U;
+    ++b;
+  }
+  return b;
+}
+
+// ------------------------------------------------------------------ SPSC ring
+// Lives inside the segment. head: next slot the producer writes; tail: next slot the
+// consumer reads. Release/acquire on the indices publishes the slot contents.
+template <typename T, std::size_t N>
+struct Ring {
+  static_assert(std::is_trivially_copyable_v<T>);
+  static_assert((N & (N - 1U)) == 0U, "capacity must be a power of two");
+  alignas(64) std::atomic<std::uint64_t> head{0};
+  alignas(64) std::atomic<std::uint64_t> tail{0};
+  std::array<T, N> slot{};
+
+  bool push(const T& v) noexcept {
+    const std::uint64_t h = head.load(std::memory_order_relaxed);
+    if (h - tail.load(std::memory_order_acquire) >= N) {
+      return false;  // full: the producer never waits
+    }
+    slot[h & (N - 1U)] = v;
+    head.store(h + 1U, std::memory_order_release);
+    return true;
+  }
+  bool pop(T& out) noexcept {
+    const std::uint64_t t = tail.load(std::memory_order_relaxed);
+    if (t == head.load(std::memory_order_acquire)) {
+      return false;
+    }
+    out = slot[t & (N - 1U)];
+    tail.store(t + 1U, std::memory_order_release);
+    return true;
+  }
+  [[nodiscard]] std::size_t size() const noexcept {
+    return static_cast<std::size_t>(head.load(std::memory_order_acquire) - tail.load(std::memory_order_acquire));
+  }
+};
+
+// ------------------------------------------------------------------ seqlock
+// A snapshot copied word by word through relaxed atomics, so that a torn read is only
+// ever detected and retried, never a data race (ThreadSanitizer-clean).
+template <typename T>
+struct SeqLock {
+  static_assert(std::is_trivially_copyable_v<T>);
+  static constexpr std::size_t kWords = (sizeof(T) + 7U) / 8U;
+  std::atomic<std::uint32_t> seq{0};
+  std::array<std::atomic<std::uint64_t>, kWords> words{};
+
+  void write(const T& v) noexcept {
+    std::array<std::uint64_t, kWords> buf{};
+    std::memcpy(buf.data(), &v, sizeof(T));
+    const std::uint32_t s = seq.load(std::memory_order_relaxed);
+    seq.store(s + 1U, std::memory_order_relaxed);  // odd: writing
+    std::atomic_thread_fence(std::memory_order_release);
+    for (std::size_t i = 0; i < kWords; ++i) {
+      words[i].store(buf[i], std::memory_order_relaxed);
+    }
+    seq.store(s + 2U, std::memory_order_release);
+  }
+  // Returns false when a consistent copy could not be taken in `tries` attempts.
+  bool read(T& out, int tries = 64) const noexcept {
+    std::array<std::uint64_t, kWords> buf{};
+    for (int k = 0; k < tries; ++k) {
+      const std::uint32_t s1 = seq.load(std::memory_order_acquire);
+      if ((s1 & 1U) != 0U) {
+        continue;
+      }
+      for (std::size_t i = 0; i < kWords; ++i) {
+        buf[i] = words[i].load(std::memory_order_relaxed);
+      }
+      std::atomic_thread_fence(std::memory_order_acquire);
+      if (seq.load(std::memory_order_relaxed) == s1) {
+        std::memcpy(&out, buf.data(), sizeof(T));
+        return true;
+      }
+    }
+    return false;
+  }
+};
+
+// ------------------------------------------------------------------ the segment
+inline constexpr std::size_t kCommandSlots = 256;
+inline constexpr std::size_t kReplySlots = 1024;
+inline constexpr std::size_t kEventSlots = 4096;
+
+struct Header {
+  std::uint32_t magic = kMagic;
+  std::uint32_t version = kLayoutVersion;
+  std::uint64_t size = 0;  // bytes of the whole segment
+  std::uint64_t commands_offset = 0;
+  std::uint64_t replies_offset = 0;
+  std::uint64_t events_offset = 0;
+  std::uint64_t status_offset = 0;
+  std::uint64_t blackbox_offset = 0;
+  std::uint64_t metrics_offset = 0;
+  std::atomic<std::uint64_t> core_heartbeat{0};     // the cycle counter
+  std::atomic<std::uint64_t> gateway_heartbeat{0};  // incremented by every gateway poll
+  std::atomic<std::uint32_t> core_pid{0};
+  std::atomic<std::uint32_t> gateway_pid{0};
+  std::atomic<std::uint32_t> simulated{0};
+  std::atomic<std::uint32_t> shutting_down{0};
+};
+
+using CommandRing = Ring<CommandRecord, kCommandSlots>;
+using ReplyRing = Ring<ReplyRecord, kReplySlots>;
+using EventRing = Ring<EventRecord, kEventSlots>;
+using StatusLock = SeqLock<Status>;
+using BlackBoxSlot = SeqLock<BlackBoxRecord>;
+using BlackBox = std::array<BlackBoxSlot, kBlackBoxCycles>;
+
+// Offsets of the regions, computed the same way by both sides.
+struct Layout {
+  std::uint64_t commands;
+  std::uint64_t replies;
+  std::uint64_t events;
+  std::uint64_t status;
+  std::uint64_t blackbox;
+  std::uint64_t metrics;
+  std::uint64_t size;
+};
+[[nodiscard]] constexpr std::uint64_t align_up(std::uint64_t x) noexcept { return (x + 63U) & ~std::uint64_t{63U}; }
+[[nodiscard]] constexpr Layout layout() noexcept {
+  Layout l{};
+  l.commands = align_up(sizeof(Header));
+  l.replies = align_up(l.commands + sizeof(CommandRing));
+  l.events = align_up(l.replies + sizeof(ReplyRing));
+  l.status = align_up(l.events + sizeof(EventRing));
+  l.blackbox = align_up(l.status + sizeof(StatusLock));
+  l.metrics = align_up(l.blackbox + sizeof(BlackBox));
+  l.size = align_up(l.metrics + sizeof(Metrics));
+  return l;
+}
+
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free, "shared-memory atomics must be lock-free");
+static_assert(std::atomic<std::uint32_t>::is_always_lock_free, "shared-memory atomics must be lock-free");
+
+}  // namespace safestate::bridge

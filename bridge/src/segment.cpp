@@ -1,0 +1,106 @@
+#include "safestate/bridge/segment.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <new>
+
+namespace safestate::bridge {
+
+namespace {
+std::string errno_text(const char* what, const std::string& name) {
+  return std::string(what) + " " + name + ": " + std::strerror(errno);
+}
+}  // namespace
+
+std::string default_segment_name(unsigned port) { return "/safestate-" + std::to_string(port); }
+
+std::unique_ptr<Segment> Segment::create(const std::string& name, std::string& error) {
+  const Layout l = layout();
+  shm_unlink(name.c_str());  // a stale segment of a crashed run
+  const int fd = shm_open(name.c_str(), O_CREAT | O_EXCL | O_RDWR, 0600);
+  if (fd < 0) {
+    error = errno_text("shm_open", name);
+    return nullptr;
+  }
+  if (ftruncate(fd, static_cast<off_t>(l.size)) != 0) {
+    error = errno_text("ftruncate", name);
+    close(fd);
+    shm_unlink(name.c_str());
+    return nullptr;
+  }
+  void* p = mmap(nullptr, l.size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  close(fd);
+  if (p == MAP_FAILED) {
+    error = errno_text("mmap", name);
+    shm_unlink(name.c_str());
+    return nullptr;
+  }
+  auto* base = static_cast<unsigned char*>(p);
+  std::memset(base, 0, l.size);
+  new (base + l.commands) CommandRing();
+  new (base + l.replies) ReplyRing();
+  new (base + l.events) EventRing();
+  new (base + l.status) StatusLock();
+  new (base + l.blackbox) BlackBox();
+  new (base + l.metrics) Metrics();
+  auto* h = new (base) Header();
+  h->size = l.size;
+  h->commands_offset = l.commands;
+  h->replies_offset = l.replies;
+  h->events_offset = l.events;
+  h->status_offset = l.status;
+  h->blackbox_offset = l.blackbox;
+  h->metrics_offset = l.metrics;
+  h->core_pid.store(static_cast<std::uint32_t>(getpid()), std::memory_order_relaxed);
+  std::atomic_thread_fence(std::memory_order_release);
+  h->magic = kMagic;  // written last: a half-initialised segment is never accepted
+  return std::unique_ptr<Segment>(new Segment(name, base, l.size, true));
+}
+
+std::unique_ptr<Segment> Segment::attach(const std::string& name, std::string& error) {
+  const Layout l = layout();
+  const int fd = shm_open(name.c_str(), O_RDWR, 0);
+  if (fd < 0) {
+    error = errno_text("shm_open", name);
+    return nullptr;
+  }
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || static_cast<std::uint64_t>(st.st_size) != l.size) {
+    error = "segment " + name + " has size " + std::to_string(st.st_size) + ", this build expects " +
+            std::to_string(l.size) + " (different layout)";
+    close(fd);
+    return nullptr;
+  }
+  void* p = mmap(nullptr, l.size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  close(fd);
+  if (p == MAP_FAILED) {
+    error = errno_text("mmap", name);
+    return nullptr;
+  }
+  auto* base = static_cast<unsigned char*>(p);
+  const auto* h = reinterpret_cast<const Header*>(base);
+  std::atomic_thread_fence(std::memory_order_acquire);
+  const bool offsets_ok = h->size == l.size && h->commands_offset == l.commands && h->replies_offset == l.replies &&
+                          h->events_offset == l.events && h->status_offset == l.status &&
+                          h->blackbox_offset == l.blackbox && h->metrics_offset == l.metrics;
+  if (h->magic != kMagic || h->version != kLayoutVersion || !offsets_ok) {
+    error = "segment " + name + " is not a SafeState bridge of layout version " + std::to_string(kLayoutVersion);
+    munmap(p, l.size);
+    return nullptr;
+  }
+  return std::unique_ptr<Segment>(new Segment(name, base, l.size, false));
+}
+
+Segment::~Segment() {
+  munmap(base_, size_);
+  if (owner_) {
+    shm_unlink(name_.c_str());
+  }
+}
+
+}  // namespace safestate::bridge

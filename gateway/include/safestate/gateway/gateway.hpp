@@ -1,0 +1,28 @@
+// The gateway: the non-real-time process between clients (HMI, PLC, MES) and the core
+// (../shared/spec/protocol.md). It attaches to the core's shared-memory bridge, speaks
+// HTTP + WebSocket JSON to clients, keeps the event log in SQLite and serves metrics.
+// The core never parses network input and never waits for the gateway: if the gateway
+// hangs or dies the core keeps cycling and stays safe, and the runtime restarts it.
+#pragma once
+
+#include <string>
+
+namespace safestate::gateway {
+
+struct GatewayOptions {
+  std::string shm_name;            // the bridge segment, e.g. "/safestate-8080"
+  std::string bind = "127.0.0.1";  // listen address; anything but loopback needs a token
+  unsigned port = 8080;
+  std::string db_path;     // SQLite event log (created when missing)
+  std::string token;       // required from a pendant when set (always beyond loopback)
+  std::string static_dir;  // the built HMI; a small built-in page when it has no index.html
+  std::string version;     // shown as "safestate <version>" in `welcome`
+};
+
+// Runs until SIGTERM/SIGINT (exit 0), or until the core is gone (exit 0 when it shut
+// down, 1 when its process died). Exits 1 at once, with a message on stderr, when the
+// segment cannot be attached within a few seconds, the event log cannot be opened or
+// the port cannot be bound.
+int gateway_main(const GatewayOptions& options);
+
+}  // namespace safestate::gateway

@@ -1,0 +1,81 @@
+// The real-time side of `safestate run` (Linux only): a periodic loop on
+// CLOCK_MONOTONIC with clock_nanosleep(TIMER_ABSTIME), memory locked, SCHED_FIFO when
+// permitted, optional CPU pinning. Each cycle it takes binary records from the bridge,
+// steps the cell, and publishes status, events, replies and the black box. It never
+// blocks, waits or allocates on the bridge; it never parses network input.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "safestate/bridge/segment.hpp"
+#include "safestate/sim/cell.hpp"
+
+namespace safestate::runtime {
+
+struct RtOptions {
+  std::uint32_t cycle_us = 1000;
+  std::uint32_t watchdog_ms = 100;  // EtherCAT process-data watchdog: a longer stall = fieldbus lost
+  int priority = 80;                // SCHED_FIFO priority; 0 = do not ask for real-time scheduling
+  int cpu = -1;                     // pin the loop to this CPU; -1 = no pinning
+  std::uint32_t max_records_per_cycle = 16;
+};
+
+// Copies one cycle of the cell into the bridge. Fixed work, no allocation.
+class Publisher {
+ public:
+  Publisher(bridge::Segment& seg, const sim::Cell& cell) noexcept : seg_(seg), cell_(cell) {}
+  void publish() noexcept;                         // after cell.step()
+  void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
+
+ private:
+  void event(const bridge::EventRecord& e) noexcept;
+  bridge::Segment& seg_;
+  const sim::Cell& cell_;
+};
+
+// Applies one record from the gateway to the cell; answers sim records and refused
+// commands at once (commands are otherwise answered by the core).
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept;
+
+class RtLoop {
+ public:
+  RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept;
+  // Runs until `stop` is set, then performs a Cat 1 stop (servo_off) and returns once
+  // the robot is no longer powered, or after `shutdown_cycles` more cycles.
+  void run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles = 3000);
+  // What the loop could set up (memory lock, SCHED_FIFO, affinity): for the log.
+  [[nodiscard]] const std::string& setup_report() const noexcept { return report_; }
+  void setup();  // call from the loop thread before run()
+
+ private:
+  void one_cycle() noexcept;
+  bridge::Segment& seg_;
+  sim::Cell& cell_;
+  RtOptions opt_;
+  Publisher pub_;
+  std::string report_;
+};
+
+}  // namespace safestate::runtime
+
+namespace safestate::runtime {
+
+struct RunOptions {
+  unsigned port = 8080;
+  std::string bind = "127.0.0.1";
+  std::string db = "safestate-events.db";
+  std::string token;
+  std::string static_dir = "hmi/dist";
+  std::string shm;  // default: /safestate-<port>
+  RtOptions rt{};
+  core::Config core{};
+};
+
+// `safestate run`: the core on the simulated cell in a real-time thread, plus the
+// gateway as a supervised child process (restarted if it dies). SIGINT/SIGTERM: a Cat 1
+// stop, then a clean exit. Returns the process exit code.
+int run_main(const RunOptions& opt);
+
+}  // namespace safestate::runtime

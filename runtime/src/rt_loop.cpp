@@ -1,0 +1,305 @@
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "safestate/runtime/runtime.hpp"
+
+namespace safestate::runtime {
+
+namespace {
+
+std::uint64_t now_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ULL) + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+timespec to_timespec(std::uint64_t ns) noexcept {
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(ns / 1000000000ULL);
+  ts.tv_nsec = static_cast<long>(ns % 1000000000ULL);
+  return ts;
+}
+
+void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) noexcept {
+  std::uint64_t cur = m.load(std::memory_order_relaxed);
+  while (v > cur && !m.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
+  }
+}
+
+std::uint16_t contacts_of(const core::RawInputs& r) noexcept {
+  const bool c[bridge::kContactCount] = {r.estop_a,  r.estop_b,   r.gate_a,  r.gate_b,  r.enable_a,    r.enable_b,
+                                         r.enable_panic, r.mode_auto, r.mode_t1, r.mode_t2, r.reset_button};
+  std::uint16_t m = 0;
+  for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
+    m = static_cast<std::uint16_t>(m | (c[i] ? (1U << i) : 0U));
+  }
+  return m;
+}
+
+void apply_contacts(std::uint16_t mask, std::uint16_t values, core::RawInputs& r) noexcept {
+  bool* c[bridge::kContactCount] = {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
+                                    &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button};
+  for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
+    if ((mask & (1U << i)) != 0U) {
+      *c[i] = (values & (1U << i)) != 0U;
+    }
+  }
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------ Publisher
+void Publisher::event(const bridge::EventRecord& e) noexcept {
+  if (!seg_.events().push(e)) {
+    seg_.metrics().events_dropped.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void Publisher::reply(const bridge::ReplyRecord& r) noexcept {
+  if (!seg_.replies().push(r)) {
+    seg_.metrics().replies_dropped.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void Publisher::publish() noexcept {
+  const core::SupervisorOut& o = cell_.out();
+  const sim::CellView& v = cell_.view();
+  const core::AlarmSet& alarms = cell_.alarms();
+  const std::uint64_t t = cell_.now() - 1U;  // the cycle just run
+
+  for (std::size_t i = 0; i < o.reply_count; ++i) {
+    const core::Reply& r = o.replies[i];
+    bridge::ReplyRecord rr{};
+    rr.seq = r.seq;
+    rr.kind = bridge::RecordKind::command;
+    rr.cmd = r.cmd;
+    rr.source = r.source;
+    rr.result = r.result;
+    rr.t = t;
+    if (r.source != static_cast<std::uint8_t>(core::Source::reset_button)) {
+      reply(rr);
+    }
+    bridge::EventRecord e{};
+    e.t = t;
+    e.kind = bridge::EventKind::command;
+    e.reply = r;
+    e.cause = o.cause;
+    event(e);
+  }
+  for (std::size_t i = 0; i < o.transition_count; ++i) {
+    const core::TransitionEvent& tr = o.transitions[i];
+    bridge::EventRecord e{};
+    e.t = t;
+    e.kind = bridge::EventKind::transition;
+    e.from = tr.from;
+    e.to = tr.to;
+    e.stop = tr.stop;
+    e.trigger = static_cast<std::uint8_t>(tr.trigger);
+    e.row = tr.row;
+    e.cause = o.cause;
+    event(e);
+  }
+  for (std::size_t a = 0; a < core::kAlarmCount; ++a) {
+    const auto id = static_cast<core::AlarmId>(a);
+    const bool raised = (o.alarms_raised & core::bit(id)) != 0U;
+    const bool cleared = (o.alarms_cleared & core::bit(id)) != 0U;
+    if (raised || cleared) {
+      bridge::EventRecord e{};
+      e.t = t;
+      e.kind = raised ? bridge::EventKind::alarm : bridge::EventKind::alarm_cleared;
+      e.alarm = id;
+      e.detail = alarms.detail(id);
+      e.cause = o.cause;
+      event(e);
+    }
+  }
+
+  bridge::Status s{};
+  s.t = t;
+  s.state = o.state;
+  s.sub = o.sub;
+  s.mode = o.mode;
+  s.mode_requested = o.mode_requested;
+  s.stop = o.stop;
+  s.target = o.target;
+  s.contactor = o.contactor;
+  s.drives = o.drives_enable;
+  s.brakes_released = o.brakes_release;
+  s.reset_lamp = o.reset_lamp;
+  s.t2_confirmed = o.t2_confirmed;
+  s.simulated = true;
+  s.arming_step = o.arming_step;
+  s.arming_progress = o.arming_progress;
+  s.program_index = v.program_index;
+  s.program_length = v.program_length;
+  s.alarms = o.alarms;
+  s.cause = o.cause;
+  s.tcp_speed_mm_s = v.tcp_speed_mm_s;
+  s.max_point_speed_mm_s = v.max_point_speed_mm_s;
+  s.joints = v.joints_rad;
+  s.tcp = v.tcp;
+  for (std::size_t i = 0; i < 6; ++i) {
+    s.axis_state[i] = v.axis_code[i];
+    s.statusword[i] = v.statusword[i];
+  }
+  for (std::size_t a = 0; a < core::kAlarmCount; ++a) {
+    s.alarm_since[a] = alarms.since(static_cast<core::AlarmId>(a));
+    s.alarm_detail[a] = alarms.detail(static_cast<core::AlarmId>(a));
+  }
+  seg_.status().write(s);
+
+  bridge::BlackBoxRecord b{};
+  b.t = t;
+  b.contacts = contacts_of(cell_.raw_inputs_of_last_cycle());
+  b.contactor_fb = v.contactor_closed ? 1U : 0U;
+  for (std::size_t i = 0; i < 6; ++i) {
+    b.brakes_fb = static_cast<std::uint8_t>(b.brakes_fb | (v.brake_released[i] ? (1U << i) : 0U));
+    b.statusword[i] = v.statusword[i];
+    b.controlword[i] = v.controlword[i];
+    b.position[i] = v.joints_rad[i];
+    b.target[i] = v.target_rad[i];
+  }
+  b.fieldbus_ok = v.fieldbus_ok ? 1U : 0U;
+  b.leaf = static_cast<std::uint8_t>(cell_.leaf());
+  b.outputs = static_cast<std::uint8_t>((o.contactor ? 1U : 0U) | (o.drives_enable ? 2U : 0U) |
+                                        (o.brakes_release ? 4U : 0U) | (o.reset_lamp ? 8U : 0U));
+  seg_.blackbox()[t % bridge::kBlackBoxCycles].write(b);
+  seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
+}
+
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept {
+  bridge::ReplyRecord r{};
+  r.seq = rec.seq;
+  r.kind = rec.kind;
+  r.t = t;
+  switch (rec.kind) {
+    case bridge::RecordKind::command: {
+      core::Command c = rec.command;
+      c.seq = rec.seq;
+      if (cell.submit(c) == core::Result::QUEUE_FULL) {
+        r.cmd = c.id;
+        r.source = c.source;
+        r.result = core::Result::QUEUE_FULL;
+        pub.reply(r);
+      }
+      return;  // otherwise the core answers in the cycle that takes it
+    }
+    case bridge::RecordKind::sim_set:
+      apply_contacts(rec.set_mask, rec.set_values, cell.inputs());
+      break;
+    case bridge::RecordKind::sim_fault:
+      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all)) {
+        cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis});
+      }
+      break;
+  }
+  r.sim = bridge::SimResult::ok;
+  pub.reply(r);
+}
+
+// ------------------------------------------------------------------ RtLoop
+RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
+    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell) {}
+
+void RtLoop::setup() {
+  report_.clear();
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    report_ += std::string("warning: mlockall failed (") + std::strerror(errno) + "), memory may page\n";
+  }
+  if (opt_.priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = opt_.priority;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    if (rc != 0) {
+      report_ += std::string("warning: SCHED_FIFO not permitted (") + std::strerror(rc) +
+                 "), running with normal scheduling\n";
+    } else {
+      seg_.metrics().rt_priority.store(static_cast<std::uint32_t>(opt_.priority), std::memory_order_relaxed);
+    }
+  }
+  if (opt_.cpu >= 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<unsigned>(opt_.cpu), &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    if (rc != 0) {
+      report_ += std::string("warning: cannot pin to CPU ") + std::to_string(opt_.cpu) + " (" + std::strerror(rc) + ")\n";
+    }
+  }
+  seg_.metrics().cycle_us.store(opt_.cycle_us, std::memory_order_relaxed);
+  seg_.header().simulated.store(1U, std::memory_order_relaxed);
+}
+
+void RtLoop::one_cycle() noexcept {
+  bridge::CommandRecord rec{};
+  for (std::uint32_t k = 0; k < opt_.max_records_per_cycle && seg_.commands().pop(rec); ++k) {
+    take_record(rec, cell_, pub_, cell_.now());
+  }
+  seg_.metrics().command_queue_depth.store(static_cast<std::uint32_t>(seg_.commands().size()),
+                                           std::memory_order_relaxed);
+  cell_.step();
+  pub_.publish();
+}
+
+void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
+  bridge::Metrics& m = seg_.metrics();
+  const std::uint64_t period = static_cast<std::uint64_t>(opt_.cycle_us) * 1000ULL;
+  const std::uint64_t watchdog = static_cast<std::uint64_t>(opt_.watchdog_ms) * 1000000ULL;
+  std::uint64_t next = now_ns() + period;
+  std::uint64_t last_start = 0;
+  bool stopping = false;
+  std::uint64_t stop_cycles = 0;
+  for (;;) {
+    const timespec ts = to_timespec(next);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
+    const std::uint64_t start = now_ns();
+    const std::uint64_t late = (start > next) ? start - next : 0U;
+    m.lateness_ns[bridge::histogram_bucket(late)].fetch_add(1, std::memory_order_relaxed);
+    store_max(m.lateness_max_ns, late);
+    // A stall longer than the fieldbus watchdog: real EtherCAT drives would have seen
+    // their process data stop; so do the simulated ones, and the core locks out.
+    if (last_start != 0U && (start - last_start) > watchdog) {
+      cell_.inject(sim::Fault{sim::FaultKind::fieldbus_lost, 0});
+      m.watchdog_trips.fetch_add(1, std::memory_order_relaxed);
+    }
+    last_start = start;
+
+    if (stop.load(std::memory_order_relaxed) && !stopping) {
+      stopping = true;  // Ctrl-C: a Cat 1 stop (servo_off) before leaving
+      seg_.header().shutting_down.store(1U, std::memory_order_relaxed);
+      core::Command c{};
+      c.seq = 0xFFFFFFFFU;
+      c.id = static_cast<std::uint8_t>(core::CommandId::servo_off);
+      c.source = static_cast<std::uint8_t>(core::Source::pendant);
+      static_cast<void>(cell_.submit(c));
+    }
+    one_cycle();
+
+    const std::uint64_t end = now_ns();
+    const std::uint64_t exec = end - start;
+    m.exec_ns[bridge::histogram_bucket(exec)].fetch_add(1, std::memory_order_relaxed);
+    store_max(m.exec_max_ns, exec);
+    m.cycles.fetch_add(1, std::memory_order_relaxed);
+
+    if (stopping) {
+      const core::State s = cell_.out().state;
+      const bool powered = s == core::State::ARMING || s == core::State::OPERATIONAL || s == core::State::STOPPING;
+      if ((!powered && stop_cycles > 0U) || ++stop_cycles > shutdown_cycles) {
+        return;
+      }
+    }
+    next += period;
+    if (end > next) {  // the next deadline has already passed: count it, do not burst
+      m.overruns.fetch_add(1, std::memory_order_relaxed);
+      next = end + period - ((end - next) % period);
+    }
+  }
+}
+
+}  // namespace safestate::runtime

@@ -1,0 +1,157 @@
+#include <pthread.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "safestate/runtime/runtime.hpp"
+
+extern char** environ;
+
+namespace safestate::runtime {
+
+namespace {
+
+std::string self_exe() {
+  char buf[4096];
+  const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1U);
+  return (n > 0) ? std::string(buf, static_cast<std::size_t>(n)) : std::string("safestate");
+}
+
+pid_t spawn_gateway(const RunOptions& opt, const std::string& shm) {
+  const std::string exe = self_exe();
+  std::vector<std::string> args = {exe,       "gateway", "--shm",    shm,         "--bind", opt.bind,
+                                   "--port",  std::to_string(opt.port), "--db", opt.db, "--static", opt.static_dir};
+  if (!opt.token.empty()) {
+    args.emplace_back("--token");
+    args.push_back(opt.token);
+  }
+  std::vector<char*> argv;
+  for (std::string& a : args) {
+    argv.push_back(a.data());
+  }
+  argv.push_back(nullptr);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none;
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);  // the gateway handles its own SIGTERM
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, exe.c_str(), nullptr, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
+  if (rc != 0) {
+    std::fprintf(stderr, "safestate run: cannot start the gateway: %s\n", std::strerror(rc));
+    return -1;
+  }
+  return pid;
+}
+
+void stop_gateway(pid_t pid) {
+  if (pid <= 0) {
+    return;
+  }
+  kill(pid, SIGTERM);
+  for (int i = 0; i < 30; ++i) {
+    if (waitpid(pid, nullptr, WNOHANG) == pid) {
+      return;
+    }
+    usleep(100000);
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+}
+
+double ms(std::uint64_t ns) { return static_cast<double>(ns) / 1.0e6; }
+
+}  // namespace
+
+int run_main(const RunOptions& opt) {
+  core::Config cfg = opt.core;
+  cfg.cycle_us = opt.rt.cycle_us;
+  if (const core::ConfigError e = core::validate(cfg); !e.ok()) {
+    std::fprintf(stderr, "safestate run: invalid setting %s: %s\n", e.field, e.reason);
+    return 2;
+  }
+  if (opt.rt.watchdog_ms * 1000U < 2U * opt.rt.cycle_us) {
+    std::fprintf(stderr, "safestate run: invalid setting watchdog-ms: must span at least two cycles\n");
+    return 2;
+  }
+  const std::string shm = opt.shm.empty() ? bridge::default_segment_name(opt.port) : opt.shm;
+  std::string error;
+  std::unique_ptr<bridge::Segment> seg = bridge::Segment::create(shm, error);
+  if (!seg) {
+    std::fprintf(stderr, "safestate run: %s\n", error.c_str());
+    return 1;
+  }
+  // Signals are taken by this (main) thread only, with sigtimedwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  sim::Cell cell(cfg);
+  RtOptions rt = opt.rt;
+  RtLoop loop(*seg, cell, rt);
+  std::atomic<bool> stop{false};
+  std::atomic<bool> ready{false};
+  std::thread rt_thread([&] {
+    loop.setup();
+    ready.store(true);
+    loop.run(stop);
+  });
+  while (!ready.load()) {
+    usleep(1000);
+  }
+  std::fputs(loop.setup_report().c_str(), stderr);
+
+  pid_t gateway = spawn_gateway(opt, shm);
+  std::printf("SafeState running: http://%s:%u  (simulated cell, %u us cycle, events in %s)\n", opt.bind.c_str(),
+              opt.port, rt.cycle_us, opt.db.c_str());
+  std::printf("Press Ctrl-C for a Cat 1 stop and a clean exit.\n");
+  std::fflush(stdout);
+
+  timespec last_restart{};
+  clock_gettime(CLOCK_MONOTONIC, &last_restart);
+  for (;;) {
+    timespec wait{0, 100000000};
+    const int sig = sigtimedwait(&signals, nullptr, &wait);
+    if (sig == SIGINT || sig == SIGTERM) {
+      break;
+    }
+    int status = 0;
+    if (gateway > 0 && waitpid(gateway, &status, WNOHANG) == gateway) {
+      std::fprintf(stderr, "safestate run: the gateway exited (%s %d); the core keeps cycling; restarting it\n",
+                   WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+      timespec now{};
+      clock_gettime(CLOCK_MONOTONIC, &now);
+      if (now.tv_sec - last_restart.tv_sec < 1) {
+        usleep(500000);  // do not spin on a gateway that cannot start
+      }
+      clock_gettime(CLOCK_MONOTONIC, &last_restart);
+      gateway = spawn_gateway(opt, shm);
+    }
+  }
+  std::printf("\nsafestate run: stopping (Cat 1) ...\n");
+  std::fflush(stdout);
+  stop.store(true);
+  rt_thread.join();
+  stop_gateway(gateway);
+  const bridge::Metrics& m = seg->metrics();
+  std::printf("safestate run: stopped in state %s after %llu cycles; overruns %llu, max lateness %.3f ms, max cycle %.3f ms\n",
+              core::to_string(cell.out().state), static_cast<unsigned long long>(m.cycles.load()),
+              static_cast<unsigned long long>(m.overruns.load()), ms(m.lateness_max_ns.load()), ms(m.exec_max_ns.load()));
+  return 0;
+}
+
+}  // namespace safestate::runtime

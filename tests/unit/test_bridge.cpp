@@ -1,0 +1,215 @@
+// The shared-memory bridge: rings, seqlock, the segment's header checks, and the
+// runtime's side of it (records in, events/replies/status/black box out).
+#include <gtest/gtest.h>
+
+#include <sys/mman.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <string>
+#include <thread>
+
+#include "safestate/bridge/segment.hpp"
+#include "safestate/runtime/runtime.hpp"
+
+using namespace safestate;
+using namespace safestate::bridge;
+
+namespace {
+std::string unique_name(const char* what) { return "/safestate-test-" + std::string(what) + "-" + std::to_string(getpid()); }
+}  // namespace
+
+TEST(Ring, FifoAndFullWithoutWaiting) {
+  static Ring<int, 4> r;
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_TRUE(r.push(i));
+  }
+  EXPECT_FALSE(r.push(99)) << "a full ring refuses, it never waits";
+  int v = -1;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_TRUE(r.pop(v));
+    EXPECT_EQ(v, i);
+  }
+  EXPECT_FALSE(r.pop(v));
+}
+
+TEST(Ring, TwoThreadsTransferEveryRecordInOrder) {
+  static Ring<std::uint64_t, 64> r;
+  constexpr std::uint64_t kN = 200000;
+  std::thread producer([] {
+    for (std::uint64_t i = 1; i <= kN;) {
+      if (r.push(i)) ++i;
+    }
+  });
+  std::uint64_t expect = 1;
+  while (expect <= kN) {
+    std::uint64_t v = 0;
+    if (r.pop(v)) {
+      ASSERT_EQ(v, expect);
+      ++expect;
+    }
+  }
+  producer.join();
+}
+
+TEST(SeqLock, ReaderNeverSeesATornSnapshot) {
+  struct Big {
+    std::array<std::uint64_t, 40> v;
+  };
+  static SeqLock<Big> lock;
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    Big b{};
+    for (std::uint64_t k = 1; k < 100000; ++k) {
+      b.v.fill(k);
+      lock.write(b);
+    }
+    done = true;
+  });
+  std::uint64_t reads = 0;
+  while (!done.load()) {
+    Big b{};
+    if (lock.read(b)) {
+      for (std::uint64_t x : b.v) {
+        ASSERT_EQ(x, b.v[0]) << "torn read";
+      }
+      ++reads;
+    }
+  }
+  writer.join();
+  EXPECT_GT(reads, 0U);
+}
+
+TEST(Segment, CreateAttachAndShareState) {
+  const std::string name = unique_name("share");
+  std::string err;
+  auto core_side = Segment::create(name, err);
+  ASSERT_TRUE(core_side) << err;
+  auto gw_side = Segment::attach(name, err);
+  ASSERT_TRUE(gw_side) << err;
+  CommandRecord c{};
+  c.seq = 42;
+  ASSERT_TRUE(gw_side->commands().push(c));
+  CommandRecord got{};
+  ASSERT_TRUE(core_side->commands().pop(got));
+  EXPECT_EQ(got.seq, 42U);
+  core_side->header().core_heartbeat.store(7);
+  EXPECT_EQ(gw_side->header().core_heartbeat.load(), 7U);
+}
+
+TEST(Segment, AttachRefusesAMissingOrForeignSegment) {
+  std::string err;
+  EXPECT_FALSE(Segment::attach("/safestate-test-none", err));
+  EXPECT_NE(err.find("/safestate-test-none"), std::string::npos);
+
+  const std::string name = unique_name("foreign");
+  {
+    const int fd = shm_open(name.c_str(), O_CREAT | O_RDWR, 0600);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(ftruncate(fd, static_cast<off_t>(layout().size)), 0);
+    close(fd);  // right size, but zeros: no magic
+  }
+  err.clear();
+  EXPECT_FALSE(Segment::attach(name, err));
+  EXPECT_NE(err.find("layout version"), std::string::npos) << err;
+  shm_unlink(name.c_str());
+
+  {
+    const int fd = shm_open(name.c_str(), O_CREAT | O_RDWR, 0600);
+    ASSERT_EQ(ftruncate(fd, 4096), 0);
+    close(fd);
+  }
+  err.clear();
+  EXPECT_FALSE(Segment::attach(name, err));
+  EXPECT_NE(err.find("size"), std::string::npos) << err;
+  shm_unlink(name.c_str());
+}
+
+TEST(Segment, OwnerUnlinksOnDestruction) {
+  const std::string name = unique_name("unlink");
+  std::string err;
+  { auto s = Segment::create(name, err); }
+  EXPECT_FALSE(Segment::attach(name, err));
+}
+
+TEST(RuntimeBridge, CommandsFlowToTheCoreAndRepliesEchoTheSeq) {
+  const std::string name = unique_name("flow");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell);
+  for (int i = 0; i < 100; ++i) {
+    cell.step();
+    pub.publish();
+  }
+  CommandRecord rec{};
+  rec.seq = 1234;
+  rec.kind = RecordKind::command;
+  rec.command.id = static_cast<std::uint8_t>(core::CommandId::reset);
+  runtime::take_record(rec, cell, pub, cell.now());
+  cell.step();
+  pub.publish();
+  ReplyRecord r{};
+  ASSERT_TRUE(seg->replies().pop(r));
+  EXPECT_EQ(r.seq, 1234U);
+  EXPECT_EQ(r.result, core::Result::OK);
+  Status s{};
+  ASSERT_TRUE(seg->status().read(s));
+  EXPECT_EQ(s.state, core::State::IDLE);
+  EXPECT_EQ(s.t, 100U);
+  // Events: BOOT -> ESTOP_RESET_NEEDED, the command, ESTOP_RESET_NEEDED -> IDLE.
+  int transitions = 0;
+  int commands = 0;
+  EventRecord e{};
+  while (seg->events().pop(e)) {
+    transitions += e.kind == EventKind::transition ? 1 : 0;
+    commands += e.kind == EventKind::command ? 1 : 0;
+  }
+  EXPECT_EQ(transitions, 2);
+  EXPECT_EQ(commands, 1);
+  BlackBoxRecord b{};
+  ASSERT_TRUE(seg->blackbox()[100 % kBlackBoxCycles].read(b));
+  EXPECT_EQ(b.t, 100U);
+  EXPECT_EQ(b.leaf, static_cast<std::uint8_t>(core::Leaf::IDLE));
+}
+
+TEST(RuntimeBridge, SimRecordsSetContactsAndInjectFaults) {
+  const std::string name = unique_name("sim");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell);
+  CommandRecord rec{};
+  rec.seq = 5;
+  rec.kind = RecordKind::sim_set;
+  rec.set_mask = (1U << static_cast<unsigned>(Contact::estop_a)) | (1U << static_cast<unsigned>(Contact::mode_t1));
+  rec.set_values = (1U << static_cast<unsigned>(Contact::mode_t1));  // estop.a=0, mode.t1=1
+  runtime::take_record(rec, cell, pub, 0);
+  EXPECT_FALSE(cell.inputs().estop_a);
+  EXPECT_TRUE(cell.inputs().mode_t1);
+  EXPECT_TRUE(cell.inputs().estop_b) << "contacts outside the mask are untouched";
+  ReplyRecord r{};
+  ASSERT_TRUE(seg->replies().pop(r));
+  EXPECT_EQ(r.seq, 5U);
+  EXPECT_EQ(r.kind, RecordKind::sim_set);
+  EXPECT_EQ(r.sim, SimResult::ok);
+
+  rec.seq = 6;
+  rec.kind = RecordKind::sim_fault;
+  rec.fault_kind = static_cast<std::uint8_t>(sim::FaultKind::fieldbus_lost);
+  runtime::take_record(rec, cell, pub, 0);
+  cell.step();
+  EXPECT_FALSE(cell.view().fieldbus_ok);
+}
+
+TEST(Histogram, PowerOfTwoBuckets) {
+  EXPECT_EQ(histogram_bucket(0), 0U);
+  EXPECT_EQ(histogram_bucket(1), 0U);
+  EXPECT_EQ(histogram_bucket(2), 1U);
+  EXPECT_EQ(histogram_bucket(1023), 9U);
+  EXPECT_EQ(histogram_bucket(1024), 10U);
+  EXPECT_EQ(histogram_bucket(~0ULL), kHistogramBuckets - 1U);
+}
