@@ -7,7 +7,9 @@ BUILD_DIR := build
 BIN := $(BUILD_DIR)/bin
 DEPS := tools/scripts/install-deps.sh
 
-.PHONY: build test docs docs-check embedded run clean deps
+VENV := .venv
+
+.PHONY: build test test-tsan docs embedded run clean deps
 
 deps:
 	@$(DEPS) build
@@ -18,9 +20,23 @@ $(BUILD_DIR)/build.ninja: CMakeLists.txt CMakePresets.json | deps
 build: deps $(BUILD_DIR)/build.ninja
 	cmake --build --preset default
 
-test: build
+# Python tools for the protocol tests (pytest, websockets), pinned, in a local venv.
+$(VENV)/.stamp: tests/integration/requirements.txt
+	@$(DEPS) python
+	python3 -m venv $(VENV)
+	$(VENV)/bin/pip install -q -r tests/integration/requirements.txt
+	touch $@
+
+test: build $(VENV)/.stamp
 	@$(DEPS) embedded
 	ctest --preset default
+
+# ThreadSanitizer over the bridge, rings and runtime threads.
+test-tsan: deps
+	cmake --preset tsan
+	cmake --build --preset tsan --target test_bridge
+	ctest --preset tsan -R '^(Ring|SeqLock|Segment|RuntimeBridge)'
+
 
 # Regenerate the documentation that mirrors the code (transition table, alarm list,
 # state diagram). CI fails (test docs_up_to_date) when the committed copy is stale.
@@ -35,4 +51,4 @@ run: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan $(VENV)

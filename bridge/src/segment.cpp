@@ -57,8 +57,7 @@ std::unique_ptr<Segment> Segment::create(const std::string& name, std::string& e
   h->blackbox_offset = l.blackbox;
   h->metrics_offset = l.metrics;
   h->core_pid.store(static_cast<std::uint32_t>(getpid()), std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
-  h->magic = kMagic;  // written last: a half-initialised segment is never accepted
+  h->magic = kMagic;  // written last; the gateway is only started after this returns
   return std::unique_ptr<Segment>(new Segment(name, base, l.size, true));
 }
 
@@ -84,7 +83,6 @@ std::unique_ptr<Segment> Segment::attach(const std::string& name, std::string& e
   }
   auto* base = static_cast<unsigned char*>(p);
   const auto* h = reinterpret_cast<const Header*>(base);
-  std::atomic_thread_fence(std::memory_order_acquire);
   const bool offsets_ok = h->size == l.size && h->commands_offset == l.commands && h->replies_offset == l.replies &&
                           h->events_offset == l.events && h->status_offset == l.status &&
                           h->blackbox_offset == l.blackbox && h->metrics_offset == l.metrics;

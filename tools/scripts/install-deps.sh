@@ -4,7 +4,8 @@
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
-  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev valgrind python3"
+  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev libboost-dev libsqlite3-dev valgrind python3"
+  [python]="python3 python3-venv python3-pip"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
 )
 

@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "safestate/bridge/layout.hpp"
+#include "safestate/gateway/bridge.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::gateway {

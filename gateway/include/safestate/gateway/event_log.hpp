@@ -1,0 +1,46 @@
+// The persisted event history (SQLite): every transition, alarm, alarm clear and
+// command result, with a black box for each stopping transition. Opened with
+// journal_mode=WAL and synchronous=FULL, so a committed event survives a crash or a
+// power cut; ids are SQLite rowids and continue across restarts.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+struct sqlite3;
+struct sqlite3_stmt;
+
+namespace safestate::gateway {
+
+class EventLog {
+ public:
+  // Opens (creating the file and the table when missing). nullptr and `error` on failure.
+  static std::unique_ptr<EventLog> open(const std::string& path, std::string& error);
+  ~EventLog();
+  EventLog(const EventLog&) = delete;
+  EventLog& operator=(const EventLog&) = delete;
+
+  // One transaction per batch of events (one fsync per batch, not per event).
+  bool begin();
+  bool commit();
+  // Returns the new id, or -1 (see last_error()). `data` and `blackbox` are JSON text;
+  // an empty `blackbox` is stored as NULL.
+  std::int64_t insert(std::uint64_t t, const std::string& time, const std::string& kind, const std::string& data,
+                      const std::string& blackbox);
+  // Events with id > after, oldest first, at most `limit`, as a JSON array text of
+  // {id, t, time, kind, data, blackbox}. False and `error` on a database error.
+  bool query_json(std::int64_t after, std::int64_t limit, std::string& out, std::string& error);
+  [[nodiscard]] std::string last_error() const;
+
+ private:
+  explicit EventLog(sqlite3* db) noexcept : db_(db) {}
+  bool exec(const char* sql);
+
+  sqlite3* db_ = nullptr;
+  sqlite3_stmt* insert_ = nullptr;
+  sqlite3_stmt* select_ = nullptr;
+  bool in_transaction_ = false;
+};
+
+}  // namespace safestate::gateway

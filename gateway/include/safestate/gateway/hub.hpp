@@ -1,0 +1,151 @@
+// The gateway's logic, between the transport (Beast sessions) and the core (the
+// shared-memory bridge): roles, commands and their replies, sim messages, the event
+// log and its pushes, the status broadcast and the HTTP answers. Single-threaded: every
+// call comes from the one io_context thread. No network code here, so that the
+// behaviour of protocol.md can be read (and tested) without sockets.
+#pragma once
+
+#include "safestate/gateway/bridge.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+
+#include "safestate/gateway/event_log.hpp"
+#include "safestate/gateway/gateway.hpp"
+#include "safestate/gateway/protocol.hpp"
+#include "safestate/gateway/views.hpp"
+
+namespace safestate::gateway {
+
+using Clock = std::chrono::steady_clock;
+using Frame = std::shared_ptr<const std::string>;
+
+// A client may have this many commands in flight; more get QUEUE_FULL from the gateway
+// (one client cannot fill the core's ring for everybody else).
+inline constexpr std::size_t kMaxPendingPerClient = 64;
+// Consecutive refused frames after which a client is disconnected.
+inline constexpr unsigned kMaxBadFrames = 32;
+// A stopping transition waits at most this long for its black-box cycles to be written.
+inline constexpr std::chrono::milliseconds kBlackBoxWait{200};
+
+// One WebSocket connection as the hub sees it; the transport does the I/O.
+class Client {
+ public:
+  Client() = default;
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+  virtual ~Client() = default;
+  // Queues a text frame. A droppable frame (status) is skipped for a client that is
+  // behind; a client too far behind on the others is disconnected.
+  virtual void send(const Frame& frame, bool droppable) = 0;
+  // Closes once the queued frames are written. Neither call may detach the client
+  // synchronously: the hub may be iterating over its clients.
+  virtual void close_after_flush() = 0;
+  [[nodiscard]] virtual bool loopback_peer() const = 0;
+
+  // Session state, kept by the hub.
+  std::uint64_t id = 0;
+  bool hello = false;
+  Role role = Role::observer;
+  std::string name;
+  std::size_t pending = 0;
+  unsigned bad_frames = 0;
+};
+
+struct HttpAnswer {
+  unsigned status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+};
+
+enum class CoreLiveness { running, shut_down, gone };
+
+class Hub {
+ public:
+  Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, bool loopback_bind);
+
+  void attach(Client& c);
+  void detach(Client& c);
+  void on_text(Client& c, std::string_view text);
+  void on_binary(Client& c);
+  void on_too_large(Client& c, std::size_t bytes);
+
+  // Every poll (2 ms): gateway heartbeat, replies to their clients, events to the log
+  // and to every client.
+  void poll();
+  // The status message to every client that said hello (50 Hz).
+  void broadcast_status();
+  // GET `target` (path and query).
+  HttpAnswer http_get(std::string_view target);
+
+  [[nodiscard]] CoreLiveness core_liveness() const;
+  [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
+
+ private:
+  struct Pending {
+    std::uint64_t client = 0;
+    Json seq;
+    bool sim = false;
+    Clock::time_point since;
+  };
+  struct Recent {
+    Json seq;
+    std::string name;
+  };
+
+  void refuse(Client& c, ErrorCode code, const std::string& detail);
+  void send(Client& c, const Json& message);
+  void broadcast(const Frame& frame, bool droppable);
+  void on_hello(Client& c, const HelloMsg& h);
+  void on_command(Client& c, const CommandMsg& m);
+  void on_sim(Client& c, const SimMsg& m);
+  void submit(Client& c, bridge::CommandRecord record, const Json& client_seq, bool sim, const std::string& name);
+  void local_reply(Client& c, const Json& client_seq, core::Result r);
+  std::uint32_t next_seq();
+  void drain_replies();
+  void drain_events();
+  bool blackbox_ready(const bridge::EventRecord& e);
+  void store_and_push(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox);
+  void sweep_pending(Clock::time_point now);
+  const bridge::Status& read_status();
+  StatusExtras extras() const;
+  HttpAnswer events_answer(std::string_view query);
+  HttpAnswer metrics_answer();
+  HttpAnswer static_answer(std::string_view path);
+  void log_error(const std::string& what);
+
+  GatewayOptions options_;
+  bridge::Segment& segment_;
+  EventLog& log_;
+  bool loopback_bind_;
+
+  std::unordered_map<std::uint64_t, Client*> clients_;
+  std::uint64_t next_client_id_ = 0;
+  std::uint64_t pendant_ = 0;  // client id holding the pendant role, 0 = none
+
+  std::uint32_t next_seq_ = 0;
+  std::unordered_map<std::uint32_t, Pending> pending_;
+  std::unordered_map<std::uint32_t, Recent> recent_;  // for the command events
+  std::deque<std::uint32_t> recent_order_;
+
+  std::deque<bridge::EventRecord> backlog_;
+  std::optional<Clock::time_point> blackbox_wait_since_;
+
+  bridge::Status status_{};
+  std::uint64_t core_heartbeat_ = 0;
+  Clock::time_point core_heartbeat_changed_;
+  Clock::time_point last_sweep_;
+  Clock::time_point last_error_log_;
+
+  std::array<std::uint64_t, core::kResultCount> commands_by_result_{};
+  std::uint64_t events_stored_ = 0;
+  std::string robot_;  // GET /api/robot never changes
+};
+
+}  // namespace safestate::gateway

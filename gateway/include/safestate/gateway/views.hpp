@@ -1,0 +1,69 @@
+// What the gateway shows: the JSON of status, alarms, events, black box and robot, and
+// the Prometheus text of /metrics, built from the bridge's binary records. Pure
+// functions of their inputs (no network, no database), so each can be tested alone.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+#include "safestate/gateway/bridge.hpp"
+#include "safestate/gateway/protocol.hpp"
+
+namespace safestate::gateway {
+
+// What the status message shows beyond the core's snapshot.
+struct StatusExtras {
+  const char* owner = nullptr;  // null when nobody may command
+  bool simulated = false;       // header().simulated
+  std::uint64_t core_heartbeat = 0;
+  std::uint64_t gateway_heartbeat = 0;
+  double core_heartbeat_age_ms = 0.0;  // wall time since the core heartbeat last advanced
+  std::uint32_t core_pid = 0;
+  std::uint32_t gateway_pid = 0;
+};
+
+// The `status` message (with_type) or GET /api/status (without).
+Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type);
+// Who may command (protocol.md "Roles"): the pendant in T1/T2; in AUTO a connected
+// remote, else a connected pendant; nullptr when nobody.
+const char* owner_of(core::Mode mode, bool remote_connected, bool pendant_connected) noexcept;
+
+// GET /api/alarms: the active alarms, in the order of the alarm table.
+Json alarms_json(const bridge::Status& s);
+
+// The `kind` and `data` of an event record. For a command, `name` is the command name
+// the client sent (for an unknown one), `client_seq` its seq (null when unknown, e.g.
+// the reset button).
+const char* kind_name(bridge::EventKind k) noexcept;
+Json event_data(const bridge::EventRecord& e, const std::string& name, const Json& client_seq);
+// A transition that stops (Cat 0/1/2, or into ESTOP_ACTIVE / ERROR_LOCKOUT) carries a
+// black box.
+bool needs_blackbox(const bridge::EventRecord& e) noexcept;
+inline constexpr std::size_t kBlackBoxPerEvent = 50;
+// The last `cycles` cycles up to and including `t`; a slot that does not hold the
+// expected cycle (overwritten, or never written) is listed as missing.
+Json blackbox_json(const bridge::BlackBox& box, std::uint64_t t, std::size_t cycles = kBlackBoxPerEvent);
+// The `event` message.
+Json event_message(std::int64_t id, std::uint64_t t, const std::string& time, const char* kind, const Json& data);
+
+// GET /api/robot.
+Json robot_json();
+
+// GET /metrics (Prometheus text exposition format 0.0.4).
+struct MetricsExtras {
+  std::size_t ws_clients = 0;
+  std::uint64_t core_heartbeat = 0;
+  std::uint64_t events_stored = 0;
+  std::array<std::uint64_t, core::kResultCount> commands_by_result{};
+};
+std::string metrics_text(const bridge::Metrics& m, const MetricsExtras& x);
+
+// ISO-8601 UTC with milliseconds: 2026-11-22T10:00:00.123Z.
+std::string iso8601_utc(std::chrono::system_clock::time_point tp);
+
+// JSON text of a message; invalid UTF-8 (never expected) is replaced, not thrown.
+std::string dump(const Json& j);
+
+}  // namespace safestate::gateway

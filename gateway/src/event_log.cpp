@@ -1,0 +1,137 @@
+#include "safestate/gateway/event_log.hpp"
+
+#include <sqlite3.h>
+
+#include <nlohmann/json.hpp>
+
+namespace safestate::gateway {
+
+namespace {
+
+constexpr const char* kSchema =
+    "CREATE TABLE IF NOT EXISTS events("
+    "id INTEGER PRIMARY KEY, "
+    "t INTEGER NOT NULL, "
+    "time TEXT NOT NULL, "
+    "kind TEXT NOT NULL, "
+    "data TEXT NOT NULL, "
+    "blackbox TEXT)";
+
+// A string as a JSON string literal (our own ASCII time and kind names).
+std::string quoted(const unsigned char* s) {
+  const nlohmann::json j = (s == nullptr) ? std::string{} : std::string(reinterpret_cast<const char*>(s));
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string raw_or_null(const unsigned char* s) {
+  return (s == nullptr) ? std::string("null") : std::string(reinterpret_cast<const char*>(s));
+}
+
+}  // namespace
+
+std::unique_ptr<EventLog> EventLog::open(const std::string& path, std::string& error) {
+  sqlite3* db = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+                                 nullptr);
+  if (rc != SQLITE_OK) {
+    error = "cannot open event log " + path + ": " + (db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
+    sqlite3_close(db);
+    return nullptr;
+  }
+  std::unique_ptr<EventLog> log(new EventLog(db));
+  sqlite3_busy_timeout(db, 2000);
+  if (!log->exec("PRAGMA journal_mode=WAL") || !log->exec("PRAGMA synchronous=FULL") || !log->exec(kSchema)) {
+    error = "cannot initialise event log " + path + ": " + log->last_error();
+    return nullptr;
+  }
+  if (sqlite3_prepare_v2(db, "INSERT INTO events(t, time, kind, data, blackbox) VALUES(?, ?, ?, ?, ?)", -1,
+                         &log->insert_, nullptr) != SQLITE_OK ||
+      sqlite3_prepare_v2(db, "SELECT id, t, time, kind, data, blackbox FROM events WHERE id > ? ORDER BY id LIMIT ?",
+                         -1, &log->select_, nullptr) != SQLITE_OK) {
+    error = "cannot prepare event log statements: " + log->last_error();
+    return nullptr;
+  }
+  return log;
+}
+
+EventLog::~EventLog() {
+  if (in_transaction_) {
+    exec("COMMIT");
+  }
+  sqlite3_finalize(insert_);
+  sqlite3_finalize(select_);
+  sqlite3_close(db_);
+}
+
+bool EventLog::exec(const char* sql) { return sqlite3_exec(db_, sql, nullptr, nullptr, nullptr) == SQLITE_OK; }
+
+std::string EventLog::last_error() const { return sqlite3_errmsg(db_); }
+
+bool EventLog::begin() {
+  in_transaction_ = exec("BEGIN IMMEDIATE");
+  return in_transaction_;
+}
+
+bool EventLog::commit() {
+  if (!in_transaction_) {
+    return true;
+  }
+  in_transaction_ = false;
+  if (exec("COMMIT")) {
+    return true;
+  }
+  exec("ROLLBACK");
+  return false;
+}
+
+std::int64_t EventLog::insert(std::uint64_t t, const std::string& time, const std::string& kind,
+                              const std::string& data, const std::string& blackbox) {
+  sqlite3_reset(insert_);
+  sqlite3_clear_bindings(insert_);
+  sqlite3_bind_int64(insert_, 1, static_cast<sqlite3_int64>(t));
+  sqlite3_bind_text(insert_, 2, time.c_str(), static_cast<int>(time.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_text(insert_, 3, kind.c_str(), static_cast<int>(kind.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_text(insert_, 4, data.c_str(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
+  if (blackbox.empty()) {
+    sqlite3_bind_null(insert_, 5);
+  } else {
+    sqlite3_bind_text(insert_, 5, blackbox.c_str(), static_cast<int>(blackbox.size()), SQLITE_TRANSIENT);
+  }
+  const int rc = sqlite3_step(insert_);
+  sqlite3_reset(insert_);
+  if (rc != SQLITE_DONE) {
+    return -1;
+  }
+  return sqlite3_last_insert_rowid(db_);
+}
+
+bool EventLog::query_json(std::int64_t after, std::int64_t limit, std::string& out, std::string& error) {
+  sqlite3_reset(select_);
+  sqlite3_bind_int64(select_, 1, after);
+  sqlite3_bind_int64(select_, 2, limit);
+  out = "[";
+  bool first = true;
+  int rc = SQLITE_ROW;
+  while ((rc = sqlite3_step(select_)) == SQLITE_ROW) {
+    if (!first) {
+      out += ',';
+    }
+    first = false;
+    out += "{\"id\":" + std::to_string(sqlite3_column_int64(select_, 0));
+    out += ",\"t\":" + std::to_string(sqlite3_column_int64(select_, 1));
+    out += ",\"time\":" + quoted(sqlite3_column_text(select_, 2));
+    out += ",\"kind\":" + quoted(sqlite3_column_text(select_, 3));
+    out += ",\"data\":" + raw_or_null(sqlite3_column_text(select_, 4));
+    out += ",\"blackbox\":" + raw_or_null(sqlite3_column_text(select_, 5));
+    out += '}';
+  }
+  sqlite3_reset(select_);
+  if (rc != SQLITE_DONE) {
+    error = last_error();
+    return false;
+  }
+  out += ']';
+  return true;
+}
+
+}  // namespace safestate::gateway

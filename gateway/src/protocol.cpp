@@ -1,0 +1,437 @@
+// Parsing of client messages (protocol.md "Messages", "Bad input").
+//
+// Decisions where protocol.md is silent:
+//  - `hello`: `role` is required; `client` and `token` are optional strings (null is
+//    taken as absent). Any other field is ignored.
+//  - `command`: `seq` must be a JSON integer; without it the frame gets error
+//    BAD_MESSAGE. With it, everything else is judged by the core: a missing or unknown
+//    `cmd` is sent as the out-of-range id core::kCommandCount (UNKNOWN_COMMAND); a jog
+//    argument that is missing (except speed, default 10), mistyped or out of the field's
+//    range is sent as 0 (BAD_ARGUMENT), a value that fits is sent as written (axis 9
+//    stays 9, the core refuses it). Arguments a command does not take are ignored.
+//  - `sim`: `seq` must be an integer and exactly one of `set` (object) or `fault`
+//    (string) must be present. Raw contacts take 0/1, true/false or "0"/"1";
+//    `reset_button` likewise; the other shorthands take exactly the words of the
+//    scenario format. Keys apply in the order written, so a later key wins.
+#include "safestate/gateway/protocol.hpp"
+
+#include <array>
+#include <charconv>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#include "safestate/sim/cell.hpp"
+
+namespace safestate::gateway {
+
+namespace {
+
+using bridge::Contact;
+
+constexpr std::array<const char*, 3> kRoleNames{"pendant", "remote", "observer"};
+constexpr std::array<const char*, 6> kErrorNames{"BAD_MESSAGE", "NOT_HELLO",  "ROLE_TAKEN",
+                                                 "BAD_TOKEN",   "TOO_LARGE", "NOT_SIMULATED"};
+
+ProtocolError bad(std::string detail) { return ProtocolError{ErrorCode::BAD_MESSAGE, std::move(detail)}; }
+
+// Reads an optional string field: true when absent/null or a string, false when mistyped.
+bool optional_string(const Json& j, const char* key, std::string& out, bool& present) {
+  present = false;
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) {
+    return true;
+  }
+  if (!it->is_string()) {
+    return false;
+  }
+  out = it->get<std::string>();
+  present = true;
+  return true;
+}
+
+// An integral JSON number that fits [lo, hi], else `invalid`.
+template <typename T>
+T integer_or(const Json& v, T invalid) {
+  std::int64_t x = 0;
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    if (u > static_cast<std::uint64_t>(std::numeric_limits<T>::max())) {
+      return invalid;
+    }
+    return static_cast<T>(u);
+  }
+  if (v.is_number_integer()) {
+    x = v.get<std::int64_t>();
+  } else if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (!(d >= static_cast<double>(std::numeric_limits<T>::min()) &&
+          d <= static_cast<double>(std::numeric_limits<T>::max())) ||
+        static_cast<double>(static_cast<std::int64_t>(d)) != d) {
+      return invalid;
+    }
+    x = static_cast<std::int64_t>(d);
+  } else {
+    return invalid;
+  }
+  if (x < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
+      x > static_cast<std::int64_t>(std::numeric_limits<T>::max())) {
+    return invalid;
+  }
+  return static_cast<T>(x);
+}
+
+ClientMessage parse_hello(const Json& j) {
+  HelloMsg h;
+  const auto role = j.find("role");
+  if (role == j.end() || !role->is_string()) {
+    return bad("hello needs \"role\": \"pendant\", \"remote\" or \"observer\"");
+  }
+  const auto& r = role->get_ref<const std::string&>();
+  bool found = false;
+  for (std::size_t i = 0; i < kRoleNames.size(); ++i) {
+    if (r == kRoleNames[i]) {
+      h.role = static_cast<Role>(i);
+      found = true;
+    }
+  }
+  if (!found) {
+    return bad("unknown role \"" + r + "\" (expected pendant, remote or observer)");
+  }
+  bool present = false;
+  if (!optional_string(j, "client", h.client, present)) {
+    return bad("\"client\" must be a string");
+  }
+  if (!optional_string(j, "token", h.token, h.has_token)) {
+    return bad("\"token\" must be a string");
+  }
+  return h;
+}
+
+void fill_jog(const Json& j, core::Command& c) {
+  const auto axis = j.find("axis");
+  c.axis = (axis == j.end()) ? std::int8_t{0} : integer_or<std::int8_t>(*axis, 0);
+  c.dir = 0;
+  if (const auto dir = j.find("dir"); dir != j.end() && dir->is_string()) {
+    const auto& d = dir->get_ref<const std::string&>();
+    c.dir = (d == "+") ? std::int8_t{1} : ((d == "-") ? std::int8_t{-1} : std::int8_t{0});
+  }
+  const auto speed = j.find("speed");
+  c.speed = (speed == j.end()) ? std::uint8_t{10} : integer_or<std::uint8_t>(*speed, 0);
+}
+
+void fill_set_mode(const Json& j, core::Command& c) {
+  core::Mode m = core::Mode::NONE;
+  const auto mode = j.find("mode");
+  const bool ok = mode != j.end() && mode->is_string() &&
+                  core::parse_mode(mode->get_ref<const std::string&>().c_str(), m);
+  c.mode = ok ? static_cast<std::uint8_t>(m) : std::uint8_t{0};
+}
+
+bool read_seq(const Json& j, Json& seq) {
+  const auto it = j.find("seq");
+  if (it == j.end() || !it->is_number_integer()) {
+    return false;
+  }
+  seq = *it;
+  return true;
+}
+
+ClientMessage parse_command(const Json& j) {
+  CommandMsg m;
+  if (!read_seq(j, m.seq)) {
+    return bad("command needs an integer \"seq\"");
+  }
+  core::CommandId id{};
+  const auto cmd = j.find("cmd");
+  if (cmd != j.end() && cmd->is_string()) {
+    m.name = cmd->get<std::string>();
+  }
+  if (!core::parse_command(m.name.c_str(), id)) {
+    m.command.id = static_cast<std::uint8_t>(core::kCommandCount);  // the core answers UNKNOWN_COMMAND
+    return m;
+  }
+  m.command.id = static_cast<std::uint8_t>(id);
+  if (id == core::CommandId::jog) {
+    fill_jog(j, m.command);
+  } else if (id == core::CommandId::set_mode) {
+    fill_set_mode(j, m.command);
+  }
+  return m;
+}
+
+ClientMessage parse_sim(const Json& j) {
+  SimMsg m;
+  if (!read_seq(j, m.seq)) {
+    return bad("sim needs an integer \"seq\"");
+  }
+  const auto set = j.find("set");
+  const auto fault = j.find("fault");
+  if ((set != j.end()) == (fault != j.end())) {
+    return bad("sim needs exactly one of \"set\" (object) or \"fault\" (string)");
+  }
+  std::string problem;
+  if (set != j.end()) {
+    problem = set->is_object() ? encode_sim_set(*set, m.record) : "\"set\" must be an object";
+  } else {
+    problem = fault->is_string() ? encode_sim_fault(fault->get_ref<const std::string&>(), m.record)
+                                 : "\"fault\" must be a string";
+  }
+  if (!problem.empty()) {
+    return bad(problem);
+  }
+  return m;
+}
+
+// ------------------------------------------------------------------ sim vocabulary
+struct Write {
+  Contact contact;
+  bool closed;
+};
+struct Word {
+  const char* word;
+  std::array<Write, 3> writes;
+  std::size_t count;
+};
+struct Shorthand {
+  const char* key;
+  const char* expected;
+  std::array<Word, 4> words;
+  std::size_t count;
+};
+
+// clang-format off
+constexpr std::array<Shorthand, 4> kShorthands{{
+  {"estop", "pressed|released", {{
+    {"pressed", {{{Contact::estop_a, false}, {Contact::estop_b, false}, {}}}, 2},
+    {"released", {{{Contact::estop_a, true}, {Contact::estop_b, true}, {}}}, 2}, {}, {}}}, 2},
+  {"gate", "open|closed", {{
+    {"open", {{{Contact::gate_a, false}, {Contact::gate_b, false}, {}}}, 2},
+    {"closed", {{{Contact::gate_a, true}, {Contact::gate_b, true}, {}}}, 2}, {}, {}}}, 2},
+  {"enable", "released|centre|panic", {{
+    {"released", {{{Contact::enable_a, false}, {Contact::enable_b, false}, {Contact::enable_panic, false}}}, 3},
+    {"centre", {{{Contact::enable_a, true}, {Contact::enable_b, true}, {Contact::enable_panic, false}}}, 3},
+    {"panic", {{{Contact::enable_a, false}, {Contact::enable_b, false}, {Contact::enable_panic, true}}}, 3}, {}}}, 3},
+  {"mode", "AUTO|T1|T2|NONE", {{
+    {"AUTO", {{{Contact::mode_auto, true}, {Contact::mode_t1, false}, {Contact::mode_t2, false}}}, 3},
+    {"T1", {{{Contact::mode_auto, false}, {Contact::mode_t1, true}, {Contact::mode_t2, false}}}, 3},
+    {"T2", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, true}}}, 3},
+    {"NONE", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, false}}}, 3}}}, 4},
+}};
+// clang-format on
+
+struct RawContact {
+  const char* key;
+  Contact contact;
+};
+constexpr std::array<RawContact, 11> kRawContacts{{
+    {"estop.a", Contact::estop_a},
+    {"estop.b", Contact::estop_b},
+    {"gate.a", Contact::gate_a},
+    {"gate.b", Contact::gate_b},
+    {"enable.a", Contact::enable_a},
+    {"enable.b", Contact::enable_b},
+    {"enable.panic", Contact::enable_panic},
+    {"mode.auto", Contact::mode_auto},
+    {"mode.t1", Contact::mode_t1},
+    {"mode.t2", Contact::mode_t2},
+    {"reset_button", Contact::reset_button},
+}};
+
+void apply(const Write& w, bridge::CommandRecord& out) noexcept {
+  const auto b = static_cast<std::uint16_t>(1U << static_cast<unsigned>(w.contact));
+  out.set_mask = static_cast<std::uint16_t>(out.set_mask | b);
+  out.set_values = w.closed ? static_cast<std::uint16_t>(out.set_values | b)
+                            : static_cast<std::uint16_t>(out.set_values & static_cast<std::uint16_t>(~b));
+}
+
+// 0/1, true/false or "0"/"1".
+bool contact_value(const Json& v, bool& closed) {
+  if (v.is_boolean()) {
+    closed = v.get<bool>();
+    return true;
+  }
+  if (v.is_number_integer()) {
+    const auto x = v.get<std::int64_t>();
+    closed = x == 1;
+    return x == 0 || x == 1;
+  }
+  if (v.is_string()) {
+    const auto& s = v.get_ref<const std::string&>();
+    closed = s == "1";
+    return s == "0" || s == "1";
+  }
+  return false;
+}
+
+std::string value_text(const Json& v) { return v.dump(); }
+
+// "" when `key` was handled, "?" when it is not a shorthand, else the problem.
+std::string apply_shorthand(const std::string& key, const Json& value, bridge::CommandRecord& out) {
+  for (const Shorthand& s : kShorthands) {
+    if (key != s.key) {
+      continue;
+    }
+    if (value.is_string()) {
+      for (std::size_t i = 0; i < s.count; ++i) {
+        if (value.get_ref<const std::string&>() == s.words[i].word) {
+          for (std::size_t k = 0; k < s.words[i].count; ++k) {
+            apply(s.words[i].writes[k], out);
+          }
+          return {};
+        }
+      }
+    }
+    return "bad value " + value_text(value) + " for input " + key + " (expected " + s.expected + ")";
+  }
+  return "?";
+}
+
+std::string apply_raw(const std::string& key, const Json& value, bridge::CommandRecord& out) {
+  for (const RawContact& r : kRawContacts) {
+    if (key != r.key) {
+      continue;
+    }
+    bool closed = false;
+    if (!contact_value(value, closed)) {
+      return "bad value " + value_text(value) + " for contact " + key + " (expected 0|1)";
+    }
+    apply(Write{r.contact, closed}, out);
+    return {};
+  }
+  return "unknown input \"" + key + "\"";
+}
+
+bool axis_1_to_6(const std::string& s, std::uint8_t& axis) {
+  unsigned v = 0;
+  const char* end = s.data() + s.size();
+  const auto [p, ec] = std::from_chars(s.data(), end, v);
+  if (ec != std::errc{} || p != end || v < 1U || v > core::kAxes) {
+    return false;
+  }
+  axis = static_cast<std::uint8_t>(v);
+  return true;
+}
+
+}  // namespace
+
+const char* to_string(Role r) noexcept {
+  const auto i = static_cast<std::size_t>(r);
+  return i < kRoleNames.size() ? kRoleNames[i] : "?";
+}
+
+core::Source source_of(Role r) noexcept {
+  switch (r) {
+    case Role::pendant: return core::Source::pendant;
+    case Role::remote: return core::Source::remote;
+    case Role::observer: break;
+  }
+  return core::Source::observer;
+}
+
+const char* to_string(ErrorCode c) noexcept {
+  const auto i = static_cast<std::size_t>(c);
+  return i < kErrorNames.size() ? kErrorNames[i] : "?";
+}
+
+ClientMessage parse_client_message(std::string_view text) {
+  const Json j = Json::parse(text.begin(), text.end(), nullptr, false);
+  if (j.is_discarded()) {
+    return bad("invalid JSON");
+  }
+  if (!j.is_object()) {
+    return bad("a message must be a JSON object");
+  }
+  const auto type = j.find("type");
+  if (type == j.end() || !type->is_string()) {
+    return bad("a message needs a string \"type\"");
+  }
+  const auto& t = type->get_ref<const std::string&>();
+  if (t == "hello") {
+    return parse_hello(j);
+  }
+  if (t == "command") {
+    return parse_command(j);
+  }
+  if (t == "sim") {
+    return parse_sim(j);
+  }
+  return bad("unknown type \"" + t + "\" (expected hello, command or sim)");
+}
+
+std::string encode_sim_set(const Json& set, bridge::CommandRecord& out) {
+  out = bridge::CommandRecord{};
+  out.kind = bridge::RecordKind::sim_set;
+  if (!set.is_object() || set.empty()) {
+    return "\"set\" needs at least one input";
+  }
+  for (const auto& [key, value] : set.items()) {
+    std::string problem = apply_shorthand(key, value, out);
+    if (problem == "?") {
+      problem = apply_raw(key, value, out);
+    }
+    if (!problem.empty()) {
+      return problem;
+    }
+  }
+  return {};
+}
+
+std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) {
+  out = bridge::CommandRecord{};
+  out.kind = bridge::RecordKind::sim_fault;
+  std::vector<std::string> a;
+  std::istringstream in{std::string(line)};
+  for (std::string w; in >> w;) {
+    a.push_back(w);
+  }
+  auto set = [&out](sim::FaultKind k, std::uint8_t axis) {
+    out.fault_kind = static_cast<std::uint8_t>(k);
+    out.fault_axis = axis;
+    return std::string{};
+  };
+  std::uint8_t axis = 0;
+  if (a.size() == 3 && a[0] == "drive" && axis_1_to_6(a[1], axis)) {
+    if (a[2] == "fault") return set(sim::FaultKind::drive_fault, axis);
+    if (a[2] == "clear") return set(sim::FaultKind::drive_clear, axis);
+    if (a[2] == "runaway") return set(sim::FaultKind::drive_runaway, axis);
+    if (a[2] == "nostop") return set(sim::FaultKind::drive_nostop, axis);
+  }
+  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], axis)) {
+    return set(sim::FaultKind::brake_stuck, axis);
+  }
+  if (a.size() == 2 && a[0] == "fieldbus" && a[1] == "lost") return set(sim::FaultKind::fieldbus_lost, 0);
+  if (a.size() == 2 && a[0] == "contactor" && a[1] == "stuck_open") {
+    return set(sim::FaultKind::contactor_stuck_open, 0);
+  }
+  if (a.size() == 2 && a[0] == "clear" && a[1] == "all") return set(sim::FaultKind::clear_all, 0);
+  return "bad fault \"" + std::string(line) +
+         "\" (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck,"
+         " clear all; N 1..6)";
+}
+
+Json make_welcome(Role role, const std::string& version) {
+  Json j;
+  j["type"] = "welcome";
+  j["role"] = to_string(role);
+  j["server"] = "safestate " + version;
+  return j;
+}
+
+Json make_reply(const Json& seq, const char* result) {
+  Json j;
+  j["type"] = "reply";
+  j["seq"] = seq;
+  j["result"] = result;
+  return j;
+}
+
+Json make_error(ErrorCode code, const std::string& detail) {
+  Json j;
+  j["type"] = "error";
+  j["code"] = to_string(code);
+  j["detail"] = detail;
+  return j;
+}
+
+}  // namespace safestate::gateway

@@ -1,0 +1,430 @@
+// JSON and Prometheus views of the bridge's records (protocol.md "Endpoints", "Messages").
+//
+// Decisions where protocol.md is silent:
+//  - Numbers are rounded to what they mean: tcp_speed to 0.1 mm/s, positions to 1 um,
+//    angles to 1 urad, so that a float does not print as 0.30000001192092896.
+//  - The status message carries, after the fields of protocol.md: mode_requested,
+//    target (leaf or null), cause (words or null), arming_step (null outside ARMING),
+//    arming_progress, axis_state (PLCopen names), program_index, program_length,
+//    simulated, max_point_speed, statusword, core/gateway heartbeats and pids and
+//    core_heartbeat_age_ms (wall time since the core's cycle counter last advanced, as
+//    seen by the gateway: a stuck core shows here).
+//  - The black box of a stopping transition is {first, last, missing, cycles:[...]};
+//    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
+#include "safestate/gateway/views.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+
+#include "safestate/core/describe.hpp"
+#include "safestate/core/transitions.hpp"
+#include "safestate/motion/motion_controller.hpp"
+#include "safestate/motion/robot.hpp"
+
+namespace safestate::gateway {
+
+namespace {
+
+constexpr std::array<const char*, bridge::kContactCount> kContactNames{
+    "estop.a",  "estop.b",   "gate.a",  "gate.b",  "enable.a",    "enable.b",
+    "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button"};
+
+double rounded(double v, double scale) { return std::round(v * scale) / scale + 0.0; }  // + 0.0: no -0
+
+Json name_or_null(const char* dash_for_none) {
+  if (dash_for_none == nullptr || std::string_view(dash_for_none) == "-") {
+    return nullptr;
+  }
+  return dash_for_none;
+}
+
+Json words_or_null(const core::Cause& c) {
+  std::array<char, 160> buf{};
+  const char* s = core::describe(c, buf.data(), buf.size());
+  return (s[0] == '\0') ? Json(nullptr) : Json(s);
+}
+
+std::string alarm_words(core::AlarmId id, const core::AlarmDetail& d) {
+  std::array<char, 160> buf{};
+  return core::describe(id, d, buf.data(), buf.size());
+}
+
+Json alarm_names(core::AlarmMask mask) {
+  Json a = Json::array();
+  for (const core::AlarmInfo& info : core::kAlarms) {
+    if ((mask & core::bit(info.id)) != 0U) {
+      a.push_back(info.name);
+    }
+  }
+  return a;
+}
+
+template <std::size_t N>
+Json rounded_array(const std::array<float, N>& v, std::size_t first, std::size_t count, double scale) {
+  Json a = Json::array();
+  for (std::size_t i = first; i < first + count; ++i) {
+    a.push_back(rounded(static_cast<double>(v[i]), scale));
+  }
+  return a;
+}
+
+template <typename T, std::size_t N>
+Json int_array(const std::array<T, N>& v) {
+  Json a = Json::array();
+  for (const T x : v) {
+    a.push_back(x);
+  }
+  return a;
+}
+
+Json leaf_target(core::Leaf l) {
+  return (l == core::Leaf::SAME) ? Json(nullptr) : Json(core::to_string(l));
+}
+
+Json alarm_object(core::AlarmId id, const core::AlarmDetail& d) {
+  const core::AlarmInfo& info = core::alarm_info(id);
+  Json j;
+  j["name"] = info.name;
+  j["number"] = info.number;
+  j["severity"] = core::to_string(info.severity);
+  j["text"] = info.text;
+  j["remedy"] = info.remedy;
+  j["detail"] = alarm_words(id, d);
+  return j;
+}
+
+Json blackbox_cycle(const bridge::BlackBoxRecord& r) {
+  Json j;
+  j["t"] = r.t;
+  j["state"] = core::to_string(static_cast<core::Leaf>(r.leaf));
+  Json contacts;
+  for (std::size_t i = 0; i < kContactNames.size(); ++i) {
+    contacts[kContactNames[i]] = (r.contacts >> i) & 1U;
+  }
+  j["contacts"] = std::move(contacts);
+  j["contactor_fb"] = r.contactor_fb;
+  Json brakes = Json::array();
+  for (unsigned i = 0; i < core::kAxes; ++i) {
+    brakes.push_back((r.brakes_fb >> i) & 1U);
+  }
+  j["brakes_released"] = std::move(brakes);
+  j["fieldbus_ok"] = r.fieldbus_ok;
+  Json out;
+  out["contactor"] = r.outputs & 1U;
+  out["drives"] = (r.outputs >> 1U) & 1U;
+  out["brakes_release"] = (r.outputs >> 2U) & 1U;
+  out["reset_lamp"] = (r.outputs >> 3U) & 1U;
+  j["outputs"] = std::move(out);
+  j["statusword"] = int_array(r.statusword);
+  j["controlword"] = int_array(r.controlword);
+  j["position"] = rounded_array(r.position, 0, 6, 1e6);
+  j["target"] = rounded_array(r.target, 0, 6, 1e6);
+  return j;
+}
+
+// Prometheus float formatting.
+std::string num(double v) {
+  std::array<char, 32> b{};
+  std::snprintf(b.data(), b.size(), "%.9g", v);
+  return b.data();
+}
+
+void header(std::string& s, const char* name, const char* type, const char* help) {
+  s += "# HELP ";
+  s += name;
+  s += ' ';
+  s += help;
+  s += "\n# TYPE ";
+  s += name;
+  s += ' ';
+  s += type;
+  s += '\n';
+}
+
+void scalar(std::string& s, const char* name, const char* type, const char* help, const std::string& value) {
+  header(s, name, type, help);
+  s += name;
+  s += ' ';
+  s += value;
+  s += '\n';
+}
+
+// Bucket i of the bridge holds [2^i, 2^(i+1)) ns (bucket 0 also 0; the last bucket is
+// open-ended): the cumulative bucket `le` 2^(i+1) ns counts buckets 0..i.
+void histogram(std::string& s, const char* name, const char* help,
+               const std::array<std::atomic<std::uint64_t>, bridge::kHistogramBuckets>& buckets) {
+  header(s, name, "histogram", help);
+  std::array<std::uint64_t, bridge::kHistogramBuckets> n{};
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    n[i] = buckets[i].load(std::memory_order_relaxed);
+  }
+  std::uint64_t cumulative = 0;
+  double sum_ns = 0.0;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    cumulative += n[i];
+    const double lo = (i == 0) ? 0.0 : std::ldexp(1.0, static_cast<int>(i));
+    const double hi = std::ldexp(1.0, static_cast<int>(i) + 1);
+    sum_ns += static_cast<double>(n[i]) * ((i + 1 == n.size()) ? lo : (lo + hi) / 2.0);
+    if (i + 1 < n.size()) {
+      s += name;
+      s += "_bucket{le=\"" + num(hi * 1e-9) + "\"} " + std::to_string(cumulative) + '\n';
+    }
+  }
+  s += name;
+  s += "_bucket{le=\"+Inf\"} " + std::to_string(cumulative) + '\n';
+  s += name;
+  s += "_sum " + num(sum_ns * 1e-9) + '\n';
+  s += name;
+  s += "_count " + std::to_string(cumulative) + '\n';
+}
+
+std::string u64(const std::atomic<std::uint64_t>& a) { return std::to_string(a.load(std::memory_order_relaxed)); }
+
+}  // namespace
+
+const char* owner_of(core::Mode mode, bool remote_connected, bool pendant_connected) noexcept {
+  if (mode == core::Mode::T1 || mode == core::Mode::T2) {
+    return "pendant";
+  }
+  if (mode == core::Mode::AUTO && remote_connected) {
+    return "remote";
+  }
+  return pendant_connected ? "pendant" : nullptr;
+}
+
+Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type) {
+  Json j;
+  if (with_type) {
+    j["type"] = "status";
+  }
+  j["t"] = s.t;
+  j["state"] = core::to_string(s.state);
+  j["sub"] = name_or_null(core::to_string(s.sub));
+  j["mode"] = core::to_string(s.mode);
+  j["stop"] = name_or_null(core::to_string(s.stop));
+  j["contactor"] = s.contactor ? "closed" : "open";
+  j["drives"] = s.drives ? "enabled" : "disabled";
+  j["brakes"] = s.brakes_released ? "released" : "engaged";
+  j["reset_lamp"] = s.reset_lamp ? "on" : "off";
+  j["tcp_speed"] = rounded(static_cast<double>(s.tcp_speed_mm_s), 10.0);
+  j["alarms"] = alarm_names(s.alarms);
+  j["joints"] = rounded_array(s.joints, 0, 6, 1e6);
+  Json tcp = rounded_array(s.tcp, 0, 3, 1e3);
+  for (std::size_t i = 3; i < 6; ++i) {
+    tcp.push_back(rounded(static_cast<double>(s.tcp[i]), 1e6));
+  }
+  j["tcp"] = std::move(tcp);
+  j["t2_confirmed"] = s.t2_confirmed;
+  j["owner"] = (x.owner == nullptr) ? Json(nullptr) : Json(x.owner);
+  // Beyond protocol.md (SPEC §7: requested beside effective, the first-out cause).
+  j["mode_requested"] = core::to_string(s.mode_requested);
+  j["target"] = leaf_target(s.target);
+  j["cause"] = words_or_null(s.cause);
+  j["arming_step"] = (s.state == core::State::ARMING) ? Json(core::to_string(s.arming_step)) : Json(nullptr);
+  j["arming_progress"] = s.arming_progress;
+  Json axes = Json::array();
+  for (const std::uint8_t a : s.axis_state) {
+    axes.push_back(motion::to_string(static_cast<motion::AxisState>(a)));
+  }
+  j["axis_state"] = std::move(axes);
+  j["program_index"] = s.program_index;
+  j["program_length"] = s.program_length;
+  j["simulated"] = s.simulated || x.simulated;
+  j["max_point_speed"] = rounded(static_cast<double>(s.max_point_speed_mm_s), 10.0);
+  j["statusword"] = int_array(s.statusword);
+  j["core_heartbeat"] = x.core_heartbeat;
+  j["core_heartbeat_age_ms"] = rounded(x.core_heartbeat_age_ms, 10.0);
+  j["gateway_heartbeat"] = x.gateway_heartbeat;
+  j["core_pid"] = x.core_pid;
+  j["gateway_pid"] = x.gateway_pid;
+  return j;
+}
+
+Json alarms_json(const bridge::Status& s) {
+  Json a = Json::array();
+  for (const core::AlarmInfo& info : core::kAlarms) {
+    if ((s.alarms & core::bit(info.id)) == 0U) {
+      continue;
+    }
+    const auto i = static_cast<std::size_t>(info.id);
+    Json j = alarm_object(info.id, s.alarm_detail[i]);
+    j["since"] = s.alarm_since[i];
+    a.push_back(std::move(j));
+  }
+  return a;
+}
+
+const char* kind_name(bridge::EventKind k) noexcept {
+  switch (k) {
+    case bridge::EventKind::transition: return "transition";
+    case bridge::EventKind::alarm: return "alarm";
+    case bridge::EventKind::alarm_cleared: return "alarm_cleared";
+    case bridge::EventKind::command: break;
+  }
+  return "command";
+}
+
+Json event_data(const bridge::EventRecord& e, const std::string& name, const Json& client_seq) {
+  Json j;
+  switch (e.kind) {
+    case bridge::EventKind::transition: {
+      j["from"] = core::to_string(e.from);
+      j["to"] = core::to_string(e.to);
+      j["state"] = core::to_string(core::state_of(e.to));
+      j["sub"] = name_or_null(core::to_string(core::sub_of(e.to)));
+      j["stop"] = name_or_null(core::to_string(e.stop));
+      j["trigger"] = core::to_string(static_cast<core::Trigger>(e.trigger));
+      j["rule"] = (e.row < core::kTransitions.size()) ? Json(core::kTransitions[e.row].rule) : Json(nullptr);
+      j["cause"] = words_or_null(e.cause);
+      break;
+    }
+    case bridge::EventKind::alarm: j = alarm_object(e.alarm, e.detail); break;
+    case bridge::EventKind::alarm_cleared: j["name"] = core::to_string(e.alarm); break;
+    case bridge::EventKind::command: {
+      const bool known = e.reply.cmd < core::kCommandCount;
+      j["cmd"] = known ? std::string(core::to_string(static_cast<core::CommandId>(e.reply.cmd)))
+                       : (name.empty() ? "unknown" : name);
+      j["from"] = (e.reply.source < core::kSourceCount) ? core::to_string(static_cast<core::Source>(e.reply.source))
+                                                        : "?";
+      j["result"] = core::to_string(e.reply.result);
+      if (!client_seq.is_null()) {
+        j["seq"] = client_seq;
+      }
+      break;
+    }
+  }
+  return j;
+}
+
+bool needs_blackbox(const bridge::EventRecord& e) noexcept {
+  return e.kind == bridge::EventKind::transition &&
+         (e.stop != core::StopCat::NONE || e.to == core::Leaf::ESTOP_ACTIVE || e.to == core::Leaf::ERROR_LOCKOUT);
+}
+
+Json blackbox_json(const bridge::BlackBox& box, std::uint64_t t, std::size_t cycles) {
+  const std::uint64_t first = (t + 1 >= cycles) ? t + 1 - cycles : 0;
+  Json list = Json::array();
+  std::uint64_t missing = 0;
+  for (std::uint64_t c = first; c <= t; ++c) {
+    bridge::BlackBoxRecord r{};
+    if (box[c % bridge::kBlackBoxCycles].read(r) && r.t == c) {
+      list.push_back(blackbox_cycle(r));
+    } else {
+      Json m;
+      m["t"] = c;
+      m["missing"] = true;
+      list.push_back(std::move(m));
+      ++missing;
+    }
+  }
+  Json j;
+  j["first"] = first;
+  j["last"] = t;
+  j["missing"] = missing;
+  j["cycles"] = std::move(list);
+  return j;
+}
+
+Json event_message(std::int64_t id, std::uint64_t t, const std::string& time, const char* kind, const Json& data) {
+  Json j;
+  j["type"] = "event";
+  j["id"] = (id > 0) ? Json(id) : Json(nullptr);
+  j["t"] = t;
+  j["time"] = time;
+  j["kind"] = kind;
+  j["data"] = data;
+  return j;
+}
+
+Json robot_json() {
+  const motion::RobotModel& r = motion::kRobot;
+  Json j;
+  j["name"] = r.name;
+  j["reach"] = static_cast<double>(r.reach_mm);
+  Json dh = Json::array();
+  for (const motion::DhRow& row : r.dh) {
+    Json d;
+    d["a"] = static_cast<double>(row.a_mm);
+    d["alpha"] = rounded(static_cast<double>(row.alpha_rad), 1e6);
+    d["d"] = static_cast<double>(row.d_mm);
+    d["theta_offset"] = rounded(static_cast<double>(row.theta_offset_rad), 1e6);
+    dh.push_back(std::move(d));
+  }
+  j["convention"] = "standard DH: A_k = Rot_z(q_k + theta_offset) Trans_z(d) Trans_x(a) Rot_x(alpha)";
+  j["dh"] = std::move(dh);
+  Json limits = Json::array();
+  for (std::size_t i = 0; i < motion::kJoints; ++i) {
+    Json l;
+    l["min"] = rounded(static_cast<double>(r.q_min_rad[i]), 1e6);
+    l["max"] = rounded(static_cast<double>(r.q_max_rad[i]), 1e6);
+    limits.push_back(std::move(l));
+  }
+  j["joint_limits"] = std::move(limits);
+  j["velocity_limits"] = rounded_array(r.qd_max_rad_s, 0, motion::kJoints, 1e6);
+  j["acceleration_limits"] = rounded_array(r.qdd_max_rad_s2, 0, motion::kJoints, 1e6);
+  Json links = Json::array();
+  for (const char* n : r.link_names) {
+    links.push_back(n);
+  }
+  j["link_names"] = std::move(links);
+  j["tcp_offset"] = rounded_array(r.tcp_offset_mm, 0, 3, 1e6);
+  Json units;
+  units["length"] = "mm";
+  units["angle"] = "rad";
+  units["velocity"] = "rad/s";
+  units["acceleration"] = "rad/s^2";
+  j["units"] = std::move(units);
+  return j;
+}
+
+std::string metrics_text(const bridge::Metrics& m, const MetricsExtras& x) {
+  std::string s;
+  s.reserve(8192);
+  histogram(s, "safestate_cycle_exec_seconds", "Execution time of one scan cycle.", m.exec_ns);
+  histogram(s, "safestate_cycle_lateness_seconds", "Wake-up lateness of the scan cycle.", m.lateness_ns);
+  scalar(s, "safestate_cycle_exec_max_seconds", "gauge", "Longest scan cycle execution seen.",
+         num(static_cast<double>(m.exec_max_ns.load(std::memory_order_relaxed)) * 1e-9));
+  scalar(s, "safestate_cycle_lateness_max_seconds", "gauge", "Largest wake-up lateness seen.",
+         num(static_cast<double>(m.lateness_max_ns.load(std::memory_order_relaxed)) * 1e-9));
+  scalar(s, "safestate_cycles_total", "counter", "Scan cycles run.", u64(m.cycles));
+  scalar(s, "safestate_overruns_total", "counter", "Scan cycles that overran their period.", u64(m.overruns));
+  scalar(s, "safestate_watchdog_trips_total", "counter", "Watchdog trips.", u64(m.watchdog_trips));
+  scalar(s, "safestate_events_dropped_total", "counter", "Events dropped because the event ring was full.",
+         u64(m.events_dropped));
+  scalar(s, "safestate_replies_dropped_total", "counter", "Replies dropped because the reply ring was full.",
+         u64(m.replies_dropped));
+  scalar(s, "safestate_command_queue_depth", "gauge", "Commands waiting in the core's queue.",
+         std::to_string(m.command_queue_depth.load(std::memory_order_relaxed)));
+  scalar(s, "safestate_cycle_period_seconds", "gauge", "Configured scan cycle period.",
+         num(static_cast<double>(m.cycle_us.load(std::memory_order_relaxed)) * 1e-6));
+  scalar(s, "safestate_rt_priority", "gauge", "SCHED_FIFO priority of the cycle thread (0: not real-time).",
+         std::to_string(m.rt_priority.load(std::memory_order_relaxed)));
+  scalar(s, "safestate_ws_clients", "gauge", "Connected WebSocket clients.", std::to_string(x.ws_clients));
+  scalar(s, "safestate_core_heartbeat", "gauge", "The core's cycle counter as seen by the gateway.",
+         std::to_string(x.core_heartbeat));
+  scalar(s, "safestate_events_stored_total", "counter", "Events stored in the event log by this gateway.",
+         std::to_string(x.events_stored));
+  header(s, "safestate_commands_total", "counter", "Command replies sent by this gateway, by result.");
+  for (std::size_t i = 0; i < core::kResultCount; ++i) {
+    s += "safestate_commands_total{result=\"";
+    s += core::to_string(static_cast<core::Result>(i));
+    s += "\"} " + std::to_string(x.commands_by_result[i]) + '\n';
+  }
+  return s;
+}
+
+std::string iso8601_utc(std::chrono::system_clock::time_point tp) {
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(tp.time_since_epoch()).count();
+  const auto secs = static_cast<std::time_t>(ms / 1000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  std::array<char, 96> b{};
+  std::snprintf(b.data(), b.size(), "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+  return b.data();
+}
+
+std::string dump(const Json& j) { return j.dump(-1, ' ', false, Json::error_handler_t::replace); }
+
+}  // namespace safestate::gateway
