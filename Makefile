@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-tsan docs embedded run clean deps
+.PHONY: build test test-tsan docs embedded run demo bench clean deps
 
 deps:
 	@$(DEPS) build
@@ -47,7 +47,16 @@ embedded:
 	@$(DEPS) embedded
 	tools/scripts/embedded.sh
 
+# The live cell: core in a real-time loop on the simulated cell, gateway with the HMI.
 run: build
+	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db
+
+# Measurements (not tests): WebSocket command round trip and status latency.
+bench: build $(VENV)/.stamp
+	$(VENV)/bin/python bench/ws_latency.py --bin $(BIN)/safestate
+
+# The narrated replay of examples/demo.scn (no server).
+demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:

@@ -8,6 +8,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "safestate/gateway/gateway.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/scenario/scenario.hpp"
 
@@ -55,7 +56,19 @@ int main(int argc, char** argv) {
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
   run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
   run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
+  safestate::gateway::GatewayOptions gw_opt;
+  gw_opt.version = SAFESTATE_VERSION;
+  auto* gateway = app.add_subcommand("gateway", "the non-real-time gateway (started by `safestate run`)");
+  gateway->add_option("--shm", gw_opt.shm_name, "shared-memory segment of the core")->required();
+  gateway->add_option("--bind", gw_opt.bind, "address to listen on");
+  gateway->add_option("--port", gw_opt.port, "HTTP/WebSocket port")->check(CLI::Range(1, 65535));
+  gateway->add_option("--db", gw_opt.db_path, "SQLite event database")->required();
+  gateway->add_option("--token", gw_opt.token, "token a pendant must present");
+  gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
   CLI11_PARSE(app, argc, argv);
+  if (gateway->parsed()) {
+    return safestate::gateway::gateway_main(gw_opt);
+  }
   if (run->parsed()) {
     return safestate::runtime::run_main(run_opt);
   }

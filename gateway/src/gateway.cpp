@@ -22,6 +22,7 @@
 #include <boost/asio.hpp>
 #include <boost/beast.hpp>
 
+#include <csignal>
 #include <cstdio>
 #include <deque>
 #include <functional>
@@ -52,6 +53,10 @@ constexpr auto kLivenessPeriod = 250ms;
 constexpr auto kAttachTimeout = 5s;
 
 void say(const std::string& s) { std::fprintf(stderr, "safestate gateway: %s\n", s.c_str()); }
+
+// SIGTERM/SIGINT before the io_context's signal_set is in place (while attaching).
+volatile std::sig_atomic_t g_early_stop = 0;
+extern "C" void on_early_signal(int /*sig*/) { g_early_stop = 1; }
 
 bool is_loopback(asio::ip::address a) {
   if (a.is_v6() && a.to_v6().is_v4_mapped()) {
@@ -103,22 +108,11 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
     }
   }
 
-  void close_after_flush() override {
-    close_pending_ = true;
-    if (!writing_) {
-      do_close(websocket::close_code::policy_error);
-    }
-  }
+  void close_after_flush() override { close_when_flushed(websocket::close_code::policy_error); }
 
   [[nodiscard]] bool loopback_peer() const override { return loopback_; }
 
-  void shutdown() {
-    if (open_ && !closing_ && !writing_) {
-      do_close(websocket::close_code::going_away);
-    } else {
-      close_pending_ = true;
-    }
-  }
+  void shutdown() { close_when_flushed(websocket::close_code::going_away); }
 
  private:
   void on_accept(beast::error_code ec) {
@@ -158,7 +152,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
 
   void on_write(beast::error_code ec, std::size_t /*bytes*/) {
     writing_ = false;
-    if (ec) {
+    if (ec || aborted_) {
       abort();
       return;
     }
@@ -166,7 +160,15 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
     if (!queue_.empty() && !closing_) {
       do_write();
     } else if (close_pending_) {
-      do_close(websocket::close_code::policy_error);
+      do_close(close_code_);
+    }
+  }
+
+  void close_when_flushed(websocket::close_code code) {
+    close_pending_ = true;
+    close_code_ = code;
+    if (!writing_) {
+      do_close(code);
     }
   }
 
@@ -182,9 +184,14 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   // inside a call of the hub, which may be iterating over its clients.
   void abort() {
     closing_ = true;
-    queue_.clear();
-    beast::error_code ec;
-    beast::get_lowest_layer(ws_).socket().close(ec);
+    if (!writing_) {
+      queue_.clear();  // else the write in flight still uses the front frame: on_write clears
+    }
+    if (!aborted_) {
+      aborted_ = true;
+      beast::error_code ec;
+      beast::get_lowest_layer(ws_).socket().close(ec);
+    }
   }
 
   void leave() {
@@ -206,6 +213,8 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   bool writing_ = false;
   bool closing_ = false;
   bool close_pending_ = false;
+  bool aborted_ = false;
+  websocket::close_code close_code_ = websocket::close_code::normal;
 };
 
 // Live WebSocket sessions, to close them politely on shutdown.
@@ -317,7 +326,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
   Listener(asio::io_context& ioc, Hub& hub, Sessions& sessions, std::string version)
-      : ioc_(ioc), acceptor_(ioc), retry_(ioc), hub_(hub), sessions_(sessions), version_(std::move(version)) {}
+      : acceptor_(ioc), retry_(ioc), hub_(hub), sessions_(sessions), version_(std::move(version)) {}
 
   bool open(const tcp::endpoint& ep, std::string& error) {
     beast::error_code ec;
@@ -369,7 +378,6 @@ class Listener : public std::enable_shared_from_this<Listener> {
     do_accept();
   }
 
-  asio::io_context& ioc_;
   tcp::acceptor acceptor_;
   asio::steady_timer retry_;
   Hub& hub_;
@@ -420,7 +428,7 @@ std::unique_ptr<bridge::Segment> attach(const std::string& name) {
   std::string error;
   for (;;) {
     auto seg = bridge::Segment::attach(name, error);
-    if (seg) {
+    if (seg || g_early_stop != 0) {
       return seg;
     }
     if (Clock::now() >= deadline) {
@@ -462,7 +470,12 @@ int gateway_main(const GatewayOptions& options) {
     say("no event log path (--db PATH)");
     return 1;
   }
+  ::signal(SIGTERM, on_early_signal);
+  ::signal(SIGINT, on_early_signal);
   std::unique_ptr<bridge::Segment> segment = attach(options.shm_name);
+  if (g_early_stop != 0) {
+    return 0;
+  }
   if (!segment) {
     return 1;
   }
@@ -508,22 +521,15 @@ int gateway_main(const GatewayOptions& options) {
     listener->stop();
     poll.stop();
     status.stop();
-    hub.poll();  // what the core said last goes to the log
+    hub.flush();  // what the core said last goes to the log
     sessions.shutdown();
     grace.expires_after(200ms);
     grace.async_wait([&ioc](beast::error_code) { ioc.stop(); });
   };
   Ticker liveness(ioc, kLivenessPeriod, [&] {
-    switch (hub.core_liveness()) {
-      case CoreLiveness::running: break;
-      case CoreLiveness::shut_down:
-        say("the core is shutting down");
-        stop(0);
-        break;
-      case CoreLiveness::gone:
-        say("the core process is gone");
-        stop(1);
-        break;
+    if (hub.core_gone()) {
+      say("the core process is gone");
+      stop(1);
     }
   });
   asio::signal_set signals(ioc, SIGINT, SIGTERM);
@@ -533,6 +539,9 @@ int gateway_main(const GatewayOptions& options) {
     }
   });
 
+  if (g_early_stop != 0) {
+    stop(0);
+  }
   listener->run();
   poll.start();
   status.start();

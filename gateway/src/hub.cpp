@@ -2,8 +2,9 @@
 //  - hello: the token is checked first, then the role. A pendant needs the token when
 //    the server has one; when the server listens beyond loopback every hello needs it
 //    (and without a configured token nobody can say hello: BAD_TOKEN). A refused hello
-//    (BAD_TOKEN, ROLE_TAKEN) leaves the connection open, in its previous state (not
-//    hello'd), so the client may retry, e.g. as an observer. A second hello on the same
+//    (BAD_TOKEN, ROLE_TAKEN) leaves the connection open and as it was (a connection
+//    that had not said hello still has not), so the client may retry, e.g. as an
+//    observer. A second hello on the same
 //    connection changes its role (a pendant that becomes an observer frees the pendant
 //    role). After `welcome` the client gets one status message at once.
 //  - A command before hello gets NOT_HELLO. A `sim` message needs no hello: it changes
@@ -26,6 +27,7 @@
 
 #include <signal.h>
 #include <sys/types.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <charconv>
@@ -84,6 +86,7 @@ Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log,
   last_sweep_ = now;
   last_error_log_ = now - std::chrono::hours(1);
   robot_ = dump(robot_json());
+  parent_at_start_ = ::getppid();
 }
 
 // ------------------------------------------------------------------ clients
@@ -234,6 +237,13 @@ void Hub::poll() {
   }
 }
 
+void Hub::flush() {
+  flushing_ = true;
+  drain_replies();
+  drain_events();
+  flushing_ = false;
+}
+
 void Hub::drain_replies() {
   bridge::ReplyRecord r{};
   while (segment_.replies().pop(r)) {
@@ -265,6 +275,9 @@ void Hub::drain_replies() {
 }
 
 bool Hub::blackbox_ready(const bridge::EventRecord& e) {
+  if (flushing_) {
+    return true;  // the core has stopped cycling: take what the black box has
+  }
   // The core writes cycle t's black-box slot at the end of cycle t, possibly after the
   // event: wait until a later cycle has run (or give up after kBlackBoxWait and mark
   // what is missing).
@@ -391,6 +404,7 @@ StatusExtras Hub::extras() const {
   x.core_heartbeat_age_ms =
       std::chrono::duration<double, std::milli>(Clock::now() - core_heartbeat_changed_).count();
   x.core_pid = h.core_pid.load(std::memory_order_relaxed);
+  x.shutting_down = h.shutting_down.load(std::memory_order_relaxed) != 0U;
   x.gateway_pid = h.gateway_pid.load(std::memory_order_relaxed);
   return x;
 }
@@ -400,16 +414,29 @@ void Hub::broadcast_status() {
   broadcast(std::make_shared<const std::string>(dump(status_json(status_, extras(), true))), true);
 }
 
-CoreLiveness Hub::core_liveness() const {
-  const auto& h = segment_.header();
-  if (h.shutting_down.load(std::memory_order_relaxed) != 0U) {
-    return CoreLiveness::shut_down;
+// The core process is gone when it no longer exists or is a zombie (its parent has not
+// reaped it yet), or, for a gateway the core started, when the gateway has been
+// re-parented: a core killed with SIGKILL leaves no other trace. A core that is shutting
+// down is still running: its last events (the Cat 1 stop of `safestate run`) are still
+// to be logged, and it stops the gateway with SIGTERM when it is done.
+bool Hub::core_gone() const {
+  const auto pid = static_cast<pid_t>(segment_.header().core_pid.load(std::memory_order_relaxed));
+  if (pid <= 0) {
+    return false;
   }
-  const auto pid = static_cast<pid_t>(h.core_pid.load(std::memory_order_relaxed));
-  if (pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH) {
-    return CoreLiveness::gone;
+  if (parent_at_start_ == pid && ::getppid() != pid) {
+    return true;
   }
-  return CoreLiveness::running;
+  if (::kill(pid, 0) != 0 && errno == ESRCH) {
+    return true;
+  }
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (std::getline(stat, line)) {
+    const std::size_t paren = line.rfind(')');
+    return paren != std::string::npos && paren + 2 < line.size() && line[paren + 2] == 'Z';
+  }
+  return false;
 }
 
 // ------------------------------------------------------------------ HTTP

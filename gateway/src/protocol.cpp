@@ -414,7 +414,7 @@ Json make_welcome(Role role, const std::string& version) {
   Json j;
   j["type"] = "welcome";
   j["role"] = to_string(role);
-  j["server"] = "safestate " + version;
+  j["server"] = "safestate " + (version.empty() ? std::string("unknown") : version);
   return j;
 }
 

@@ -6,9 +6,9 @@
 //  - The status message carries, after the fields of protocol.md: mode_requested,
 //    target (leaf or null), cause (words or null), arming_step (null outside ARMING),
 //    arming_progress, axis_state (PLCopen names), program_index, program_length,
-//    simulated, max_point_speed, statusword, core/gateway heartbeats and pids and
+//    simulated, max_point_speed, statusword, core/gateway heartbeats and pids,
 //    core_heartbeat_age_ms (wall time since the core's cycle counter last advanced, as
-//    seen by the gateway: a stuck core shows here).
+//    seen by the gateway: a stuck core shows here) and shutting_down.
 //  - The black box of a stopping transition is {first, last, missing, cycles:[...]};
 //    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
 #include "safestate/gateway/views.hpp"
@@ -238,6 +238,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["gateway_heartbeat"] = x.gateway_heartbeat;
   j["core_pid"] = x.core_pid;
   j["gateway_pid"] = x.gateway_pid;
+  j["shutting_down"] = x.shutting_down;
   return j;
 }
 

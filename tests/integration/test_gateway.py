@@ -90,7 +90,7 @@ def wait_until(fn, timeout, what):
 class SafeState:
     """One `safestate run` on the simulated cell, with its gateway."""
 
-    def __init__(self, tmp_path, db=None):
+    def __init__(self, tmp_path, db=None, args=()):
         self.port = free_port()
         self.db = str(db or (tmp_path / "events.db"))
         self.log_path = tmp_path / f"run-{self.port}.log"
@@ -98,12 +98,14 @@ class SafeState:
         if not os.access(BIN, os.X_OK):
             pytest.fail(f"{BIN} not found or not executable (set SAFESTATE_BIN)")
         self.proc = subprocess.Popen(
-            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000"],
+            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *args],
             stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT))
         try:
             wait_until(lambda: self.proc.poll() is not None or try_status(self.port),
                        STARTUP_TIMEOUT, "GET /api/status to answer")
             assert self.proc.poll() is None, f"safestate run exited: {self.output()}"
+            wait_until(lambda: (s := try_status(self.port)) and s["state"] != "BOOT", STARTUP_TIMEOUT,
+                       "the end of BOOT")
         except BaseException:
             self.stop()
             raise
@@ -274,8 +276,9 @@ async def to_t1_manual_idle(p):
     await p.state("OPERATIONAL", "MANUAL_IDLE")
 
 
-async def keep_jogging(p, stop_event, axis=1, dir="+"):
-    """Jog keep-alive every 40 ms (jog_timeout_ms is 100) until stop_event is set."""
+async def keep_jogging(p, stop_event, axis=1, dir="+", then=None):
+    """Jog keep-alive every 40 ms (jog_timeout_ms is 100) until stop_event is set; then
+    at once the command `then` (e.g. jog_stop), whose seq is returned."""
     while not stop_event.is_set():
         await p.send({"type": "command", "seq": next(Client._seq), "cmd": "jog", "axis": axis, "dir": dir,
                       "speed": 10})
@@ -283,6 +286,11 @@ async def keep_jogging(p, stop_event, axis=1, dir="+"):
             await asyncio.wait_for(stop_event.wait(), 0.04)
         except asyncio.TimeoutError:
             pass
+    if then is None:
+        return None
+    seq = next(Client._seq)
+    await p.send({"type": "command", "seq": seq, "cmd": then})
+    return seq
 
 
 # ---------------------------------------------------------------------------- tests
@@ -407,13 +415,42 @@ def test_second_pendant_gets_role_taken(cell):
     run(main())
 
 
+def test_tokens(tmp_path):
+    """A pendant needs the server's token; beyond loopback every role needs it."""
+    async def hello(url, role, token=None):
+        c = await Client.connect(url)
+        m = await c.hello(role, token=token)
+        await c.close()
+        return m["code"] if m["type"] == "error" else m["type"]
+
+    async def on_loopback(s):
+        assert await hello(s.ws_url, "pendant") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "pendant", "wrong") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "observer") == "welcome"
+        assert await hello(s.ws_url, "remote") == "welcome"
+        assert await hello(s.ws_url, "pendant", "s3cret") == "welcome"
+
+    async def beyond_loopback(s):
+        for role in ("observer", "remote", "pendant"):
+            assert await hello(s.ws_url, role) == "BAD_TOKEN", role
+            assert await hello(s.ws_url, role, "s3cret") == "welcome", role
+
+    for args, check in ((("--token", "s3cret"), on_loopback),
+                        (("--token", "s3cret", "--bind", "0.0.0.0"), beyond_loopback)):
+        s = SafeState(tmp_path, args=args)
+        try:
+            run(check(s))
+        finally:
+            assert s.stop() == 0, s.output()
+
+
 def test_t1_jog_moves_the_arm_and_jog_stop_stops_it(cell):
     async def main():
         p = await booted(cell)
         await to_t1_manual_idle(p)
         before = (await p.status())["joints"]
         stop = asyncio.Event()
-        jogger = asyncio.get_running_loop().create_task(keep_jogging(p, stop))
+        jogger = asyncio.get_running_loop().create_task(keep_jogging(p, stop, then="jog_stop"))
         try:
             s = await p.state("OPERATIONAL", "MANUAL_JOGGING")
             assert s["owner"] == "pendant" and s["mode"] == "T1"
@@ -423,8 +460,9 @@ def test_t1_jog_moves_the_arm_and_jog_stop_stops_it(cell):
             assert moved["tcp_speed"] <= 250.0
         finally:
             stop.set()
-            await jogger
-        assert await p.command("jog_stop") == "OK"
+            seq = await jogger
+        reply = await p.wait_for(lambda m: m["type"] == "reply" and m["seq"] == seq, what="the jog_stop reply")
+        assert reply["result"] == "OK"
         await p.state("OPERATIONAL", "MANUAL_IDLE")
         s = await p.status()
         assert "JOG_LINK_LOST" not in s["alarms"]

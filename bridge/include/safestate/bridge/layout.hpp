@@ -226,7 +226,7 @@ struct SeqLock {
         buf[i] = words[i].load(std::memory_order_acquire);
       }
       if (seq.load(std::memory_order_relaxed) == s1) {
-        std::memcpy(&out, buf.data(), sizeof(T));
+        std::memcpy(static_cast<void*>(&out), buf.data(), sizeof(T));
         return true;
       }
     }

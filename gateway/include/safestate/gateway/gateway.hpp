@@ -19,10 +19,11 @@ struct GatewayOptions {
   std::string version;     // shown as "safestate <version>" in `welcome`
 };
 
-// Runs until SIGTERM/SIGINT (exit 0), or until the core is gone (exit 0 when it shut
-// down, 1 when its process died). Exits 1 at once, with a message on stderr, when the
-// segment cannot be attached within a few seconds, the event log cannot be opened or
-// the port cannot be bound.
+// Runs until SIGTERM/SIGINT (exit 0, after logging what the core said last), or until
+// the core's process has died (exit 1). A core that is shutting down is still served:
+// `safestate run` sends SIGTERM once its final Cat 1 stop is over. Exits 1 at once,
+// with a message on stderr, when the segment cannot be attached within a few seconds,
+// the event log cannot be opened or the port cannot be bound.
 int gateway_main(const GatewayOptions& options);
 
 }  // namespace safestate::gateway

@@ -64,8 +64,6 @@ struct HttpAnswer {
   std::string body;
 };
 
-enum class CoreLiveness { running, shut_down, gone };
-
 class Hub {
  public:
   Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, bool loopback_bind);
@@ -81,10 +79,14 @@ class Hub {
   void poll();
   // The status message to every client that said hello (50 Hz).
   void broadcast_status();
+  // At exit: every reply and event still in the rings, without waiting for black-box
+  // cycles (missing ones are marked).
+  void flush();
   // GET `target` (path and query).
   HttpAnswer http_get(std::string_view target);
 
-  [[nodiscard]] CoreLiveness core_liveness() const;
+  // The core's process has died (SIGKILL, crash): the gateway has nothing to serve.
+  [[nodiscard]] bool core_gone() const;
   [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
 
  private:
@@ -146,6 +148,8 @@ class Hub {
   std::array<std::uint64_t, core::kResultCount> commands_by_result_{};
   std::uint64_t events_stored_ = 0;
   std::string robot_;  // GET /api/robot never changes
+  int parent_at_start_ = 0;
+  bool flushing_ = false;
 };
 
 }  // namespace safestate::gateway

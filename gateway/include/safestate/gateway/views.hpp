@@ -22,6 +22,7 @@ struct StatusExtras {
   double core_heartbeat_age_ms = 0.0;  // wall time since the core heartbeat last advanced
   std::uint32_t core_pid = 0;
   std::uint32_t gateway_pid = 0;
+  bool shutting_down = false;  // header().shutting_down: the core is stopping for good
 };
 
 // The `status` message (with_type) or GET /api/status (without).

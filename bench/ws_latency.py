@@ -1,0 +1,95 @@
+#!/usr/bin/env python3
+"""Command round trip and status latency through gateway and core, on loopback.
+
+Starts `safestate run` on a free port and measures, as a client sees it:
+  - round trip: WebSocket `command` -> gateway -> shared memory -> core cycle -> reply;
+  - status latency: a `sim` input change -> the first `status` message that shows it
+    (includes waiting for the next core cycle and the gateway's 50 Hz status push).
+Prints p50/p99/max in milliseconds. A measurement, not a test: nothing is asserted.
+"""
+import argparse
+import asyncio
+import json
+import os
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+import websockets
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def pct(xs, p):
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(p / 100.0 * (len(xs) - 1))))]
+
+
+def summary(name, xs):
+    return (f"{name:<34} n={len(xs):5d}  p50 {pct(xs, 50):7.3f} ms  p99 {pct(xs, 99):7.3f} ms"
+            f"  max {max(xs):7.3f} ms  mean {statistics.fmean(xs):7.3f} ms")
+
+
+async def measure(port, n_cmd, n_status):
+    async with websockets.connect(f"ws://127.0.0.1:{port}/ws", max_size=2**20) as ws:
+        await ws.send(json.dumps({"type": "hello", "role": "pendant", "client": "bench"}))
+        async def next_of(kind, pred=lambda m: True):
+            while True:
+                m = json.loads(await ws.recv())
+                if m.get("type") == kind and pred(m):
+                    return m
+        await next_of("welcome")
+        rtt = []
+        for seq in range(1, n_cmd + 1):
+            t0 = time.perf_counter()
+            # `set_mode` is always answered (MODE_BY_SELECTOR_ONLY) and changes nothing.
+            await ws.send(json.dumps({"type": "command", "seq": seq, "cmd": "set_mode", "mode": "T1"}))
+            await next_of("reply", lambda m, s=seq: m.get("seq") == s)
+            rtt.append((time.perf_counter() - t0) * 1000.0)
+        lat = []
+        mode = "AUTO"
+        for seq in range(2 * 10**6, 2 * 10**6 + n_status):
+            mode = "T1" if mode == "AUTO" else "AUTO"
+            t0 = time.perf_counter()
+            await ws.send(json.dumps({"type": "sim", "seq": seq, "set": {"mode": mode}}))
+            await next_of("status", lambda m, md=mode: m.get("mode") == md)
+            lat.append((time.perf_counter() - t0) * 1000.0)
+        return rtt, lat
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
+    ap.add_argument("--commands", type=int, default=2000)
+    ap.add_argument("--status", type=int, default=300)
+    a = ap.parse_args()
+    port = free_port()
+    with tempfile.TemporaryDirectory() as d:
+        proc = subprocess.Popen([a.bin, "run", "--port", str(port), "--db", os.path.join(d, "ev.db")],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            for _ in range(200):
+                try:
+                    urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=1).read()
+                    break
+                except OSError:
+                    time.sleep(0.05)
+            rtt, lat = asyncio.run(measure(port, a.commands, a.status))
+        finally:
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=15)
+    print(summary("command round trip (WS->core->WS)", rtt))
+    print(summary("input change -> status message", lat))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
