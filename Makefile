@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-tsan docs embedded run demo bench clean deps
+.PHONY: build test test-asan test-tsan docs embedded run demo bench clean deps
 
 deps:
 	@$(DEPS) build
@@ -30,6 +30,13 @@ $(VENV)/.stamp: tests/integration/requirements.txt
 test: build $(VENV)/.stamp
 	@$(DEPS) embedded
 	ctest --preset default
+
+# AddressSanitizer + UndefinedBehaviorSanitizer over the whole suite.
+test-asan: deps $(VENV)/.stamp
+	@$(DEPS) embedded
+	cmake --preset asan
+	cmake --build --preset asan
+	ctest --preset asan
 
 # ThreadSanitizer over the bridge, rings and runtime threads.
 test-tsan: deps
@@ -60,4 +67,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan $(VENV)
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan $(VENV)

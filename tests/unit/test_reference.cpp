@@ -1,0 +1,251 @@
+// Differential test: the table-driven SystemStateManager against the independent
+// reference implementation (tools/reference), cycle by cycle, over long random but
+// realistic histories. Any difference in state, sub-state, stop category, outputs,
+// alarms or command results fails with the cycle and the history that led to it.
+#include <random>
+#include <sstream>
+
+#include "../../tools/reference/reference.hpp"
+#include "bench.hpp"
+
+using namespace safestate::test;
+namespace ref = safestate::reference;
+
+namespace {
+
+struct Harness {
+  explicit Harness(std::uint32_t seed) : rng(seed) {}
+  std::mt19937 rng;
+  Timing timing = to_timing(Config{});
+  SignalLayer signals;
+  SystemStateManager core{timing};
+  ref::Supervisor reference{timing};
+  Plant plant;
+  RawInputs raw{};
+  Feedback fb{};
+  SupervisorOut out{};
+  ref::Out rout{};
+  std::uint32_t seq = 0;
+  std::ostringstream log;  // what was done, for the failure message
+
+  bool chance(int per_mille) { return static_cast<int>(rng() % 1000U) < per_mille; }
+
+  void perturb(Cycle t) {
+    // Inputs change rarely and mostly both channels together; sometimes one channel
+    // alone (discrepancy, blink), so that every rule is met but the cell also runs.
+    if (chance(1)) { raw.estop_a = raw.estop_b = !raw.estop_a; log << t << ":estop " << raw.estop_a << "\n"; }
+    if (chance(!raw.estop_a ? 30 : 0)) { raw.estop_a = raw.estop_b = true; log << t << ":estop release\n"; }
+    if (rare(3)) { raw.estop_b = !raw.estop_b; log << t << ":estop.b " << raw.estop_b << "\n"; }
+    if (chance(1)) { raw.gate_a = raw.gate_b = !raw.gate_a; log << t << ":gate " << raw.gate_a << "\n"; }
+    if (chance(!raw.gate_a ? 20 : 0)) { raw.gate_a = raw.gate_b = true; log << t << ":gate closed\n"; }
+    if (rare(3)) { raw.gate_a = !raw.gate_a; log << t << ":gate.a " << raw.gate_a << "\n"; }
+    const bool manual = raw.mode_t1 || raw.mode_t2;
+    if (chance(manual ? 2 : 10)) { raw.enable_a = raw.enable_b = !raw.enable_a; raw.enable_panic = false; log << t << ":enable " << raw.enable_a << "\n"; }
+    if (rare(5)) { raw.enable_panic = !raw.enable_panic; log << t << ":panic " << raw.enable_panic << "\n"; }
+    if (rare(2)) { raw.enable_b = !raw.enable_b; log << t << ":enable.b " << raw.enable_b << "\n"; }
+    if (chance(1)) {
+      const auto m = rng() % 10U;  // mostly a valid position, sometimes none or two
+      raw.mode_auto = m < 4U || m == 9U;
+      raw.mode_t1 = (m >= 4U && m < 7U) || m == 9U;
+      raw.mode_t2 = m == 7U;
+      log << t << ":mode " << m << "\n";
+    }
+    if (t < button_held_until) {
+      raw.reset_button = true;  // an episode: the button held (or stuck) for more than 5 s
+    } else if (rare(20)) {
+      button_held_until = t + 5200U;
+      log << t << ":button held\n";
+    } else if (chance(3)) {
+      raw.reset_button = !raw.reset_button;
+      log << t << ":button " << raw.reset_button << "\n";
+    }
+    // Plant faults and measurements.
+    if (rare(10)) { const auto i = rng() % 6U; plant.drive_fault[i] = !plant.drive_fault[i]; log << t << ":drivefault " << i << "\n"; }
+    if (rare(1)) { plant.fieldbus = !plant.fieldbus; log << t << ":fieldbus " << plant.fieldbus << "\n"; }
+    if (fieldbus_down_until > 0U) { plant.fieldbus = t >= fieldbus_down_until; }
+    if (rare(5)) { plant.contactor_stuck_open = !plant.contactor_stuck_open; }
+    if (rare(5)) { const auto i = rng() % 6U; plant.brake_stuck[i] = !plant.brake_stuck[i]; }
+    if (rare(10)) { const auto i = rng() % 6U; plant.drive_nostop[i] = !plant.drive_nostop[i]; }
+    const bool moving = out.motion.mode == MotionMode::Program || out.motion.mode == MotionMode::Jog;
+    if (chance(moving ? 30 : 0)) { plant.vel[rng() % 6U] = static_cast<float>(rng() % 200U) / 100.0F - 1.0F; }
+    fb.integrity_ok = !rare(3);
+    if (chance(5)) { plant.point_speed = static_cast<float>(rng() % 300U); }
+    if (chance(2)) { plant.program_finished = !plant.program_finished; }
+    if (rare(20)) { plant.program_loaded = !plant.program_loaded; }
+  }
+
+  // Per 10^5: rarer than chance().
+  bool rare(int per_100k) { return static_cast<int>(rng() % 100000U) < per_100k; }
+
+  Command valid(CommandId id) {
+    Command c{};
+    c.seq = ++seq;
+    c.id = static_cast<std::uint8_t>(id);
+    c.source = static_cast<std::uint8_t>(chance(900) ? Source::pendant : (chance(500) ? Source::remote : Source::observer));
+    c.axis = static_cast<std::int8_t>(1U + rng() % 6U);
+    c.dir = chance(500) ? 1 : -1;
+    c.speed = static_cast<std::uint8_t>(1U + rng() % 100U);
+    c.mode = static_cast<std::uint8_t>(1U + rng() % 3U);
+    return c;
+  }
+
+  std::size_t commands(std::array<Command, 16>& cmds, Cycle t) {
+    std::size_t n = 0;
+    if (t >= link_lost_until && rare(200)) {
+      link_lost_until = t + 150U;  // an episode: the pendant's link drops for 150 ms
+    }
+    if (out.sub == Sub::MANUAL_JOGGING && t % 40U == 0U && t >= link_lost_until) {
+      cmds[n++] = valid(CommandId::jog);  // the pendant's keep-alive, usually on time
+    }
+    const int k = chance(25) ? 1 + static_cast<int>(rng() % 2U) : 0;
+    for (int i = 0; i < k; ++i) {
+      Command c = valid(static_cast<CommandId>(rng() % kCommandCount));
+      if (chance(30)) {  // malformed now and then
+        c.id = static_cast<std::uint8_t>(rng() % (kCommandCount + 2U));
+        c.source = static_cast<std::uint8_t>(rng() % (kSourceCount + 1U));
+        c.axis = static_cast<std::int8_t>(rng() % 9U);
+        c.dir = static_cast<std::int8_t>(static_cast<int>(rng() % 3U) - 1);
+        c.speed = static_cast<std::uint8_t>(rng() % 102U);
+        c.mode = static_cast<std::uint8_t>(rng() % 5U);
+      }
+      log << t << ":cmd " << static_cast<int>(c.id) << " src " << static_cast<int>(c.source) << "\n";
+      cmds[n++] = c;
+    }
+    return n;
+  }
+
+  Cycle button_held_until = 0;
+  Cycle link_lost_until = 0;
+  Cycle fieldbus_down_until = 0;  // > 0: the bus is down until then (boot failure episode)
+  Cycle locked_since = 0;
+
+  // After a lockout only a power cycle helps: restart everything, keep the history going.
+  void power_cycle(Cycle t) {
+    signals = SignalLayer{};
+    core = SystemStateManager{timing};
+    reference = ref::Supervisor{ref_timing};
+    plant = Plant{};
+    raw = RawInputs{};
+    fb = Feedback{};
+    out = SupervisorOut{};
+    fieldbus_down_until = 0;
+    button_held_until = 0;
+    log << t << ":power cycle\n";
+  }
+  Timing ref_timing = timing;
+
+  std::array<long, kStateCount> state_cycles{};
+  std::array<long, 7> sub_cycles{};
+  std::array<long, kAlarmCount> alarm_cycles{};
+  std::array<long, kResultCount> results{};
+
+  // Returns an empty string when both agree for `cycles`, else what differed.
+  std::string run(Cycle cycles) {
+    std::array<Command, 16> cmds{};
+    Cycle local = 0;  // cycles since the last power cycle: the supervisors count from 0
+    for (Cycle t = 0; t < cycles; ++t, ++local) {
+      if (out.state == State::ERROR_LOCKOUT) {
+        if (locked_since == 0U) locked_since = t;
+        if (t - locked_since > 300U) {
+          power_cycle(t);
+          locked_since = 0;
+          local = 0;
+        }
+      }
+      perturb(t);
+      signals.update(raw, local, timing);
+      plant.fill(fb);
+      const std::size_t n = commands(cmds, t);
+      const std::size_t a = core.step(signals.inputs(), fb, cmds.data(), n, out);
+      const std::size_t b = reference.step(signals.inputs(), fb, cmds.data(), n, rout);
+      std::ostringstream d;
+      if (a != b) d << " taken " << a << "/" << b;
+      if (out.state != rout.state) d << " state " << to_string(out.state) << "/" << to_string(rout.state);
+      if (out.sub != rout.sub) d << " sub " << to_string(out.sub) << "/" << to_string(rout.sub);
+      if (out.stop != rout.stop) d << " stop " << to_string(out.stop) << "/" << to_string(rout.stop);
+      if (out.contactor != rout.contactor) d << " contactor";
+      if (out.drives_enable != rout.drives) d << " drives";
+      if (out.brakes_release != rout.brakes_release) d << " brakes";
+      if (out.reset_lamp != rout.reset_lamp) d << " lamp";
+      if (out.motion.fault_reset != rout.fault_reset) d << " fault_reset";
+      if (out.alarms != rout.alarms) d << " alarms " << std::hex << out.alarms << "/" << rout.alarms << std::dec;
+      if (out.reply_count != rout.reply_count) {
+        d << " replies " << static_cast<int>(out.reply_count) << "/" << static_cast<int>(rout.reply_count);
+      } else {
+        for (std::size_t i = 0; i < out.reply_count; ++i) {
+          const Reply& x = out.replies[i];
+          const Reply& y = rout.replies[i];
+          if (x.seq != y.seq || x.result != y.result || x.cmd != y.cmd || x.source != y.source) {
+            d << " reply#" << i << " seq " << x.seq << "/" << y.seq << " " << to_string(x.result) << "/"
+              << to_string(y.result) << " cmd " << static_cast<int>(x.cmd);
+          }
+        }
+      }
+      if (!d.str().empty()) {
+        std::ostringstream msg;
+        msg << "cycle " << t << " (core/reference):" << d.str();
+        return msg.str();
+      }
+      ++state_cycles[static_cast<std::size_t>(out.state)];
+      ++sub_cycles[static_cast<std::size_t>(out.sub)];
+      for (std::size_t i = 0; i < kAlarmCount; ++i) alarm_cycles[i] += (out.alarms >> i) & 1U;
+      for (std::size_t i = 0; i < out.reply_count; ++i) ++results[static_cast<std::size_t>(out.replies[i].result)];
+      plant.follow(out);
+    }
+    return {};
+  }
+};
+
+std::string tail(const std::string& s, std::size_t lines) {
+  std::size_t pos = s.size();
+  for (std::size_t i = 0; i <= lines && pos != std::string::npos && pos > 0; ++i) {
+    pos = s.rfind('\n', pos - 1);
+  }
+  return (pos == std::string::npos) ? s : s.substr(pos + 1);
+}
+
+}  // namespace
+
+TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
+  constexpr int kSeeds = 40;
+  constexpr Cycle kCycles = 30000;
+  std::array<long, kStateCount> states{};
+  std::array<long, 7> subs{};
+  std::array<long, kAlarmCount> alarms{};
+  std::array<long, kResultCount> results{};
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    Harness h(static_cast<std::uint32_t>(seed));
+    if (seed % 8 == 0) {
+      h.fieldbus_down_until = 3500;  // the bus never comes up in time: BOOT_FAILED
+    }
+    const std::string diff = h.run(kCycles);
+    ASSERT_TRUE(diff.empty()) << "seed " << seed << ": " << diff << "\nlast events:\n" << tail(h.log.str(), 25);
+    for (std::size_t i = 0; i < states.size(); ++i) states[i] += h.state_cycles[i];
+    for (std::size_t i = 0; i < subs.size(); ++i) subs[i] += h.sub_cycles[i];
+    for (std::size_t i = 0; i < alarms.size(); ++i) alarms[i] += h.alarm_cycles[i];
+    for (std::size_t i = 0; i < results.size(); ++i) results[i] += h.results[i];
+  }
+  // The comparison means something only if the histories went everywhere.
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    EXPECT_GT(states[i], 100) << "state never reached: " << to_string(static_cast<State>(i));
+  }
+  for (std::size_t i = 1; i < subs.size(); ++i) {
+    EXPECT_GT(subs[i], 100) << "sub-state never reached: " << to_string(static_cast<Sub>(i));
+  }
+  for (std::size_t i = 0; i < alarms.size(); ++i) {
+    EXPECT_GT(alarms[i], 0) << "alarm never raised: " << to_string(static_cast<AlarmId>(i));
+  }
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    if (static_cast<Result>(i) == Result::QUEUE_FULL) continue;
+    EXPECT_GT(results[i], 0) << "result never given: " << to_string(static_cast<Result>(i));
+  }
+}
+
+TEST(Differential, TheComparisonCanFail) {
+  // A reference with other timeouts must disagree: the harness compares what it claims.
+  Harness h(7);
+  h.ref_timing.jog_timeout = 30;
+  h.ref_timing.max_stop = 50;
+  h.reference = ref::Supervisor{h.ref_timing};
+  EXPECT_FALSE(h.run(300000).empty());
+}

@@ -1,0 +1,490 @@
+// Reference supervisor: SPEC.md §3-§5 as one switch per concern, read top to bottom.
+#include "reference.hpp"
+
+#include "safestate/core/cia402.hpp"
+
+namespace safestate::reference {
+
+using core::AlarmId;
+using core::CommandId;
+using core::Mode;
+using core::Result;
+using core::StopCat;
+using core::Sub;
+namespace c402 = core::cia402;
+
+namespace {
+bool manual(Mode m) { return m == Mode::T1 || m == Mode::T2; }
+}  // namespace
+
+void Supervisor::raise(AlarmId a) noexcept {
+  if (!has(a)) {
+    alarms_ |= core::bit(a);
+    since_[static_cast<std::size_t>(a)] = now_;
+  }
+}
+
+void Supervisor::drop(AlarmId a) noexcept { alarms_ &= ~core::bit(a); }
+
+bool Supervisor::drives_faulted(const core::Feedback& fb) const noexcept {
+  for (const core::DriveFeedback& d : fb.drive) {
+    if (d.online && c402::is_fault(c402::decode(d.statusword))) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool Supervisor::drive_fault_condition(const core::Feedback& fb) const noexcept {
+  const bool expect_enabled = st_ == St::OP || st_ == St::STOPPING || (st_ == St::ARMING && arming_step_ == 2);
+  for (const core::DriveFeedback& d : fb.drive) {
+    if (!d.online) {
+      continue;
+    }
+    const c402::DriveState ds = c402::decode(d.statusword);
+    if (c402::is_fault(ds)) {
+      return true;
+    }
+    const bool commanded_quick_stop =
+        st_ == St::STOPPING && stop_cat_ == StopCat::CAT1 && ds == c402::DriveState::QuickStopActive;
+    if (expect_enabled && ds != c402::DriveState::OperationEnabled && !commanded_quick_stop) {
+      return true;
+    }
+  }
+  return expect_enabled && fb.following_error_axis != 0U;
+}
+
+void Supervisor::go(St s, Sub sub) noexcept {
+  const bool resettable_before = st_ == St::ESTOP_RESET || st_ == St::IDLE;
+  const bool resettable_after = s == St::ESTOP_RESET || s == St::IDLE;
+  if (resettable_after && !resettable_before) {
+    resettable_since_ = now_;
+  }
+  if (pending_reset_ && s != St::IDLE) {
+    pending_reset_ = false;
+    // answered by the caller through `leave_answer_`: see step()
+  }
+  st_ = s;
+  sub_ = (s == St::OP) ? sub : Sub::NONE;
+}
+
+void Supervisor::cat0_to(St s) noexcept {
+  if (s != st_) {
+    cat0_now_ = true;
+  }
+  go(s);
+}
+
+void Supervisor::stop_to(StopCat cat, St target, Sub target_sub) noexcept {
+  if (st_ != St::STOPPING) {
+    stop_elapsed_ = 0;
+  }
+  braking_ = false;
+  brake_elapsed_ = 0;
+  stop_cat_ = cat;
+  stop_target_ = target;
+  stop_target_sub_ = target_sub;
+  st_ = St::STOPPING;
+  sub_ = Sub::NONE;
+}
+
+void Supervisor::answer(Out& out, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept {
+  if (out.reply_count < out.replies.size()) {
+    out.replies[out.reply_count++] = core::Reply{seq, id, src, r};
+  }
+  if (r == Result::OK) {  // until the next command answered OK
+    for (AlarmId a : {AlarmId::MODE_CHANGED, AlarmId::ENABLING_PANIC, AlarmId::JOG_LINK_LOST}) {
+      if (has(a) && since_[static_cast<std::size_t>(a)] < now_) {
+        drop(a);
+      }
+    }
+  }
+}
+
+void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
+  static_cast<void>(out);
+  const St s0 = st_;
+  const bool op_or_cat2 = s0 == St::OP || (s0 == St::STOPPING && stop_cat_ == StopCat::CAT2);
+  bool done = false;
+
+  // Rule 1: lockout, from any state.
+  bool r1 = false;
+  if (in.estop_discrepancy) { raise(AlarmId::ESTOP_DISCREPANCY); r1 = true; }
+  if (in.gate_discrepancy) { raise(AlarmId::GATE_DISCREPANCY); r1 = true; }
+  if (in.enable_discrepancy) { raise(AlarmId::ENABLE_DISCREPANCY); r1 = true; }
+  bool offline = false;
+  for (const core::DriveFeedback& d : fb.drive) offline = offline || !d.online;
+  if (!boot_pending_ && (!fb.fieldbus_ok || offline)) { raise(AlarmId::FIELDBUS_LOST); r1 = true; }
+  if (!fb.integrity_ok) { raise(AlarmId::INTEGRITY_FAULT); r1 = true; }
+  if (boot_pending_ && now_ > t_.boot_timeout) { raise(AlarmId::BOOT_FAILED); r1 = true; }
+  if (r1) {
+    done = true;
+    cat0_to(St::LOCKOUT);
+  }
+
+  // Rule 2: E-stop, from any state but lockout.
+  if (s0 != St::LOCKOUT && in.estop_pressed) {
+    raise(AlarmId::ESTOP_PRESSED);
+    if (!done) {
+      done = true;
+      cat0_to(St::ESTOP);
+    }
+  }
+
+  const bool powered = s0 == St::ARMING || s0 == St::OP || s0 == St::STOPPING;
+  // Rule 3: drive fault, T1 speed, stop time.
+  if (powered) {
+    bool r3 = false;
+    if (drive_fault_condition(fb)) { raise(AlarmId::DRIVE_FAULT); r3 = true; }
+    if (in.mode == Mode::T1 && armed_mode_ == Mode::T1 && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) {
+      raise(AlarmId::T1_SPEED_EXCEEDED);
+      r3 = true;
+    }
+    if (s0 == St::STOPPING && !braking_ && stop_elapsed_ > t_.max_stop) { raise(AlarmId::STOP_TIME_EXCEEDED); r3 = true; }
+    if (r3 && !done) {
+      done = true;
+      cat0_to(St::IDLE);
+    }
+  }
+  // Rule 4 / 4b: guard open in AUTO.
+  if ((op_or_cat2 || s0 == St::ARMING) && in.gate_open && in.mode == Mode::AUTO) {
+    raise(AlarmId::PROTECTIVE_STOP);
+    if (!done) {
+      done = true;
+      if (s0 == St::ARMING) cat0_to(St::IDLE); else stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+    }
+  }
+  // Rule 5 / 5b: enabling device not at centre in T1/T2.
+  if ((op_or_cat2 || s0 == St::ARMING) && manual(in.mode) && !in.enable_ok) {
+    if (in.enable == core::EnablePos::panic) raise(AlarmId::ENABLING_PANIC);
+    if (!done) {
+      done = true;
+      if (s0 == St::ARMING) cat0_to(St::IDLE); else stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+    }
+  }
+  // Rule 6: mode changed.
+  if ((op_or_cat2 || s0 == St::ARMING) && in.mode_changed) {
+    raise(AlarmId::MODE_CHANGED);
+    if (!done) {
+      done = true;
+      if (s0 == St::ARMING) cat0_to(St::IDLE); else stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+    }
+  }
+  // Rule 7: jog keep-alive lost.
+  if (s0 == St::OP && sub_ == Sub::MANUAL_JOGGING && (now_ - last_jog_) > t_.jog_timeout) {
+    raise(AlarmId::JOG_LINK_LOST);
+    if (!done) {
+      done = true;
+      stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE);
+    }
+  }
+  changed_ = done;
+}
+
+void Supervisor::events(const core::SafetyInputs& in, const core::Feedback& fb) noexcept {
+  switch (st_) {
+    case St::BOOT:
+      if (!boot_pending_) go(St::ESTOP_RESET);
+      break;
+    case St::ESTOP:
+      if (!in.estop_pressed) go(St::ESTOP_RESET);
+      break;
+    case St::ARMING: {
+      bool done = true;
+      core::Cycle limit = t_.contactor_timeout;
+      if (arming_step_ == 0) {
+        done = fb.contactor_closed;
+      } else if (arming_step_ == 1) {
+        limit = t_.drives_timeout;
+        for (const core::DriveFeedback& d : fb.drive) done = done && c402::decode(d.statusword) == c402::DriveState::OperationEnabled;
+      } else {
+        limit = t_.brakes_timeout;
+        for (bool b : fb.brake_released) done = done && b;
+      }
+      if (done && arming_step_ == 2) {
+        go(St::OP, in.mode == Mode::AUTO ? Sub::AUTO_IDLE : Sub::MANUAL_IDLE);
+      } else if (done) {
+        ++arming_step_;
+        arming_elapsed_ = 0;
+      } else if (arming_elapsed_ > limit) {
+        raise(AlarmId::ARMING_TIMEOUT);
+        cat0_to(St::IDLE);
+      }
+      break;
+    }
+    case St::OP:
+      if (fb.program_finished && sub_ == Sub::AUTO_RUNNING) {
+        go(St::OP, Sub::AUTO_IDLE);
+      } else if (fb.program_finished && sub_ == Sub::MANUAL_RUNNING) {
+        stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE);
+      }
+      break;
+    case St::STOPPING:
+      if (!braking_) {
+        if (standstill()) {
+          if (stop_cat_ == StopCat::CAT2) {
+            go(stop_target_, stop_target_sub_);
+          } else {
+            braking_ = true;  // Cat 1: brakes first, then power off
+            brake_elapsed_ = 0;
+          }
+        }
+      } else {
+        bool engaged = true;
+        for (bool b : fb.brake_released) engaged = engaged && !b;
+        if (engaged || brake_elapsed_ > t_.brakes_timeout) go(stop_target_, stop_target_sub_);
+      }
+      break;
+    default:
+      break;
+  }
+}
+
+Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command& c,
+                           bool& deferred) noexcept {
+  deferred = false;
+  if (c.id >= core::kCommandCount) return Result::UNKNOWN_COMMAND;
+  if (c.source >= core::kSourceCount) return Result::BAD_ARGUMENT;
+  const auto id = static_cast<CommandId>(c.id);
+  const auto src = static_cast<core::Source>(c.source);
+  if (id == CommandId::jog && (c.axis < 1 || c.axis > 6 || (c.dir != 1 && c.dir != -1) || c.speed < 1 || c.speed > 100)) {
+    return Result::BAD_ARGUMENT;
+  }
+  if (id == CommandId::set_mode && (c.mode < 1 || c.mode > 3)) return Result::BAD_ARGUMENT;
+  if (st_ == St::LOCKOUT) return Result::LOCKED_OUT;
+  if (src == core::Source::observer) return Result::NOT_CONTROL_OWNER;
+  if (src == core::Source::remote && (id == CommandId::reset || in.mode != Mode::AUTO)) return Result::NOT_CONTROL_OWNER;
+  if (src == core::Source::reset_button && id != CommandId::reset) return Result::NOT_CONTROL_OWNER;
+  if (id == CommandId::set_mode) return Result::MODE_BY_SELECTOR_ONLY;
+
+  const bool jog_in_auto = id == CommandId::jog && in.mode == Mode::AUTO;
+  const auto confirm = [&] {
+    if (in.mode != Mode::T2) return Result::MODE_INVALID;
+    t2_ok_ = true;
+    return Result::OK;
+  };
+  switch (st_) {
+    case St::ESTOP:
+      return Result::ESTOP_ACTIVE;
+    case St::BOOT:
+      return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
+    case St::ESTOP_RESET:
+      if (id != CommandId::reset) return Result::RESET_REQUIRED;
+      if (boot_pending_) return Result::BUSY;
+      go(St::IDLE);
+      return Result::OK;
+    case St::IDLE:
+      switch (id) {
+        case CommandId::reset: {
+          if (pending_reset_) return Result::BUSY;
+          if (has(AlarmId::PROTECTIVE_STOP) && in.gate_open && in.mode == Mode::AUTO) return Result::FAULT_PRESENT;
+          if (has(AlarmId::T1_SPEED_EXCEEDED) && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) return Result::FAULT_PRESENT;
+          if (has(AlarmId::STOP_TIME_EXCEEDED) && !standstill()) return Result::FAULT_PRESENT;
+          if (drives_faulted(fb)) {
+            pending_reset_ = true;
+            pending_since_ = now_;
+            pending_seq_ = c.seq;
+            pending_src_ = c.source;
+            deferred = true;
+            return Result::OK;
+          }
+          alarms_ &= ~core::kLatchedAlarms;
+          return Result::OK;
+        }
+        case CommandId::servo_on:
+          if ((alarms_ & core::kLatchedAlarms) != 0U || pending_reset_) return Result::RESET_REQUIRED;
+          if (in.mode == Mode::NONE) return Result::MODE_INVALID;
+          if (in.mode == Mode::AUTO && in.gate_open) return Result::GATE_OPEN;
+          if (manual(in.mode) && !in.enable_ok) return Result::ENABLING_NOT_HELD;
+          if (in.mode == Mode::T2 && !t2_ok_) return Result::T2_NOT_CONFIRMED;
+          armed_mode_ = in.mode;
+          arming_step_ = 0;
+          arming_elapsed_ = 0;
+          go(St::ARMING);
+          return Result::OK;
+        case CommandId::confirm_t2:
+          return confirm();
+        default:
+          return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
+      }
+    case St::ARMING:
+      if (id == CommandId::servo_off) {
+        cat0_to(St::IDLE);
+        return Result::OK;
+      }
+      if (id == CommandId::confirm_t2) return confirm();
+      return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::BUSY;
+    case St::STOPPING:
+      if (id == CommandId::servo_off && stop_cat_ == StopCat::CAT2) {
+        stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+        return Result::OK;
+      }
+      if (id == CommandId::confirm_t2) return confirm();
+      return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::BUSY;
+    case St::OP:
+      break;
+    case St::LOCKOUT:
+      return Result::LOCKED_OUT;
+  }
+  // OPERATIONAL, by command then by sub-state.
+  switch (id) {
+    case CommandId::reset:
+      return Result::OK;
+    case CommandId::servo_off:
+      stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+      return Result::OK;
+    case CommandId::confirm_t2:
+      return confirm();
+    case CommandId::start:
+      if (sub_ == Sub::AUTO_IDLE) {
+        if (in.gate_open) return Result::GATE_OPEN;
+        if (!fb.program_loaded) return Result::NO_PROGRAM;
+        go(St::OP, Sub::AUTO_RUNNING);
+        return Result::OK;
+      }
+      if (sub_ == Sub::MANUAL_IDLE) {
+        if (!in.enable_ok) return Result::ENABLING_NOT_HELD;
+        if (!fb.program_loaded) return Result::NO_PROGRAM;
+        go(St::OP, Sub::MANUAL_RUNNING);
+        return Result::OK;
+      }
+      break;
+    case CommandId::pause:
+      if (sub_ == Sub::AUTO_RUNNING) { stop_to(StopCat::CAT2, St::OP, Sub::AUTO_PAUSED); return Result::OK; }
+      if (sub_ == Sub::MANUAL_RUNNING) { stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE); return Result::OK; }
+      break;
+    case CommandId::stop:
+      if (sub_ == Sub::AUTO_RUNNING) { stop_to(StopCat::CAT2, St::OP, Sub::AUTO_IDLE); return Result::OK; }
+      if (sub_ == Sub::AUTO_PAUSED) { go(St::OP, Sub::AUTO_IDLE); return Result::OK; }
+      if (sub_ == Sub::MANUAL_RUNNING) { stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE); return Result::OK; }
+      break;
+    case CommandId::resume:
+      if (sub_ == Sub::AUTO_PAUSED) {
+        if (in.gate_open) return Result::GATE_OPEN;
+        go(St::OP, Sub::AUTO_RUNNING);
+        return Result::OK;
+      }
+      break;
+    case CommandId::jog:
+      if (sub_ == Sub::MANUAL_IDLE || sub_ == Sub::MANUAL_JOGGING) {
+        if (!in.enable_ok) return Result::ENABLING_NOT_HELD;
+        last_jog_ = now_;
+        go(St::OP, Sub::MANUAL_JOGGING);
+        return Result::OK;
+      }
+      break;
+    case CommandId::jog_stop:
+      if (sub_ == Sub::MANUAL_JOGGING) { stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE); return Result::OK; }
+      break;
+    default:
+      break;
+  }
+  return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
+}
+
+void Supervisor::write(Out& out) const noexcept {
+  out.state = core::State::BOOT;
+  switch (st_) {
+    case St::BOOT: out.state = core::State::BOOT; break;
+    case St::LOCKOUT: out.state = core::State::ERROR_LOCKOUT; break;
+    case St::ESTOP: out.state = core::State::ESTOP_ACTIVE; break;
+    case St::ESTOP_RESET: out.state = core::State::ESTOP_RESET_NEEDED; break;
+    case St::IDLE: out.state = core::State::IDLE; break;
+    case St::ARMING: out.state = core::State::ARMING; break;
+    case St::OP: out.state = core::State::OPERATIONAL; break;
+    case St::STOPPING: out.state = core::State::STOPPING; break;
+  }
+  out.sub = (st_ == St::OP) ? sub_ : Sub::NONE;
+  out.stop = (st_ == St::STOPPING) ? stop_cat_ : (cat0_now_ ? StopCat::CAT0 : StopCat::NONE);
+  out.contactor = st_ == St::ARMING || st_ == St::OP || st_ == St::STOPPING;
+  out.drives = st_ == St::OP || st_ == St::STOPPING || (st_ == St::ARMING && arming_step_ >= 1);
+  out.brakes_release = st_ == St::OP || (st_ == St::STOPPING && !braking_) || (st_ == St::ARMING && arming_step_ == 2);
+  out.reset_lamp = st_ == St::ESTOP_RESET || (st_ == St::IDLE && ((alarms_ & core::kLatchedAlarms) != 0U || pending_reset_));
+  out.fault_reset = pending_reset_;
+  out.alarms = alarms_;
+}
+
+std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command* cmds,
+                             std::size_t n, Out& out) noexcept {
+  out.reply_count = 0;
+  cat0_now_ = false;
+
+  bool still = true;
+  for (const core::DriveFeedback& d : fb.drive) {
+    const float v = d.velocity_rad_s < 0.0F ? -d.velocity_rad_s : d.velocity_rad_s;
+    still = still && (v < t_.standstill_rad_s);
+  }
+  quiet_ = still ? (quiet_ < t_.standstill_cycles ? quiet_ + 1U : quiet_) : 0U;
+  if (in.mode_changed) t2_ok_ = false;
+  const AlarmId conds[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK};
+  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck};
+  for (int i = 0; i < 3; ++i) {
+    if (holds[i]) raise(conds[i]); else drop(conds[i]);
+  }
+  if (in.enable_panic_edge) raise(AlarmId::ENABLING_PANIC);
+  if (drives_faulted(fb) && st_ != St::BOOT) raise(AlarmId::DRIVE_FAULT);
+  if (boot_pending_) {
+    bool answered = fb.fieldbus_ok;
+    for (const core::DriveFeedback& d : fb.drive) {
+      const c402::DriveState ds = c402::decode(d.statusword);
+      answered = answered && d.online && ds != c402::DriveState::Unknown && ds != c402::DriveState::NotReadyToSwitchOn;
+    }
+    if (answered) boot_pending_ = false;
+  }
+  if (st_ == St::ARMING) ++arming_elapsed_;
+  if (st_ == St::STOPPING) {
+    ++stop_elapsed_;
+    if (braking_) ++brake_elapsed_;
+  }
+
+  const bool had_pending = pending_reset_;
+  conditions(in, fb, out);
+  if (!changed_) events(in, fb);
+  // A pending reset answered by leaving IDLE: the new state's refusal.
+  const auto refusal = [this] {
+    switch (st_) {
+      case St::LOCKOUT: return Result::LOCKED_OUT;
+      case St::ESTOP: return Result::ESTOP_ACTIVE;
+      case St::ESTOP_RESET: return Result::RESET_REQUIRED;
+      case St::ARMING:
+      case St::STOPPING: return Result::BUSY;
+      default: return Result::WRONG_STATE;
+    }
+  };
+  if (had_pending && !pending_reset_) {
+    answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, refusal());
+  }
+  if (pending_reset_) {
+    if (!drives_faulted(fb)) {
+      alarms_ &= ~core::kLatchedAlarms;
+      pending_reset_ = false;
+      answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::OK);
+    } else if (now_ - pending_since_ > t_.fault_reset_reply) {
+      pending_reset_ = false;
+      answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::FAULT_PRESENT);
+    }
+  }
+  const auto run = [&](const core::Command& c) {
+    const bool pending_before = pending_reset_;
+    bool deferred = false;
+    const Result r = command(in, fb, c, deferred);
+    if (pending_before && !pending_reset_ && !deferred) {
+      answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, refusal());
+    }
+    if (!deferred) answer(out, c.seq, c.id, c.source, r);
+  };
+  if (in.reset_released && in.reset_press_start > resettable_since_ && (st_ == St::ESTOP_RESET || st_ == St::IDLE)) {
+    core::Command c{};
+    c.id = static_cast<std::uint8_t>(CommandId::reset);
+    c.source = static_cast<std::uint8_t>(core::Source::reset_button);
+    run(c);
+  }
+  const std::size_t limit = t_.max_commands_per_cycle < 16U ? t_.max_commands_per_cycle : 16U;
+  const std::size_t taken = (cmds == nullptr) ? 0U : (n < limit ? n : limit);
+  for (std::size_t i = 0; i < taken; ++i) run(cmds[i]);
+  write(out);
+  ++now_;
+  return taken;
+}
+
+}  // namespace safestate::reference
