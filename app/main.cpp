@@ -8,6 +8,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "checker.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/scenario/scenario.hpp"
@@ -65,7 +66,19 @@ int main(int argc, char** argv) {
   gateway->add_option("--db", gw_opt.db_path, "SQLite event database")->required();
   gateway->add_option("--token", gw_opt.token, "token a pendant must present");
   gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
+  safestate::check::CheckOptions check_opt;
+  auto* check = app.add_subcommand("check", "explore every reachable state of the real core and check the invariants");
+  check->add_option("--depth", check_opt.max_depth, "actions from boot to explore")->check(CLI::Range(1, 64));
+  check->add_option("--max-configs", check_opt.max_configs, "stop beyond this many configurations");
+  check->add_option("--out", check_opt.out_dir, "folder for a counterexample .scn");
+  check->add_flag("-v,--verbose", check_opt.verbose, "print progress per depth");
+  check->add_flag("--break-invariant", check_opt.break_invariant,
+                  "test the checker: demand a wrong state after an E-stop (must find a counterexample)");
   CLI11_PARSE(app, argc, argv);
+  if (check->parsed()) {
+    safestate::check::CheckStats stats;
+    return safestate::check::check_main(check_opt, stats);
+  }
   if (gateway->parsed()) {
     return safestate::gateway::gateway_main(gw_opt);
   }

@@ -39,6 +39,7 @@ struct Cell::Impl {
   std::array<core::Command, core::kMaxCommandsPerCycle> batch{};
   CellView view{};
   core::Cycle now = 0;
+  std::size_t taken = 0;
 
   void update_view() noexcept {
     const motion::MotionController& m = controller.motion();
@@ -60,6 +61,7 @@ struct Cell::Impl {
     }
     view.contactor_closed = in.contactor_closed;
     view.fieldbus_ok = in.fieldbus_ok;
+    view.injected = plant.injected();
     view.program_index = m.program().index();
     view.program_length = m.program().count();
   }
@@ -67,6 +69,7 @@ struct Cell::Impl {
 
 Cell::Cell(const core::Config& cfg) : impl_(std::make_unique<Impl>(cfg)) {}
 Cell::~Cell() = default;
+Cell::Cell(const Cell& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
 
 core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
 void Cell::inject(const Fault& f) noexcept { impl_->plant.inject(f); }
@@ -76,7 +79,8 @@ void Cell::step() noexcept {
   Impl& s = *impl_;
   s.plant.read(s.in);
   const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
-  s.queue.pop(s.controller.step(s.in, s.batch.data(), n, s.out));
+  s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
+  s.queue.pop(s.taken);
   s.plant.write(s.out);
   s.update_view();
   ++s.now;
@@ -85,6 +89,12 @@ void Cell::step() noexcept {
 const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
 const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->in.safety; }
+const core::SafetyInputs& Cell::safety_inputs() const noexcept { return impl_->controller.supervisor().inputs(); }
+const core::Feedback& Cell::feedback() const noexcept { return impl_->controller.feedback(); }
+const core::Command* Cell::commands_taken(std::size_t& n) const noexcept {
+  n = impl_->taken;
+  return impl_->batch.data();
+}
 core::Leaf Cell::leaf() const noexcept { return impl_->controller.supervisor().manager().leaf(); }
 const core::AlarmSet& Cell::alarms() const noexcept { return impl_->controller.supervisor().manager().alarms(); }
 core::Cycle Cell::now() const noexcept { return impl_->now; }

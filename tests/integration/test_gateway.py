@@ -32,6 +32,9 @@ from websockets.exceptions import ConnectionClosed
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
+# Extra options for `safestate run`, e.g. a longer fieldbus watchdog for a sanitizer
+# build, which runs several times slower than the real thing.
+RUN_ARGS = os.environ.get("SAFESTATE_RUN_ARGS", "").split()
 
 STARTUP_TIMEOUT = 20.0
 STATE_TIMEOUT = 10.0
@@ -98,7 +101,7 @@ class SafeState:
         if not os.access(BIN, os.X_OK):
             pytest.fail(f"{BIN} not found or not executable (set SAFESTATE_BIN)")
         self.proc = subprocess.Popen(
-            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *args],
+            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS, *args],
             stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT))
         try:
             wait_until(lambda: self.proc.poll() is not None or try_status(self.port),

@@ -35,8 +35,8 @@ bool Supervisor::drives_faulted(const core::Feedback& fb) const noexcept {
   return false;
 }
 
-bool Supervisor::drive_fault_condition(const core::Feedback& fb) const noexcept {
-  const bool expect_enabled = st_ == St::OP || st_ == St::STOPPING || (st_ == St::ARMING && arming_step_ == 2);
+bool Supervisor::drive_fault_condition(const core::Feedback& fb, St s0, StopCat cat0, int step0) const noexcept {
+  const bool expect_enabled = s0 == St::OP || s0 == St::STOPPING || (s0 == St::ARMING && step0 == 2);
   for (const core::DriveFeedback& d : fb.drive) {
     if (!d.online) {
       continue;
@@ -46,7 +46,7 @@ bool Supervisor::drive_fault_condition(const core::Feedback& fb) const noexcept 
       return true;
     }
     const bool commanded_quick_stop =
-        st_ == St::STOPPING && stop_cat_ == StopCat::CAT1 && ds == c402::DriveState::QuickStopActive;
+        s0 == St::STOPPING && cat0 == StopCat::CAT1 && ds == c402::DriveState::QuickStopActive;
     if (expect_enabled && ds != c402::DriveState::OperationEnabled && !commanded_quick_stop) {
       return true;
     }
@@ -104,6 +104,10 @@ void Supervisor::answer(Out& out, std::uint32_t seq, std::uint8_t id, std::uint8
 void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
   static_cast<void>(out);
   const St s0 = st_;
+  const StopCat cat_at_start = stop_cat_;
+  const int step_at_start = arming_step_;
+  const bool ramping_at_start = !braking_;  // still ramping (not yet braking) when the cycle began
+  const core::Cycle stop_elapsed_at_start = stop_elapsed_;
   const bool op_or_cat2 = s0 == St::OP || (s0 == St::STOPPING && stop_cat_ == StopCat::CAT2);
   bool done = false;
 
@@ -135,12 +139,12 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   // Rule 3: drive fault, T1 speed, stop time.
   if (powered) {
     bool r3 = false;
-    if (drive_fault_condition(fb)) { raise(AlarmId::DRIVE_FAULT); r3 = true; }
+    if (drive_fault_condition(fb, s0, cat_at_start, step_at_start)) { raise(AlarmId::DRIVE_FAULT); r3 = true; }
     if (in.mode == Mode::T1 && armed_mode_ == Mode::T1 && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) {
       raise(AlarmId::T1_SPEED_EXCEEDED);
       r3 = true;
     }
-    if (s0 == St::STOPPING && !braking_ && stop_elapsed_ > t_.max_stop) { raise(AlarmId::STOP_TIME_EXCEEDED); r3 = true; }
+    if (s0 == St::STOPPING && ramping_at_start && stop_elapsed_at_start > t_.max_stop) { raise(AlarmId::STOP_TIME_EXCEEDED); r3 = true; }
     if (r3 && !done) {
       done = true;
       cat0_to(St::IDLE);

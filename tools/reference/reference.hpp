@@ -51,7 +51,8 @@ class Supervisor {
   void drop(core::AlarmId a) noexcept;
   [[nodiscard]] bool has(core::AlarmId a) const noexcept { return (alarms_ & core::bit(a)) != 0U; }
   [[nodiscard]] bool drives_faulted(const core::Feedback& fb) const noexcept;
-  [[nodiscard]] bool drive_fault_condition(const core::Feedback& fb) const noexcept;
+  // Judged on the state the cycle began in (every condition that holds raises its alarm).
+  [[nodiscard]] bool drive_fault_condition(const core::Feedback& fb, St s0, core::StopCat cat0, int step0) const noexcept;
   [[nodiscard]] bool standstill() const noexcept { return quiet_ >= t_.standstill_cycles; }
   void write(Out& out) const noexcept;
 

@@ -47,6 +47,7 @@ struct CellView {
   bool contactor_closed = false;            // feedback
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
+  std::uint32_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
   std::uint8_t program_index = 0;           // waypoint the program is heading to
   std::uint8_t program_length = 0;
 };
@@ -56,7 +57,8 @@ class Cell {
   // `cfg` must have passed core::validate().
   explicit Cell(const core::Config& cfg);
   ~Cell();
-  Cell(const Cell&) = delete;
+  // A deep copy: the exhaustive checker forks the whole cell to explore alternatives.
+  Cell(const Cell& other);
   Cell& operator=(const Cell&) = delete;
 
   // The physical contacts of SPEC §2; change them between cycles.
@@ -72,6 +74,10 @@ class Cell {
   [[nodiscard]] const core::AlarmSet& alarms() const noexcept;    // with since-when and detail
   [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
   [[nodiscard]] core::Leaf leaf() const noexcept;
+  // What the supervisor saw in the last cycle (for a differential oracle).
+  [[nodiscard]] const core::SafetyInputs& safety_inputs() const noexcept;
+  [[nodiscard]] const core::Feedback& feedback() const noexcept;
+  [[nodiscard]] const core::Command* commands_taken(std::size_t& n) const noexcept;
   [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
   [[nodiscard]] const core::Config& config() const noexcept;
 

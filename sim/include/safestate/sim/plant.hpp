@@ -33,6 +33,21 @@ class SimPlant final : public hal::Backend {
   void write(const hal::ProcessImageOut& out) noexcept override;
 
   [[nodiscard]] std::uint16_t controlword(std::size_t i) const noexcept { return axis_[i].last_cw; }
+  // Injected causes as bits: per axis i, bit 4i fault, 4i+1 runaway, 4i+2 nostop,
+  // 4i+3 brake stuck; bit 24 fieldbus lost, bit 25 contactor stuck open.
+  [[nodiscard]] std::uint32_t injected() const noexcept {
+    std::uint32_t m = 0;
+    for (std::size_t i = 0; i < hal::kAxes; ++i) {
+      const Axis& a = axis_[i];
+      m |= (a.fault_cause ? 1U : 0U) << (4U * i);
+      m |= (a.runaway ? 1U : 0U) << (4U * i + 1U);
+      m |= (a.nostop ? 1U : 0U) << (4U * i + 2U);
+      m |= (a.brake_stuck ? 1U : 0U) << (4U * i + 3U);
+    }
+    m |= (fieldbus_ok_ ? 0U : 1U) << 24U;
+    m |= (contactor_stuck_open_ ? 1U : 0U) << 25U;
+    return m;
+  }
 
  private:
   struct Axis {
