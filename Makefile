@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-asan test-tsan docs embedded run demo bench clean deps
+.PHONY: build test test-asan test-tsan fuzz docs embedded run demo bench clean deps
 
 deps:
 	@$(DEPS) build
@@ -37,6 +37,23 @@ test-asan: deps $(VENV)/.stamp
 	cmake --preset asan
 	cmake --build --preset asan
 	ctest --preset asan
+
+# libFuzzer (clang-19, ASan + UBSan): each target for FUZZ_SECONDS, starting from the
+# seed corpus in tests/fuzz/corpus; new inputs go to build-fuzz/corpus, findings to
+# build-fuzz/findings (and fail the target).
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	@$(DEPS) fuzz
+	cmake --preset fuzz
+	cmake --build --preset fuzz
+	@mkdir -p build-fuzz/findings
+	@for t in core scenario protocol; do \
+	  mkdir -p build-fuzz/corpus/$$t; \
+	  echo "fuzz_$$t: $(FUZZ_SECONDS) s"; \
+	  build-fuzz/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=4096 -timeout=10 -print_final_stats=1 \
+	    -artifact_prefix=build-fuzz/findings/$$t- build-fuzz/corpus/$$t tests/fuzz/corpus/$$t 2>&1 | \
+	    grep -E "^(#[0-9]+ *DONE|stat::number_of_executed_units|stat::new_units_added|==|SUMMARY|fuzz_)" || exit 1; \
+	done
 
 # ThreadSanitizer over the bridge, rings and runtime threads.
 test-tsan: deps
@@ -67,4 +84,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan $(VENV)
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz $(VENV)
