@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-asan test-tsan fuzz docs embedded run demo bench clean deps
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps
 
 deps:
 	@$(DEPS) build
@@ -55,6 +55,11 @@ fuzz: deps
 	    grep -E "^(#[0-9]+ *DONE|stat::number_of_executed_units|stat::new_units_added|==|SUMMARY|fuzz_)" || exit 1; \
 	done
 
+# clang-19 source-based coverage with MC/DC of core/ and motion/ (build-cov/coverage.txt).
+coverage: deps
+	@$(DEPS) fuzz
+	tools/scripts/coverage.sh
+
 # ThreadSanitizer over the bridge, rings and runtime threads.
 test-tsan: deps
 	cmake --preset tsan
@@ -84,4 +89,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz $(VENV)
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV)

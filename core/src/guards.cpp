@@ -30,7 +30,8 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
 }
 
 Result guard_servo_on(const GuardView& v) noexcept {
-  if (((v.alarms.mask() & kLatchedAlarms) != 0U) || v.reset_pending) {
+  // A pending reset implies DRIVE_FAULT (latched): covered by the first check.
+  if ((v.alarms.mask() & kLatchedAlarms) != 0U) {
     return Result::RESET_REQUIRED;
   }
   if (v.in.mode == Mode::NONE) {

@@ -47,10 +47,9 @@ constexpr std::uint8_t rank(const Cause& c) noexcept {
   if (c.rule != 0U) {
     return c.rule;
   }
-  if ((c.kind == CauseKind::alarm) && (c.alarm == AlarmId::ARMING_TIMEOUT)) {
-    return 3U;
-  }
-  return 10U;
+  // Without a rule number: an arming timeout (the only alarm raised by an event), ranked
+  // with the faults of rule 3; else a command or event.
+  return (c.kind == CauseKind::alarm) ? 3U : 10U;
 }
 
 Cause alarm_cause(std::uint8_t rule, AlarmId a, const AlarmDetail& d, Mode m) noexcept {
@@ -590,7 +589,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
   }
 
   const bool stops = row.stop != StopCat::NONE;
-  if (stops || (to == Leaf::ERROR_LOCKOUT) || (to == Leaf::ESTOP_ACTIVE)) {
+  if (stops) {  // rows into ESTOP_ACTIVE and ERROR_LOCKOUT are all Cat 0 (static_assert)
     set_cause(cause);
   } else if ((cmd != nullptr) && ((row.to != Leaf::SAME) || (row.effect == Effect::reset_alarms))) {
     cause_ = Cause{};  // an accepted command that starts something: no stop is current
@@ -612,7 +611,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     if ((row.stop == StopCat::CAT0) && (to != from)) {
       c.cat0 = true;  // shown for the cycle it happened, not while its cause lasts
     }
-    if ((to != from) || (row.effect == Effect::begin_arming)) {
+    if (to != from) {
       enter(c, to);
     }
   }
@@ -712,7 +711,8 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
       o.motion.mode = MotionMode::Hold;
     }
   } else if (leaf_ == Leaf::IDLE) {
-    o.reset_lamp = ((alarms_.mask() & kLatchedAlarms) != 0U) || reset_pending_;
+    // A pending reset implies DRIVE_FAULT, a latched alarm, so the lamp stays on.
+    o.reset_lamp = (alarms_.mask() & kLatchedAlarms) != 0U;
   }
 
   o.motion.program = c.program;

@@ -17,7 +17,8 @@ struct Plant {
   int contactor_delay = 10;  // SPEC §6: feedback 10 ms after the command
   int brake_delay = 60;      // SPEC §6: 60 ms
   bool contactor_stuck_open = false;
-  std::array<bool, kAxes> brake_stuck{};
+  std::array<bool, kAxes> brake_stuck{};           // never releases
+  bool brake_stuck_released = false;                // feedback never reports engaged
   std::array<bool, kAxes> drive_fault{};       // cause present: drive reports Fault
   std::array<bool, kAxes> drive_nostop{};      // ignores stop ramps
   std::array<c402::DriveState, kAxes> ds{};
@@ -57,7 +58,7 @@ struct Plant {
     contactor_fb = contactor_count >= contactor_delay;
     for (std::size_t i = 0; i < kAxes; ++i) {
       brake_count[i] = (o.brakes_release && !brake_stuck[i]) ? brake_count[i] + 1 : 0;
-      brake_fb[i] = brake_count[i] >= brake_delay;
+      brake_fb[i] = (brake_count[i] >= brake_delay) || (brake_stuck_released && brake_fb[i]);
       auto& s = ds[i];
       if (age < boot_cycles) {
         continue;

@@ -49,6 +49,8 @@ TEST(Config, EachBadFieldIsNamed) {
       {"max_commands_per_cycle", [](Config& c) { c.max_commands_per_cycle = 0; }},
       {"max_commands_per_cycle", [](Config& c) { c.max_commands_per_cycle = 17; }},
       {"t1_speed_limit_mm_s", [](Config& c) { c.t1_speed_limit_mm_s = 251.0F; }},
+      {"t1_speed_limit_mm_s", [](Config& c) { c.t1_speed_limit_mm_s = 0.0F; }},
+      {"standstill_rad_s", [](Config& c) { c.standstill_rad_s = 10.0F; }},
       {"cycle_us", [](Config& c) {
          c.cycle_us = 4000;
          c.discrepancy_ms = 3;

@@ -96,6 +96,20 @@ TEST(UnknownIsUnsafe, NaNVelocityIsNotStandstill) {
   EXPECT_TRUE(b.alarm(AlarmId::STOP_TIME_EXCEEDED));
 }
 
+TEST(UnknownIsUnsafe, StopTimeResetIsRefusedWhileAnAxisStillMoves) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.drive_nostop[0] = true;  // keeps moving even without torque in this bench
+  ASSERT_EQ(b.command(CommandId::stop), Result::OK);
+  b.cycle(1001);
+  ASSERT_TRUE(b.alarm(AlarmId::STOP_TIME_EXCEEDED));
+  EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT);
+  b.plant.drive_nostop[0] = false;
+  b.plant.vel.fill(0.0F);
+  b.cycle(10);
+  EXPECT_EQ(b.command(CommandId::reset), Result::OK);
+}
+
 TEST(UnknownIsUnsafe, SelectorWithSeveralPositionsIsModeNone) {
   Bench b;
   b.to_idle();

@@ -95,6 +95,40 @@ TEST(Boot, ADriveThatNeverAnswersNamesItsAxis) {
   EXPECT_EQ(b.out.cause.detail.axis, 4U);
 }
 
+TEST(Boot, SelfTestRejectsAnImpossibleTimingAndLocksOut) {
+  // An integrator that bypasses validate(): the supervisor's own start-up check fails.
+  const auto bad = [](void (*mutate)(Config&)) {
+    Config c{};
+    mutate(c);
+    return c;
+  };
+  const Config cases[] = {
+      bad([](Config& c) { c.standstill_cycles = 0; }),
+      bad([](Config& c) { c.max_commands_per_cycle = 0; }),
+      bad([](Config& c) { c.max_commands_per_cycle = 17; }),
+      bad([](Config& c) { c.standstill_rad_s = 0.0F; }),
+  };
+  for (const Config& c : cases) {
+    Bench b(c);
+    b.cycle();
+    EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+    EXPECT_TRUE(b.alarm(AlarmId::BOOT_FAILED));
+    EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BOOT_FAILED).signal, Signal::internal);
+  }
+}
+
+TEST(Boot, AnUndecodableStatuswordIsNoAnswer) {
+  Bench b;
+  b.plant.boot_cycles = 1000000;  // the bench drives keep the states set here
+  b.plant.ds.fill(c402::DriveState::SwitchOnDisabled);
+  b.plant.ds[1] = static_cast<c402::DriveState>(99);  // statusword 0x004F: no CiA 402 state
+  b.cycle(200);
+  EXPECT_EQ(b.out.state, State::BOOT) << "a drive that does not answer properly holds BOOT";
+  b.plant.ds[1] = c402::DriveState::SwitchOnDisabled;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
+}
+
 // ================================================================ rule 1: lockout
 TEST(Rule1, EstopDiscrepancyLocksOutFromOperational) {
   Bench b;
@@ -142,6 +176,16 @@ TEST(Rule1, FieldbusLostLocksOutInTheSameCycle) {
   EXPECT_EQ(b.out.stop, StopCat::CAT0);
   EXPECT_TRUE(b.alarm(AlarmId::FIELDBUS_LOST));
   EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+TEST(Rule1, ADriveDroppingOffTheBusLocksOut) {
+  Bench b;
+  b.to_idle();
+  b.fb.drive[2].online = false;  // not refilled by the plant
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::FIELDBUS_LOST));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::FIELDBUS_LOST).axis, 3U);
 }
 
 TEST(Rule1, IntegrityFaultLocksOut) {
@@ -623,6 +667,31 @@ TEST(Operational, ServoOffIsCat1ToIdle) {
   EXPECT_EQ(b.out.state, State::IDLE);
   EXPECT_TRUE(all_outputs_safe(b.out));
   EXPECT_FALSE(b.out.reset_lamp);
+}
+
+TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_stuck_released = true;
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  b.cycle(300);
+  EXPECT_EQ(b.out.state, State::STOPPING) << "waits brakes_timeout for the brake feedback";
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+}
+
+TEST(OneResult, EveryTransitionOfACycleIsReported) {
+  Bench b;
+  b.to_idle();
+  for (int i = 0; i < 4; ++i) {
+    b.send(CommandId::servo_on);
+    b.send(CommandId::servo_off);
+  }
+  b.cycle();
+  EXPECT_EQ(b.out.transition_count, 8U) << "IDLE->ARMING->IDLE four times in one cycle";
+  EXPECT_EQ(b.out.state, State::IDLE);
 }
 
 TEST(Operational, Cat1EngagesBrakesAtStandstillBeforeCuttingPower) {

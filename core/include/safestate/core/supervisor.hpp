@@ -20,7 +20,9 @@ namespace safestate::core {
 inline constexpr std::size_t kMaxCommandsPerCycle = 16;  // Config may ask for fewer
 // Queued commands, plus a deferred reset answer and the reset button.
 inline constexpr std::size_t kMaxRepliesPerCycle = kMaxCommandsPerCycle + 2;
-inline constexpr std::size_t kMaxTransitionsPerCycle = 4;
+// At most one transition from the conditions or an event, one from the reset button, and
+// one per command taken: every one is reported.
+inline constexpr std::size_t kMaxTransitionsPerCycle = kMaxCommandsPerCycle + 2;
 
 struct TransitionEvent {
   Leaf from = Leaf::BOOT;

@@ -249,6 +249,17 @@ inline constexpr TransitionIndex kIndex = build_index();
 }
 static_assert(table_is_well_formed(), "transition table: overlapping rows or impossible targets");
 
+// The first-out cause is set by every stopping row; E-stop and lockout must be Cat 0.
+[[nodiscard]] constexpr bool estop_and_lockout_rows_are_cat0() noexcept {
+  for (const Transition& t : kTransitions) {
+    if ((t.to == Leaf::ESTOP_ACTIVE || t.to == Leaf::ERROR_LOCKOUT) && t.stop != StopCat::CAT0) {
+      return false;
+    }
+  }
+  return true;
+}
+static_assert(estop_and_lockout_rows_are_cat0(), "rows into ESTOP_ACTIVE / ERROR_LOCKOUT must be Cat 0");
+
 [[nodiscard]] constexpr const Transition* find_row(Leaf from, Trigger trigger) noexcept {
   const std::uint8_t r = kIndex[static_cast<std::size_t>(from)][static_cast<std::size_t>(trigger)];
   return (r == kNoRow) ? nullptr : &kTransitions[r];

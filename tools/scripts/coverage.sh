@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Source-based coverage (clang-19) with MC/DC over core/ and motion/, from the unit
+# tests, the scenario suite and the exhaustive checker. Writes build-cov/coverage.txt
+# (the llvm-cov report) and build-cov/html/ (annotated sources).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cmake --preset coverage > /dev/null
+cmake --build --preset coverage
+prof=build-cov/profiles
+rm -rf "$prof" && mkdir -p "$prof"
+export LLVM_PROFILE_FILE="$PWD/$prof/%p-%m.profraw"
+# Everything that exercises core/ and motion/ in-process (not the gateway processes,
+# valgrind, the M4 build or the browser).
+ctest --test-dir build-cov -j2 -E 'gateway_protocol|alloc_per_cycle|embedded_m4|hmi_browser|runner_selftest|check_selftest|demo_story' \
+  --output-on-failure > build-cov/ctest.log || { tail -30 build-cov/ctest.log; exit 1; }
+llvm-profdata-19 merge -sparse "$prof"/*.profraw -o build-cov/merged.profdata
+objects=()
+for b in build-cov/bin/test_* build-cov/bin/safestate; do objects+=(-object "$b"); done
+sources=(core/src core/include motion/src motion/include)
+llvm-cov-19 report -instr-profile build-cov/merged.profdata "${objects[@]:1}" --show-mcdc-summary \
+  "${sources[@]}" > build-cov/coverage.txt
+llvm-cov-19 show -instr-profile build-cov/merged.profdata "${objects[@]:1}" --show-mcdc --format=html \
+  -output-dir build-cov/html "${sources[@]}" > /dev/null
+cat build-cov/coverage.txt

@@ -1,0 +1,178 @@
+#!/usr/bin/env python3
+"""Mutation testing of core/: does the test suite notice when the supervisor is wrong?
+
+Mutant families (issue 6):
+  row       drop each transition row (it no longer applies where it did)
+  guard     flip each condition of each guard
+  timer     move each timer threshold by one cycle (> becomes >=, >= becomes >)
+  stop      swap the stop category of each row (CAT0->CAT1, CAT1->CAT2, CAT2->CAT1)
+  output    invert each output of each state in the output table, and of ARMING/STOPPING
+
+Each mutant is applied to a copy of the source in build-mut/src, built, and run against
+the unit tests, the scenario suite, the differential test and the exhaustive checker.
+A mutant is killed when a test fails, stillborn when it does not compile. Writes
+build-mut/mutation.json and build-mut/mutation.md (score and every survivor).
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+WORK = os.path.join(ROOT, "build-mut")
+SRC = os.path.join(WORK, "src")
+BUILD = os.path.join(WORK, "build")
+TRANSITIONS = "core/include/safestate/core/transitions.hpp"
+GUARDS = "core/src/guards.cpp"
+SUPERVISOR = "core/src/supervisor.cpp"
+SIGNALS = "core/src/signals.cpp"
+TESTS = r"^(?!gateway_protocol|alloc_per_cycle|embedded_m4|hmi_browser|runner_selftest|check_selftest|demo_story|fuzz_smoke|docs_up_to_date)"
+
+
+def read(rel):
+    with open(os.path.join(ROOT, rel)) as f:
+        return f.read()
+
+
+def mutants():
+    out = []
+    # --- rows: each row of kTransitions moved away from its from-states -------------
+    t = read(TRANSITIONS)
+    rows = [m for m in re.finditer(r"^  \{(k\w+|only\(\w+\)),\s+(\w+),.*\},?\s*$", t, re.M)]
+    for i, m in enumerate(rows):
+        line = m.group(0)
+        target = "only(BOOT)" if m.group(2) == "lockout_condition" else "only(ERROR_LOCKOUT)"
+        new = line.replace(m.group(1), target, 1)
+        out.append(("row", f"row {i + 1} ({m.group(2)} from {m.group(1)}) dropped", TRANSITIONS, line, new))
+    # --- stop categories of each row -------------------------------------------------
+    swap = {"CAT0": "CAT1", "CAT1": "CAT2", "CAT2": "CAT1"}
+    for i, m in enumerate(rows):
+        line = m.group(0)
+        cat = re.search(r",\s+(CAT0|CAT1|CAT2),", line)
+        if cat:
+            new = line[: cat.start(1)] + swap[cat.group(1)] + line[cat.end(1):]
+            out.append(("stop", f"row {i + 1} ({m.group(2)}) {cat.group(1)} -> {swap[cat.group(1)]}", TRANSITIONS, line, new))
+    # --- guards: negate each `if (...)` condition inside the guard functions ------------
+    g = read(GUARDS)
+    for m in re.finditer(r"^(\s+)if \((.*)\) \{$", g, re.M):
+        line = m.group(0)
+        new = f"{m.group(1)}if (!({m.group(2)})) {{"
+        out.append(("guard", f"guards.cpp: if ({m.group(2)[:60]}) negated", GUARDS, line, new))
+    for m in re.finditer(r"^(\s+return )(.+) \? (Result::\w+) : (Result::\w+);$", g, re.M):
+        line = m.group(0)
+        new = f"{m.group(1)}{m.group(2)} ? {m.group(4)} : {m.group(3)};"
+        out.append(("guard", f"guards.cpp: {m.group(2)[:40]} ? swapped", GUARDS, line, new))
+    # --- timers: each threshold comparison moved by one ---------------------------------
+    for rel in (SUPERVISOR, SIGNALS):
+        s = read(rel)
+        for m in re.finditer(r"^.*(\S+) (>=|>) (timing_\.\w+|limit|hold_limit|timing_\.standstill_cycles)\b.*$", s, re.M):
+            line = m.group(0)
+            op = m.group(2)
+            new_op = ">" if op == ">=" else ">="
+            new = line.replace(f" {op} {m.group(3)}", f" {new_op} {m.group(3)}", 1)
+            if new != line:
+                out.append(("timer", f"{os.path.basename(rel)}: `{op} {m.group(3)}` -> `{new_op}`", rel, line, new))
+    # --- outputs: each cell of kLeafOutputs, and the ARMING/STOPPING refinements -------
+    s = read(SUPERVISOR)
+    for m in re.finditer(r"^    \{(true|false), (true|false), (true|false), (true|false), MotionMode::\w+\},\s*// (\w+).*$", s, re.M):
+        line = m.group(0)
+        names = ["contactor", "drives", "brakes_release", "reset_lamp"]
+        for k in range(4):
+            vals = [m.group(1), m.group(2), m.group(3), m.group(4)]
+            vals[k] = "false" if vals[k] == "true" else "true"
+            new = re.sub(r"\{(true|false), (true|false), (true|false), (true|false),",
+                         "{" + ", ".join(vals) + ",", line, count=1)
+            out.append(("output", f"{m.group(5)}: {names[k]} inverted", SUPERVISOR, line, new))
+    for pat, desc in [(r"o\.drives_enable = a->step != ArmingStep::CONTACTOR;", "ARMING drives_enable inverted"),
+                      (r"o\.brakes_release = a->step == ArmingStep::BRAKES;", "ARMING brakes_release inverted"),
+                      (r"o\.brakes_release = false;", "STOPPING braking: brakes stay released")]:
+        m = re.search(r"^.*" + pat + r".*$", s, re.M)
+        if m:
+            line = m.group(0)
+            new = (line.replace("!=", "==") if "!=" in line else
+                   line.replace("== ArmingStep::BRAKES", "!= ArmingStep::BRAKES") if "== ArmingStep" in line else
+                   line.replace("= false;", "= true;"))
+            out.append(("output", desc, SUPERVISOR, line, new))
+    return out
+
+
+def sh(cmd, cwd, timeout):
+    try:
+        r = subprocess.run(cmd, cwd=cwd, shell=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=timeout)
+        return r.returncode, r.stdout.decode(errors="replace")
+    except subprocess.TimeoutExpired:
+        return 124, "timeout"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--only", help="only this family (row, guard, timer, stop, output)")
+    ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
+    a = ap.parse_args()
+    ms = mutants()
+    if a.only:
+        ms = [m for m in ms if m[0] == a.only]
+    if a.limit:
+        ms = ms[: a.limit]
+    os.makedirs(WORK, exist_ok=True)
+    if os.path.exists(SRC):
+        shutil.rmtree(SRC)
+    shutil.copytree(ROOT, SRC, ignore=shutil.ignore_patterns("build*", ".git", ".venv", "node_modules", "hmi"))
+    rc, log = sh(f"cmake -S {SRC} -B {BUILD} -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null && cmake --build {BUILD}", ROOT, 3600)
+    if rc != 0:
+        print(log[-3000:])
+        sys.exit("the unmutated tree does not build")
+    rc, log = sh(f"ctest --test-dir {BUILD} -j2 -R '{TESTS}'", ROOT, 1800)
+    if rc != 0:
+        print(log[-3000:])
+        sys.exit("the unmutated tree does not pass its tests")
+    results = []
+    t0 = time.time()
+    for i, (family, desc, rel, old, new) in enumerate(ms, 1):
+        path = os.path.join(SRC, rel)
+        with open(path) as f:
+            orig = f.read()
+        if old not in orig:
+            results.append({"family": family, "mutant": desc, "outcome": "not applied"})
+            continue
+        with open(path, "w") as f:
+            f.write(orig.replace(old, new, 1))
+        rc, log = sh(f"cmake --build {BUILD}", ROOT, 900)
+        if rc != 0:
+            outcome, by = "stillborn", "does not compile"
+        else:
+            rc, log = sh(f"ctest --test-dir {BUILD} -j2 -R '{TESTS}' --stop-on-failure", ROOT, 900)
+            failed = re.findall(r"\d+ - (\S+) \(", log)
+            outcome = "killed" if rc != 0 else "survived"
+            by = ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else "")
+        with open(path, "w") as f:
+            f.write(orig)
+        results.append({"family": family, "mutant": desc, "outcome": outcome, "by": by})
+        print(f"[{i}/{len(ms)}] {outcome:9s} {family:6s} {desc}  {by}", flush=True)
+    sh(f"cmake --build {BUILD}", ROOT, 900)  # leave the tree unmutated
+    live = [r for r in results if r["outcome"] in ("killed", "survived")]
+    killed = sum(1 for r in live if r["outcome"] == "killed")
+    score = 100.0 * killed / len(live) if live else 0.0
+    with open(os.path.join(WORK, "mutation.json"), "w") as f:
+        json.dump({"score": score, "killed": killed, "total": len(live), "results": results}, f, indent=1)
+    lines = [f"Mutation score: **{score:.1f} %** ({killed} of {len(live)} mutants killed; "
+             f"{sum(1 for r in results if r['outcome'] == 'stillborn')} did not compile), {time.time() - t0:.0f} s.", ""]
+    fams = sorted({r["family"] for r in results})
+    lines += ["| family | mutants | killed | survived |", "|---|---|---|---|"]
+    for fam in fams:
+        rs = [r for r in live if r["family"] == fam]
+        lines.append(f"| {fam} | {len(rs)} | {sum(r['outcome'] == 'killed' for r in rs)} | {sum(r['outcome'] == 'survived' for r in rs)} |")
+    surv = [r for r in live if r["outcome"] == "survived"]
+    lines += ["", "Survivors:" if surv else "No mutant survived."]
+    lines += [f"- {r['family']}: {r['mutant']}" for r in surv]
+    with open(os.path.join(WORK, "mutation.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
