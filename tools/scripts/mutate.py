@@ -121,9 +121,13 @@ def main():
     if a.limit:
         ms = ms[: a.limit]
     os.makedirs(WORK, exist_ok=True)
-    if os.path.exists(SRC):
-        shutil.rmtree(SRC)
-    shutil.copytree(ROOT, SRC, ignore=shutil.ignore_patterns("build*", ".git", ".venv", "node_modules", "hmi"))
+    # A fresh copy with fresh timestamps and a fresh build: objects of a mutant from an
+    # interrupted run must never be mistaken for up to date.
+    for d in (SRC, BUILD):
+        if os.path.exists(d):
+            shutil.rmtree(d)
+    shutil.copytree(ROOT, SRC, copy_function=shutil.copy,
+                    ignore=shutil.ignore_patterns("build*", ".git", ".venv", "node_modules", "hmi"))
     rc, log = sh(f"cmake -S {SRC} -B {BUILD} -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null && cmake --build {BUILD}", ROOT, 3600)
     if rc != 0:
         print(log[-3000:])
