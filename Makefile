@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi
 
 deps:
 	@$(DEPS) build
@@ -27,13 +27,29 @@ $(VENV)/.stamp: tests/integration/requirements.txt
 	$(VENV)/bin/pip install -q -r tests/integration/requirements.txt
 	touch $@
 
-test: build $(VENV)/.stamp
-	@$(DEPS) embedded
+# The operator HMI (TypeScript, Vite, three.js), served by the gateway from hmi/dist.
+# Needs Node.js >= 20.19 with npm; `npm ci` runs only when node_modules is missing or the
+# lock file changed (stamp).
+HMI_SRC := $(shell find hmi/src -type f 2>/dev/null) hmi/index.html hmi/vite.config.ts hmi/tsconfig.json
+
+hmi/node_modules/.stamp: hmi/package-lock.json hmi/package.json
+	@node -e 'const [a,b]=process.versions.node.split(".").map(Number); process.exit(a>20||(a==20&&b>=19)?0:1)' || \
+	  { echo "hmi: needs Node.js >= 20.19 with npm (found: $$(node --version 2>/dev/null || echo none))" >&2; exit 1; }
+	cd hmi && npm ci --no-audit --no-fund
+	touch $@
+
+hmi/dist/index.html: hmi/node_modules/.stamp $(HMI_SRC)
+	cd hmi && npm run build
+
+hmi: hmi/dist/index.html
+
+test: build $(VENV)/.stamp hmi/dist/index.html
+	@$(DEPS) embedded browser
 	ctest --preset default
 
 # AddressSanitizer + UndefinedBehaviorSanitizer over the whole suite.
-test-asan: deps $(VENV)/.stamp
-	@$(DEPS) embedded
+test-asan: deps $(VENV)/.stamp hmi/dist/index.html
+	@$(DEPS) embedded browser
 	cmake --preset asan
 	cmake --build --preset asan
 	ctest --preset asan
@@ -77,8 +93,8 @@ embedded:
 	tools/scripts/embedded.sh
 
 # The live cell: core in a real-time loop on the simulated cell, gateway with the HMI.
-run: build
-	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db
+run: build hmi/dist/index.html
+	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist
 
 # Measurements (not tests): WebSocket command round trip and status latency.
 bench: build $(VENV)/.stamp
@@ -89,4 +105,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV)
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules

@@ -271,13 +271,16 @@ void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
     last_start = start;
 
     if (stop.load(std::memory_order_relaxed) && !stopping) {
-      stopping = true;  // Ctrl-C: a Cat 1 stop (servo_off) before leaving
+      stopping = true;  // Ctrl-C: a Cat 1 stop (servo_off) before leaving, if powered
       seg_.header().shutting_down.store(1U, std::memory_order_relaxed);
-      core::Command c{};
-      c.seq = 0xFFFFFFFFU;
-      c.id = static_cast<std::uint8_t>(core::CommandId::servo_off);
-      c.source = static_cast<std::uint8_t>(core::Source::pendant);
-      static_cast<void>(cell_.submit(c));
+      const core::State s = cell_.out().state;
+      if (s == core::State::ARMING || s == core::State::OPERATIONAL || s == core::State::STOPPING) {
+        core::Command c{};
+        c.seq = 0xFFFFFFFFU;
+        c.id = static_cast<std::uint8_t>(core::CommandId::servo_off);
+        c.source = static_cast<std::uint8_t>(core::Source::pendant);  // the local operator's Ctrl-C
+        static_cast<void>(cell_.submit(c));
+      }
     }
     one_cycle();
 

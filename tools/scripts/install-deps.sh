@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs, once, only the Debian packages that are missing. Usage: install-deps.sh GROUP...
-# Groups: build (compilers, CMake, GoogleTest), embedded (Cortex-M4 toolchain).
+# Groups: build (compilers, CMake, GoogleTest), embedded (Cortex-M4 toolchain),
+# browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
+# the machine: Debian 12's nodejs is too old for Vite).
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
@@ -8,6 +10,7 @@ declare -A GROUPS_PKGS=(
   [fuzz]="clang-19 llvm-19 libclang-rt-19-dev"
   [python]="python3 python3-venv python3-pip"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
+  [browser]="chromium"
 )
 
 missing=()

@@ -1,0 +1,237 @@
+// The simulated cell's physical devices, shown only when status.simulated: E-stop
+// mushroom (and its two channels), guard, 3-position enabling device, key switch, the
+// cabinet's reset button, and fault injection, all as protocol `sim` messages in the
+// vocabulary of the scenario format. The status does not report raw contacts, so the
+// panel shows the positions it last set, starting from the cell's initial inputs
+// (SPEC §6) and kept per core process across page reloads, corrected by what the status
+// proves (the selected mode, an E-stop alarm, a drive-on state that needs the enabling
+// device at centre or the guard closed).
+import type { Status } from './api';
+import type { Link } from './connection';
+import { h, setAttr, setText, toggleClass } from './dom';
+
+interface Devices {
+  estopA: boolean; // contact closed = not pressed
+  estopB: boolean;
+  gate: 'closed' | 'open';
+  enable: 'released' | 'centre' | 'panic';
+  mode: 'AUTO' | 'T1' | 'T2';
+}
+
+const INITIAL: Devices = { estopA: true, estopB: true, gate: 'closed', enable: 'released', mode: 'AUTO' };
+
+function segmented<T extends string>(
+  id: string,
+  options: [T, string][],
+  onPick: (v: T) => void,
+): { el: HTMLElement; set: (v: T) => void } {
+  const buttons = options.map(([v, label]) =>
+    h('button', { type: 'button', class: 'seg-btn', id: `${id}-${v.toLowerCase()}`, 'data-value': v, onclick: () => onPick(v) }, label),
+  );
+  const el = h('div', { class: 'seg', id, role: 'radiogroup' }, ...buttons);
+  return {
+    el,
+    set: (v: T) =>
+      buttons.forEach((b) => {
+        const on = b.dataset.value === v;
+        toggleClass(b, 'on', on);
+        setAttr(b, 'aria-checked', on ? 'true' : 'false');
+      }),
+  };
+}
+
+export class SimPanel {
+  readonly el: HTMLElement;
+  private d: Devices = { ...INITIAL };
+  private corePid: number | null = null;
+  private lastSetAt = 0;
+  private mushroom: HTMLButtonElement;
+  private chA: HTMLButtonElement;
+  private chB: HTMLButtonElement;
+  private gate: ReturnType<typeof segmented<'closed' | 'open'>>;
+  private enable: ReturnType<typeof segmented<'released' | 'centre' | 'panic'>>;
+  private key: ReturnType<typeof segmented<'AUTO' | 'T1' | 'T2'>>;
+  private drive: HTMLSelectElement;
+  private estopNote: HTMLElement;
+
+  constructor(private readonly link: Link) {
+    this.mushroom = h(
+      'button',
+      { type: 'button', class: 'mushroom', id: 'sim-estop', 'aria-label': 'Emergency stop (press / twist to release)' },
+      h('span', { class: 'mushroom-cap' }, 'STOP'),
+    );
+    this.mushroom.addEventListener('click', () => this.toggleEstop());
+    this.chA = h('button', { type: 'button', class: 'switch', id: 'sim-estop-a', onclick: () => this.toggleChannel('a') }, 'Ch A');
+    this.chB = h('button', { type: 'button', class: 'switch', id: 'sim-estop-b', onclick: () => this.toggleChannel('b') }, 'Ch B');
+    this.estopNote = h('div', { class: 'sim-note' }, '');
+
+    this.gate = segmented('sim-gate', [['closed', 'Closed'], ['open', 'Open']], (v) => {
+      this.set({ gate: v }, { gate: v }, `guard ${v}`);
+    });
+    this.enable = segmented(
+      'sim-enable',
+      [['released', 'Released'], ['centre', 'Centre'], ['panic', 'Panic']],
+      (v) => this.set({ enable: v }, { enable: v }, `enabling device ${v}`),
+    );
+    this.key = segmented('sim-mode', [['AUTO', 'AUTO'], ['T1', 'T1'], ['T2', 'T2']], (v) =>
+      this.set({ mode: v }, { mode: v }, `key switch ${v}`),
+    );
+
+    this.drive = h('select', { id: 'sim-axis', 'aria-label': 'Drive or brake number' });
+    for (let i = 1; i <= 6; i++) this.drive.append(h('option', { value: i }, String(i)));
+    const fault = (label: string, id: string, line: () => string, cls = '') =>
+      h('button', { type: 'button', class: `btn small ${cls}`, id, onclick: () => this.fault(line()) }, label);
+    const n = () => this.drive.value;
+
+    const resetBtn = h('button', { type: 'button', class: 'btn small', id: 'sim-reset-button' }, 'Reset button (press and release)');
+    resetBtn.addEventListener('click', () => this.pressResetButton());
+
+    this.el = h(
+      'div',
+      { class: 'sim', id: 'sim-panel' },
+      h(
+        'div',
+        { class: 'panel-head' },
+        h('h2', {}, 'Simulated cell'),
+        h(
+          'span',
+          { class: 'panel-hint', title: 'The status does not report raw contacts: the panel shows the positions last set here, and what the status proves.' },
+          'Stands in for the physical devices',
+        ),
+      ),
+      h(
+        'div',
+        { class: 'sim-grid' },
+        h(
+          'div',
+          { class: 'sim-cell sim-estop' },
+          h('div', { class: 'sim-label' }, 'E-stop'),
+          this.mushroom,
+          h('div', { class: 'sim-channels', title: 'Open one channel alone to inject a discrepancy' }, this.chA, this.chB),
+          this.estopNote,
+        ),
+        h(
+          'div',
+          { class: 'sim-cell' },
+          h('div', { class: 'sim-label' }, 'Key switch'),
+          this.key.el,
+          h('div', { class: 'sim-label' }, 'Enabling device'),
+          this.enable.el,
+          h('div', { class: 'sim-label' }, 'Guard'),
+          this.gate.el,
+        ),
+        h(
+          'div',
+          { class: 'sim-cell sim-faults' },
+          h('div', { class: 'sim-label' }, 'Fault injection'),
+          h(
+            'div',
+            { class: 'fault-grid' },
+            h('label', { class: 'axis-pick', title: 'Drive or brake that the next fault goes to' }, 'Axis', this.drive),
+            fault('Drive fault', 'sim-drive-fault', () => `drive ${n()} fault`, 'warn'),
+            fault('Drive cause gone', 'sim-drive-clear', () => `drive ${n()} clear`),
+            fault('Runaway', 'sim-drive-runaway', () => `drive ${n()} runaway`, 'warn'),
+            fault('No stop', 'sim-drive-nostop', () => `drive ${n()} nostop`, 'warn'),
+            fault('Brake stuck', 'sim-brake-stuck', () => `brake ${n()} stuck`, 'warn'),
+            fault('Fieldbus lost', 'sim-fieldbus-lost', () => 'fieldbus lost', 'warn'),
+            fault('Contactor stuck', 'sim-contactor-stuck', () => 'contactor stuck_open', 'warn'),
+            fault('Clear all', 'sim-clear-all', () => 'clear all'),
+          ),
+          h('div', { class: 'sim-label' }, 'Cabinet'),
+          resetBtn,
+        ),
+      ),
+    );
+    this.render();
+  }
+
+  private storageKey(): string {
+    return `safestate.sim.${this.corePid ?? 0}`;
+  }
+
+  private save(): void {
+    localStorage.setItem(this.storageKey(), JSON.stringify(this.d));
+  }
+
+  private set(change: Partial<Devices>, set: Record<string, string | number>, what: string): void {
+    this.lastSetAt = performance.now();
+    if (this.link.sim({ set }, what) !== null) {
+      Object.assign(this.d, change);
+      this.save();
+      this.render();
+    }
+  }
+
+  private fault(line: string): void {
+    this.link.sim({ fault: line }, `fault: ${line}`);
+  }
+
+  private pressResetButton(): void {
+    // SPEC §2: the reset button acts on its falling edge, so press and release.
+    if (this.link.sim({ set: { reset_button: 1 } }, 'cabinet reset button pressed') !== null) {
+      window.setTimeout(() => this.link.sim({ set: { reset_button: 0 } }, 'cabinet reset button released'), 200);
+    }
+  }
+
+  private toggleEstop(): void {
+    const pressed = !this.d.estopA || !this.d.estopB;
+    if (pressed) {
+      this.set({ estopA: true, estopB: true }, { estop: 'released' }, 'E-stop released');
+    } else {
+      this.set({ estopA: false, estopB: false }, { estop: 'pressed' }, 'E-stop pressed');
+    }
+  }
+
+  private toggleChannel(ch: 'a' | 'b'): void {
+    const key = ch === 'a' ? 'estopA' : 'estopB';
+    const closed = !this.d[key];
+    this.set({ [key]: closed }, { [`estop.${ch}`]: closed ? 1 : 0 }, `E-stop channel ${ch.toUpperCase()} ${closed ? 'closed' : 'opened'}`);
+  }
+
+  private render(): void {
+    const pressed = !this.d.estopA && !this.d.estopB;
+    const partial = this.d.estopA !== this.d.estopB;
+    toggleClass(this.mushroom, 'pressed', pressed || partial);
+    setAttr(this.mushroom, 'aria-pressed', pressed || partial ? 'true' : 'false');
+    for (const [b, closed, name] of [
+      [this.chA, this.d.estopA, 'A'],
+      [this.chB, this.d.estopB, 'B'],
+    ] as const) {
+      toggleClass(b, 'open', !closed);
+      setText(b, `Ch ${name}: ${closed ? 'closed' : 'open'}`);
+    }
+    setText(
+      this.estopNote,
+      pressed ? 'Pressed: click to twist out' : partial ? 'One channel open: discrepancy after 50 ms' : 'Released: click to press',
+    );
+    this.gate.set(this.d.gate);
+    this.enable.set(this.d.enable);
+    this.key.set(this.d.mode);
+  }
+
+  update(s: Status): void {
+    if (s.core_pid !== undefined && s.core_pid !== this.corePid) {
+      // A new core process starts from the initial inputs; a reload keeps what was set.
+      this.corePid = s.core_pid;
+      const saved = localStorage.getItem(this.storageKey());
+      this.d = saved ? { ...INITIAL, ...(JSON.parse(saved) as Partial<Devices>) } : { ...INITIAL };
+      this.render();
+    }
+    // What the status proves, once the last change from here has had time to show.
+    if (performance.now() - this.lastSetAt < 600) return;
+    const d = { ...this.d };
+    const req = s.mode_requested;
+    if (req === 'AUTO' || req === 'T1' || req === 'T2') d.mode = req;
+    const estopAlarm = s.alarms.includes('ESTOP_PRESSED');
+    if (estopAlarm && d.estopA && d.estopB) d.estopA = d.estopB = false;
+    if (!estopAlarm && !s.alarms.includes('ESTOP_DISCREPANCY') && s.state !== 'ESTOP_ACTIVE') d.estopA = d.estopB = true;
+    const powered = s.state === 'OPERATIONAL' || s.state === 'ARMING';
+    if (powered && (s.mode === 'T1' || s.mode === 'T2')) d.enable = 'centre';
+    if (powered && s.mode === 'AUTO') d.gate = 'closed';
+    if (JSON.stringify(d) !== JSON.stringify(this.d)) {
+      this.d = d;
+      this.save();
+      this.render();
+    }
+  }
+}
