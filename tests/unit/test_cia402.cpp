@@ -70,3 +70,54 @@ TEST(Cia402, NamesAreThoseOfTheStandard) {
   EXPECT_STREQ(to_string(DriveState::OperationEnabled), "Operation enabled");
   EXPECT_STREQ(to_string(DriveState::Unknown), "Unknown");
 }
+
+TEST(Cia402DeviceControl, EveryTransitionOfTheStateMachine) {
+  using S = DriveState;
+  const std::uint16_t none = 0x0000;
+  struct Case {
+    S from;
+    std::uint16_t cw;
+    bool power;
+    S to;
+    const char* transition;
+  };
+  const Case cases[] = {
+      {S::NotReadyToSwitchOn, none, false, S::SwitchOnDisabled, "1"},
+      {S::SwitchOnDisabled, cw::kShutdown, false, S::ReadyToSwitchOn, "2"},
+      {S::SwitchOnDisabled, cw::kSwitchOn, true, S::SwitchOnDisabled, "2 needs Shutdown"},
+      {S::ReadyToSwitchOn, cw::kSwitchOn, true, S::SwitchedOn, "3"},
+      {S::ReadyToSwitchOn, cw::kSwitchOn, false, S::ReadyToSwitchOn, "3 needs the DC link"},
+      {S::ReadyToSwitchOn, cw::kShutdown, true, S::ReadyToSwitchOn, "stay"},
+      {S::ReadyToSwitchOn, cw::kDisableVoltage, true, S::SwitchOnDisabled, "7 disable voltage"},
+      {S::ReadyToSwitchOn, cw::kQuickStop, true, S::SwitchOnDisabled, "7 quick stop"},
+      {S::SwitchedOn, cw::kEnableOperation, true, S::OperationEnabled, "4"},
+      {S::SwitchedOn, cw::kShutdown, true, S::ReadyToSwitchOn, "6"},
+      {S::SwitchedOn, cw::kDisableVoltage, true, S::SwitchOnDisabled, "10 disable voltage"},
+      {S::SwitchedOn, cw::kQuickStop, true, S::SwitchOnDisabled, "10 quick stop"},
+      {S::SwitchedOn, cw::kSwitchOn, false, S::SwitchOnDisabled, "10 power lost"},
+      {S::SwitchedOn, cw::kSwitchOn, true, S::SwitchedOn, "stay"},
+      {S::OperationEnabled, cw::kDisableOperation, true, S::SwitchedOn, "5"},
+      {S::OperationEnabled, cw::kShutdown, true, S::ReadyToSwitchOn, "8"},
+      {S::OperationEnabled, cw::kDisableVoltage, true, S::SwitchOnDisabled, "9"},
+      {S::OperationEnabled, cw::kEnableOperation, false, S::SwitchOnDisabled, "9 power lost"},
+      {S::OperationEnabled, cw::kQuickStop, true, S::QuickStopActive, "11"},
+      {S::OperationEnabled, cw::kEnableOperation, true, S::OperationEnabled, "stay"},
+      {S::QuickStopActive, cw::kDisableVoltage, true, S::SwitchOnDisabled, "12"},
+      {S::QuickStopActive, cw::kQuickStop, false, S::SwitchOnDisabled, "12 power lost"},
+      {S::QuickStopActive, cw::kEnableOperation, true, S::OperationEnabled, "16"},
+      {S::QuickStopActive, cw::kQuickStop, true, S::QuickStopActive, "stay"},
+      {S::FaultReactionActive, none, true, S::Fault, "14"},
+      {S::Unknown, none, true, S::Fault, "unknown is a fault"},
+  };
+  for (const Case& c : cases) {
+    EXPECT_EQ(next_state(c.from, 0x0000, c.cw, c.power), c.to) << "transition " << c.transition;
+  }
+}
+
+TEST(Cia402DeviceControl, FaultIsLeftOnlyOnARisingEdgeOfBit7) {
+  EXPECT_EQ(next_state(DriveState::Fault, 0x0000, cw::kFaultReset, false), DriveState::SwitchOnDisabled);
+  EXPECT_EQ(next_state(DriveState::Fault, cw::kFaultReset, cw::kFaultReset, true), DriveState::Fault) << "held, no edge";
+  EXPECT_EQ(next_state(DriveState::Fault, 0x0000, cw::kEnableOperation, true), DriveState::Fault);
+  EXPECT_TRUE(fault_reset_edge(0x0000, 0x0080));
+  EXPECT_FALSE(fault_reset_edge(0x0080, 0x0080));
+}
