@@ -287,6 +287,26 @@ TEST(Rule3, DriveLeavingOperationEnabledOnItsOwnIsADriveFault) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 5U);
 }
 
+TEST(Rule3, ADriveThatDoesNotFollowItsSetPointIsADriveFault) {
+  Bench b;
+  b.to_operational();
+  b.fb.following_error_axis = 4;  // reported by the motion layer; not refilled by the plant
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 4U);
+}
+
+TEST(Rule3, TwoDriveFaultsInOneCycleNameTheFirst) {
+  Bench b;
+  b.to_operational();
+  b.plant.drive_fault[1] = true;   // drive 2 reports Fault ...
+  b.fb.following_error_axis = 5;   // ... and drive 5 lags, in the same cycle
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 2U);
+}
+
 TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
   Bench b;
   b.to_jogging(Mode::T1);
