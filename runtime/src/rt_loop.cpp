@@ -31,19 +31,23 @@ void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) noexcept {
   }
 }
 
-std::uint16_t contacts_of(const core::RawInputs& r) noexcept {
-  const bool c[bridge::kContactCount] = {r.estop_a,  r.estop_b,   r.gate_a,  r.gate_b,  r.enable_a,    r.enable_b,
-                                         r.enable_panic, r.mode_auto, r.mode_t1, r.mode_t2, r.reset_button};
+// The contacts of RawInputs in bridge::Contact order: the one place that maps the two.
+std::array<bool*, bridge::kContactCount> contacts(core::RawInputs& r) noexcept {
+  return {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
+          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button};
+}
+
+std::uint16_t contacts_of(core::RawInputs r) noexcept {
   std::uint16_t m = 0;
+  const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
-    m = static_cast<std::uint16_t>(m | (c[i] ? (1U << i) : 0U));
+    m = static_cast<std::uint16_t>(m | (*c[i] ? (1U << i) : 0U));
   }
   return m;
 }
 
 void apply_contacts(std::uint16_t mask, std::uint16_t values, core::RawInputs& r) noexcept {
-  bool* c[bridge::kContactCount] = {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
-                                    &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button};
+  const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
     if ((mask & (1U << i)) != 0U) {
       *c[i] = (values & (1U << i)) != 0U;
