@@ -87,6 +87,7 @@ test-tsan: deps
 # state diagram). CI fails (test docs_up_to_date) when the committed copy is stale.
 docs: build
 	$(BIN)/gen_docs --out docs
+	python3 tools/trace/traceability.py
 
 embedded:
 	@$(DEPS) embedded

@@ -65,19 +65,19 @@ std::string transitions_md() {
     << "(one row per state and trigger, checked by `static_assert`).\n\n"
     << "## Conditions, checked every cycle in this priority (SPEC §4)\n\n"
     << "The first that applies wins; every one that holds raises its alarms.\n\n"
-    << "| rule | condition | from | to | stop | alarm |\n|---|---|---|---|---|---|\n";
+    << "| id | rule | condition | from | to | stop | alarm |\n|---|---|---|---|---|---|---|\n";
   for (const Transition& t : kTransitions) {
     if (!is_condition(t.trigger)) continue;
-    o << "| " << t.rule << " | " << to_string(t.trigger) << " | " << leaves(t.from) << " | " << target(t) << " | "
+    o << "| " << t.id << " | " << t.rule << " | " << to_string(t.trigger) << " | " << leaves(t.from) << " | " << target(t) << " | "
       << to_string(t.stop) << " | " << alarms(t.alarms) << " |\n";
   }
   o << "\n## Events and commands\n\n"
-    << "| from | trigger | guard (reject code when false) | to | stop | alarm | effect |\n"
-    << "|---|---|---|---|---|---|---|\n";
+    << "| id | from | trigger | guard (reject code when false) | to | stop | alarm | effect |\n"
+    << "|---|---|---|---|---|---|---|---|\n";
   for (const Transition& t : kTransitions) {
     if (is_condition(t.trigger)) continue;
     const bool cmd = static_cast<std::size_t>(t.trigger) >= kFirstCommandTrigger;
-    o << "| " << leaves(t.from) << " | " << (cmd ? "`" : "") << to_string(t.trigger) << (cmd ? "`" : "") << " | "
+    o << "| " << t.id << " | " << leaves(t.from) << " | " << (cmd ? "`" : "") << to_string(t.trigger) << (cmd ? "`" : "") << " | "
       << t.guard.text << " | " << target(t) << " | " << to_string(t.stop) << " | " << alarms(t.alarms) << " | "
       << to_string(t.effect) << " |\n";
   }

@@ -12,6 +12,7 @@ motion::MotionConfig Controller::motion_config(const core::Config& cfg) noexcept
 Controller::Controller(const core::Config& cfg, const motion::RobotModel& model) noexcept
     : supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {}
 
+// @req CYC-ORDER CYC-DETERMINISM
 std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command* cmds, std::size_t n,
                              hal::ProcessImageOut& out) noexcept {
   feedback_.drive = in.drive;

@@ -1,3 +1,4 @@
+// @req AL-CAUSE
 #include "safestate/core/describe.hpp"
 
 #include <cstdio>

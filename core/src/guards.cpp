@@ -12,6 +12,7 @@ Result guard_boot_done(const GuardView& v) noexcept {
   return v.boot_pending ? Result::BUSY : Result::OK;
 }
 
+// @req RES-RESET-OK
 Result guard_reset_causes_gone(const GuardView& v) noexcept {
   if (v.reset_pending) {
     return Result::BUSY;
@@ -29,6 +30,7 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)
 }
 
+// @req TR-LATCH
 Result guard_servo_on(const GuardView& v) noexcept {
   // A pending reset implies DRIVE_FAULT (latched): covered by the first check.
   if ((v.alarms.mask() & kLatchedAlarms) != 0U) {

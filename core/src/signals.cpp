@@ -11,6 +11,7 @@ Channel which_dropped(bool a, bool b) noexcept {
 }
 }  // namespace
 
+// @req IN-SAFE-EITHER IN-DISCREPANCY IN-EQUIVALENT
 void DualChannel::update(bool a, bool b, Cycle limit) noexcept {
   const bool was_active = active_;
   if (a != b) {
@@ -36,6 +37,7 @@ void DualChannel::update(bool a, bool b, Cycle limit) noexcept {
   seen_ = true;
 }
 
+// @req IN-ENABLE-DECODE IN-ENABLE-PANIC IN-ENABLE-MODE
 void EnablingDevice::update(bool a, bool b, bool panic, bool manual_entered, Cycle limit) noexcept {
   centre_.update(a, b, limit);
   panic_edge_ = panic && !panic_prev_;
@@ -59,6 +61,7 @@ void EnablingDevice::update(bool a, bool b, bool panic, bool manual_entered, Cyc
   enabled_ = (pos_ == EnablePos::centre) && !need_release_;
 }
 
+// @req IN-MODE-DECODE IN-MODE-INVALID
 void ModeSelector::update(bool auto_contact, bool t1_contact, bool t2_contact, Cycle limit) noexcept {
   const int closed = static_cast<int>(auto_contact) + static_cast<int>(t1_contact) + static_cast<int>(t2_contact);
   requested_ = Mode::NONE;
@@ -81,6 +84,7 @@ void ModeSelector::update(bool auto_contact, bool t1_contact, bool t2_contact, C
   changed_ = mode_ != previous_;
 }
 
+// @req IN-RESET-EDGE IN-RESET-FRESH
 void ResetButton::update(bool pressed, Cycle now, Cycle hold_limit) noexcept {
   released_edge_ = false;
   if (pressed && !pressed_) {

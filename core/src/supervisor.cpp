@@ -21,6 +21,7 @@ struct LeafOutputs {
   bool reset_lamp;
   MotionMode motion;
 };
+// @req ST-OUTPUTS
 constexpr std::array<LeafOutputs, kLeafCount> kLeafOutputs{{
     {false, false, false, false, MotionMode::Track},  // BOOT
     {false, false, false, false, MotionMode::Track},  // ERROR_LOCKOUT
@@ -115,6 +116,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   const Feedback& fb = c.fb;
   alarms_.begin_cycle();
 
+  // @req ST-STANDSTILL
   // Standstill: every axis below the threshold for N consecutive cycles (SPEC §3).
   bool still = true;
   float fastest = 0.0F;
@@ -136,6 +138,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     t2_confirmed_ = false;  // "T2 confirmed until the mode next changes"
   }
 
+  // @req AL-LIFETIME
   // Alarms that are active while their condition lasts.
   const AlarmId cond[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK};
   const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck};
@@ -152,6 +155,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     alarms_.raise(AlarmId::ENABLING_PANIC, detail_of(Signal::enable, Channel::panic), now_);
   }
 
+  // @req CIA-UNKNOWN ST-UNKNOWN-UNSAFE
   // Drives: decoded state, unknown is a fault (SPEC §3 "unknown is unsafe").
   const auto* arming = std::get_if<StArming>(&state_);
   const bool expect_enabled = in_mask(static_cast<LeafMask>(kOperational | kStopping), leaf_) ||
@@ -187,6 +191,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     alarms_.raise(AlarmId::DRIVE_FAULT, c.drive_detail, now_);
   }
 
+  // @req TR-BOOT-FAILED
   // BOOT: self-test, fieldbus up, every drive answers, within boot_timeout.
   if (boot_pending_) {
     bool answered = fb.fieldbus_ok;
@@ -221,6 +226,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     ++a->step_elapsed;
   } else if (auto* s = std::get_if<StStopping>(&state_)) {
     ++s->elapsed;
+    // @req ST-CAT1
     if (s->braking) {
       ++s->brake_elapsed;
     }
@@ -229,6 +235,7 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   }
 }
 
+// @req TR-PRIORITY TR-EVERY-ALARM
 bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
   const SafetyInputs& in = c.in;
   const Feedback& fb = c.fb;
@@ -283,6 +290,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         if (c.drive_fault) {
           hit(AlarmId::DRIVE_FAULT, c.drive_detail);
         }
+        // @req MO-T1-MONITOR
         // `!(x <= limit)` so that a NaN speed counts as exceeded (unknown is unsafe).
         // The T1 monitor watches motion armed in T1. A key turned to T1 while the arm
         // moves at another mode's speed is rule 6's (Cat 1), not a T1 speed fault.
@@ -291,6 +299,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::T1_SPEED_EXCEEDED, detail_of(Signal::drive, Channel::none, fb.fastest_axis,
                                                     static_cast<std::uint16_t>(fb.max_point_speed_mm_s)));
         }
+        // @req ST-STOP-TIME
         const auto* s = std::get_if<StStopping>(&state_);
         if ((s != nullptr) && !s->braking && (s->elapsed > timing_.max_stop)) {
           hit(AlarmId::STOP_TIME_EXCEEDED, detail_of(Signal::drive, Channel::none, c.fastest_moving_axis));
@@ -437,6 +446,7 @@ void SystemStateManager::clear_latched() noexcept {
   }
 }
 
+// @req RES-SAME-CYCLE
 void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
   if (!reset_pending_) {
     return;
@@ -452,6 +462,7 @@ void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
   }
 }
 
+// @req IN-RESET-EDGE IN-RESET-FRESH
 void SystemStateManager::handle_reset_button(CycleCtx& c) noexcept {
   // ISO 13849-1 5.2.2: only a press that began after the reset became possible, and
   // was released within the hold limit, is a reset.
@@ -470,6 +481,7 @@ void SystemStateManager::handle_reset_button(CycleCtx& c) noexcept {
 }
 
 Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noexcept {
+  // @req RES-ORDER TR-JOG-ARGS
   // 1. Malformed (SPEC §5 check order).
   if (cmd.id >= kCommandCount) {
     return Result::UNKNOWN_COMMAND;
@@ -489,10 +501,12 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
   if ((id == CommandId::set_mode) && ((cmd.mode == 0U) || (cmd.mode > static_cast<std::uint8_t>(Mode::T2)))) {
     return Result::BAD_ARGUMENT;
   }
+  // @req RES-LOCKED-OUT
   // 2. Lockout.
   if (leaf_ == Leaf::ERROR_LOCKOUT) {
     return Result::LOCKED_OUT;
   }
+  // @req RES-OWNER
   // 3. Ownership (single point of control, ISO 10218-1 5.3.5).
   const auto src = static_cast<Source>(cmd.source);
   if (src == Source::observer) {
@@ -505,9 +519,11 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
     return Result::NOT_CONTROL_OWNER;
   }
   // 4. State rules.
+  // @req IN-SET-MODE
   if (id == CommandId::set_mode) {
     return Result::MODE_BY_SELECTOR_ONLY;
   }
+  // @req RES-ESTOP RES-RESET-NEEDED RES-WRONG-STATE
   const LeafPolicy& policy = kLeafPolicy[static_cast<std::size_t>(leaf_)];
   if (policy.refuse_all) {
     return policy.no_row;
@@ -523,6 +539,7 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
   if (row->guard.fn != nullptr) {
     const Result g = row->guard.fn(view(c));
     if (g != Result::OK) {
+      // @req RES-NO-CHANGE
       return g;  // a refused command changes nothing
     }
   }
@@ -596,6 +613,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
   }
 
   if (stops) {
+    // @req ST-NO-SURPRISE
     c.discard = true;  // every stop discards all queued motion (SPEC §3)
   }
   if ((row.stop == StopCat::CAT1) || (row.stop == StopCat::CAT2)) {
@@ -661,12 +679,14 @@ void SystemStateManager::enter(CycleCtx& c, Leaf to) noexcept {
   }
 }
 
+// @req AL-FIRST-OUT
 void SystemStateManager::set_cause(const Cause& cause) noexcept {
   if (rank(cause) < rank(cause_)) {
     cause_ = cause;
   }
 }
 
+// @req RES-ONE
 void SystemStateManager::reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept {
   if (c.out.reply_count < kMaxRepliesPerCycle) {
     Reply& rp = c.out.replies[c.out.reply_count];
@@ -687,12 +707,14 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.state = state_of(leaf_);
   o.sub = sub_of(leaf_);
   o.mode = c.in.mode;
+  // @req AL-FIRST-OUT
   o.mode_requested = c.in.mode_requested;
   o.contactor = lo.contactor;
   o.drives_enable = lo.drives;
   o.brakes_release = lo.brakes_release;
   o.reset_lamp = lo.reset_lamp;
   o.motion.mode = lo.motion;
+  // @req ST-STATUS ST-CAT0
   o.stop = c.cat0 ? StopCat::CAT0 : StopCat::NONE;
   o.target = Leaf::SAME;
   o.arming_step = ArmingStep::CONTACTOR;
@@ -756,6 +778,7 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
   out.transition_count = 0;
   CycleCtx c{in, fb, out, leaf_};
 
+  // @req CYC-ORDER CYC-ZERO-DELAY
   update_monitors(c);
   if (!evaluate_conditions(c)) {
     evaluate_events(c);
@@ -763,6 +786,7 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
   finish_pending_reset(c);
   handle_reset_button(c);
 
+  // @req CYC-MAX-COMMANDS
   const std::size_t limit = (timing_.max_commands_per_cycle < kMaxCommandsPerCycle)
                                 ? static_cast<std::size_t>(timing_.max_commands_per_cycle)
                                 : kMaxCommandsPerCycle;

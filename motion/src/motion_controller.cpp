@@ -181,6 +181,7 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   q_prev_ = q_meas_;
   have_prev_ = true;
   forward(model_, q_meas_, frames_);
+  // @req MO-T1-MONITOR
   point_speeds(frames_, qdot, speeds_);
   fb.tcp_speed_mm_s = speeds_.speed[kTcpPoint];
   fb.max_point_speed_mm_s = speeds_.max_speed;
@@ -251,6 +252,7 @@ void MotionController::ramp(float decel_fraction) noexcept {
   }
 }
 
+// @req MO-T1-LIMIT
 void MotionController::limit_t1() noexcept {
   const float s = t1_scale(model_, q_sp_, v_sp_, cfg_.t1_limit_mm_s * cfg_.t1_margin);
   for (float& v : v_sp_) {
@@ -280,6 +282,7 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
     case core::ProgramCmd::None: break;
   }
   switch (r.mode) {
+    // @req ST-NO-SURPRISE
     case core::MotionMode::Track:
       q_sp_ = q_meas_;  // re-seeded from the measured position: no jump on the next arm
       v_sp_.fill(0.0F);
@@ -295,10 +298,12 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
       follow_program(so);
       integrate();
       break;
+    // @req ST-CAT1
     case core::MotionMode::QuickStop:
       ramp(cfg_.quick_stop_decel);
       integrate();
       break;
+    // @req ST-CAT2
     case core::MotionMode::Ramp2:
       ramp(cfg_.cat2_decel);
       integrate();
@@ -312,6 +317,7 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
                       r.mode == core::MotionMode::Program);
 }
 
+// @req CIA-NO-REENABLE
 void MotionController::drive_control(const core::SupervisorOut& so,
                                      const std::array<core::DriveFeedback, kJoints>& drives,
                                      std::array<hal::DriveOut, kJoints>& out) noexcept {
@@ -360,6 +366,7 @@ void MotionController::drive_control(const core::SupervisorOut& so,
   }
 }
 
+// @req CIA-AXIS-STATES
 void MotionController::axis_states(const core::SupervisorOut& so,
                                    const std::array<core::DriveFeedback, kJoints>& drives) noexcept {
   for (std::size_t i = 0; i < kJoints; ++i) {

@@ -93,6 +93,7 @@ int replay_one(const std::string& path, bool trace, std::ostream& trace_out, std
 
 }  // namespace
 
+// @req SCN-REPLAY
 int replay(const std::vector<std::string>& files, bool trace, std::ostream& trace_out, std::ostream& report) {
   if (files.empty()) {
     report << "safestate replay: no scenario file given\n";

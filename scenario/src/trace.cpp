@@ -102,6 +102,7 @@ std::string Tracer::command_name(const core::Reply& r) const {
   return "?";
 }
 
+// @req SCN-TRACE
 void Tracer::cycle(core::Cycle t, const core::SupervisorOut& out, const sim::CellView& view) {
   const TraceSnapshot now = snapshot(out, view.tcp_speed_mm_s);
   if (first_ || !(now == last_)) {

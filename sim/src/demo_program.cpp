@@ -1,5 +1,6 @@
 // The demo program of the simulated cell: one pick-and-place round over three stations
 // of the ABB IRB 120, about 7 s at 100 % override. Joint positions in rad.
+// @req SIM-PROGRAM
 #include "safestate/sim/plant.hpp"
 
 namespace safestate::sim {

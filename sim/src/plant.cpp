@@ -1,3 +1,4 @@
+// @req SIM-CELL
 #include "safestate/sim/plant.hpp"
 
 #include <cmath>

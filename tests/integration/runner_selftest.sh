@@ -2,6 +2,7 @@
 # Self-test of the scenario runner: `safestate replay FILE... [--trace]`
 # (spec/scenario-format.md). Writes scenario files into a temporary directory and checks
 # exit codes, messages and traces. Exits non-zero when any check fails.
+# @req SCN-REPLAY SCN-TRACE
 #
 #   tests/integration/runner_selftest.sh build/bin/safestate
 set -u

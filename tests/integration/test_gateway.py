@@ -341,6 +341,7 @@ def test_status_and_events_arrive(cell):
     run(main())
 
 
+# @req TR-START-AUTO TR-FINISHED-AUTO
 def test_full_auto_cycle_by_commands(cell):
     async def main():
         p = await booted(cell)
@@ -364,6 +365,7 @@ def test_full_auto_cycle_by_commands(cell):
     run(main())
 
 
+# @req RES-OWNER
 def test_remote_commands_in_auto_but_never_reset_and_not_in_t1(cell):
     async def main():
         p = await booted(cell)
@@ -385,6 +387,7 @@ def test_remote_commands_in_auto_but_never_reset_and_not_in_t1(cell):
     run(main())
 
 
+# @req RES-OWNER
 def test_observer_command_is_not_control_owner(cell):
     async def main():
         o = await pendant(cell, "observer")

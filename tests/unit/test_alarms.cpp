@@ -8,6 +8,7 @@
 
 using namespace safestate::core;
 
+// @req AL-TABLE
 TEST(AlarmTable, RowsAreInIdOrderWithUniqueNumbersAndNames) {
   std::set<int> numbers;
   std::set<std::string> names;
@@ -21,6 +22,7 @@ TEST(AlarmTable, RowsAreInIdOrderWithUniqueNumbersAndNames) {
   }
 }
 
+// @req AL-TABLE AL-LIFETIME
 TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
   struct Row {
     const char* name;
@@ -55,6 +57,7 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
   }
 }
 
+// @req AL-CAUSE
 TEST(AlarmSet, RaiseKeepsTheFirstCauseAndSince) {
   AlarmSet s;
   AlarmDetail a{};
@@ -81,6 +84,7 @@ TEST(AlarmSet, TracksRaisedAndClearedPerCycle) {
   EXPECT_FALSE(s.active(AlarmId::MODE_CHANGED));
 }
 
+// @req AL-LIFETIME
 TEST(AlarmSet, ClearOlderSparesAlarmsRaisedThisCycle) {
   AlarmSet s;
   s.raise(AlarmId::MODE_CHANGED, {}, 5);

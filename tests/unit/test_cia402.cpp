@@ -5,6 +5,7 @@
 
 using namespace safestate::core::cia402;
 
+// @req CIA-DECODE
 TEST(Cia402, DecodesEachStateOfTheSpecTable) {
   EXPECT_EQ(decode(0x0000), DriveState::NotReadyToSwitchOn);
   EXPECT_EQ(decode(0x0040), DriveState::SwitchOnDisabled);
@@ -16,6 +17,7 @@ TEST(Cia402, DecodesEachStateOfTheSpecTable) {
   EXPECT_EQ(decode(0x0008), DriveState::Fault);
 }
 
+// @req CIA-DECODE
 TEST(Cia402, IgnoresBitsOutsideTheMask) {
   // Bits 4 (voltage enabled), 7 (warning), 8..15 (manufacturer / target reached ...)
   EXPECT_EQ(decode(0x0237), DriveState::OperationEnabled);  // 0x0237 & 0x6F == 0x27
@@ -24,6 +26,7 @@ TEST(Cia402, IgnoresBitsOutsideTheMask) {
   EXPECT_EQ(decode(0x0088), DriveState::Fault);
 }
 
+// @req CIA-UNKNOWN
 TEST(Cia402, AStatuswordMatchingNoRowIsUnknownAndAFault) {
   EXPECT_EQ(decode(0x004F), DriveState::Unknown);
   EXPECT_EQ(decode(0x0001), DriveState::Unknown);
@@ -35,6 +38,7 @@ TEST(Cia402, AStatuswordMatchingNoRowIsUnknownAndAFault) {
   EXPECT_FALSE(is_fault(DriveState::OperationEnabled));
 }
 
+// @req CIA-DECODE
 TEST(Cia402, PatternsAreMutuallyExclusiveOverAllStatuswords) {
   int unknown = 0;
   for (unsigned sw = 0; sw <= 0xFFFF; ++sw) {
@@ -56,6 +60,7 @@ TEST(Cia402, CanonicalStatuswordsRoundTrip) {
   EXPECT_EQ(decode(statusword_of(DriveState::Unknown)), DriveState::Unknown);
 }
 
+// @req CIA-DECODE
 TEST(Cia402, ControlwordsAreThoseOfTheSpec) {
   EXPECT_EQ(cw::kShutdown, 0x0006);
   EXPECT_EQ(cw::kSwitchOn, 0x0007);
@@ -71,6 +76,7 @@ TEST(Cia402, NamesAreThoseOfTheStandard) {
   EXPECT_STREQ(to_string(DriveState::Unknown), "Unknown");
 }
 
+// @req CIA-DECODE SIM-CELL
 TEST(Cia402DeviceControl, EveryTransitionOfTheStateMachine) {
   using S = DriveState;
   const std::uint16_t none = 0x0000;
@@ -114,6 +120,7 @@ TEST(Cia402DeviceControl, EveryTransitionOfTheStateMachine) {
   }
 }
 
+// @req CIA-DECODE
 TEST(Cia402DeviceControl, FaultIsLeftOnlyOnARisingEdgeOfBit7) {
   EXPECT_EQ(next_state(DriveState::Fault, 0x0000, cw::kFaultReset, false), DriveState::SwitchOnDisabled);
   EXPECT_EQ(next_state(DriveState::Fault, cw::kFaultReset, cw::kFaultReset, true), DriveState::Fault) << "held, no edge";

@@ -31,6 +31,7 @@ Snapshot snap(const SupervisorOut& o) {
 }  // namespace
 
 // ---------------------------------------------------------------- check order
+// @req RES-ORDER
 TEST(CheckOrder, MalformedComesBeforeLockedOut) {
   Bench b;
   lock_out(b);
@@ -44,6 +45,7 @@ TEST(CheckOrder, MalformedComesBeforeLockedOut) {
   EXPECT_EQ(b.command(j), Result::BAD_ARGUMENT);
 }
 
+// @req RES-ORDER
 TEST(CheckOrder, LockedOutComesBeforeOwnership) {
   Bench b;
   lock_out(b);
@@ -51,6 +53,7 @@ TEST(CheckOrder, LockedOutComesBeforeOwnership) {
   EXPECT_EQ(b.command(CommandId::reset, Source::remote), Result::LOCKED_OUT);
 }
 
+// @req RES-ORDER
 TEST(CheckOrder, OwnershipComesBeforeStateRules) {
   Bench b;
   b.boot();
@@ -60,6 +63,7 @@ TEST(CheckOrder, OwnershipComesBeforeStateRules) {
 }
 
 // ---------------------------------------------------------------- each code
+// @req RES-ORDER
 TEST(Results, UnknownCommand) {
   Bench b;
   b.to_idle();
@@ -69,6 +73,7 @@ TEST(Results, UnknownCommand) {
   EXPECT_EQ(b.replies.back().cmd, kCommandCount) << "the reply names what was received";
 }
 
+// @req TR-JOG-ARGS RES-ORDER
 TEST(Results, BadArgument) {
   Bench b;
   b.to_operational(Mode::T1);
@@ -86,6 +91,7 @@ TEST(Results, BadArgument) {
   EXPECT_EQ(b.command(s), Result::BAD_ARGUMENT);
 }
 
+// @req RES-OWNER
 TEST(Results, NotControlOwner) {
   Bench b;
   b.to_operational(Mode::AUTO);
@@ -101,6 +107,7 @@ TEST(Results, NotControlOwner) {
   EXPECT_EQ(m.command(CommandId::servo_off, Source::remote), Result::NOT_CONTROL_OWNER);
 }
 
+// @req RES-LOCKED-OUT
 TEST(Results, LockedOutForEveryCommand) {
   Bench b;
   lock_out(b);
@@ -114,6 +121,7 @@ TEST(Results, LockedOutForEveryCommand) {
   }
 }
 
+// @req RES-ESTOP
 TEST(Results, EstopActiveForResetAndMotionCommands) {
   Bench b;
   b.to_idle();
@@ -126,6 +134,7 @@ TEST(Results, EstopActiveForResetAndMotionCommands) {
   EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
 }
 
+// @req RES-RESET-NEEDED
 TEST(Results, ResetRequiredForAnythingButResetInEstopResetNeeded) {
   Bench b;
   b.boot();
@@ -138,6 +147,7 @@ TEST(Results, ResetRequiredForAnythingButResetInEstopResetNeeded) {
   EXPECT_EQ(b.command(CommandId::reset), Result::OK);
 }
 
+// @req TR-LATCH TR-SERVO-ON
 TEST(Results, ResetRequiredForServoOnWithALatchedAlarm) {
   Bench b;
   b.to_auto_running();
@@ -151,6 +161,7 @@ TEST(Results, ResetRequiredForServoOnWithALatchedAlarm) {
   EXPECT_EQ(b.command(CommandId::servo_on), Result::OK);
 }
 
+// @req TR-RESET-IDLE
 TEST(Results, FaultPresentWhileTheCauseIsPresent) {
   Bench b;
   b.to_auto_running();
@@ -160,6 +171,7 @@ TEST(Results, FaultPresentWhileTheCauseIsPresent) {
   EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT);
 }
 
+// @req TR-SERVO-ON
 TEST(Results, ModeInvalid) {
   Bench b;
   b.to_idle();
@@ -172,6 +184,7 @@ TEST(Results, ModeInvalid) {
   EXPECT_EQ(b.command(CommandId::confirm_t2), Result::MODE_INVALID) << "confirm_t2 only with T2 selected";
 }
 
+// @req IN-SET-MODE
 TEST(Results, ModeBySelectorOnlyAlways) {
   Bench b;
   b.to_idle();
@@ -185,6 +198,7 @@ TEST(Results, ModeBySelectorOnlyAlways) {
   EXPECT_EQ(b.command(d), Result::MODE_BY_SELECTOR_ONLY);
 }
 
+// @req TR-SERVO-ON
 TEST(Results, GateOpen) {
   Bench b;
   b.to_idle();
@@ -194,6 +208,7 @@ TEST(Results, GateOpen) {
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req TR-START-AUTO TR-RESUME
 TEST(Results, GateOpenForResumeAndStart) {
   // Reach AUTO_PAUSED, then test resume with the guard open in the same cycle as it
   // opens (rule 4 acts first, so the resume meets STOPPING: BUSY), proving the order.
@@ -206,6 +221,7 @@ TEST(Results, GateOpenForResumeAndStart) {
   EXPECT_EQ(b.out.stop, StopCat::CAT1);
 }
 
+// @req TR-SERVO-ON TR-JOG TR-START-MANUAL
 TEST(Results, EnablingNotHeld) {
   Bench b;
   b.mode(Mode::T1);
@@ -224,6 +240,7 @@ TEST(Results, EnablingNotHeld) {
   EXPECT_EQ(b.command(CommandId::servo_on), Result::OK);
 }
 
+// @req TR-SERVO-ON TR-CONFIRM-T2
 TEST(Results, T2NotConfirmed) {
   Bench b;
   b.mode(Mode::T2);
@@ -233,6 +250,7 @@ TEST(Results, T2NotConfirmed) {
   EXPECT_EQ(b.command(CommandId::servo_on), Result::T2_NOT_CONFIRMED);
 }
 
+// @req RES-WRONG-STATE
 TEST(Results, JogNotInAuto) {
   Bench b;
   b.to_idle();
@@ -242,6 +260,7 @@ TEST(Results, JogNotInAuto) {
   EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
 }
 
+// @req TR-START-AUTO TR-START-MANUAL
 TEST(Results, NoProgram) {
   Bench b;
   b.plant.program_loaded = false;
@@ -250,6 +269,7 @@ TEST(Results, NoProgram) {
   EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
 }
 
+// @req RES-WRONG-STATE
 TEST(Results, BusyInArmingAndStopping) {
   Bench b;
   b.to_idle();
@@ -264,6 +284,7 @@ TEST(Results, BusyInArmingAndStopping) {
   EXPECT_EQ(b.command(CommandId::servo_on), Result::BUSY);
 }
 
+// @req RES-WRONG-STATE
 TEST(Results, WrongState) {
   Bench b;
   b.mode(Mode::T1);
@@ -280,6 +301,7 @@ TEST(Results, WrongState) {
   EXPECT_EQ(b.command(CommandId::pause), Result::WRONG_STATE);
 }
 
+// @req RES-QUEUE-FULL
 TEST(Results, QueueFull) {
   CommandQueue<4> q;
   Command c{};
@@ -295,6 +317,7 @@ TEST(Results, QueueFull) {
   EXPECT_EQ(q.push(c), Result::OK);
 }
 
+// @req RES-RESET-OK TR-RESET-OP
 TEST(Results, ResetWithNothingToResetIsOk) {
   Bench b;
   b.to_idle();
@@ -305,6 +328,7 @@ TEST(Results, ResetWithNothingToResetIsOk) {
 }
 
 // ---------------------------------------------------------------- one result each
+// @req RES-ONE RES-SAME-CYCLE
 TEST(OneResult, EveryCommandGetsExactlyOneReply) {
   Bench b;
   b.to_idle();
@@ -326,6 +350,7 @@ TEST(OneResult, EveryCommandGetsExactlyOneReply) {
   }
 }
 
+// @req CYC-MAX-COMMANDS
 TEST(OneResult, AtMostMaxCommandsPerCycleAreTaken) {
   Bench b;
   b.to_idle();
@@ -340,6 +365,7 @@ TEST(OneResult, AtMostMaxCommandsPerCycleAreTaken) {
   EXPECT_EQ(b.replies.size(), 11U);
 }
 
+// @req RES-NO-CHANGE
 TEST(OneResult, ARefusedCommandChangesNothing) {
   Bench b;
   b.to_operational();
@@ -356,6 +382,7 @@ TEST(OneResult, ARefusedCommandChangesNothing) {
   EXPECT_EQ(snap(b.out), before);
 }
 
+// @req AL-LIFETIME
 TEST(OneResult, InfoAlarmsLastUntilTheNextCommandAnsweredOk) {
   Bench b;
   b.to_operational();
@@ -371,6 +398,7 @@ TEST(OneResult, InfoAlarmsLastUntilTheNextCommandAnsweredOk) {
 }
 
 // ---------------------------------------------------------------- reset button
+// @req IN-RESET-EDGE IN-RESET-FRESH
 TEST(ResetButtonRule, FreshPressAndReleaseResets) {
   Bench b;
   b.boot();
@@ -384,6 +412,7 @@ TEST(ResetButtonRule, FreshPressAndReleaseResets) {
   EXPECT_EQ(b.replies.back().source, static_cast<std::uint8_t>(Source::reset_button));
 }
 
+// @req IN-RESET-FRESH
 TEST(ResetButtonRule, PressBegunBeforeResetBecamePossibleIsNoReset) {
   Bench b;
   b.to_idle();
@@ -404,6 +433,7 @@ TEST(ResetButtonRule, PressBegunBeforeResetBecamePossibleIsNoReset) {
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req IN-RESET-FRESH
 TEST(ResetButtonRule, HeldLongerThanFiveSecondsIsNoResetAndRaisesStuck) {
   Bench b;
   b.boot();

@@ -19,6 +19,7 @@ std::string words(AlarmId id, Signal s, Channel ch = Channel::none, std::uint8_t
 }
 }  // namespace
 
+// @req AL-CAUSE
 TEST(Describe, EstopNamesTheChannel) {
   EXPECT_EQ(words(AlarmId::ESTOP_PRESSED, Signal::estop, Channel::a), "E-stop channel A opened");
   EXPECT_EQ(words(AlarmId::ESTOP_PRESSED, Signal::estop, Channel::both), "E-stop pressed");
@@ -28,10 +29,12 @@ TEST(Describe, GuardInAuto) {
   EXPECT_EQ(words(AlarmId::PROTECTIVE_STOP, Signal::gate, Channel::b), "Guard opened in AUTO channel B");
 }
 
+// @req AL-CAUSE
 TEST(Describe, DriveFaultNamesAxisAndStatusword) {
   EXPECT_EQ(words(AlarmId::DRIVE_FAULT, Signal::drive, Channel::none, 3, 0x0008), "Drive 3 fault (statusword 0x0008)");
 }
 
+// @req AL-CAUSE
 TEST(Describe, ArmingTimeoutNamesTheStep) {
   AlarmDetail d{};
   d.step = ArmingStep::BRAKES;

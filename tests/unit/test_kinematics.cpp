@@ -237,6 +237,7 @@ TEST(Rpy, RebuildsTheTcpOrientationAtRandomPoses) {
 
 // --- point speeds ------------------------------------------------------------------------
 
+// @req MO-T1-MONITOR
 TEST(PointSpeeds, MatchFiniteDifferencesOfForward) {
   const RobotModel m = tooled();
   Rng rng;
@@ -331,6 +332,7 @@ TEST(PointSpeeds, NothingMovingNamesNoPoint) {
   EXPECT_EQ(ps.fastest_axis, 0);
 }
 
+// @req MO-T1-MONITOR
 TEST(PointSpeeds, FoldedWristMakesTheWristCentreFastest) {
   // Forearm up (q3 = -90 deg), wrist bent forward (q5 = +90 deg): the wrist centre is at
   // (-70, 0, 862) and the flange at (2, 0, 862), a little closer to axis 2.
@@ -362,6 +364,7 @@ TEST(PointSpeeds, NonFiniteInputReadsAsInfinitelyFast) {
 
 // --- T1 speed scaling --------------------------------------------------------------------
 
+// @req MO-T1-LIMIT
 TEST(T1Scale, ScaledMotionRunsExactlyAtTheLimit) {
   const RobotModel m = tooled();
   const float limit = 250.0F;  // mm/s, ISO 10218-1 reduced speed
@@ -389,6 +392,7 @@ TEST(T1Scale, SlowMotionIsLeftAlone) {
   EXPECT_FLOAT_EQ(t1_scale(kRobot, zero(), zero(), 250.0F), 1.0F);
 }
 
+// @req MO-T1-LIMIT
 TEST(T1Scale, JustAboveTheLimitScalesToIt) {
   // 1 rad/s on axis 1: flange at 374 mm/s, so the factor is 250 / 374.
   EXPECT_NEAR(t1_scale(kRobot, zero(), only(1, 1.0F), 250.0F), 250.0F / 374.0F, 1e-6F);

@@ -6,6 +6,7 @@
 using namespace safestate::test;
 
 // ---------------------------------------------------------------- no surprise motion
+// @req ST-NO-SURPRISE
 TEST(NoSurpriseMotion, AfterArmingNothingMovesUntilACommandIsAccepted) {
   Bench b;
   b.to_operational();
@@ -16,6 +17,7 @@ TEST(NoSurpriseMotion, AfterArmingNothingMovesUntilACommandIsAccepted) {
   }
 }
 
+// @req ST-NO-SURPRISE
 TEST(NoSurpriseMotion, ArmingTracksMeasuredPositions) {
   Bench b;
   b.to_idle();
@@ -26,6 +28,7 @@ TEST(NoSurpriseMotion, ArmingTracksMeasuredPositions) {
   }
 }
 
+// @req ST-NO-SURPRISE
 TEST(NoSurpriseMotion, EveryStopDiscardsQueuedMotion) {
   struct Stop {
     const char* name;
@@ -49,6 +52,7 @@ TEST(NoSurpriseMotion, EveryStopDiscardsQueuedMotion) {
   }
 }
 
+// @req ST-NO-SURPRISE TR-RESUME
 TEST(NoSurpriseMotion, ResumeAfterPauseReplansAndReArmDoesNotRestart) {
   Bench b;
   b.to_auto_running();
@@ -65,6 +69,7 @@ TEST(NoSurpriseMotion, ResumeAfterPauseReplansAndReArmDoesNotRestart) {
 }
 
 // ---------------------------------------------------------------- unknown is unsafe
+// @req ST-UNKNOWN-UNSAFE CIA-UNKNOWN
 TEST(UnknownIsUnsafe, UndecodableStatuswordIsADriveFault) {
   Bench b;
   b.to_auto_running();
@@ -76,6 +81,7 @@ TEST(UnknownIsUnsafe, UndecodableStatuswordIsADriveFault) {
   EXPECT_EQ(b.out.cause.detail.axis, 3U);
 }
 
+// @req ST-UNKNOWN-UNSAFE
 TEST(UnknownIsUnsafe, NaNSpeedInT1IsOverTheLimit) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -85,6 +91,7 @@ TEST(UnknownIsUnsafe, NaNSpeedInT1IsOverTheLimit) {
   EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
 }
 
+// @req ST-UNKNOWN-UNSAFE ST-STANDSTILL
 TEST(UnknownIsUnsafe, NaNVelocityIsNotStandstill) {
   Bench b;
   b.to_auto_running();
@@ -96,6 +103,7 @@ TEST(UnknownIsUnsafe, NaNVelocityIsNotStandstill) {
   EXPECT_TRUE(b.alarm(AlarmId::STOP_TIME_EXCEEDED));
 }
 
+// @req ST-UNKNOWN-UNSAFE
 TEST(UnknownIsUnsafe, StopTimeResetIsRefusedWhileAnAxisStillMoves) {
   Bench b;
   b.to_auto_running();
@@ -110,6 +118,7 @@ TEST(UnknownIsUnsafe, StopTimeResetIsRefusedWhileAnAxisStillMoves) {
   EXPECT_EQ(b.command(CommandId::reset), Result::OK);
 }
 
+// @req ST-UNKNOWN-UNSAFE IN-MODE-INVALID
 TEST(UnknownIsUnsafe, SelectorWithSeveralPositionsIsModeNone) {
   Bench b;
   b.to_idle();
@@ -120,6 +129,7 @@ TEST(UnknownIsUnsafe, SelectorWithSeveralPositionsIsModeNone) {
 }
 
 // ---------------------------------------------------------------- Cat 1 completes
+// @req ST-CAT1-COMPLETES
 TEST(Cat1Completes, EvenIfItsCauseClears) {
   Bench b;
   b.to_auto_running();
@@ -134,6 +144,7 @@ TEST(Cat1Completes, EvenIfItsCauseClears) {
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req ST-CAT1-COMPLETES
 TEST(Cat1Completes, CommandsDoNotCancelIt) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -148,6 +159,7 @@ TEST(Cat1Completes, CommandsDoNotCancelIt) {
 }
 
 // ---------------------------------------------------------------- every condition raises its alarm
+// @req TR-EVERY-ALARM
 TEST(EveryConditionRaisesItsAlarm, KeyToT1WithEnableReleasedRaisesModeChanged) {
   Bench b;
   b.to_auto_running();
@@ -158,6 +170,7 @@ TEST(EveryConditionRaisesItsAlarm, KeyToT1WithEnableReleasedRaisesModeChanged) {
   EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
 }
 
+// @req TR-EVERY-ALARM TR-PRIORITY
 TEST(EveryConditionRaisesItsAlarm, EstopAndGateTogether) {
   Bench b;
   b.to_auto_running();
@@ -170,6 +183,7 @@ TEST(EveryConditionRaisesItsAlarm, EstopAndGateTogether) {
   EXPECT_EQ(b.out.cause.alarm, AlarmId::ESTOP_PRESSED) << "first-out: the higher rule";
 }
 
+// @req TR-EVERY-ALARM
 TEST(EveryConditionRaisesItsAlarm, DriveFaultInIdleIsRaisedToo) {
   Bench b;
   b.to_idle();
@@ -180,6 +194,7 @@ TEST(EveryConditionRaisesItsAlarm, DriveFaultInIdleIsRaisedToo) {
   EXPECT_EQ(b.command(CommandId::servo_on), Result::RESET_REQUIRED);
 }
 
+// @req AL-CAUSE AL-FIRST-OUT
 TEST(EveryConditionRaisesItsAlarm, EveryStopNamesItsCause) {
   Bench b;
   b.to_auto_running();

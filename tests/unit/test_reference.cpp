@@ -206,6 +206,7 @@ std::string tail(const std::string& s, std::size_t lines) {
 
 }  // namespace
 
+// @req TR-PRIORITY CYC-ORDER
 TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   constexpr int kSeeds = 40;
   constexpr Cycle kCycles = 30000;

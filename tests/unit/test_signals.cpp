@@ -10,6 +10,7 @@ constexpr Cycle kLimit = 50;  // discrepancy_ms at 1 ms
 }
 
 // ---------------------------------------------------------------- DualChannel
+// @req IN-SAFE-EITHER
 TEST(DualChannel, HealthyBothChannelsIsActive) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -17,6 +18,7 @@ TEST(DualChannel, HealthyBothChannelsIsActive) {
   EXPECT_FALSE(d.discrepancy());
 }
 
+// @req IN-SAFE-EITHER CYC-ZERO-DELAY
 TEST(DualChannel, EitherChannelAloneGivesSafeValueInTheSameCycle) {
   for (int which = 0; which < 2; ++which) {
     DualChannel d;
@@ -28,6 +30,7 @@ TEST(DualChannel, EitherChannelAloneGivesSafeValueInTheSameCycle) {
   }
 }
 
+// @req IN-SAFE-EITHER AL-CAUSE
 TEST(DualChannel, BothChannelsDroppingTogetherNamesBoth) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -36,6 +39,7 @@ TEST(DualChannel, BothChannelsDroppingTogetherNamesBoth) {
   EXPECT_EQ(d.cause(), Channel::both);
 }
 
+// @req IN-DISCREPANCY
 TEST(DualChannel, DiscrepancyFiresAtTheFirstCycleBeyondTheLimit) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -48,6 +52,7 @@ TEST(DualChannel, DiscrepancyFiresAtTheFirstCycleBeyondTheLimit) {
   EXPECT_EQ(d.fault_channel(), Channel::a);
 }
 
+// @req IN-DISCREPANCY AL-LIFETIME
 TEST(DualChannel, DiscrepancyLatchesUntilPowerCycle) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -62,6 +67,7 @@ TEST(DualChannel, DiscrepancyLatchesUntilPowerCycle) {
   EXPECT_FALSE(d.active());
 }
 
+// @req IN-DISCREPANCY
 TEST(DualChannel, DisagreementWithinTheLimitIsTolerated) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -73,6 +79,7 @@ TEST(DualChannel, DisagreementWithinTheLimitIsTolerated) {
   EXPECT_EQ(d.disagree_cycles(), 0U);
 }
 
+// @req IN-EQUIVALENT
 TEST(DualChannel, BlinkingChannelNeverReEnables) {
   DualChannel d;
   d.update(true, true, kLimit);
@@ -88,6 +95,7 @@ TEST(DualChannel, BlinkingChannelNeverReEnables) {
   EXPECT_TRUE(d.active());
 }
 
+// @req IN-EQUIVALENT
 TEST(DualChannel, StaggeredCloseFromSafeIsNormal) {
   DualChannel d;
   d.update(false, false, kLimit);
@@ -97,6 +105,7 @@ TEST(DualChannel, StaggeredCloseFromSafeIsNormal) {
   EXPECT_TRUE(d.active());
 }
 
+// @req IN-DISCREPANCY
 TEST(DualChannel, StaggeredCloseBeyondTheLimitIsADiscrepancy) {
   DualChannel d;
   d.update(false, false, kLimit);
@@ -116,6 +125,7 @@ void to_centre_through_released(EnablingDevice& e) {
 }
 }  // namespace
 
+// @req IN-ENABLE-DECODE
 TEST(EnablingDevice, HeldAtPowerUpDoesNotEnable) {
   EnablingDevice e;
   e.update(true, true, false, false, kLimit);
@@ -126,6 +136,7 @@ TEST(EnablingDevice, HeldAtPowerUpDoesNotEnable) {
   EXPECT_TRUE(e.enabled());
 }
 
+// @req IN-ENABLE-DECODE
 TEST(EnablingDevice, CentreThroughReleasedEnables) {
   EnablingDevice e;
   to_centre_through_released(e);
@@ -133,6 +144,7 @@ TEST(EnablingDevice, CentreThroughReleasedEnables) {
   EXPECT_EQ(e.position(), EnablePos::centre);
 }
 
+// @req IN-ENABLE-DECODE
 TEST(EnablingDevice, PanicDisablesWhateverTheCentreContactsSay) {
   EnablingDevice e;
   to_centre_through_released(e);
@@ -144,6 +156,7 @@ TEST(EnablingDevice, PanicDisablesWhateverTheCentreContactsSay) {
   EXPECT_FALSE(e.panic_edge()) << "edge only in the first cycle";
 }
 
+// @req IN-ENABLE-PANIC
 TEST(EnablingDevice, PanicBackToCentreDoesNotEnable) {
   EnablingDevice e;
   to_centre_through_released(e);
@@ -156,6 +169,7 @@ TEST(EnablingDevice, PanicBackToCentreDoesNotEnable) {
   EXPECT_TRUE(e.enabled());
 }
 
+// @req IN-ENABLE-MODE
 TEST(EnablingDevice, HeldWhenTheModeBecomesManualDoesNotCount) {
   EnablingDevice e;
   to_centre_through_released(e);
@@ -167,6 +181,7 @@ TEST(EnablingDevice, HeldWhenTheModeBecomesManualDoesNotCount) {
   EXPECT_TRUE(e.enabled());
 }
 
+// @req IN-ENABLE-MODE
 TEST(EnablingDevice, ReleasedWhenTheModeBecomesManualCountsAtOnce) {
   EnablingDevice e;
   e.update(false, false, false, true, kLimit);
@@ -174,6 +189,7 @@ TEST(EnablingDevice, ReleasedWhenTheModeBecomesManualCountsAtOnce) {
   EXPECT_TRUE(e.enabled());
 }
 
+// @req IN-ENABLE-DECODE IN-SAFE-EITHER
 TEST(EnablingDevice, OneCentreContactIsNotCentre) {
   EnablingDevice e;
   e.update(false, false, false, false, kLimit);
@@ -182,6 +198,7 @@ TEST(EnablingDevice, OneCentreContactIsNotCentre) {
   EXPECT_FALSE(e.enabled());
 }
 
+// @req IN-DISCREPANCY
 TEST(EnablingDevice, CentreContactDiscrepancy) {
   EnablingDevice e;
   e.update(false, false, false, false, kLimit);
@@ -193,6 +210,7 @@ TEST(EnablingDevice, CentreContactDiscrepancy) {
 }
 
 // ---------------------------------------------------------------- ModeSelector
+// @req IN-MODE-DECODE
 TEST(ModeSelector, ExactlyOneContactSelectsTheMode) {
   ModeSelector m;
   m.update(true, false, false, kLimit);
@@ -205,6 +223,7 @@ TEST(ModeSelector, ExactlyOneContactSelectsTheMode) {
   EXPECT_EQ(m.mode(), Mode::T2);
 }
 
+// @req IN-MODE-INVALID
 TEST(ModeSelector, BreakBeforeMakeHoldsTheLastModeForTheLimit) {
   ModeSelector m;
   m.update(true, false, false, kLimit);
@@ -220,6 +239,7 @@ TEST(ModeSelector, BreakBeforeMakeHoldsTheLastModeForTheLimit) {
   EXPECT_FALSE(m.invalid());
 }
 
+// @req IN-MODE-INVALID
 TEST(ModeSelector, NoContactBeyondTheLimitGivesNone) {
   ModeSelector m;
   m.update(true, false, false, kLimit);
@@ -232,6 +252,7 @@ TEST(ModeSelector, NoContactBeyondTheLimitGivesNone) {
   EXPECT_TRUE(m.changed());
 }
 
+// @req IN-MODE-INVALID
 TEST(ModeSelector, SeveralContactsBeyondTheLimitGivesNone) {
   ModeSelector m;
   m.update(false, true, false, kLimit);
@@ -243,6 +264,7 @@ TEST(ModeSelector, SeveralContactsBeyondTheLimitGivesNone) {
 }
 
 // ---------------------------------------------------------------- ResetButton
+// @req IN-RESET-EDGE
 TEST(ResetButton, ActsOnTheFallingEdge) {
   ResetButton r;
   r.update(false, 0, 5000);
@@ -255,6 +277,7 @@ TEST(ResetButton, ActsOnTheFallingEdge) {
   EXPECT_FALSE(r.released_edge());
 }
 
+// @req IN-RESET-FRESH
 TEST(ResetButton, HeldExactlyTheLimitIsStillAReset) {
   ResetButton r;
   Cycle t = 0;
@@ -266,6 +289,7 @@ TEST(ResetButton, HeldExactlyTheLimitIsStillAReset) {
   EXPECT_TRUE(r.released_edge());
 }
 
+// @req IN-RESET-FRESH
 TEST(ResetButton, HeldLongerThanTheLimitIsStuckAndNotAReset) {
   ResetButton r;
   Cycle t = 0;
@@ -280,6 +304,7 @@ TEST(ResetButton, HeldLongerThanTheLimitIsStuckAndNotAReset) {
   EXPECT_FALSE(r.stuck()) << "RESET_BUTTON_STUCK lasts while held";
 }
 
+// @req IN-RESET-FRESH
 TEST(ResetButton, HeldAtPowerUpIsAPressStartingAtCycleZero) {
   ResetButton r;
   r.update(true, 0, 5000);
@@ -287,6 +312,7 @@ TEST(ResetButton, HeldAtPowerUpIsAPressStartingAtCycleZero) {
 }
 
 // ---------------------------------------------------------------- SignalLayer
+// @req IN-ENABLE-MODE
 TEST(SignalLayer, ModeBecomingManualWhileEnableHeldNeedsARelease) {
   SignalLayer s;
   const Timing t{};
@@ -302,6 +328,7 @@ TEST(SignalLayer, ModeBecomingManualWhileEnableHeldNeedsARelease) {
   EXPECT_FALSE(s.inputs().enable_ok);
 }
 
+// @req SIM-CELL
 TEST(SignalLayer, DefaultRawInputsAreHealthyAutoReleased) {
   SignalLayer s;
   s.update(RawInputs{}, 0, Timing{});

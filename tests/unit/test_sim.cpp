@@ -68,6 +68,7 @@ struct CellRun {
 
 }  // namespace
 
+// @req SIM-CELL
 TEST(SimCell, BootEndsWithin100Cycles) {
   CellRun r;
   const int k = r.until([](const sim::Cell& c) { return c.out().state != State::BOOT; }, 100);
@@ -75,6 +76,7 @@ TEST(SimCell, BootEndsWithin100Cycles) {
   EXPECT_EQ(r.state(), State::ESTOP_RESET_NEEDED);
 }
 
+// @req SIM-CELL
 TEST(SimCell, ContactorFeedbackTenCyclesAfterTheCommand) {
   CellRun r;
   r.cycles(100);
@@ -84,6 +86,7 @@ TEST(SimCell, ContactorFeedbackTenCyclesAfterTheCommand) {
   EXPECT_EQ(k, 10);
 }
 
+// @req SIM-CELL
 TEST(SimCell, ArmingWalksTheDrivesAndReleasesTheBrakes) {
   CellRun r;
   r.arm();
@@ -96,6 +99,7 @@ TEST(SimCell, ArmingWalksTheDrivesAndReleasesTheBrakes) {
   EXPECT_LT(r.cell.view().tcp_speed_mm_s, 0.01F) << "no surprise motion after arming";
 }
 
+// @req SIM-PROGRAM
 TEST(SimCell, DemoProgramLastsFiveToTenSecondsAndFinishes) {
   CellRun r;
   r.arm();
@@ -113,6 +117,7 @@ TEST(SimCell, DemoProgramLastsFiveToTenSecondsAndFinishes) {
   EXPECT_EQ(r.state(), State::OPERATIONAL);
 }
 
+// @req MO-T1-LIMIT
 TEST(SimCell, T1JogIsCappedBelow250mmPerSecond) {
   CellRun r;
   r.arm(core::Mode::T1);
@@ -130,6 +135,7 @@ TEST(SimCell, T1JogIsCappedBelow250mmPerSecond) {
   EXPECT_STREQ(r.cell.view().axis_state[0], "ContinuousMotion");
 }
 
+// @req MO-T1-LIMIT
 TEST(SimCell, T1ProgramIsTimeScaledBelow250) {
   CellRun r;
   r.arm(core::Mode::T1);
@@ -144,6 +150,7 @@ TEST(SimCell, T1ProgramIsTimeScaledBelow250) {
   EXPECT_GT(top, 150.0F);
 }
 
+// @req CIA-NO-REENABLE
 TEST(SimCell, DriveFaultStopsAndResetAcknowledgesIt) {
   CellRun r;
   r.arm();
@@ -170,6 +177,7 @@ TEST(SimCell, DriveFaultStopsAndResetAcknowledgesIt) {
   EXPECT_EQ(core::cia402::decode(r.cell.view().statusword[1]), core::cia402::DriveState::SwitchOnDisabled);
 }
 
+// @req TR-C3
 TEST(SimCell, RunawayInAutoIsCaughtAsAFollowingError) {
   CellRun r;
   r.arm();
@@ -181,6 +189,7 @@ TEST(SimCell, RunawayInAutoIsCaughtAsAFollowingError) {
   EXPECT_TRUE((r.cell.out().alarms & core::bit(core::AlarmId::DRIVE_FAULT)) != 0U);
 }
 
+// @req ST-STOP-TIME
 TEST(SimCell, NostopDriveMeetsTheStopTimeMonitor) {
   CellRun r;
   r.arm();
@@ -212,6 +221,7 @@ TEST(SimCell, FieldbusLostLocksOut) {
   EXPECT_EQ(r.state(), State::ERROR_LOCKOUT);
 }
 
+// @req CYC-DETERMINISM
 TEST(SimCell, SameInputsGiveTheSameRunBitForBit) {
   CellRun a;
   CellRun b;
@@ -226,6 +236,7 @@ TEST(SimCell, SameInputsGiveTheSameRunBitForBit) {
   }
 }
 
+// @req ST-CAT1 CIA-NO-REENABLE
 TEST(SimCell, LaggingDriveInCat1GetsItsOwnQuickStop) {
   CellRun r;
   r.arm();
@@ -246,4 +257,34 @@ TEST(SimCell, LaggingDriveInCat1GetsItsOwnQuickStop) {
   EXPECT_EQ(r.state(), State::IDLE);
   EXPECT_EQ(r.cell.out().alarms & core::bit(core::AlarmId::STOP_TIME_EXCEEDED), 0U) << "it stopped in time";
   EXPECT_EQ(r.cell.out().alarms & core::bit(core::AlarmId::DRIVE_FAULT), 0U);
+}
+
+// @req CIA-AXIS-STATES
+TEST(SimCell, PlcopenAxisStatesFollowTheDrivesAndTheMotion) {
+  CellRun r;
+  r.cycles(100);
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_STREQ(r.cell.view().axis_state[i], "Disabled");
+  r.arm();
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_STREQ(r.cell.view().axis_state[i], "Standstill");
+  ASSERT_EQ(r.cmd(CommandId::start), Result::OK);
+  r.cycles(1);
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_STREQ(r.cell.view().axis_state[i], "DiscreteMotion");
+  r.cycles(300);
+  ASSERT_EQ(r.cmd(CommandId::pause), Result::OK);
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_STREQ(r.cell.view().axis_state[i], "Stopping");
+  r.cell.inject({sim::FaultKind::drive_fault, 3});
+  r.cycles(3);
+  EXPECT_STREQ(r.cell.view().axis_state[2], "ErrorStop");
+  EXPECT_STREQ(r.cell.view().axis_state[0], "Disabled") << "Cat 0: the others lose power";
+}
+
+// @req CIA-AXIS-STATES
+TEST(SimCell, OnlyTheJoggedAxisIsInContinuousMotion) {
+  CellRun r;
+  r.arm(core::Mode::T1);
+  ASSERT_EQ(r.cmd(CommandId::jog, 2, 1, 10), Result::OK);
+  r.cycles(1);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_STREQ(r.cell.view().axis_state[i], i == 1 ? "ContinuousMotion" : "Standstill") << i;
+  }
 }

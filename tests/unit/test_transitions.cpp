@@ -4,6 +4,7 @@
 using namespace safestate::test;
 
 // ================================================================ the table itself
+// @req TR-PRIORITY
 TEST(TransitionTable, EveryRowIsReachableThroughTheIndex) {
   for (std::size_t r = 0; r < kTransitions.size(); ++r) {
     bool found = false;
@@ -17,6 +18,7 @@ TEST(TransitionTable, EveryRowIsReachableThroughTheIndex) {
   }
 }
 
+// @req TR-PRIORITY
 TEST(TransitionTable, ConditionRowsComeFirstInPriorityOrder) {
   std::size_t last = 0;
   bool in_conditions = true;
@@ -31,6 +33,7 @@ TEST(TransitionTable, ConditionRowsComeFirstInPriorityOrder) {
   }
 }
 
+// @req TR-C1
 TEST(TransitionTable, LockoutIsNeverLeftByAnyRow) {
   for (const Transition& t : kTransitions) {
     if ((t.from & mask_of(Leaf::ERROR_LOCKOUT)) != 0U) {
@@ -40,6 +43,7 @@ TEST(TransitionTable, LockoutIsNeverLeftByAnyRow) {
 }
 
 // ================================================================ BOOT
+// @req TR-BOOT
 TEST(Boot, PassedGoesToEstopResetNeeded) {
   Bench b;
   b.cycle();
@@ -51,6 +55,7 @@ TEST(Boot, PassedGoesToEstopResetNeeded) {
   EXPECT_LE(b.ssm().now(), 100U) << "the simulated BOOT ends within 100 cycles";
 }
 
+// @req TR-BOOT TR-C2
 TEST(Boot, EstopPressedGoesToEstopActive) {
   Bench b;
   b.estop(true);
@@ -62,6 +67,7 @@ TEST(Boot, EstopPressedGoesToEstopActive) {
   EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED);
 }
 
+// @req TR-RESET-ESTOP
 TEST(Boot, ResetBeforeTheSelfTestEndsIsBusy) {
   Bench b;
   b.plant.boot_cycles = 1000;  // drives slow to answer
@@ -73,6 +79,7 @@ TEST(Boot, ResetBeforeTheSelfTestEndsIsBusy) {
   EXPECT_EQ(b.command(CommandId::reset), Result::BUSY);
 }
 
+// @req TR-BOOT-FAILED TR-C1
 TEST(Boot, TimeoutLocksOutWithBootFailed) {
   Bench b;
   b.plant.fieldbus = false;
@@ -85,6 +92,7 @@ TEST(Boot, TimeoutLocksOutWithBootFailed) {
   EXPECT_EQ(b.out.cause.detail.signal, Signal::fieldbus);
 }
 
+// @req TR-BOOT-FAILED AL-CAUSE
 TEST(Boot, ADriveThatNeverAnswersNamesItsAxis) {
   Bench b;
   b.fb.drive[3].online = false;  // the bench refills statuswords, never `online`  // bench refills statuswords, not `online`
@@ -95,6 +103,7 @@ TEST(Boot, ADriveThatNeverAnswersNamesItsAxis) {
   EXPECT_EQ(b.out.cause.detail.axis, 4U);
 }
 
+// @req TR-BOOT-FAILED
 TEST(Boot, SelfTestRejectsAnImpossibleTimingAndLocksOut) {
   // An integrator that bypasses validate(): the supervisor's own start-up check fails.
   const auto bad = [](void (*mutate)(Config&)) {
@@ -117,6 +126,7 @@ TEST(Boot, SelfTestRejectsAnImpossibleTimingAndLocksOut) {
   }
 }
 
+// @req TR-BOOT-FAILED ST-UNKNOWN-UNSAFE
 TEST(Boot, AnUndecodableStatuswordIsNoAnswer) {
   Bench b;
   b.plant.boot_cycles = 1000000;  // the bench drives keep the states set here
@@ -130,6 +140,7 @@ TEST(Boot, AnUndecodableStatuswordIsNoAnswer) {
 }
 
 // ================================================================ rule 1: lockout
+// @req TR-C1 IN-DISCREPANCY
 TEST(Rule1, EstopDiscrepancyLocksOutFromOperational) {
   Bench b;
   b.to_operational();
@@ -145,6 +156,7 @@ TEST(Rule1, EstopDiscrepancyLocksOutFromOperational) {
   EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
+// @req TR-C1 IN-DISCREPANCY
 TEST(Rule1, GateDiscrepancyLocksOutFromIdle) {
   Bench b;
   b.to_idle();
@@ -155,6 +167,7 @@ TEST(Rule1, GateDiscrepancyLocksOutFromIdle) {
   EXPECT_EQ(b.out.stop, StopCat::CAT0);
 }
 
+// @req TR-C1 IN-DISCREPANCY
 TEST(Rule1, EnableDiscrepancyLocksOutFromManual) {
   Bench b;
   b.to_operational(Mode::T1);
@@ -167,6 +180,7 @@ TEST(Rule1, EnableDiscrepancyLocksOutFromManual) {
   EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
+// @req TR-C1 CYC-ZERO-DELAY
 TEST(Rule1, FieldbusLostLocksOutInTheSameCycle) {
   Bench b;
   b.to_auto_running();
@@ -178,6 +192,7 @@ TEST(Rule1, FieldbusLostLocksOutInTheSameCycle) {
   EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
+// @req TR-C1
 TEST(Rule1, ADriveDroppingOffTheBusLocksOut) {
   Bench b;
   b.to_idle();
@@ -188,6 +203,7 @@ TEST(Rule1, ADriveDroppingOffTheBusLocksOut) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::FIELDBUS_LOST).axis, 3U);
 }
 
+// @req TR-C1
 TEST(Rule1, IntegrityFaultLocksOut) {
   Bench b;
   b.to_idle();
@@ -198,6 +214,7 @@ TEST(Rule1, IntegrityFaultLocksOut) {
   EXPECT_EQ(b.out.cause.alarm, AlarmId::INTEGRITY_FAULT);
 }
 
+// @req TR-C1 AL-LIFETIME
 TEST(Rule1, LockoutIsNeverLeft) {
   Bench b;
   b.to_idle();
@@ -219,6 +236,7 @@ TEST(Rule1, LockoutIsNeverLeft) {
 }
 
 // ================================================================ rule 2: E-stop
+// @req TR-C2 ST-CAT0 CYC-ZERO-DELAY
 TEST(Rule2, EstopFromEveryStateButLockoutIsCat0InTheSameCycle) {
   struct Path {
     const char* name;
@@ -253,6 +271,7 @@ TEST(Rule2, EstopFromEveryStateButLockoutIsCat0InTheSameCycle) {
   }
 }
 
+// @req TR-C2 AL-LIFETIME
 TEST(Rule2, EstopPressedAlarmLastsWhileTheConditionLasts) {
   Bench b;
   b.to_idle();
@@ -265,6 +284,7 @@ TEST(Rule2, EstopPressedAlarmLastsWhileTheConditionLasts) {
 }
 
 // ================================================================ rule 3
+// @req TR-C3 ST-CAT0
 TEST(Rule3, DriveFaultIsCat0ToIdleLatched) {
   Bench b;
   b.to_auto_running();
@@ -278,6 +298,7 @@ TEST(Rule3, DriveFaultIsCat0ToIdleLatched) {
   EXPECT_TRUE(b.out.reset_lamp);
 }
 
+// @req TR-C3
 TEST(Rule3, DriveLeavingOperationEnabledOnItsOwnIsADriveFault) {
   Bench b;
   b.to_operational();
@@ -287,6 +308,7 @@ TEST(Rule3, DriveLeavingOperationEnabledOnItsOwnIsADriveFault) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 5U);
 }
 
+// @req TR-C3
 TEST(Rule3, ADriveThatDoesNotFollowItsSetPointIsADriveFault) {
   Bench b;
   b.to_operational();
@@ -297,6 +319,7 @@ TEST(Rule3, ADriveThatDoesNotFollowItsSetPointIsADriveFault) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 4U);
 }
 
+// @req TR-C3 AL-FIRST-OUT
 TEST(Rule3, TwoDriveFaultsInOneCycleNameTheFirst) {
   Bench b;
   b.to_operational();
@@ -307,6 +330,7 @@ TEST(Rule3, TwoDriveFaultsInOneCycleNameTheFirst) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 2U);
 }
 
+// @req TR-C3 MO-T1-MONITOR
 TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -320,6 +344,7 @@ TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
   EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
 }
 
+// @req TR-C3 TR-C6
 TEST(Rule3, KeyToT1WhileMovingFastIsRule6NotAT1SpeedFault) {
   Bench b;
   b.to_auto_running();
@@ -332,6 +357,7 @@ TEST(Rule3, KeyToT1WhileMovingFastIsRule6NotAT1SpeedFault) {
   EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
 }
 
+// @req MO-T1-MONITOR
 TEST(Rule3, T1SpeedIsNotMonitoredInT2) {
   Bench b;
   b.to_jogging(Mode::T2);
@@ -340,6 +366,7 @@ TEST(Rule3, T1SpeedIsNotMonitoredInT2) {
   EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
 }
 
+// @req TR-C3 ST-STOP-TIME
 TEST(Rule3, StopTimeExceededEscalatesToCat0AtTheFirstCycleBeyond) {
   Bench b;
   b.to_auto_running();
@@ -356,6 +383,7 @@ TEST(Rule3, StopTimeExceededEscalatesToCat0AtTheFirstCycleBeyond) {
 }
 
 // ================================================================ rule 4 / 4b
+// @req TR-C4 ST-CAT1
 TEST(Rule4, GateOpenInAutoIsCat1ToIdleLatched) {
   Bench b;
   b.to_auto_running();
@@ -374,6 +402,7 @@ TEST(Rule4, GateOpenInAutoIsCat1ToIdleLatched) {
   EXPECT_TRUE(b.out.reset_lamp);
 }
 
+// @req TR-C4
 TEST(Rule4, GateOpenDuringACat2StopBecomesCat1) {
   Bench b;
   b.to_auto_running();
@@ -385,6 +414,7 @@ TEST(Rule4, GateOpenDuringACat2StopBecomesCat1) {
   EXPECT_EQ(b.out.target, Leaf::IDLE);
 }
 
+// @req TR-C4b
 TEST(Rule4b, GateOpenInArmingIsCat0ToIdle) {
   Bench b;
   b.to_idle();
@@ -399,6 +429,7 @@ TEST(Rule4b, GateOpenInArmingIsCat0ToIdle) {
   EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
+// @req TR-C4
 TEST(Rule4, GateOpenInT1IsNotAProtectiveStop) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -409,6 +440,7 @@ TEST(Rule4, GateOpenInT1IsNotAProtectiveStop) {
 }
 
 // ================================================================ rule 5 / 5b
+// @req TR-C5
 TEST(Rule5, EnableReleasedInT1IsCat1ToIdle) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -422,6 +454,7 @@ TEST(Rule5, EnableReleasedInT1IsCat1ToIdle) {
   EXPECT_FALSE(b.out.reset_lamp) << "a release latches nothing";
 }
 
+// @req TR-C5
 TEST(Rule5, PanicIsACat1StopAndRaisesEnablingPanic) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -433,6 +466,7 @@ TEST(Rule5, PanicIsACat1StopAndRaisesEnablingPanic) {
   EXPECT_EQ(alarm_info(AlarmId::ENABLING_PANIC).severity, Severity::info);
 }
 
+// @req TR-C5b
 TEST(Rule5b, EnableReleasedInArmingIsCat0ToIdle) {
   Bench b;
   b.mode(Mode::T1);
@@ -448,6 +482,7 @@ TEST(Rule5b, EnableReleasedInArmingIsCat0ToIdle) {
 }
 
 // ================================================================ rule 6
+// @req TR-C6
 TEST(Rule6, ModeChangeInOperationalIsCat1WithModeChanged) {
   Bench b;
   b.to_auto_running();
@@ -458,6 +493,7 @@ TEST(Rule6, ModeChangeInOperationalIsCat1WithModeChanged) {
   EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
 }
 
+// @req TR-C6b
 TEST(Rule6, ModeChangeInArmingIsIdleAtOnce) {
   Bench b;
   b.to_idle();
@@ -470,6 +506,7 @@ TEST(Rule6, ModeChangeInArmingIsIdleAtOnce) {
   EXPECT_TRUE(b.alarm(AlarmId::MODE_CHANGED));
 }
 
+// @req TR-C6 IN-MODE-INVALID
 TEST(Rule6, SelectorWithNoPositionStopsOnlyAfterTheDiscrepancyTime) {
   Bench b;
   b.to_operational();
@@ -486,6 +523,7 @@ TEST(Rule6, SelectorWithNoPositionStopsOnlyAfterTheDiscrepancyTime) {
 }
 
 // ================================================================ rule 7
+// @req TR-C7 ST-CAT2
 TEST(Rule7, JogKeepAliveOlderThanTheTimeoutIsCat2ToManualIdle) {
   Bench b;
   b.to_jogging(Mode::T1);  // jog accepted at cycle J
@@ -502,6 +540,7 @@ TEST(Rule7, JogKeepAliveOlderThanTheTimeoutIsCat2ToManualIdle) {
   EXPECT_TRUE(b.out.drives_enable) << "Cat 2 keeps the drives holding";
 }
 
+// @req TR-JOG-KEEPALIVE
 TEST(Rule7, KeepAliveKeepsTheJogGoing) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -513,6 +552,7 @@ TEST(Rule7, KeepAliveKeepsTheJogGoing) {
 }
 
 // ================================================================ E-stop rows
+// @req TR-ESTOP-RELEASED
 TEST(EstopActive, ReleasedOnBothChannelsGoesToResetNeeded) {
   Bench b;
   b.to_idle();
@@ -529,6 +569,7 @@ TEST(EstopActive, ReleasedOnBothChannelsGoesToResetNeeded) {
   EXPECT_EQ(b.out.state, State::ESTOP_RESET_NEEDED) << "release alone never restarts";
 }
 
+// @req TR-RESET-ESTOP
 TEST(EstopResetNeeded, ResetGoesToIdle) {
   Bench b;
   b.boot();
@@ -538,6 +579,7 @@ TEST(EstopResetNeeded, ResetGoesToIdle) {
 }
 
 // ================================================================ IDLE rows
+// @req TR-RESET-IDLE AL-LIFETIME
 TEST(Idle, ResetClearsLatchedAlarmsWhenTheirCauseIsGone) {
   Bench b;
   b.to_auto_running();
@@ -554,6 +596,7 @@ TEST(Idle, ResetClearsLatchedAlarmsWhenTheirCauseIsGone) {
   EXPECT_FALSE(b.out.reset_lamp);
 }
 
+// @req TR-RESET-IDLE RES-SAME-CYCLE
 TEST(Idle, ResetAcknowledgesDriveFaultsAndAnswersWhenTheyReply) {
   Bench b;
   b.to_auto_running();
@@ -579,6 +622,7 @@ TEST(Idle, ResetAcknowledgesDriveFaultsAndAnswersWhenTheyReply) {
   EXPECT_FALSE(b.alarm(AlarmId::DRIVE_FAULT));
 }
 
+// @req TR-RESET-IDLE RES-SAME-CYCLE
 TEST(Idle, ResetWithADriveStillFaultedAnswersFaultPresentWithin50Cycles) {
   Bench b;
   b.to_auto_running();
@@ -595,6 +639,7 @@ TEST(Idle, ResetWithADriveStillFaultedAnswersFaultPresentWithin50Cycles) {
   EXPECT_TRUE(b.alarm(AlarmId::DRIVE_FAULT));
 }
 
+// @req TR-SERVO-ON
 TEST(Idle, ServoOnStartsArming) {
   Bench b;
   b.to_idle();
@@ -607,6 +652,7 @@ TEST(Idle, ServoOnStartsArming) {
 }
 
 // ================================================================ ARMING rows
+// @req TR-ARMING-DONE ST-OUTPUTS
 TEST(Arming, StepsInOrderToAutoIdle) {
   Bench b;
   b.to_idle();
@@ -622,12 +668,14 @@ TEST(Arming, StepsInOrderToAutoIdle) {
   EXPECT_EQ(b.out.motion.mode, MotionMode::Hold);
 }
 
+// @req TR-ARMING-DONE
 TEST(Arming, InT1EndsInManualIdle) {
   Bench b;
   b.to_operational(Mode::T1);
   EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE);
 }
 
+// @req TR-ARMING-TIMEOUT
 TEST(Arming, ContactorTimeoutAtTheFirstCycleBeyond100ms) {
   Bench b;
   b.plant.contactor_stuck_open = true;
@@ -643,6 +691,7 @@ TEST(Arming, ContactorTimeoutAtTheFirstCycleBeyond100ms) {
   EXPECT_TRUE(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).has_step);
 }
 
+// @req TR-ARMING-TIMEOUT AL-CAUSE
 TEST(Arming, DrivesTimeoutNamesTheStep) {
   Bench b;
   b.to_idle();
@@ -653,6 +702,7 @@ TEST(Arming, DrivesTimeoutNamesTheStep) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).step, ArmingStep::DRIVES);
 }
 
+// @req TR-ARMING-TIMEOUT
 TEST(Arming, BrakeStuckTimesOutInStepBrakes) {
   Bench b;
   b.plant.brake_stuck[3] = true;
@@ -666,6 +716,7 @@ TEST(Arming, BrakeStuckTimesOutInStepBrakes) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::ARMING_TIMEOUT).step, ArmingStep::BRAKES);
 }
 
+// @req TR-SERVO-OFF-ARMING
 TEST(Arming, ServoOffGoesToIdleAtOnce) {
   Bench b;
   b.to_idle();
@@ -677,6 +728,7 @@ TEST(Arming, ServoOffGoesToIdleAtOnce) {
 }
 
 // ================================================================ OPERATIONAL rows
+// @req TR-SERVO-OFF ST-CAT1
 TEST(Operational, ServoOffIsCat1ToIdle) {
   Bench b;
   b.to_auto_running();
@@ -689,6 +741,7 @@ TEST(Operational, ServoOffIsCat1ToIdle) {
   EXPECT_FALSE(b.out.reset_lamp);
 }
 
+// @req ST-CAT1
 TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) {
   Bench b;
   b.to_auto_running();
@@ -702,6 +755,7 @@ TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) 
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req CYC-MAX-COMMANDS RES-ONE
 TEST(OneResult, EveryTransitionOfACycleIsReported) {
   Bench b;
   b.to_idle();
@@ -714,6 +768,7 @@ TEST(OneResult, EveryTransitionOfACycleIsReported) {
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req ST-CAT1 ST-OUTPUTS
 TEST(Operational, Cat1EngagesBrakesAtStandstillBeforeCuttingPower) {
   Bench b;
   b.to_auto_running();
@@ -726,6 +781,7 @@ TEST(Operational, Cat1EngagesBrakesAtStandstillBeforeCuttingPower) {
   EXPECT_EQ(b.out.state, State::IDLE);
 }
 
+// @req TR-START-AUTO
 TEST(AutoIdle, StartRunsTheProgram) {
   Bench b;
   b.to_operational();
@@ -735,6 +791,7 @@ TEST(AutoIdle, StartRunsTheProgram) {
   EXPECT_EQ(b.out.motion.program, ProgramCmd::Start);
 }
 
+// @req TR-PAUSE-AUTO ST-CAT2
 TEST(AutoRunning, PauseIsCat2ToAutoPaused) {
   Bench b;
   b.to_auto_running();
@@ -748,6 +805,7 @@ TEST(AutoRunning, PauseIsCat2ToAutoPaused) {
   EXPECT_TRUE(b.out.brakes_release);
 }
 
+// @req TR-STOP-RUNNING
 TEST(AutoRunning, StopIsCat2ToAutoIdle) {
   Bench b;
   b.to_auto_running();
@@ -758,6 +816,7 @@ TEST(AutoRunning, StopIsCat2ToAutoIdle) {
   EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
 }
 
+// @req TR-STOP-PAUSED
 TEST(AutoPaused, StopGoesToAutoIdleAtOnce) {
   Bench b;
   b.to_auto_running();
@@ -768,6 +827,7 @@ TEST(AutoPaused, StopGoesToAutoIdleAtOnce) {
   EXPECT_EQ(b.out.motion.program, ProgramCmd::Abort);
 }
 
+// @req TR-RESUME
 TEST(AutoPaused, ResumeReturnsToAutoRunning) {
   Bench b;
   b.to_auto_running();
@@ -778,6 +838,7 @@ TEST(AutoPaused, ResumeReturnsToAutoRunning) {
   EXPECT_EQ(b.out.motion.program, ProgramCmd::Resume);
 }
 
+// @req TR-FINISHED-AUTO
 TEST(AutoRunning, ProgramFinishedGoesToAutoIdle) {
   Bench b;
   b.to_auto_running();
@@ -786,6 +847,7 @@ TEST(AutoRunning, ProgramFinishedGoesToAutoIdle) {
   EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
 }
 
+// @req TR-JOG
 TEST(ManualIdle, JogStartsJogging) {
   Bench b;
   b.to_operational(Mode::T1);
@@ -798,6 +860,7 @@ TEST(ManualIdle, JogStartsJogging) {
   EXPECT_TRUE(b.out.motion.t1_limit);
 }
 
+// @req TR-JOG-STOP
 TEST(ManualJogging, JogStopIsCat2ToManualIdle) {
   Bench b;
   b.to_jogging(Mode::T1);
@@ -807,6 +870,7 @@ TEST(ManualJogging, JogStopIsCat2ToManualIdle) {
   EXPECT_EQ(b.out.sub, Sub::MANUAL_IDLE);
 }
 
+// @req TR-START-MANUAL
 TEST(ManualIdle, StartRunsTheProgramInManual) {
   Bench b;
   b.to_operational(Mode::T1);
@@ -815,6 +879,7 @@ TEST(ManualIdle, StartRunsTheProgramInManual) {
   EXPECT_EQ(b.out.motion.program, ProgramCmd::Start);
 }
 
+// @req TR-PAUSE-MANUAL TR-STOP-MANUAL TR-FINISHED-MANUAL
 TEST(ManualRunning, PauseStopAndFinishAreCat2ToManualIdle) {
   for (int how = 0; how < 3; ++how) {
     Bench b;
@@ -835,6 +900,7 @@ TEST(ManualRunning, PauseStopAndFinishAreCat2ToManualIdle) {
   }
 }
 
+// @req TR-STANDSTILL ST-STANDSTILL
 TEST(Stopping, StandstillNeedsTenConsecutiveQuietCycles) {
   Bench b;
   b.to_auto_running();
@@ -848,6 +914,7 @@ TEST(Stopping, StandstillNeedsTenConsecutiveQuietCycles) {
   EXPECT_EQ(b.out.sub, Sub::AUTO_IDLE);
 }
 
+// @req TR-STANDSTILL
 TEST(Stopping, AxisAlreadyAtRestStopsAtOnce) {
   Bench b;
   b.to_auto_running();
@@ -857,6 +924,7 @@ TEST(Stopping, AxisAlreadyAtRestStopsAtOnce) {
   EXPECT_EQ(b.finish_stop(), 1) << "standstill counts from before the stop";
 }
 
+// @req TR-CONFIRM-T2
 TEST(ConfirmT2, ConfirmsUntilTheModeChanges) {
   Bench b;
   b.mode(Mode::T2);
@@ -873,4 +941,54 @@ TEST(ConfirmT2, ConfirmsUntilTheModeChanges) {
   b.mode(Mode::T2);
   b.cycle();
   EXPECT_FALSE(b.out.t2_confirmed);
+}
+
+// @req ST-STATUS
+TEST(Status, SubOnlyInOperationalAndCat0OnlyForTheCycleItHappened) {
+  Bench b;
+  b.to_idle();
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_EQ(b.out.sub, Sub::NONE);
+  EXPECT_EQ(b.out.stop, StopCat::NONE);
+  EXPECT_EQ(b.out.mode, Mode::AUTO);
+  b.to_auto_running();
+  EXPECT_EQ(b.out.state, State::OPERATIONAL);
+  EXPECT_EQ(b.out.sub, Sub::AUTO_RUNNING);
+  ASSERT_EQ(b.command(CommandId::pause), Result::OK);
+  EXPECT_EQ(b.out.state, State::STOPPING);
+  EXPECT_EQ(b.out.sub, Sub::NONE);
+  EXPECT_EQ(b.out.stop, StopCat::CAT2) << "the category of the stop in progress";
+  b.finish_stop();
+  EXPECT_EQ(b.out.sub, Sub::AUTO_PAUSED);
+  EXPECT_EQ(b.out.stop, StopCat::NONE);
+  b.estop(true);
+  b.cycle();
+  EXPECT_EQ(b.out.stop, StopCat::CAT0) << "shown in the cycle it happened";
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
+  EXPECT_EQ(b.out.stop, StopCat::NONE) << "not while its cause lasts";
+}
+
+// @req CYC-ORDER
+TEST(CycleOrder, ConditionsOfACycleComeBeforeItsCommands) {
+  // The E-stop read in a cycle decides before the commands taken in that cycle: a servo_on
+  // queued in the same cycle meets ESTOP_ACTIVE, not IDLE.
+  Bench b;
+  b.to_idle();
+  b.send(CommandId::servo_on);
+  b.estop(true);
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ESTOP_ACTIVE);
+  ASSERT_FALSE(b.replies.empty());
+  EXPECT_EQ(b.replies.back().result, Result::ESTOP_ACTIVE);
+  // And the commands of one cycle in arrival order: reset first makes servo_on possible.
+  Bench c;
+  c.boot();
+  c.send(CommandId::reset);
+  c.send(CommandId::servo_on);
+  c.cycle();
+  ASSERT_GE(c.replies.size(), 2U);
+  EXPECT_EQ(c.replies[c.replies.size() - 2].result, Result::OK);
+  EXPECT_EQ(c.replies.back().result, Result::OK);
+  EXPECT_EQ(c.out.state, State::ARMING);
 }

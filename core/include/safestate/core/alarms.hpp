@@ -52,6 +52,7 @@ struct AlarmInfo {
 };
 
 // clang-format off
+// @req AL-TABLE AL-LIFETIME
 inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
   {AlarmId::ESTOP_DISCREPANCY, "ESTOP_DISCREPANCY", 101, Severity::lockout, Latch::power_cycle,
    "The two E-stop channels disagreed for longer than the discrepancy time.",

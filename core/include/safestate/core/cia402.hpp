@@ -39,6 +39,7 @@ inline constexpr std::array<StatusPattern, 8> kStatusPatterns{{
     {DriveState::Fault, 0x4F, 0x08, "Fault"},
 }};
 
+// @req CIA-DECODE CIA-UNKNOWN
 [[nodiscard]] constexpr DriveState decode(std::uint16_t statusword) noexcept {
   for (const StatusPattern& p : kStatusPatterns) {
     if ((statusword & p.mask) == p.value) {

@@ -17,6 +17,7 @@ class CommandQueue {
   // OK when queued; QUEUE_FULL (and nothing queued) when full.
   Result push(const Command& c) noexcept {
     if (size_ == N) {
+      // @req RES-QUEUE-FULL
       return Result::QUEUE_FULL;
     }
     buf_[(head_ + size_) % N] = c;

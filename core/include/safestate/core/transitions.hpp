@@ -132,6 +132,7 @@ inline constexpr LeafMask kOperational = any_of(Leaf::AUTO_IDLE, Leaf::AUTO_RUNN
                                                 Leaf::MANUAL_IDLE, Leaf::MANUAL_JOGGING, Leaf::MANUAL_RUNNING);
 inline constexpr LeafMask kStopping = any_of(Leaf::STOPPING_CAT1, Leaf::STOPPING_CAT2);
 inline constexpr LeafMask kPowered = static_cast<LeafMask>(mask_of(Leaf::ARMING) | kOperational | kStopping);
+// @req ST-CAT1-COMPLETES
 inline constexpr LeafMask kOperationalOrCat2 = static_cast<LeafMask>(kOperational | mask_of(Leaf::STOPPING_CAT2));
 inline constexpr LeafMask kAnyButLockout = static_cast<LeafMask>(kAnyLeaf & ~mask_of(Leaf::ERROR_LOCKOUT));
 inline constexpr LeafMask kIdleOrPowered = static_cast<LeafMask>(mask_of(Leaf::IDLE) | kPowered);
@@ -145,6 +146,7 @@ struct Transition {
   AlarmMask alarms;  // alarms this row's condition raises
   Effect effect;
   const char* rule;  // SPEC §4 reference, for the documentation
+  const char* id;    // stable requirement id: docs/traceability.md, tests tag it with `@req`
 };
 
 // clang-format off
@@ -158,44 +160,44 @@ inline constexpr auto kTransitions = [] {
                                bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED);
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED);
   return std::array<Transition, 35>{{
-  // from                       trigger             guard         to                  stop  alarm                  effect            rule
+  // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
-  {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1"},
-  {kAnyButLockout,              estop_pressed,      kNoGuard,     ESTOP_ACTIVE,       CAT0, bit(ESTOP_PRESSED),    abort_program,    "2"},
-  {kPowered,                    stop_fault,         kNoGuard,     IDLE,               CAT0, kRule3,                abort_program,    "3"},
-  {kOperationalOrCat2,          gate_open_in_auto,  kNoGuard,     IDLE,               CAT1, bit(PROTECTIVE_STOP),  abort_program,    "4"},
-  {only(ARMING),                gate_open_in_auto,  kNoGuard,     IDLE,               CAT0, bit(PROTECTIVE_STOP),  abort_program,    "4b"},
-  {kOperationalOrCat2,          enable_left_centre, kNoGuard,     IDLE,               CAT1, bit(ENABLING_PANIC),   abort_program,    "5"},
-  {only(ARMING),                enable_left_centre, kNoGuard,     IDLE,               CAT0, bit(ENABLING_PANIC),   abort_program,    "5b"},
-  {kOperationalOrCat2,          mode_changed,       kNoGuard,     IDLE,               CAT1, bit(MODE_CHANGED),     abort_program,    "6"},
-  {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6"},
-  {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7"},
+  {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1",          "TR-C1"},
+  {kAnyButLockout,              estop_pressed,      kNoGuard,     ESTOP_ACTIVE,       CAT0, bit(ESTOP_PRESSED),    abort_program,    "2",          "TR-C2"},
+  {kPowered,                    stop_fault,         kNoGuard,     IDLE,               CAT0, kRule3,                abort_program,    "3",          "TR-C3"},
+  {kOperationalOrCat2,          gate_open_in_auto,  kNoGuard,     IDLE,               CAT1, bit(PROTECTIVE_STOP),  abort_program,    "4",          "TR-C4"},
+  {only(ARMING),                gate_open_in_auto,  kNoGuard,     IDLE,               CAT0, bit(PROTECTIVE_STOP),  abort_program,    "4b",         "TR-C4b"},
+  {kOperationalOrCat2,          enable_left_centre, kNoGuard,     IDLE,               CAT1, bit(ENABLING_PANIC),   abort_program,    "5",          "TR-C5"},
+  {only(ARMING),                enable_left_centre, kNoGuard,     IDLE,               CAT0, bit(ENABLING_PANIC),   abort_program,    "5b",         "TR-C5b"},
+  {kOperationalOrCat2,          mode_changed,       kNoGuard,     IDLE,               CAT1, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6"},
+  {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6b"},
+  {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7",          "TR-C7"},
   // ---- events and commands (SPEC §4, second table) --------------------------------------------------------------------------------------
-  {only(BOOT),                  boot_passed,        kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "boot"},
-  {only(ESTOP_ACTIVE),          estop_released,     kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "estop"},
-  {only(ESTOP_RESET_NEEDED),    reset,              kBootDone,    IDLE,               NONE, 0,                     none,             "reset"},
-  {only(IDLE),                  reset,              kCausesGone,  SAME,               NONE, 0,                     reset_alarms,     "reset"},
-  {kOperational,                reset,              kNoGuard,     SAME,               NONE, 0,                     none,             "reset"},
-  {only(IDLE),                  servo_on,           kServoOn,     ARMING,             NONE, 0,                     begin_arming,     "servo_on"},
-  {only(ARMING),                arming_complete,    kNoGuard,     OP_IDLE,            NONE, 0,                     none,             "arming"},
-  {only(ARMING),                arming_timeout,     kNoGuard,     IDLE,               CAT0, bit(ARMING_TIMEOUT),   none,             "arming"},
-  {only(ARMING),                servo_off,          kNoGuard,     IDLE,               CAT0, 0,                     none,             "servo_off"},
-  {kOperationalOrCat2,          servo_off,          kNoGuard,     IDLE,               CAT1, 0,                     abort_program,    "servo_off"},
-  {only(AUTO_IDLE),             start,              kStartAuto,   AUTO_RUNNING,       NONE, 0,                     start_program,    "start"},
-  {only(AUTO_RUNNING),          pause,              kNoGuard,     AUTO_PAUSED,        CAT2, 0,                     none,             "pause"},
-  {only(AUTO_RUNNING),          stop,               kNoGuard,     AUTO_IDLE,          CAT2, 0,                     abort_program,    "stop"},
-  {only(AUTO_PAUSED),           stop,               kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "stop"},
-  {only(AUTO_PAUSED),           resume,             kGateClosed,  AUTO_RUNNING,       NONE, 0,                     resume_program,   "resume"},
-  {only(AUTO_RUNNING),          program_finished,   kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "program"},
-  {only(MANUAL_IDLE),           jog,                kEnableHeld,  MANUAL_JOGGING,     NONE, 0,                     jog_keepalive,    "jog"},
-  {only(MANUAL_JOGGING),        jog,                kEnableHeld,  SAME,               NONE, 0,                     jog_keepalive,    "jog"},
-  {only(MANUAL_JOGGING),        jog_stop,           kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     none,             "jog_stop"},
-  {only(MANUAL_IDLE),           start,              kStartManual, MANUAL_RUNNING,     NONE, 0,                     start_program,    "start"},
-  {only(MANUAL_RUNNING),        pause,              kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "pause"},
-  {only(MANUAL_RUNNING),        stop,               kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "stop"},
-  {only(MANUAL_RUNNING),        program_finished,   kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "program"},
-  {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill"},
-  {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2"},
+  {only(BOOT),                  boot_passed,        kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "boot",       "TR-BOOT"},
+  {only(ESTOP_ACTIVE),          estop_released,     kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "estop",      "TR-ESTOP-RELEASED"},
+  {only(ESTOP_RESET_NEEDED),    reset,              kBootDone,    IDLE,               NONE, 0,                     none,             "reset",      "TR-RESET-ESTOP"},
+  {only(IDLE),                  reset,              kCausesGone,  SAME,               NONE, 0,                     reset_alarms,     "reset",      "TR-RESET-IDLE"},
+  {kOperational,                reset,              kNoGuard,     SAME,               NONE, 0,                     none,             "reset",      "TR-RESET-OP"},
+  {only(IDLE),                  servo_on,           kServoOn,     ARMING,             NONE, 0,                     begin_arming,     "servo_on",   "TR-SERVO-ON"},
+  {only(ARMING),                arming_complete,    kNoGuard,     OP_IDLE,            NONE, 0,                     none,             "arming",     "TR-ARMING-DONE"},
+  {only(ARMING),                arming_timeout,     kNoGuard,     IDLE,               CAT0, bit(ARMING_TIMEOUT),   none,             "arming",     "TR-ARMING-TIMEOUT"},
+  {only(ARMING),                servo_off,          kNoGuard,     IDLE,               CAT0, 0,                     none,             "servo_off",  "TR-SERVO-OFF-ARMING"},
+  {kOperationalOrCat2,          servo_off,          kNoGuard,     IDLE,               CAT1, 0,                     abort_program,    "servo_off",  "TR-SERVO-OFF"},
+  {only(AUTO_IDLE),             start,              kStartAuto,   AUTO_RUNNING,       NONE, 0,                     start_program,    "start",      "TR-START-AUTO"},
+  {only(AUTO_RUNNING),          pause,              kNoGuard,     AUTO_PAUSED,        CAT2, 0,                     none,             "pause",      "TR-PAUSE-AUTO"},
+  {only(AUTO_RUNNING),          stop,               kNoGuard,     AUTO_IDLE,          CAT2, 0,                     abort_program,    "stop",       "TR-STOP-RUNNING"},
+  {only(AUTO_PAUSED),           stop,               kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "stop",       "TR-STOP-PAUSED"},
+  {only(AUTO_PAUSED),           resume,             kGateClosed,  AUTO_RUNNING,       NONE, 0,                     resume_program,   "resume",     "TR-RESUME"},
+  {only(AUTO_RUNNING),          program_finished,   kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "program",    "TR-FINISHED-AUTO"},
+  {only(MANUAL_IDLE),           jog,                kEnableHeld,  MANUAL_JOGGING,     NONE, 0,                     jog_keepalive,    "jog",        "TR-JOG"},
+  {only(MANUAL_JOGGING),        jog,                kEnableHeld,  SAME,               NONE, 0,                     jog_keepalive,    "jog",        "TR-JOG-KEEPALIVE"},
+  {only(MANUAL_JOGGING),        jog_stop,           kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     none,             "jog_stop",   "TR-JOG-STOP"},
+  {only(MANUAL_IDLE),           start,              kStartManual, MANUAL_RUNNING,     NONE, 0,                     start_program,    "start",      "TR-START-MANUAL"},
+  {only(MANUAL_RUNNING),        pause,              kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "pause",      "TR-PAUSE-MANUAL"},
+  {only(MANUAL_RUNNING),        stop,               kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "stop",       "TR-STOP-MANUAL"},
+  {only(MANUAL_RUNNING),        program_finished,   kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "program",    "TR-FINISHED-MANUAL"},
+  {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill", "TR-STANDSTILL"},
+  {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2", "TR-CONFIRM-T2"},
   }};
 }();
 // clang-format on
@@ -249,6 +251,26 @@ inline constexpr TransitionIndex kIndex = build_index();
 }
 static_assert(table_is_well_formed(), "transition table: overlapping rows or impossible targets");
 
+// Requirement ids are unique, so a test tagged with one names exactly one row.
+[[nodiscard]] constexpr bool same_text(const char* a, const char* b) noexcept {
+  std::size_t i = 0;
+  while (a[i] != '\0' && a[i] == b[i]) {
+    ++i;
+  }
+  return a[i] == b[i];
+}
+[[nodiscard]] constexpr bool row_ids_are_unique() noexcept {
+  for (std::size_t a = 0; a < kTransitions.size(); ++a) {
+    for (std::size_t b = a + 1; b < kTransitions.size(); ++b) {
+      if (same_text(kTransitions[a].id, kTransitions[b].id)) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+static_assert(row_ids_are_unique(), "transition table: two rows share a requirement id");
+
 // The first-out cause is set by every stopping row; E-stop and lockout must be Cat 0.
 [[nodiscard]] constexpr bool estop_and_lockout_rows_are_cat0() noexcept {
   for (const Transition& t : kTransitions) {
@@ -267,6 +289,7 @@ static_assert(estop_and_lockout_rows_are_cat0(), "rows into ESTOP_ACTIVE / ERROR
 
 // Refusals that do not depend on a row (SPEC §5): per leaf, the answer to a command
 // for which the leaf has no row. `refuse_all`: the leaf answers every command so.
+// @req RES-ESTOP RES-RESET-NEEDED RES-LOCKED-OUT RES-WRONG-STATE
 struct LeafPolicy {
   Result no_row;
   bool refuse_all;
