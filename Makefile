@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint
 
 deps:
 	@$(DEPS) build
@@ -85,6 +85,11 @@ test-tsan: deps
 
 # Regenerate the documentation that mirrors the code (transition table, alarm list,
 # state diagram). CI fails (test docs_up_to_date) when the committed copy is stale.
+# clang-tidy and cppcheck on core/ and motion/ (configuration: .clang-tidy, tools/scripts/lint.sh).
+lint: build
+	@$(DEPS) lint
+	tools/scripts/lint.sh $(BUILD_DIR)
+
 docs: build
 	$(BIN)/gen_docs --out docs
 	python3 tools/trace/traceability.py

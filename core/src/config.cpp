@@ -1,5 +1,7 @@
 #include "safestate/core/config.hpp"
 
+#include <array>
+
 #include "safestate/core/supervisor.hpp"
 
 namespace safestate::core {
@@ -15,7 +17,7 @@ struct Range {
 }  // namespace
 
 ConfigError validate(const Config& c) noexcept {
-  const Range ranges[] = {
+  const std::array<Range, 12> ranges{{
       {"cycle_us", c.cycle_us, 250U, 4000U, "must be 250..4000 (SPEC 1: 0.25-4 ms)"},
       {"discrepancy_ms", c.discrepancy_ms, 1U, 1000U, "must be 1..1000"},
       {"jog_timeout_ms", c.jog_timeout_ms, 1U, 10000U, "must be 1..10000"},
@@ -29,7 +31,7 @@ ConfigError validate(const Config& c) noexcept {
       {"brakes_timeout_ms", c.brakes_timeout_ms, 1U, 60000U, "must be 1..60000"},
       {"reset_hold_max_ms", c.reset_hold_max_ms, 1U, 60000U, "must be 1..60000"},
       {"fault_reset_reply_cycles", c.fault_reset_reply_cycles, 1U, 10000U, "must be 1..10000"},
-  };
+  }};
   for (const Range& r : ranges) {
     if ((r.value < r.min) || (r.value > r.max)) {
       return ConfigError{r.field, r.reason};
@@ -43,8 +45,8 @@ ConfigError validate(const Config& c) noexcept {
     return ConfigError{"t1_speed_limit_mm_s", "must be > 0 and <= 250 (ISO 10218-1 reduced speed)"};
   }
   // Every timer must span at least one cycle, or it would fire in the cycle it starts.
-  const std::uint32_t timed[] = {c.discrepancy_ms, c.jog_timeout_ms, c.max_stop_ms, c.contactor_timeout_ms,
-                                 c.drives_timeout_ms, c.brakes_timeout_ms};
+  const std::array<std::uint32_t, 6> timed{c.discrepancy_ms,       c.jog_timeout_ms,    c.max_stop_ms,
+                                           c.contactor_timeout_ms, c.drives_timeout_ms, c.brakes_timeout_ms};
   for (const std::uint32_t ms : timed) {
     if (ms_to_cycles(ms, c.cycle_us) < 1U) {
       return ConfigError{"cycle_us", "is longer than one of the timeouts: every timeout must span at least one cycle"};

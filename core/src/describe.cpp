@@ -1,11 +1,59 @@
 // @req AL-CAUSE
 #include "safestate/core/describe.hpp"
 
-#include <cstdio>
+#include <array>
+#include <span>
 
 namespace safestate::core {
 
 namespace {
+// A bounded text writer over the caller's buffer: like snprintf (truncates, always
+// terminates) without a variadic call or the C library's formatter on the controller.
+class Text {
+ public:
+  Text(char* buf, std::size_t n) noexcept : out_(buf, n) { out_[0] = '\0'; }
+  Text& s(const char* text) noexcept {
+    for (std::size_t i = 0; (text != nullptr) && (text[i] != '\0'); ++i) {  // NOLINT(cppcoreguidelines-pro-bounds-pointer-arithmetic): C string
+      put(text[i]);  // NOLINT(cppcoreguidelines-pro-bounds-pointer-arithmetic): C string
+    }
+    return *this;
+  }
+  Text& u(unsigned v) noexcept {
+    std::array<char, 10> digits{};
+    std::size_t k = 0;
+    do {
+      digits[k++] = static_cast<char>('0' + (v % 10U));
+      v /= 10U;
+    } while ((v != 0U) && (k < digits.size()));
+    while (k > 0U) {
+      put(digits[--k]);
+    }
+    return *this;
+  }
+  Text& hex4(unsigned v) noexcept {
+    constexpr std::array<char, 16> kHex{'0', '1', '2', '3', '4', '5', '6', '7', '8', '9', 'A', 'B', 'C', 'D', 'E', 'F'};
+    for (unsigned shift = 12U;; shift -= 4U) {
+      put(kHex[(v >> shift) & 0xFU]);
+      if (shift == 0U) {
+        break;
+      }
+    }
+    return *this;
+  }
+  [[nodiscard]] const char* c_str() const noexcept { return out_.data(); }
+
+ private:
+  void put(char ch) noexcept {
+    if (len_ + 1U < out_.size()) {
+      out_[len_] = ch;
+      ++len_;
+      out_[len_] = '\0';
+    }
+  }
+  std::span<char> out_;
+  std::size_t len_ = 0;
+};
+
 const char* channel_words(Channel c) noexcept {
   switch (c) {
     case Channel::a: return " channel A";
@@ -22,78 +70,71 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
   if (buf == nullptr || n == 0U) {
     return "";
   }
+  Text t(buf, n);
   const char* ch = channel_words(d.channel);
   const unsigned axis = d.axis;
   switch (id) {
-    case AlarmId::ESTOP_DISCREPANCY: std::snprintf(buf, n, "E-stop channels disagree%s", ch); break;
-    case AlarmId::GATE_DISCREPANCY: std::snprintf(buf, n, "Guard channels disagree%s", ch); break;
-    case AlarmId::ENABLE_DISCREPANCY: std::snprintf(buf, n, "Enabling device contacts disagree%s", ch); break;
+    case AlarmId::ESTOP_DISCREPANCY: t.s("E-stop channels disagree").s(ch); break;
+    case AlarmId::GATE_DISCREPANCY: t.s("Guard channels disagree").s(ch); break;
+    case AlarmId::ENABLE_DISCREPANCY: t.s("Enabling device contacts disagree").s(ch); break;
     case AlarmId::FIELDBUS_LOST:
       if (axis != 0U) {
-        std::snprintf(buf, n, "Fieldbus lost: drive %u does not answer", axis);
+        t.s("Fieldbus lost: drive ").u(axis).s(" does not answer");
       } else {
-        std::snprintf(buf, n, "Fieldbus lost");
+        t.s("Fieldbus lost");
       }
       break;
-    case AlarmId::INTEGRITY_FAULT: std::snprintf(buf, n, "Internal integrity check failed"); break;
+    case AlarmId::INTEGRITY_FAULT: t.s("Internal integrity check failed"); break;
     case AlarmId::BOOT_FAILED:
       if (axis != 0U) {
-        std::snprintf(buf, n, "Start-up failed: drive %u did not answer", axis);
+        t.s("Start-up failed: drive ").u(axis).s(" did not answer");
       } else if (d.signal == Signal::fieldbus) {
-        std::snprintf(buf, n, "Start-up failed: fieldbus not up");
+        t.s("Start-up failed: fieldbus not up");
       } else {
-        std::snprintf(buf, n, "Start-up self-test failed");
+        t.s("Start-up self-test failed");
       }
       break;
-    case AlarmId::PROTECTIVE_STOP: std::snprintf(buf, n, "Guard opened in AUTO%s", ch); break;
-    case AlarmId::DRIVE_FAULT:
-      std::snprintf(buf, n, "Drive %u fault (statusword 0x%04X)", axis, static_cast<unsigned>(d.code));
-      break;
-    case AlarmId::ARMING_TIMEOUT:
-      std::snprintf(buf, n, "Arming step %s timed out", d.has_step ? to_string(d.step) : "?");
-      break;
+    case AlarmId::PROTECTIVE_STOP: t.s("Guard opened in AUTO").s(ch); break;
+    case AlarmId::DRIVE_FAULT: t.s("Drive ").u(axis).s(" fault (statusword 0x").hex4(d.code).s(")"); break;
+    case AlarmId::ARMING_TIMEOUT: t.s("Arming step ").s(d.has_step ? to_string(d.step) : "?").s(" timed out"); break;
     case AlarmId::T1_SPEED_EXCEEDED:
-      std::snprintf(buf, n, "T1 speed exceeded at link %u (%u mm/s)", axis, static_cast<unsigned>(d.code));
+      t.s("T1 speed exceeded at link ").u(axis).s(" (").u(d.code).s(" mm/s)");
       break;
-    case AlarmId::STOP_TIME_EXCEEDED: std::snprintf(buf, n, "Axis %u did not stop in time", axis); break;
+    case AlarmId::STOP_TIME_EXCEEDED: t.s("Axis ").u(axis).s(" did not stop in time"); break;
     case AlarmId::ESTOP_PRESSED:
       if (d.channel == Channel::a || d.channel == Channel::b) {
-        std::snprintf(buf, n, "E-stop%s opened", ch);
+        t.s("E-stop").s(ch).s(" opened");
       } else {
-        std::snprintf(buf, n, "E-stop pressed");
+        t.s("E-stop pressed");
       }
       break;
-    case AlarmId::MODE_SELECTOR_INVALID: std::snprintf(buf, n, "Mode selector has no valid position"); break;
-    case AlarmId::RESET_BUTTON_STUCK: std::snprintf(buf, n, "Reset button held longer than 5 s"); break;
-    case AlarmId::MODE_CHANGED:
-      std::snprintf(buf, n, "Mode changed to %s", to_string(static_cast<Mode>(d.code & 0x3U)));
-      break;
-    case AlarmId::ENABLING_PANIC: std::snprintf(buf, n, "Enabling device squeezed to panic"); break;
-    case AlarmId::JOG_LINK_LOST: std::snprintf(buf, n, "Jog keep-alive lost"); break;
+    case AlarmId::MODE_SELECTOR_INVALID: t.s("Mode selector has no valid position"); break;
+    case AlarmId::RESET_BUTTON_STUCK: t.s("Reset button held longer than 5 s"); break;
+    case AlarmId::MODE_CHANGED: t.s("Mode changed to ").s(to_string(static_cast<Mode>(d.code & 0x3U))); break;
+    case AlarmId::ENABLING_PANIC: t.s("Enabling device squeezed to panic"); break;
+    case AlarmId::JOG_LINK_LOST: t.s("Jog keep-alive lost"); break;
   }
-  return buf;
+  return t.c_str();
 }
 
 const char* describe(const Cause& c, char* buf, std::size_t n) noexcept {
   if (buf == nullptr || n == 0U) {
     return "";
   }
-  buf[0] = '\0';
+  Text t(buf, n);
   switch (c.kind) {
     case CauseKind::alarm: return describe(c.alarm, c.detail, buf, n);
-    case CauseKind::command:
-      std::snprintf(buf, n, "Command %s from %s", to_string(c.command), to_string(c.source));
-      break;
+    case CauseKind::command: t.s("Command ").s(to_string(c.command)).s(" from ").s(to_string(c.source)); break;
     case CauseKind::event:
       if (c.rule == 5U) {
-        std::snprintf(buf, n, "Enabling device released in %s", to_string(c.mode));
+        t.s("Enabling device released in ").s(to_string(c.mode));
       } else {
-        std::snprintf(buf, n, "Rule %u", static_cast<unsigned>(c.rule));
+        t.s("Rule ").u(c.rule);
       }
       break;
     case CauseKind::none: break;
   }
-  return buf;
+  return t.c_str();
 }
 
 }  // namespace safestate::core

@@ -15,6 +15,7 @@ namespace {
 template <typename E, std::size_t N>
 const char* name_in(const std::array<const char*, N>& names, E v, const char* unknown = "?") noexcept {
   const auto i = static_cast<std::size_t>(v);
+  // cppcheck-suppress CastIntegerToAddressAtReturn ; false positive of cppcheck 2.10: names[i] is a const char*
   return (i < N) ? names[i] : unknown;
 }
 

@@ -1,5 +1,8 @@
 #include "safestate/core/supervisor.hpp"
 
+#include <array>
+#include <span>
+
 #include "safestate/core/cia402.hpp"
 
 namespace safestate::core {
@@ -74,11 +77,15 @@ AlarmDetail detail_of(Signal s, Channel ch = Channel::none, std::uint8_t axis = 
 
 }  // namespace
 
+// The data of one cycle, alive only during step(): it views the cycle's inputs and writes
+// its outputs, so it holds references by design.
 struct SystemStateManager::CycleCtx {
+  // NOLINTBEGIN(cppcoreguidelines-avoid-const-or-ref-data-members): a view for one call
   const SafetyInputs& in;
   const Feedback& fb;
   SupervisorOut& out;
-  Leaf start_leaf;
+  // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
+  Leaf start_leaf = Leaf::BOOT;
   bool cat0 = false;
   bool discard = false;
   bool deferred = false;  // the current command's answer comes later
@@ -140,10 +147,11 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
 
   // @req AL-LIFETIME
   // Alarms that are active while their condition lasts.
-  const AlarmId cond[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK};
-  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck};
-  const AlarmDetail what[] = {detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
-                              detail_of(Signal::reset_button)};
+  const std::array<AlarmId, 3> cond{AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID,
+                                    AlarmId::RESET_BUTTON_STUCK};
+  const std::array<bool, 3> holds{in.estop_pressed, in.mode_invalid, in.reset_stuck};
+  const std::array<AlarmDetail, 3> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
+                                        detail_of(Signal::reset_button)};
   for (std::size_t i = 0; i < 3U; ++i) {
     if (holds[i]) {
       alarms_.raise(cond[i], what[i], now_);
@@ -791,11 +799,14 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
                                 ? static_cast<std::size_t>(timing_.max_commands_per_cycle)
                                 : kMaxCommandsPerCycle;
   const std::size_t taken = ((cmds == nullptr) ? 0U : ((n < limit) ? n : limit));
-  for (std::size_t i = 0; i < taken; ++i) {
+  // The C-style (pointer, count) interface keeps the core embeddable from C; from here on
+  // the commands are a bounded view.
+  const std::span<const Command> queue = (taken == 0U) ? std::span<const Command>{} : std::span<const Command>(cmds, taken);
+  for (const Command& cmd : queue) {
     c.deferred = false;
-    const Result r = dispatch_command(c, cmds[i]);
+    const Result r = dispatch_command(c, cmd);
     if (!c.deferred) {
-      reply(c, cmds[i].seq, cmds[i].id, cmds[i].source, r);
+      reply(c, cmd.seq, cmd.id, cmd.source, r);
     }
   }
 

@@ -18,13 +18,14 @@ const char* to_string(AxisState s) noexcept {
   constexpr std::array<const char*, 8> kNames{"Disabled",         "Standstill",         "Homing",   "DiscreteMotion",
                                               "ContinuousMotion", "SynchronizedMotion", "Stopping", "ErrorStop"};
   const auto i = static_cast<std::size_t>(s);
+  // cppcheck-suppress CastIntegerToAddressAtReturn ; false positive of cppcheck 2.10: kNames[i] is a const char*
   return (i < kNames.size()) ? kNames[i] : "?";
 }
 
 // ------------------------------------------------------------------ ProgramExecutor
 void ProgramExecutor::load(const Waypoint* points, std::uint8_t count) noexcept {
-  points_ = points;
   count_ = (points == nullptr) ? 0U : count;
+  points_ = std::span<const Waypoint>(points, count_);
   abort();
 }
 

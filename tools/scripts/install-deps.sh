@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs, once, only the Debian packages that are missing. Usage: install-deps.sh GROUP...
 # Groups: build (compilers, CMake, GoogleTest), embedded (Cortex-M4 toolchain),
+# lint (clang-tidy, cppcheck), bench (Google Benchmark, callgrind, cyclictest),
 # browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
 # the machine: Debian 12's nodejs is too old for Vite).
 set -euo pipefail
@@ -11,6 +12,8 @@ declare -A GROUPS_PKGS=(
   [python]="python3 python3-venv python3-pip"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
   [browser]="chromium"
+  [lint]="clang-tidy-19 cppcheck"
+  [bench]="libbenchmark-dev valgrind rt-tests"
 )
 
 missing=()

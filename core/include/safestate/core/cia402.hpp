@@ -102,20 +102,34 @@ inline constexpr std::uint16_t kFaultReset = 0x0080;  // acts on the rising edge
     case DriveState::SwitchOnDisabled:
       return is_shutdown(cw) ? DriveState::ReadyToSwitchOn : s;  // 2
     case DriveState::ReadyToSwitchOn:
-      if (is_disable_voltage(cw) || is_quick_stop(cw)) return DriveState::SwitchOnDisabled;  // 7
-      return (is_switch_on(cw) && power) ? DriveState::SwitchedOn : s;                       // 3
+      if (is_disable_voltage(cw) || is_quick_stop(cw)) {  // 7
+        return DriveState::SwitchOnDisabled;
+      }
+      return (is_switch_on(cw) && power) ? DriveState::SwitchedOn : s;  // 3
     case DriveState::SwitchedOn:
-      if (!power || is_disable_voltage(cw) || is_quick_stop(cw)) return DriveState::SwitchOnDisabled;  // 10
-      if (is_shutdown(cw)) return DriveState::ReadyToSwitchOn;                                         // 6
-      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;                               // 4
+      if (!power || is_disable_voltage(cw) || is_quick_stop(cw)) {  // 10
+        return DriveState::SwitchOnDisabled;
+      }
+      if (is_shutdown(cw)) {  // 6
+        return DriveState::ReadyToSwitchOn;
+      }
+      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;  // 4
     case DriveState::OperationEnabled:
-      if (!power || is_disable_voltage(cw)) return DriveState::SwitchOnDisabled;  // 9
-      if (is_quick_stop(cw)) return DriveState::QuickStopActive;                  // 11
-      if (is_shutdown(cw)) return DriveState::ReadyToSwitchOn;                    // 8
-      return is_switch_on(cw) ? DriveState::SwitchedOn : s;                       // 5 (disable operation)
+      if (!power || is_disable_voltage(cw)) {  // 9
+        return DriveState::SwitchOnDisabled;
+      }
+      if (is_quick_stop(cw)) {  // 11
+        return DriveState::QuickStopActive;
+      }
+      if (is_shutdown(cw)) {  // 8
+        return DriveState::ReadyToSwitchOn;
+      }
+      return is_switch_on(cw) ? DriveState::SwitchedOn : s;  // 5 (disable operation)
     case DriveState::QuickStopActive:
-      if (is_disable_voltage(cw) || !power) return DriveState::SwitchOnDisabled;  // 12
-      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;          // 16
+      if (is_disable_voltage(cw) || !power) {  // 12
+        return DriveState::SwitchOnDisabled;
+      }
+      return is_enable_operation(cw) ? DriveState::OperationEnabled : s;  // 16
     case DriveState::FaultReactionActive:
       return DriveState::Fault;  // 14
     case DriveState::Fault:

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string_view>
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/config.hpp"
@@ -63,10 +64,12 @@ const char* to_string(Trigger t) noexcept;
 
 // What a guard may look at. Built once per cycle by the manager; guards are pure.
 struct GuardView {
+  // NOLINTBEGIN(cppcoreguidelines-avoid-const-or-ref-data-members): a view for one guard call
   const SafetyInputs& in;
   const Feedback& fb;
   const AlarmSet& alarms;
   const Timing& timing;
+  // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   bool t2_confirmed;
   bool boot_pending;
   bool reset_pending;
@@ -124,18 +127,27 @@ using LeafMask = std::uint16_t;
 [[nodiscard]] constexpr LeafMask only(Leaf l) noexcept { return mask_of(l); }
 template <typename... L>
 [[nodiscard]] constexpr LeafMask any_of(L... leaves) noexcept {
-  return static_cast<LeafMask>((mask_of(leaves) | ...));
+  return static_cast<LeafMask>((static_cast<unsigned>(mask_of(leaves)) | ...));
+}
+
+// Set algebra on masks, in unsigned arithmetic (no promotion to int).
+template <typename... M>
+[[nodiscard]] constexpr LeafMask join(M... masks) noexcept {
+  return static_cast<LeafMask>((static_cast<unsigned>(masks) | ...));
+}
+[[nodiscard]] constexpr LeafMask without(LeafMask a, LeafMask b) noexcept {
+  return static_cast<LeafMask>(static_cast<unsigned>(a) & ~static_cast<unsigned>(b));
 }
 
 inline constexpr LeafMask kAnyLeaf = static_cast<LeafMask>((1U << kLeafCount) - 1U);
 inline constexpr LeafMask kOperational = any_of(Leaf::AUTO_IDLE, Leaf::AUTO_RUNNING, Leaf::AUTO_PAUSED,
                                                 Leaf::MANUAL_IDLE, Leaf::MANUAL_JOGGING, Leaf::MANUAL_RUNNING);
 inline constexpr LeafMask kStopping = any_of(Leaf::STOPPING_CAT1, Leaf::STOPPING_CAT2);
-inline constexpr LeafMask kPowered = static_cast<LeafMask>(mask_of(Leaf::ARMING) | kOperational | kStopping);
+inline constexpr LeafMask kPowered = join(mask_of(Leaf::ARMING), kOperational, kStopping);
 // @req ST-CAT1-COMPLETES
-inline constexpr LeafMask kOperationalOrCat2 = static_cast<LeafMask>(kOperational | mask_of(Leaf::STOPPING_CAT2));
-inline constexpr LeafMask kAnyButLockout = static_cast<LeafMask>(kAnyLeaf & ~mask_of(Leaf::ERROR_LOCKOUT));
-inline constexpr LeafMask kIdleOrPowered = static_cast<LeafMask>(mask_of(Leaf::IDLE) | kPowered);
+inline constexpr LeafMask kOperationalOrCat2 = join(kOperational, mask_of(Leaf::STOPPING_CAT2));
+inline constexpr LeafMask kAnyButLockout = without(kAnyLeaf, mask_of(Leaf::ERROR_LOCKOUT));
+inline constexpr LeafMask kIdleOrPowered = join(mask_of(Leaf::IDLE), kPowered);
 
 struct Transition {
   LeafMask from;
@@ -232,7 +244,7 @@ inline constexpr TransitionIndex kIndex = build_index();
 [[nodiscard]] constexpr bool table_is_well_formed() noexcept {
   for (std::size_t a = 0; a < kTransitions.size(); ++a) {
     const Transition& t = kTransitions[a];
-    if (t.from == 0U || (t.from & ~kAnyLeaf) != 0U) {
+    if (t.from == 0U || without(t.from, kAnyLeaf) != 0U) {
       return false;
     }
     if (t.stop == StopCat::CAT0 && (t.to == Leaf::SAME || t.to == Leaf::STOP_TARGET)) {
@@ -252,17 +264,10 @@ inline constexpr TransitionIndex kIndex = build_index();
 static_assert(table_is_well_formed(), "transition table: overlapping rows or impossible targets");
 
 // Requirement ids are unique, so a test tagged with one names exactly one row.
-[[nodiscard]] constexpr bool same_text(const char* a, const char* b) noexcept {
-  std::size_t i = 0;
-  while (a[i] != '\0' && a[i] == b[i]) {
-    ++i;
-  }
-  return a[i] == b[i];
-}
 [[nodiscard]] constexpr bool row_ids_are_unique() noexcept {
   for (std::size_t a = 0; a < kTransitions.size(); ++a) {
     for (std::size_t b = a + 1; b < kTransitions.size(); ++b) {
-      if (same_text(kTransitions[a].id, kTransitions[b].id)) {
+      if (std::string_view(kTransitions[a].id) == std::string_view(kTransitions[b].id)) {
         return false;
       }
     }

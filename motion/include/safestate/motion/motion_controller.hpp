@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/supervisor.hpp"
@@ -73,7 +74,7 @@ class ProgramExecutor {
   [[nodiscard]] float s_of(float tau) const noexcept;
   [[nodiscard]] float ds_of(float tau) const noexcept;
 
-  const Waypoint* points_ = nullptr;
+  std::span<const Waypoint> points_;  // the program, owned by the caller
   std::uint8_t count_ = 0;
   std::uint8_t index_ = 0;
   bool active_ = false;
@@ -118,7 +119,7 @@ class MotionController {
                      std::array<hal::DriveOut, kJoints>& out) noexcept;
   void axis_states(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives) noexcept;
 
-  const RobotModel& model_;
+  RobotModel model_;  // a copy: the controller does not depend on the caller keeping it alive
   MotionConfig cfg_;
   ProgramExecutor program_;
   Joints q_sp_{};
