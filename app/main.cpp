@@ -57,6 +57,14 @@ int main(int argc, char** argv) {
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
   run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
   run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
+  safestate::runtime::RtBenchOptions rtb_opt;
+  auto* rtbench = app.add_subcommand("rtbench", "measure the real-time loop's wake-up lateness (no gateway)");
+  rtbench->add_option("--seconds", rtb_opt.seconds, "how long to run")->check(CLI::Range(1, 3600));
+  rtbench->add_option("--cycle-us", rtb_opt.rt.cycle_us, "scan cycle in microseconds (250..4000)");
+  rtbench->add_option("--priority", rtb_opt.rt.priority, "SCHED_FIFO priority of the loop, 0 for none")
+      ->check(CLI::Range(0, 99));
+  rtbench->add_option("--cpu", rtb_opt.rt.cpu, "pin the loop to this CPU");
+  rtbench->add_flag("--json", rtb_opt.json, "print one JSON object");
   safestate::gateway::GatewayOptions gw_opt;
   gw_opt.version = SAFESTATE_VERSION;
   auto* gateway = app.add_subcommand("gateway", "the non-real-time gateway (started by `safestate run`)");
@@ -81,6 +89,9 @@ int main(int argc, char** argv) {
   }
   if (gateway->parsed()) {
     return safestate::gateway::gateway_main(gw_opt);
+  }
+  if (rtbench->parsed()) {
+    return safestate::runtime::rtbench_main(rtb_opt);
   }
   if (run->parsed()) {
     return safestate::runtime::run_main(run_opt);

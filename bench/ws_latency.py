@@ -71,6 +71,7 @@ def main():
     ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
     ap.add_argument("--commands", type=int, default=2000)
     ap.add_argument("--status", type=int, default=300)
+    ap.add_argument("--json", help="also write the figures (ms) to this file")
     a = ap.parse_args()
     port = free_port()
     with tempfile.TemporaryDirectory() as d:
@@ -89,6 +90,10 @@ def main():
             proc.wait(timeout=15)
     print(summary("command round trip (WS->core->WS)", rtt))
     print(summary("input change -> status message", lat))
+    if a.json:
+        fig = lambda xs: {"n": len(xs), "p50": pct(xs, 50), "p99": pct(xs, 99), "max": max(xs)}
+        with open(a.json, "w") as f:
+            json.dump({"round_trip_ms": fig(rtt), "status_ms": fig(lat)}, f)
 
 
 if __name__ == "__main__":

@@ -174,8 +174,17 @@ int main(int argc, char** argv) {
       check = true;
     } else if (std::strcmp(argv[i], "--out") == 0 && i + 1 < argc) {
       dir = argv[++i];
+    } else if (std::strcmp(argv[i], "--rows-json") == 0) {
+      // The rows' ids, rules and triggers, for bench/run.py's per-row table.
+      std::cout << "[";
+      for (std::size_t r = 0; r < kTransitions.size(); ++r) {
+        std::cout << (r == 0U ? "" : ",") << "{\"id\":\"" << kTransitions[r].id << "\",\"rule\":\""
+                  << kTransitions[r].rule << "\",\"trigger\":\"" << to_string(kTransitions[r].trigger) << "\"}";
+      }
+      std::cout << "]\n";
+      return 0;
     } else {
-      std::cerr << "usage: gen_docs [--check] [--out DIR]\n";
+      std::cerr << "usage: gen_docs [--check] [--out DIR] | gen_docs --rows-json\n";
       return 2;
     }
   }

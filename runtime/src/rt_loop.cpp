@@ -266,6 +266,10 @@ void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
     const std::uint64_t late = (start > next) ? start - next : 0U;
     m.lateness_ns[bridge::histogram_bucket(late)].fetch_add(1, std::memory_order_relaxed);
     store_max(m.lateness_max_ns, late);
+    const std::uint64_t k = m.cycles.load(std::memory_order_relaxed);
+    if (k < lateness_log_.size()) {
+      lateness_log_[k] = static_cast<std::uint32_t>((late < 0xFFFFFFFFULL) ? late : 0xFFFFFFFFULL);
+    }
     // A stall longer than the fieldbus watchdog: real EtherCAT drives would have seen
     // their process data stop; so do the simulated ones, and the core locks out.
     if (last_start != 0U && (start - last_start) > watchdog) {

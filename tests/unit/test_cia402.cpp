@@ -53,6 +53,13 @@ TEST(Cia402, PatternsAreMutuallyExclusiveOverAllStatuswords) {
   EXPECT_GT(unknown, 0);
 }
 
+// @req CIA-DECODE
+TEST(Cia402, TheLookupTableDecodesExactlyAsThePatternSearch) {
+  for (unsigned sw = 0; sw <= 0xFFFF; ++sw) {
+    ASSERT_EQ(decode(static_cast<std::uint16_t>(sw)), decode_by_search(static_cast<std::uint16_t>(sw))) << std::hex << sw;
+  }
+}
+
 TEST(Cia402, CanonicalStatuswordsRoundTrip) {
   for (const StatusPattern& p : kStatusPatterns) {
     EXPECT_EQ(decode(statusword_of(p.state)), p.state) << p.name;

@@ -12,6 +12,12 @@ Each mutant is applied to a copy of the source in build-mut/src, built, and run 
 the unit tests, the scenario suite, the differential test and the exhaustive checker.
 A mutant is killed when a test fails, stillborn when it does not compile. Writes
 build-mut/mutation.json and build-mut/mutation.md (score and every survivor).
+
+Each mutant is judged in two phases to keep the run short: first only the differential
+test (one small binary to rebuild, fails at the first cycle where core and reference
+differ); a mutant that survives it is rebuilt in full and meets every selected suite.
+Outcomes are appended to build-mut/progress.jsonl as they come; `--resume` skips the
+mutants already judged there (the run takes over an hour on two cores).
 """
 import argparse
 import json
@@ -112,10 +118,29 @@ def sh(cmd, cwd, timeout):
         return 124, "timeout"
 
 
+def judge():
+    """Phase 1: the differential test alone; phase 2: every selected suite."""
+    rc, _ = sh(f"cmake --build {BUILD} --target test_reference", ROOT, 900)
+    if rc != 0:
+        return "stillborn", "does not compile"
+    rc, log = sh(f"ctest --test-dir {BUILD} -R '^Differential\\.' --no-tests=error", ROOT, 900)
+    if rc != 0:
+        failed = re.findall(r"\d+ - (\S+) \(", log)
+        return "killed", ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else "")
+    rc, _ = sh(f"cmake --build {BUILD} --target {TARGETS}", ROOT, 900)
+    if rc != 0:
+        return "stillborn", "does not compile"
+    rc, log = sh(f"ctest --test-dir {BUILD} -j2 -R '{SELECT}' --no-tests=error --stop-on-failure", ROOT, 900)
+    failed = re.findall(r"\d+ - (\S+) \(", log)
+    outcome = "killed" if rc != 0 else "survived"
+    return outcome, ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else "")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", help="only this family (row, guard, timer, stop, output)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
+    ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()
     ms = mutants()
     if a.only:
@@ -142,8 +167,20 @@ def main():
         sys.exit("the unmutated tree does not pass its tests (or too few tests ran)")
     print(f"baseline: {ran.group(1)} tests pass on the unmutated tree", flush=True)
     results = []
+    progress = os.path.join(WORK, "progress.jsonl")
+    done = {}
+    if a.resume and os.path.exists(progress):
+        with open(progress) as f:
+            for line in f:
+                r = json.loads(line)
+                done[r["mutant"]] = r
+    elif os.path.exists(progress):
+        os.remove(progress)
     t0 = time.time()
     for i, (family, desc, rel, old, new) in enumerate(ms, 1):
+        if desc in done:
+            results.append(done[desc])
+            continue
         path = os.path.join(SRC, rel)
         with open(path) as f:
             orig = f.read()
@@ -152,17 +189,12 @@ def main():
             continue
         with open(path, "w") as f:
             f.write(orig.replace(old, new, 1))
-        rc, log = sh(f"cmake --build {BUILD} --target {TARGETS}", ROOT, 900)
-        if rc != 0:
-            outcome, by = "stillborn", "does not compile"
-        else:
-            rc, log = sh(f"ctest --test-dir {BUILD} -j2 -R '{SELECT}' --no-tests=error --stop-on-failure", ROOT, 900)
-            failed = re.findall(r"\d+ - (\S+) \(", log)
-            outcome = "killed" if rc != 0 else "survived"
-            by = ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else "")
+        outcome, by = judge()
         with open(path, "w") as f:
             f.write(orig)
         results.append({"family": family, "mutant": desc, "outcome": outcome, "by": by})
+        with open(progress, "a") as f:
+            f.write(json.dumps(results[-1]) + "\n")
         print(f"[{i}/{len(ms)}] {outcome:9s} {family:6s} {desc}  {by}", flush=True)
     sh(f"cmake --build {BUILD} --target {TARGETS}", ROOT, 900)  # leave the tree unmutated
     live = [r for r in results if r["outcome"] in ("killed", "survived")]

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <span>
 #include <string>
 
 #include "safestate/bridge/segment.hpp"
@@ -48,6 +49,9 @@ class RtLoop {
   // What the loop could set up (memory lock, SCHED_FIFO, affinity): for the log.
   [[nodiscard]] const std::string& setup_report() const noexcept { return report_; }
   void setup();  // call from the loop thread before run()
+  // Optional: the wake-up lateness of every cycle, in ns, into a buffer the caller
+  // allocated before run() (cycle k -> log[k]; cycles beyond its size are not logged).
+  void log_lateness(std::span<std::uint32_t> log) noexcept { lateness_log_ = log; }
 
  private:
   void one_cycle() noexcept;
@@ -56,6 +60,7 @@ class RtLoop {
   RtOptions opt_;
   Publisher pub_;
   std::string report_;
+  std::span<std::uint32_t> lateness_log_;
 };
 
 }  // namespace safestate::runtime
@@ -77,5 +82,16 @@ struct RunOptions {
 // gateway as a supervised child process (restarted if it dies). SIGINT/SIGTERM: a Cat 1
 // stop, then a clean exit. Returns the process exit code.
 int run_main(const RunOptions& opt);
+
+struct RtBenchOptions {
+  unsigned seconds = 60;
+  RtOptions rt{};
+  bool json = false;
+};
+
+// `safestate rtbench`: the real-time loop alone (no gateway) on the simulated cell running
+// the demo program in AUTO, for a given time; prints the wake-up lateness p50/p99/p99.9/max,
+// the overruns and the execution time, in text or JSON. Used by bench/run.py beside cyclictest.
+int rtbench_main(const RtBenchOptions& opt);
 
 }  // namespace safestate::runtime

@@ -1,0 +1,295 @@
+#!/usr/bin/env python3
+"""`make bench`: every measurement of issue 7 in one run; rewrites docs/performance.md.
+
+  1. dispatch cost per transition row          (bench_dispatch, Google Benchmark)
+  2. scan cycle percentiles over 10^6 cycles     (bench_cycle times: supervisor, reference, full)
+  3. instructions per cycle                      (valgrind --tool=callgrind on bench_cycle)
+  4. real-time loop lateness vs cyclictest       (safestate rtbench, cyclictest; same interval)
+  5. WebSocket round trip and status latency     (bench/ws_latency.py)
+  6. heap allocations per cycle                  (bench_cycle allocs)
+  7. Cortex-M4 .text/.bss of core/ and motion/   (tools/scripts/embedded.sh)
+
+Measurements, not tests: nothing here fails because a goal is missed; the document says
+which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
+Raw figures go to build/bench/results.json.
+"""
+import datetime
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+BIN = os.path.join(ROOT, "build", "bin")
+OUT = os.path.join(ROOT, "build", "bench")
+DOC = os.path.join(ROOT, "docs", "performance.md")
+RT_SECONDS = int(os.environ.get("RT_SECONDS", "60"))
+CYCLES = int(os.environ.get("CYCLES", "1000000"))
+CALLGRIND_CYCLES = 100000
+PY = os.environ.get("VENV_PY", sys.executable)
+
+
+def run(cmd, **kw):
+    print("bench: " + " ".join(cmd), flush=True)
+    return subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, cwd=ROOT, **kw).stdout
+
+
+def machine():
+    cpu = "?"
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            cpu = line.split(":", 1)[1].strip()
+            break
+    cxx = run(["c++", "--version"]).split("\n")[0]
+    flags = "?"
+    cache = os.path.join(ROOT, "build", "CMakeCache.txt")
+    for line in open(cache):
+        if line.startswith("CMAKE_CXX_FLAGS_RELWITHDEBINFO:"):
+            flags = line.split("=", 1)[1].strip()
+    return {"cpu": cpu, "cores": os.cpu_count(), "kernel": platform.release(), "compiler": cxx,
+            "flags": flags + " (CMake RelWithDebInfo, the build `make` and `make run` use)",
+            "date": datetime.date.today().isoformat()}
+
+
+def dispatch():
+    out = os.path.join(OUT, "dispatch.json")
+    run([os.path.join(BIN, "bench_dispatch"), "--benchmark_min_time=0.2", "--benchmark_format=console",
+         f"--benchmark_out={out}", "--benchmark_out_format=json"])
+    data = json.load(open(out))
+    ns = {b["name"]: b["real_time"] for b in data["benchmarks"]}  # time_unit is ns
+    return ns
+
+
+def cycles():
+    return json.loads(run([os.path.join(BIN, "bench_cycle"), "times", "--cycles", str(CYCLES)]))
+
+
+def callgrind():
+    res = {}
+    for what in ["supervisor-typical", "reference-typical", "supervisor-worst", "reference-worst", "full-typical"]:
+        f = os.path.join(OUT, f"callgrind.{what}.out")
+        run(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={f}",
+             os.path.join(BIN, "bench_cycle"), "callgrind", what, "--cycles", str(CALLGRIND_CYCLES)],
+            stderr=subprocess.DEVNULL)
+        total = None
+        for line in open(f):
+            m = re.match(r"^(?:summary|totals):\s+(\d+)", line)
+            if m:
+                total = int(m.group(1))
+        res[what] = total / CALLGRIND_CYCLES if total else None
+    return res
+
+
+def pct_from_hist(hist, p):
+    n = sum(c for _, c in hist)
+    k = 0
+    for v, c in hist:
+        k += c
+        if k >= p * n:
+            return v
+    return hist[-1][0] if hist else 0
+
+
+def rt():
+    loop = json.loads(run([os.path.join(BIN, "safestate"), "rtbench", "--seconds", str(RT_SECONDS), "--json",
+                           "--priority", "80", "--cpu", "1"]))
+    text = run(["cyclictest", "-m", "-q", "-p", "80", "-a", "1", "-t", "1", "-i", "1000",
+                "-l", str(RT_SECONDS * 1000), "-h", "20000"])
+    hist = []
+    overflows = 0
+    maxlat = 0
+    for line in text.splitlines():
+        m = re.match(r"^(\d+)\s+(\d+)$", line.strip())
+        if m:
+            hist.append((int(m.group(1)), int(m.group(2))))
+        m = re.match(r"^# Histogram Overflows:\s+(\d+)", line)
+        if m:
+            overflows = int(m.group(1))
+        m = re.match(r"^# Max Latencies:\s+(\d+)", line)
+        if m:
+            maxlat = int(m.group(1))
+    hist = [(v, c) for v, c in hist if c > 0]
+    cyc = {"cycles": sum(c for _, c in hist) + overflows,
+           "lateness_us": {"p50": pct_from_hist(hist, 0.5), "p99": pct_from_hist(hist, 0.99),
+                           "p999": pct_from_hist(hist, 0.999), "max": maxlat},
+           "overruns": sum(c for v, c in hist if v >= 1000) + overflows}
+    lo = loop["lateness_ns"]
+    loop_us = {"cycles": loop["cycles"], "priority": loop["priority"],
+               "lateness_us": {k: lo[k] / 1000.0 for k in ("p50", "p99", "p999", "max")},
+               "overruns": loop["overruns"], "exec_max_us": loop["exec_max_ns"] / 1000.0}
+    return {"loop": loop_us, "cyclictest": cyc}
+
+
+def ws():
+    f = os.path.join(OUT, "ws.json")
+    run([PY, os.path.join(ROOT, "bench", "ws_latency.py"), "--bin", os.path.join(BIN, "safestate"), "--json", f])
+    return json.load(open(f))
+
+
+def allocs():
+    return json.loads(run([os.path.join(BIN, "bench_cycle"), "allocs", "--cycles", str(CYCLES)]))
+
+
+def m4():
+    run([os.path.join(ROOT, "tools", "scripts", "embedded.sh")])
+    sizes = {}
+    for line in open(os.path.join(ROOT, "build-m4", "size.txt")):
+        m = re.match(r"^(core|motion|controller)\s+(\d+)\s+(\d+)\s+(\d+)", line)
+        if m:
+            sizes[m.group(1)] = {"text": int(m.group(2)), "data": int(m.group(3)), "bss": int(m.group(4))}
+        m = re.match(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s+\d+\s+\w+\s+build-m4/image.elf", line)
+        if m:
+            sizes["image"] = {"text": int(m.group(1)), "data": int(m.group(2)), "bss": int(m.group(3))}
+    return sizes
+
+
+def verdict(ok):
+    return "met" if ok else "**not met**"
+
+
+def render(r):
+    mc, d, c, cg, rtr, w, a, m = r["machine"], r["dispatch"], r["cycles"], r["callgrind"], r["rt"], r["ws"], r["allocs"], r["m4"]
+    copy = d.get("copy_only", 0.0)
+    quiet = d.get("quiet_cycle", 0.0) - copy
+    L = ["<!-- Generated by `make bench` (bench/run.py); do not edit: run it again. -->", "",
+         "# Performance", "",
+         "What a scan cycle costs, measured by `make bench` on the machine below. Every figure comes from",
+         "the same run; raw data in `build/bench/results.json`. Goals are from issue 7 and are measured",
+         "here, never asserted in unit tests.", "",
+         "## Machine", "",
+         f"- CPU: {mc['cpu']}, {mc['cores']} cores (a shared virtual machine: expect noisy maxima)",
+         f"- Kernel: Linux {mc['kernel']}; compiler: {mc['compiler']}",
+         f"- Flags: `{mc['flags']}`",
+         f"- Date: {mc['date']}; cycles per timing series: {c['cycles']:,}; "
+         f"clock read overhead {c['timer_overhead_ns']:.0f} ns (subtracted from each sample)", "",
+         "## Goals", "",
+         "| goal | measured | |", "|---|---|---|"]
+    ratio = cg["supervisor-typical"] / cg["reference-typical"]
+    ratio_w = cg["supervisor-worst"] / cg["reference-worst"]
+    sup_p999 = max(c["supervisor_typical"]["p999"], c["supervisor_worst"]["p999"])
+    full_p999 = max(c["full_typical"]["p999"], c["full_worst"]["p999"])
+    lp, cp = rtr["loop"]["lateness_us"]["p999"], rtr["cyclictest"]["lateness_us"]["p999"]
+    text_core = m.get("core", {}).get("text", 0)
+    L += [f"| Supervisor ≤ 1.5× the reference's instructions per cycle | {ratio:.2f}× typical, {ratio_w:.2f}× worst | {verdict(max(ratio, ratio_w) <= 1.5)} |",
+          f"| Supervisor < 1 µs at p99.9 | {sup_p999:.0f} ns (worst of typical and worst path) | {verdict(sup_p999 < 1000)} |",
+          f"| Full scan cycle < 10 µs at p99.9 | {full_p999 / 1000:.2f} µs | {verdict(full_p999 < 10000)} |",
+          f"| RT lateness p99.9 within 1.5× cyclictest's | {lp:.1f} µs vs {cp:.1f} µs ({lp / max(cp, 1e-9):.2f}×) | {verdict(lp <= 1.5 * cp)} |",
+          f"| Zero overruns in {RT_SECONDS} s | {rtr['loop']['overruns']} | {verdict(rtr['loop']['overruns'] == 0)} |",
+          f"| Command round trip p99 < 5 ms | {w['round_trip_ms']['p99']:.2f} ms | {verdict(w['round_trip_ms']['p99'] < 5.0)} |",
+          f"| Zero heap allocations per cycle | {a['allocations']} in {a['cycles']:,} cycles | {verdict(a['allocations'] == 0)} |",
+          f"| core/ `.text` ≤ 32 KiB on a Cortex-M4 | {text_core / 1024:.1f} KiB | {verdict(text_core <= 32 * 1024)} |",
+          "", "## Scan cycle, cycle by cycle (ns)", "",
+          "Supervisor = signal layer + state machine + command validation + monitors, on the cycles the",
+          "simulated cell's own supervisor saw (recorded, then replayed; the replay is checked to decide",
+          "exactly as the cell did). Reference = the same cycles on `tools/reference` (switch code written",
+          "from SPEC.md). Full = `sim::Cell::step()`: process image, supervisor, motion for six axes with",
+          "forward kinematics of every link origin and the Jacobian point speeds, CiA 402, plant.",
+          "Typical = a production shift (the demo program in AUTO, pauses, an E-stop, a T1 jog session);",
+          "worst = an E-stop during a Cat 1 stop with a drive fault on every axis, the reset button held",
+          "and a full queue of eight commands, that one cycle repeated from a copy of the state.", "",
+          "| series | p50 | p99 | p99.9 | max |", "|---|---|---|---|---|"]
+    for k, name in [("supervisor_typical", "supervisor, typical"), ("reference_typical", "reference, typical"),
+                    ("supervisor_worst", "supervisor, worst path"), ("reference_worst", "reference, worst path"),
+                    ("full_typical", "full scan cycle, typical"), ("full_worst", "full scan cycle, worst path")]:
+        s = c[k]
+        L.append(f"| {name} | {s['p50']:.0f} | {s['p99']:.0f} | {s['p999']:.0f} | {s['max']:.0f} |")
+    L += ["", "## Instructions per cycle (callgrind)", "",
+          f"`valgrind --tool=callgrind`, only the measured loop instrumented, {CALLGRIND_CYCLES:,} cycles each:",
+          "exact and repeatable where timings are noisy.", "",
+          "| series | instructions / cycle |", "|---|---|"]
+    for k in ["supervisor-typical", "reference-typical", "supervisor-worst", "reference-worst", "full-typical"]:
+        L.append(f"| {k} | {cg[k]:.0f} |")
+    L += ["", f"SafeState / reference: **{ratio:.2f}×** typical, **{ratio_w:.2f}×** worst path.", "",
+          "## Dispatch cost per transition row (ns)", "",
+          "Google Benchmark (`bench_dispatch`): for each row, cycles of recorded histories in which that row",
+          "fired (random inputs, commands and faults on the simulated cell, the shift, the worst path, a T1",
+          "program and jog session), each replayed from a copy of the supervisor taken before it. *cycle* is",
+          f"that whole supervisor cycle minus the copy ({copy:.1f} ns); *over quiet* is what the row adds",
+          f"to a cycle in which nothing fires ({quiet:.1f} ns).", "",
+          "| row | rule | trigger | cycle | over quiet |", "|---|---|---|---|---|"]
+    for row in r["rows"]:
+        t = d.get("row/" + row["id"])
+        if t is None:
+            L.append(f"| {row['id']} | {row['rule']} | {row['trigger']} | not reached | |")
+        else:
+            L.append(f"| {row['id']} | {row['rule']} | {row['trigger']} | {t - copy:.0f} | {t - copy - quiet:+.0f} |")
+    lo, cy = rtr["loop"], rtr["cyclictest"]
+    L += ["", f"## Real-time loop wake-up lateness, {RT_SECONDS} s at 1 ms (µs)", "",
+          "`safestate rtbench`: the loop of `safestate run` (clock_nanosleep on an absolute deadline, mlockall,",
+          f"SCHED_FIFO priority {lo['priority']}, pinned to CPU 1) running the simulated cell with the demo",
+          "program, an operator thread answering through the bridge. `cyclictest` (rt-tests) with the same",
+          "interval, priority and CPU, right after it in the same script: the operating system's own floor.", "",
+          "| | cycles | p50 | p99 | p99.9 | max | overruns |", "|---|---|---|---|---|---|---|",
+          f"| SafeState loop | {lo['cycles']:,} | {lo['lateness_us']['p50']:.1f} | {lo['lateness_us']['p99']:.1f} | "
+          f"{lo['lateness_us']['p999']:.1f} | {lo['lateness_us']['max']:.1f} | {lo['overruns']} |",
+          f"| cyclictest | {cy['cycles']:,} | {cy['lateness_us']['p50']} | {cy['lateness_us']['p99']} | "
+          f"{cy['lateness_us']['p999']} | {cy['lateness_us']['max']} | {cy['overruns']} |",
+          "", f"Longest cycle of the loop (execution, not lateness): {lo['exec_max_us']:.1f} µs. An overrun is a"
+          " cycle whose deadline passed before it could start (lateness ≥ one period).", "",
+          "## Protocol latency on loopback (ms)", "",
+          "`bench/ws_latency.py` against `safestate run`: a WebSocket `command` through gateway, shared memory",
+          "and a core cycle back to its `reply`; and a `sim` input change until the first `status` message",
+          "showing it (this includes the gateway's 50 Hz status push).", "",
+          "| | n | p50 | p99 | max |", "|---|---|---|---|---|"]
+    for k, name in [("round_trip_ms", "command round trip"), ("status_ms", "input change → status")]:
+        s = w[k]
+        L.append(f"| {name} | {s['n']} | {s['p50']:.2f} | {s['p99']:.2f} | {s['max']:.2f} |")
+    L += ["", "## Footprint", "",
+          f"Heap allocations during {a['cycles']:,} full scan cycles (operator new counted): **{a['allocations']}**.",
+          "(`make test` also proves it: test NoAlloc replaces operator new and malloc, and alloc_per_cycle",
+          "compares valgrind's allocation counts of a short and a long replay.)", "",
+          "Cortex-M4F (`arm-none-eabi-g++ -Os -mcpu=cortex-m4 -mfpu=fpv4-sp-d16`, no exceptions, no RTTI),",
+          "from `tools/scripts/embedded.sh`, in bytes:", "",
+          "| | .text | .data | .bss |", "|---|---|---|---|"]
+    for k in ["core", "motion", "controller", "image"]:
+        if k in m:
+            name = "linked scan-cycle image" if k == "image" else f"{k}/"
+            L.append(f"| {name} | {m[k]['text']:,} | {m[k]['data']:,} | {m[k]['bss']:,} |")
+    L += ["", "## Reading", ""] + reading(r, ratio, ratio_w, sup_p999, full_p999, lp, cp)
+    return "\n".join(L) + "\n"
+
+
+def reading(r, ratio, ratio_w, sup_p999, full_p999, lp, cp):
+    c, cg, w = r["cycles"], r["callgrind"], r["ws"]
+    out = []
+    out.append(f"- The table-driven supervisor executes {cg['supervisor-typical']:.0f} instructions per typical cycle "
+               f"against the hand-written reference's {cg['reference-typical']:.0f} ({ratio:.2f}×); on the worst "
+               f"path {cg['supervisor-worst']:.0f} against {cg['reference-worst']:.0f} ({ratio_w:.2f}×). The table and its "
+               "compile-time index cost " + ("less than" if ratio <= 1.5 else "more than") + " the 1.5× allowed; the "
+               "difference is mostly what the reference does not do (alarm detail and first-out cause, "
+               "transition events, the diverse output cross-check).")
+    out.append(f"- Supervisor p99.9 is {sup_p999:.0f} ns, {sup_p999 / 10000:.3f} % of a 1 ms cycle; the full scan "
+               f"cycle with six-axis kinematics p99.9 is {full_p999 / 1000:.2f} µs ({full_p999 / 10000:.2f} % of the cycle). "
+               "Maxima are single samples on a shared VM (preemption, page faults of the first cycles) and "
+               "say more about the machine than about the code; callgrind's counts are the stable comparison.")
+    out.append(f"- The loop wakes {lp:.1f} µs late at p99.9 where cyclictest sees {cp:.1f} µs on the same "
+               "machine: the loop adds its own work (a scan cycle, the bridge) to the operating system's floor. "
+               "Without PREEMPT_RT and isolated CPUs both tails are the hypervisor's.")
+    out.append(f"- A command's round trip through the gateway is {w['round_trip_ms']['p99']:.2f} ms at p99, "
+               "dominated by the gateway polling the reply ring every 2 ms, not by the core (one cycle).")
+    return out
+
+
+def main():
+    os.makedirs(OUT, exist_ok=True)
+    r = {"machine": machine()}
+    rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
+    r["rows"] = rows
+    r["dispatch"] = dispatch()
+    r["cycles"] = cycles()
+    r["callgrind"] = callgrind()
+    r["allocs"] = allocs()
+    r["m4"] = m4()
+    r["ws"] = ws()
+    r["rt"] = rt()
+    with open(os.path.join(OUT, "results.json"), "w") as f:
+        json.dump(r, f, indent=1)
+    with open(DOC, "w") as f:
+        f.write(render(r))
+    print(f"bench: wrote {os.path.relpath(DOC, ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
