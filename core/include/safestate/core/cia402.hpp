@@ -61,7 +61,7 @@ inline constexpr std::uint16_t kDecodeMask = 0x6F;
 inline constexpr std::array<DriveState, 128> kDecodeTable = [] {
   std::array<DriveState, 128> t{};
   for (std::uint16_t sw = 0; sw <= kDecodeMask; ++sw) {
-    if ((sw & ~kDecodeMask) == 0U) {
+    if ((static_cast<unsigned>(sw) & ~static_cast<unsigned>(kDecodeMask)) == 0U) {
       t[decode_index(sw)] = decode_by_search(sw);
     }
   }
@@ -69,7 +69,7 @@ inline constexpr std::array<DriveState, 128> kDecodeTable = [] {
 }();
 [[nodiscard]] constexpr bool patterns_fit_the_table() noexcept {
   for (const StatusPattern& p : kStatusPatterns) {
-    if ((p.mask & ~kDecodeMask) != 0U) {
+    if ((static_cast<unsigned>(p.mask) & ~static_cast<unsigned>(kDecodeMask)) != 0U) {
       return false;
     }
   }
