@@ -729,8 +729,9 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.arming_progress = 0;
 
   if (const auto* a = std::get_if<StArming>(&state_)) {
-    o.drives_enable = a->step != ArmingStep::CONTACTOR;
-    o.brakes_release = a->step == ArmingStep::BRAKES;
+    // The table gives ARMING's outputs at step CONTACTOR; later steps add to them.
+    o.drives_enable = lo.drives || (a->step != ArmingStep::CONTACTOR);
+    o.brakes_release = lo.brakes_release || (a->step == ArmingStep::BRAKES);
     o.arming_step = a->step;
     o.arming_progress = a->progress;
   } else if (const auto* s = std::get_if<StStopping>(&state_)) {
@@ -742,7 +743,7 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
     }
   } else if (leaf_ == Leaf::IDLE) {
     // A pending reset implies DRIVE_FAULT, a latched alarm, so the lamp stays on.
-    o.reset_lamp = (alarms_.mask() & kLatchedAlarms) != 0U;
+    o.reset_lamp = lo.reset_lamp || ((alarms_.mask() & kLatchedAlarms) != 0U);
   }
 
   o.motion.program = c.program;

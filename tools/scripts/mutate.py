@@ -97,8 +97,8 @@ def mutants():
             new = re.sub(r"\{(true|false), (true|false), (true|false), (true|false),",
                          "{" + ", ".join(vals) + ",", line, count=1)
             out.append(("output", f"{m.group(5)}: {names[k]} inverted", SUPERVISOR, line, new))
-    for pat, desc in [(r"o\.drives_enable = a->step != ArmingStep::CONTACTOR;", "ARMING drives_enable inverted"),
-                      (r"o\.brakes_release = a->step == ArmingStep::BRAKES;", "ARMING brakes_release inverted"),
+    for pat, desc in [(r"o\.drives_enable = lo\.drives \|\| \(a->step != ArmingStep::CONTACTOR\);", "ARMING drives_enable inverted"),
+                      (r"o\.brakes_release = lo\.brakes_release \|\| \(a->step == ArmingStep::BRAKES\);", "ARMING brakes_release inverted"),
                       (r"o\.brakes_release = false;", "STOPPING braking: brakes stay released")]:
         m = re.search(r"^.*" + pat + r".*$", s, re.M)
         if m:
