@@ -1,4 +1,6 @@
+#include <fcntl.h>
 #include <pthread.h>
+#include <unistd.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <time.h>
@@ -210,8 +212,24 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
 RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
     : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell) {}
 
+RtLoop::~RtLoop() {
+  if (dma_latency_fd_ >= 0) {
+    close(dma_latency_fd_);
+  }
+}
+
 void RtLoop::setup() {
   report_.clear();
+  // Keep the CPUs out of deep idle states while the loop runs (as cyclictest does): a
+  // wake-up from C6 can take longer than the whole scan cycle. Held until the loop ends.
+  if (dma_latency_fd_ < 0) {
+    dma_latency_fd_ = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+    const std::int32_t zero = 0;
+    if (dma_latency_fd_ < 0 || write(dma_latency_fd_, &zero, sizeof zero) != static_cast<ssize_t>(sizeof zero)) {
+      report_ += std::string("note: /dev/cpu_dma_latency not available (") + std::strerror(errno) +
+                 "), CPU idle states may add wake-up latency\n";
+    }
+  }
   if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
     report_ += std::string("warning: mlockall failed (") + std::strerror(errno) + "), memory may page\n";
   }

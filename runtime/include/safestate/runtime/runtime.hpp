@@ -43,6 +43,9 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
 class RtLoop {
  public:
   RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept;
+  ~RtLoop();
+  RtLoop(const RtLoop&) = delete;
+  RtLoop& operator=(const RtLoop&) = delete;
   // Runs until `stop` is set, then performs a Cat 1 stop (servo_off) and returns once
   // the robot is no longer powered, or after `shutdown_cycles` more cycles.
   void run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles = 3000);
@@ -61,6 +64,7 @@ class RtLoop {
   Publisher pub_;
   std::string report_;
   std::span<std::uint32_t> lateness_log_;
+  int dma_latency_fd_ = -1;  // /dev/cpu_dma_latency held at 0 while the loop lives
 };
 
 }  // namespace safestate::runtime
