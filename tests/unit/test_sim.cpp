@@ -288,3 +288,35 @@ TEST(SimCell, OnlyTheJoggedAxisIsInContinuousMotion) {
     EXPECT_STREQ(r.cell.view().axis_state[i], i == 1 ? "ContinuousMotion" : "Standstill") << i;
   }
 }
+
+// The program executor's defensive paths, driven directly (the supervisor never resumes a
+// program that is not loaded or has finished, nor asks a velocity of an idle executor).
+TEST(ProgramExecutor, ResumeWithoutAProgramOrAfterItsEndDoesNothing) {
+  motion::ProgramExecutor p;
+  const motion::Joints home{};
+  p.resume(home, motion::kRobot, 1.0F);
+  EXPECT_FALSE(p.active());
+  for (float v : p.velocity()) EXPECT_EQ(v, 0.0F) << "an idle executor commands no velocity";
+  const motion::Waypoint prog[] = {{motion::Joints{0.1F, 0.0F, 0.0F, 0.0F, 0.0F, 0.0F}, 1.0F, 0}};
+  p.load(prog, 1);
+  p.start(home, motion::kRobot, 1.0F);
+  ASSERT_TRUE(p.active());
+  for (int i = 0; i < 20000 && !p.finished(); ++i) p.advance(0.001F, motion::kRobot, 1.0F);
+  ASSERT_TRUE(p.finished());
+  p.resume(home, motion::kRobot, 1.0F);
+  EXPECT_FALSE(p.active()) << "a finished program is not resumed";
+  EXPECT_TRUE(p.finished());
+}
+
+TEST(ProgramExecutor, AWaypointWhereTheArmAlreadyIsTakesNoTimeAndNoVelocity) {
+  motion::ProgramExecutor p;
+  const motion::Joints here{0.2F, -0.1F, 0.1F, 0.0F, 0.3F, 0.0F};
+  const motion::Waypoint prog[] = {{here, 1.0F, 5}, {motion::Joints{}, 1.0F, 0}};
+  p.load(prog, 2);
+  p.start(here, motion::kRobot, 1.0F);  // zero-length segment to the first waypoint
+  ASSERT_TRUE(p.active());
+  for (float v : p.velocity()) EXPECT_EQ(v, 0.0F);
+  const motion::Joints q = p.advance(0.001F, motion::kRobot, 1.0F);
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(q[i], here[i]) << "it dwells where it is";
+  for (float v : p.velocity()) EXPECT_EQ(v, 0.0F) << "no velocity while dwelling";
+}

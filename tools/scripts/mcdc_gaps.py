@@ -36,4 +36,4 @@ for (f, ln), c, pos in out:
     col = pos[1] if pos else 0
     line_text = src.get((f, pos[0]), "") if pos else ""
     snippet = line_text[col - 1: col + 45].strip() if line_text else ""
-    print(f"{f.split('/')[-1]}:{ln} {c} at {pos[0] if pos else '?'}:{col}  `{snippet}`")
+    print(f"{(f or 'file').split('/')[-1]}:{ln} {c} at {pos[0] if pos else '?'}:{col}  `{snippet}`")
