@@ -100,12 +100,17 @@ Stats stats(std::vector<double>& v) {
   return s;
 }
 
+// One sample: the interval minus the clock's own read cost, never below zero.
+double elapsed_ns(Clock::time_point a, Clock::time_point b, double overhead) {
+  return std::max(0.0, std::chrono::duration<double, std::nano>(b - a).count() - overhead);
+}
+
 double timer_overhead() {
   std::vector<double> v(100000);
   for (double& d : v) {
     const auto a = Clock::now();
     const auto b = Clock::now();
-    d = std::chrono::duration<double, std::nano>(b - a).count();
+    d = elapsed_ns(a, b, 0.0);
   }
   return stats(v).p50;
 }
@@ -126,7 +131,7 @@ std::vector<double> time_trace(const Trace& trace, std::size_t cycles, double ov
       const auto a = Clock::now();
       s.step(local);
       const auto b = Clock::now();
-      ns.push_back(std::max(0.0, std::chrono::duration<double, std::nano>(b - a).count() - overhead));
+      ns.push_back(elapsed_ns(a, b, overhead));
       if (ns.size() == cycles) {
         break;
       }
@@ -135,13 +140,20 @@ std::vector<double> time_trace(const Trace& trace, std::size_t cycles, double ov
   return ns;
 }
 
-// The last sample of `trace`, stepped `cycles` times from a copy of the supervisor as it was before it.
+// The supervisor as it was before the last sample of `trace`.
 template <typename S>
-std::vector<double> time_last(const Trace& trace, std::size_t cycles, double overhead) {
+S before_last(const Trace& trace) {
   S before;
   for (std::size_t i = 0; i + 1 < trace.size(); ++i) {
     before.step(trace[i]);
   }
+  return before;
+}
+
+// The last sample of `trace`, stepped `cycles` times from a copy of the supervisor as it was before it.
+template <typename S>
+std::vector<double> time_last(const Trace& trace, std::size_t cycles, double overhead) {
+  const S before = before_last<S>(trace);
   const Sample& worst = trace.back();
   std::vector<double> ns(cycles);
   for (double& d : ns) {
@@ -149,7 +161,7 @@ std::vector<double> time_last(const Trace& trace, std::size_t cycles, double ove
     const auto a = Clock::now();
     s.step(worst);
     const auto b = Clock::now();
-    d = std::max(0.0, std::chrono::duration<double, std::nano>(b - a).count() - overhead);
+    d = elapsed_ns(a, b, overhead);
   }
   return ns;
 }
@@ -183,7 +195,7 @@ std::vector<double> time_full_typical(std::size_t cycles, double overhead) {
     const auto a = Clock::now();
     cell.step();
     const auto b = Clock::now();
-    ns.push_back(std::max(0.0, std::chrono::duration<double, std::nano>(b - a).count() - overhead));
+    ns.push_back(elapsed_ns(a, b, overhead));
   }
   return ns;
 }
@@ -204,7 +216,7 @@ std::vector<double> time_full_worst(std::size_t cycles, double overhead) {
     const auto a = Clock::now();
     c.step();
     const auto b = Clock::now();
-    t = std::max(0.0, std::chrono::duration<double, std::nano>(b - a).count() - overhead);
+    t = elapsed_ns(a, b, overhead);
   }
   return ns;
 }
@@ -235,11 +247,7 @@ void run_trace(const Trace& t, std::size_t cycles) {
 
 template <typename S>
 void run_last(const Trace& t, std::size_t cycles) {
-  S before;
-  for (std::size_t i = 0; i + 1 < t.size(); ++i) {
-    before.step(t[i]);
-  }
-  std::vector<S> copies(cycles, before);  // copied outside the measured region
+  std::vector<S> copies(cycles, before_last<S>(t));  // copied outside the measured region
   CALLGRIND_START_INSTRUMENTATION;
   for (S& s : copies) {
     s.step(t.back());
@@ -269,8 +277,46 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_cycle: --cycles must be 1..100000000\n");
     return 2;
   }
-  const Trace shift = bench::shift(300000);
-  const Trace worst = bench::worst();
+  // Modes that run the cell itself need no recorded workload.
+  if (mode == "callgrind" && what == "full-typical") {
+    sim::Cell cell{core::Config{}};
+    bench::Driver d(cell);
+    CALLGRIND_START_INSTRUMENTATION;
+    for (std::size_t k = 0; k < cycles; ++k) {
+      bench::shift_pattern(cell, d, k);  // a few instructions per cycle, counted too
+      cell.step();
+    }
+    CALLGRIND_STOP_INSTRUMENTATION;
+    std::printf("%zu\n", cycles);
+    return 0;
+  }
+  if (mode == "slowest") {  // where in the shift the slowest 0.1 % of full cycles fall
+    const std::vector<double> ns = time_full_typical(cycles, 0.0);
+    std::vector<std::size_t> order(ns.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      order[k] = k;
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return ns[x] > ns[y]; });
+    for (std::size_t i = 0; i < order.size() / 1000U; ++i) {
+      std::printf("%.0f %zu %zu\n", ns[order[i]], order[i], order[i] % 300000U);
+    }
+    return 0;
+  }
+  if (mode == "allocs") {
+    sim::Cell cell{core::Config{}};
+    bench::Driver d(cell);
+    const std::size_t before = g_allocs;
+    for (std::size_t k = 0; k < cycles; ++k) {
+      bench::shift_pattern(cell, d, k);
+      cell.step();
+    }
+    std::printf("{\"cycles\": %zu, \"allocations\": %zu}\n", cycles, g_allocs - before);
+    return 0;
+  }
+  // The recorded workloads, only those the mode uses, each checked to replay faithfully.
+  const bool all = mode == "times";
+  const Trace shift = (all || what.ends_with("-typical")) ? bench::shift(300000) : Trace{};
+  const Trace worst = (all || what.ends_with("-worst")) ? bench::worst() : Trace{};
   if (!replays_faithfully<Core>(shift) || !replays_faithfully<Ref>(shift) || !replays_faithfully<Core>(worst) ||
       !replays_faithfully<Ref>(worst)) {
     std::fprintf(stderr, "bench_cycle: a replay does not decide as the cell did: the workload is not what it claims\n");
@@ -285,48 +331,10 @@ int main(int argc, char** argv) {
       run_last<Core>(worst, cycles);
     } else if (what == "reference-worst") {
       run_last<Ref>(worst, cycles);
-    } else if (what == "full-typical") {
-      sim::Cell cell{core::Config{}};
-      bench::Driver d(cell);
-      CALLGRIND_START_INSTRUMENTATION;
-      for (std::size_t k = 0; k < cycles; ++k) {
-        bench::shift_pattern(cell, d, k);  // a few instructions per cycle, counted too
-        cell.step();
-      }
-      CALLGRIND_STOP_INSTRUMENTATION;
     } else {
       return usage();
     }
     std::printf("%zu\n", cycles);
-    return 0;
-  }
-  if (mode == "slowest") {  // where in the shift the slowest 0.1 % of full cycles fall
-    sim::Cell cell{core::Config{}};
-    bench::Driver d(cell);
-    std::vector<std::pair<double, std::size_t>> ns;
-    ns.reserve(cycles);
-    for (std::size_t k = 0; k < cycles; ++k) {
-      bench::shift_pattern(cell, d, k);
-      const auto a = Clock::now();
-      cell.step();
-      const auto b = Clock::now();
-      ns.emplace_back(std::chrono::duration<double, std::nano>(b - a).count(), k);
-    }
-    std::sort(ns.begin(), ns.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
-    for (std::size_t i = 0; i < ns.size() / 1000U; ++i) {
-      std::printf("%.0f %zu %zu\n", ns[i].first, ns[i].second, ns[i].second % 300000U);
-    }
-    return 0;
-  }
-  if (mode == "allocs") {
-    sim::Cell cell{core::Config{}};
-    bench::Driver d(cell);
-    const std::size_t before = g_allocs;
-    for (std::size_t k = 0; k < cycles; ++k) {
-      bench::shift_pattern(cell, d, k);
-      cell.step();
-    }
-    std::printf("{\"cycles\": %zu, \"allocations\": %zu}\n", cycles, g_allocs - before);
     return 0;
   }
   if (mode != "times") {
