@@ -84,7 +84,7 @@ def walk(dirs, exts):
                     yield os.path.join(base, fn)
 
 
-def code_tags(problems):
+def code_tags():
     out = []
     for p in walk(CODE_DIRS, CODE_EXT):
         with open(p, errors="replace") as f:
@@ -94,48 +94,44 @@ def code_tags(problems):
     return out
 
 
+def tags_above(path, comment, test_re, name_of, skip, what, out, problems):
+    """Tags in the comment lines directly above a test definition (lines starting with one
+    of `skip`, such as decorators, may stand between); a tag followed by anything else is a problem."""
+    pending = []
+    with open(path) as f:
+        for n, line in enumerate(f, 1):
+            s = line.strip()
+            if s.startswith(comment):
+                pending += ids_in(s)
+                continue
+            if skip and s.startswith(skip):
+                continue
+            m = re.match(test_re, s)
+            if m:
+                out += [(i, name_of(m)) for i in pending]
+            elif pending:
+                problems.append(f"{rel(path)}:{n}: @req tag not followed by {what}")
+            pending = []
+
+
+def tags_anywhere(path, name, out):
+    """Tags in any comment line: the whole file is the test."""
+    with open(path) as f:
+        out += [(i, name) for line in f if line.lstrip().startswith("#") for i in ids_in(line)]
+
+
 def test_tags(problems):
     out = []
-    # GoogleTest: tags in the comment lines directly above TEST(Suite, Name).
     for p in walk(["tests/unit"], (".cpp",)):
-        pending = []
-        with open(p) as f:
-            for n, line in enumerate(f, 1):
-                s = line.strip()
-                if s.startswith("//"):
-                    pending += ids_in(s)
-                    continue
-                m = re.match(r"^TEST(?:_F)?\((\w+),\s*(\w+)\)", s)
-                if m:
-                    out += [(i, f"{m.group(1)}.{m.group(2)}") for i in pending]
-                elif pending:
-                    problems.append(f"{rel(p)}:{n}: @req tag not followed by a TEST")
-                pending = []
-    # pytest: tags in the comment lines directly above `def test_...`.
+        tags_above(p, "//", r"^TEST(?:_F)?\((\w+),\s*(\w+)\)", lambda m: f"{m.group(1)}.{m.group(2)}", (),
+                   "a TEST", out, problems)
     for p in walk(["tests/integration"], (".py",)):
-        pending = []
-        with open(p) as f:
-            for n, line in enumerate(f, 1):
-                s = line.strip()
-                if s.startswith("#"):
-                    pending += ids_in(s)
-                    continue
-                m = re.match(r"^(?:async )?def (test_\w+)", s)
-                if m:
-                    out += [(i, f"gateway/{m.group(1)}") for i in pending]
-                    pending = []
-                elif pending and not s.startswith("@"):
-                    problems.append(f"{rel(p)}:{n}: @req tag not followed by a test function")
-                    pending = []
-    # Scenarios and scripts: the file is the test.
+        tags_above(p, "#", r"^(?:async )?def (test_\w+)", lambda m: f"gateway/{m.group(1)}", ("@",),
+                   "a test function", out, problems)
     for p in walk(["tests/scenarios"], (".scn",)):
-        name = "scenario/" + os.path.relpath(p, os.path.join(ROOT, "tests", "scenarios"))
-        with open(p) as f:
-            out += [(i, name) for line in f if line.lstrip().startswith("#") for i in ids_in(line)]
+        tags_anywhere(p, "scenario/" + os.path.relpath(p, os.path.join(ROOT, "tests", "scenarios")), out)
     for p in walk(["tests/integration"], (".sh",)):
-        name = os.path.splitext(os.path.basename(p))[0]
-        with open(p) as f:
-            out += [(i, name) for line in f if line.lstrip().startswith("#") for i in ids_in(line)]
+        tags_anywhere(p, os.path.splitext(os.path.basename(p))[0], out)
     return out
 
 
@@ -186,7 +182,7 @@ def main():
         if r["id"] in by_id:
             problems.append(f"requirement id {r['id']} is defined twice")
         by_id[r["id"]] = r
-    for i, where in code_tags(problems):
+    for i, where in code_tags():
         if i not in by_id:
             problems.append(f"{where}: @req names unknown requirement {i}")
         elif where not in by_id[i]["code"]:
