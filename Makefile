@@ -8,6 +8,8 @@ BIN := $(BUILD_DIR)/bin
 DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
+# The C# client's enums and alarm table, generated from the core's tables by gen_docs.
+CS_NAMES := clients/csharp/SafeState.Client/Generated/Names.g.cs
 
 .PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint
 
@@ -91,7 +93,7 @@ lint: build
 	tools/scripts/lint.sh $(BUILD_DIR)
 
 docs: build
-	$(BIN)/gen_docs --out docs
+	$(BIN)/gen_docs --out docs --csharp $(CS_NAMES)
 	python3 tools/trace/traceability.py
 
 embedded:
