@@ -1,0 +1,415 @@
+// Typed server messages (protocol.md), read strictly from parsed JSON: a required field
+// that is missing or of the wrong type, or a value that is not a known name, refuses the
+// whole message (MessageException); a field this build does not know is reported
+// (Unknown) but does not refuse the message, so a newer gateway that adds status fields
+// still drives an older HMI, and the lead can see the gap in the Error event.
+using System;
+using System.Collections.Generic;
+using System.Globalization;
+
+namespace SafeState.Client
+{
+    public sealed class MessageException : Exception
+    {
+        public MessageException(string message) : base(message) { }
+    }
+
+    /// <summary>Reads typed fields from one JSON object and records which keys were read.</summary>
+    internal sealed class Fields
+    {
+        private readonly JsonObject o;
+        private readonly string what;
+        private readonly HashSet<string> known = new HashSet<string>(StringComparer.Ordinal);
+
+        public Fields(object value, string what)
+        {
+            o = value as JsonObject;
+            this.what = what;
+            if (o == null) throw new MessageException(what + " is not a JSON object");
+        }
+
+        public JsonObject Object { get { return o; } }
+
+        public MessageException Bad(string key, string expected)
+        {
+            return new MessageException(what + ": \"" + key + "\" must be " + expected);
+        }
+
+        /// <summary>Keys present in the object that nobody asked for.</summary>
+        public List<string> Unknown()
+        {
+            var u = new List<string>();
+            foreach (string k in o.Keys)
+            {
+                if (!known.Contains(k)) u.Add(k);
+            }
+            return u;
+        }
+
+        public void Allow(params string[] keys)
+        {
+            foreach (string k in keys) known.Add(k);
+        }
+
+        private object Get(string key, bool required)
+        {
+            known.Add(key);
+            if (!o.Has(key))
+            {
+                if (required) throw new MessageException(what + ": \"" + key + "\" is missing");
+                return null;
+            }
+            return o[key];
+        }
+
+        public string Str(string key) { return StrOrNull(key, false) ?? Throw<string>(key, "a string"); }
+
+        public string StrOrNull(string key, bool optional = false)
+        {
+            object v = Get(key, !optional);
+            if (v == null) return null;
+            var s = v as string;
+            if (s == null) throw Bad(key, "a string or null");
+            return s;
+        }
+
+        public long Int(string key)
+        {
+            object v = Get(key, true);
+            if (!(v is long)) throw Bad(key, "an integer");
+            return (long)v;
+        }
+
+        public long? IntOrNull(string key, bool optional = false)
+        {
+            object v = Get(key, !optional);
+            if (v == null) return null;
+            if (!(v is long)) throw Bad(key, "an integer or null");
+            return (long)v;
+        }
+
+        public double Num(string key)
+        {
+            object v = Get(key, true);
+            if (v is long) return (long)v;
+            if (v is double) return (double)v;
+            throw Bad(key, "a number");
+        }
+
+        public bool Bool(string key)
+        {
+            object v = Get(key, true);
+            if (!(v is bool)) throw Bad(key, "true or false");
+            return (bool)v;
+        }
+
+        public List<object> List(string key, bool optional = false)
+        {
+            object v = Get(key, !optional);
+            if (v == null && optional) return null;
+            var l = v as List<object>;
+            if (l == null) throw Bad(key, "an array");
+            return l;
+        }
+
+        public double[] Numbers(string key, int count)
+        {
+            List<object> l = List(key);
+            if (l.Count != count) throw Bad(key, "an array of " + count + " numbers");
+            var d = new double[count];
+            for (int i = 0; i < count; ++i)
+            {
+                if (l[i] is long) d[i] = (long)l[i];
+                else if (l[i] is double) d[i] = (double)l[i];
+                else throw Bad(key, "an array of " + count + " numbers");
+            }
+            return d;
+        }
+
+        public JsonObject Obj(string key)
+        {
+            var j = Get(key, true) as JsonObject;
+            if (j == null) throw Bad(key, "an object");
+            return j;
+        }
+
+        public T Name<T>(string key) where T : struct
+        {
+            string s = Str(key);
+            T v;
+            if (!Wire.TryParse(s, out v)) throw Bad(key, "a " + typeof(T).Name + " name, not \"" + s + "\"");
+            return v;
+        }
+
+        public T? NameOrNull<T>(string key, bool optional = false) where T : struct
+        {
+            string s = StrOrNull(key, optional);
+            if (s == null) return null;
+            T v;
+            if (!Wire.TryParse(s, out v)) throw Bad(key, "a " + typeof(T).Name + " name or null, not \"" + s + "\"");
+            return v;
+        }
+
+        /// <summary>One of a few fixed words, e.g. "open"/"closed": true for the second.</summary>
+        public bool Either(string key, string no, string yes)
+        {
+            string s = Str(key);
+            if (s == yes) return true;
+            if (s == no) return false;
+            throw Bad(key, "\"" + no + "\" or \"" + yes + "\"");
+        }
+
+        private static T Throw<T>(string key, string expected) { throw new MessageException(key + " must be " + expected); }
+    }
+
+    /// <summary>The 50 Hz status snapshot (protocol.md `status`, also GET /api/status).</summary>
+    public sealed class StatusMessage
+    {
+        public long T { get; private set; }
+        public State State { get; private set; }
+        public SubState? Sub { get; private set; }
+        public Mode Mode { get; private set; }
+        public StopCategory? Stop { get; private set; }
+        public bool ContactorClosed { get; private set; }
+        public bool DrivesEnabled { get; private set; }
+        public bool BrakesReleased { get; private set; }
+        public bool ResetLamp { get; private set; }
+        public double TcpSpeed { get; private set; }
+        /// <summary>Active alarms by name; a name this build does not know is kept as sent.</summary>
+        public IReadOnlyList<string> Alarms { get; private set; }
+        public double[] Joints { get; private set; }
+        public double[] Tcp { get; private set; }
+        public bool T2Confirmed { get; private set; }
+        public Role? Owner { get; private set; }
+        // Beyond protocol.md, sent by the gateway (SPEC §7: requested beside effective, first-out cause).
+        public Mode? ModeRequested { get; private set; }
+        public string Cause { get; private set; }
+        public IReadOnlyList<AxisState> AxisStates { get; private set; }
+        public long? GatewayPid { get; private set; }
+        /// <summary>The whole object as received, for fields this class does not type.</summary>
+        public JsonObject Raw { get; private set; }
+
+        // The gateway's extra fields this build knows (views.cpp status_json, protocol.md).
+        private static readonly string[] Extras =
+        {
+            "target", "arming_step", "arming_progress", "program_index", "program_length", "simulated",
+            "max_point_speed", "statusword", "core_heartbeat", "core_heartbeat_age_ms", "gateway_heartbeat",
+            "core_pid", "gateway_restarts", "shutting_down",
+        };
+
+        internal static StatusMessage Read(Fields f, List<string> unknownNames)
+        {
+            var s = new StatusMessage();
+            s.Raw = f.Object;
+            s.T = f.Int("t");
+            s.State = f.Name<State>("state");
+            s.Sub = f.NameOrNull<SubState>("sub");
+            s.Mode = f.Name<Mode>("mode");
+            s.Stop = f.NameOrNull<StopCategory>("stop");
+            s.ContactorClosed = f.Either("contactor", "open", "closed");
+            s.DrivesEnabled = f.Either("drives", "disabled", "enabled");
+            s.BrakesReleased = f.Either("brakes", "engaged", "released");
+            s.ResetLamp = f.Either("reset_lamp", "off", "on");
+            s.TcpSpeed = f.Num("tcp_speed");
+            var alarms = new List<string>();
+            foreach (object a in f.List("alarms"))
+            {
+                var name = a as string;
+                if (name == null) throw f.Bad("alarms", "an array of alarm names");
+                AlarmName known;
+                if (!Wire.TryParse(name, out known)) unknownNames.Add("alarm " + name);
+                alarms.Add(name);
+            }
+            s.Alarms = alarms;
+            s.Joints = f.Numbers("joints", 6);
+            s.Tcp = f.Numbers("tcp", 6);
+            s.T2Confirmed = f.Bool("t2_confirmed");
+            s.Owner = f.NameOrNull<Role>("owner");
+            s.ModeRequested = f.NameOrNull<Mode>("mode_requested", true);
+            s.Cause = f.StrOrNull("cause", true);
+            s.GatewayPid = f.IntOrNull("gateway_pid", true);
+            List<object> axes = f.List("axis_state", true);
+            var states = new List<AxisState>();
+            if (axes != null)
+            {
+                foreach (object a in axes)
+                {
+                    AxisState st;
+                    if (!Wire.TryParse(a as string, out st)) throw f.Bad("axis_state", "an array of PLCopen axis states");
+                    states.Add(st);
+                }
+            }
+            s.AxisStates = states;
+            f.Allow(Extras);
+            return s;
+        }
+
+        /// <summary>One line for a terminal: state, sub, mode, stop, speed, alarms.</summary>
+        public string Line()
+        {
+            return string.Format(CultureInfo.InvariantCulture, "t={0} {1}{2} mode={3} stop={4} tcp={5:0.0}mm/s owner={6} alarms={7}",
+                T, Wire.Name(State), Sub.HasValue ? "/" + Wire.Name(Sub.Value) : "", Wire.Name(Mode),
+                Stop.HasValue ? Wire.Name(Stop.Value) : "-", TcpSpeed, Owner.HasValue ? Wire.Name(Owner.Value) : "none",
+                Alarms.Count == 0 ? "-" : string.Join(",", Alarms));
+        }
+    }
+
+    public enum EventKind
+    {
+        transition,
+        alarm,
+        alarm_cleared,
+        command,
+    }
+
+    /// <summary>One event of the log (protocol.md `event`, also an item of GET /api/events).</summary>
+    public sealed class EventMessage
+    {
+        public long? Id { get; private set; }
+        public long T { get; private set; }
+        public string Time { get; private set; }
+        public EventKind Kind { get; private set; }
+        public JsonObject Data { get; private set; }
+        /// <summary>/api/events only: the stop's black box, or null.</summary>
+        public JsonObject BlackBox { get; private set; }
+
+        // Typed views of Data; null when the kind has no such field.
+        public string From { get { return Data["from"] as string; } }
+        public string To { get { return Data["to"] as string; } }
+        public string Cmd { get { return Data["cmd"] as string; } }
+        public string Name { get { return Data["name"] as string; } }
+        public Result? Result
+        {
+            get
+            {
+                Result r;
+                return Wire.TryParse(Data["result"] as string, out r) ? r : (Result?)null;
+            }
+        }
+
+        internal static EventMessage Read(Fields f, bool fromHistory)
+        {
+            var e = new EventMessage();
+            e.Id = f.IntOrNull("id");
+            e.T = f.Int("t");
+            e.Time = f.Str("time");
+            e.Kind = f.Name<EventKind>("kind");
+            e.Data = f.Obj("data");
+            if (fromHistory)
+            {
+                object bb = f.Object["blackbox"];
+                f.Allow("blackbox");
+                if (bb != null && !(bb is JsonObject)) throw f.Bad("blackbox", "an object or null");
+                e.BlackBox = bb as JsonObject;
+            }
+            return e;
+        }
+
+        public string Line()
+        {
+            string what;
+            switch (Kind)
+            {
+                case EventKind.transition: what = From + " -> " + To; break;
+                case EventKind.command: what = Cmd + " from " + (Data["from"] as string) + ": " + (Data["result"] as string); break;
+                default: what = Name; break;
+            }
+            return string.Format(CultureInfo.InvariantCulture, "#{0} {1} {2} {3}", Id, Time, Kind, what);
+        }
+    }
+
+    /// <summary>An active alarm (GET /api/alarms).</summary>
+    public sealed class AlarmEntry
+    {
+        public string Name { get; private set; }
+        public AlarmName? Known { get; private set; }
+        public long Number { get; private set; }
+        public Severity Severity { get; private set; }
+        public string Text { get; private set; }
+        public string Remedy { get; private set; }
+        public string Detail { get; private set; }
+        public long Since { get; private set; }
+
+        internal static AlarmEntry Read(Fields f)
+        {
+            var a = new AlarmEntry();
+            a.Name = f.Str("name");
+            AlarmName n;
+            if (Wire.TryParse(a.Name, out n)) a.Known = n;
+            a.Number = f.Int("number");
+            a.Severity = f.Name<Severity>("severity");
+            a.Text = f.Str("text");
+            a.Remedy = f.Str("remedy");
+            a.Detail = f.StrOrNull("detail", true);
+            a.Since = f.Int("since");
+            return a;
+        }
+
+        public string Line()
+        {
+            return string.Format(CultureInfo.InvariantCulture, "{0} ({1}, {2}) since t={3}{4}: {5} Remedy: {6}", Name, Number,
+                Wire.Name(Severity), Since, string.IsNullOrEmpty(Detail) ? "" : " [" + Detail + "]", Text, Remedy);
+        }
+    }
+
+    public enum ClientErrorKind
+    {
+        /// <summary>A frame that is not valid JSON (or not valid UTF-8).</summary>
+        BadJson,
+        /// <summary>Valid JSON that is not a valid message: missing or mistyped field, unknown type or name.</summary>
+        BadMessage,
+        /// <summary>A field or name this build does not know; the message was still used.</summary>
+        UnknownField,
+        /// <summary>A frame over ClientOptions.MaxFrameBytes; discarded unread.</summary>
+        TooLarge,
+        /// <summary>A binary frame; the protocol has only text frames.</summary>
+        BinaryFrame,
+        /// <summary>An `error` message from the server (Code says which).</summary>
+        ServerError,
+        /// <summary>A reply whose seq no pending command has (late, or never sent).</summary>
+        UnexpectedReply,
+        /// <summary>The connection was lost; pending commands failed, motion helpers stopped.</summary>
+        Disconnected,
+        /// <summary>One reconnect attempt failed; the client keeps trying with back-off.</summary>
+        ReconnectFailed,
+        /// <summary>An event handler of the application threw; the client carried on.</summary>
+        HandlerFailed,
+        /// <summary>A jog hold stopped on its own (refused, timed out, or the link was lost).</summary>
+        JogStopped,
+    }
+
+    /// <summary>What the Error event carries: never an exception thrown at the caller.</summary>
+    public sealed class ClientError : EventArgs
+    {
+        public ClientError(ClientErrorKind kind, string message, string serverCode = null)
+        {
+            Kind = kind;
+            Message = message;
+            ServerCode = serverCode;
+        }
+
+        public ClientErrorKind Kind { get; private set; }
+        public string Message { get; private set; }
+        /// <summary>For ServerError: the protocol.md error code as sent.</summary>
+        public string ServerCode { get; private set; }
+
+        public override string ToString() { return Kind + (ServerCode != null ? " " + ServerCode : "") + ": " + Message; }
+    }
+
+    /// <summary>Why a command's task failed without a reply (it never hangs).</summary>
+    public enum CommandFailure
+    {
+        NotConnected,
+        Timeout,
+        Disconnected,
+        BadReply,
+        Refused,
+        Closed,
+    }
+
+    public sealed class CommandFailedException : Exception
+    {
+        public CommandFailedException(CommandFailure reason, string message) : base(message) { Reason = reason; }
+        public CommandFailure Reason { get; private set; }
+    }
+}

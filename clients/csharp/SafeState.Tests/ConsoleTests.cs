@@ -1,0 +1,123 @@
+// SafeState.Console as a user runs it: a process, commands on stdin, replies on stdout.
+using System;
+using System.Diagnostics;
+using System.IO;
+using System.Linq;
+using NUnit.Framework;
+
+namespace SafeState.Tests
+{
+    [TestFixture]
+    public class ConsoleTests
+    {
+        private static string Exe
+        {
+            get { return Path.Combine(Path.GetDirectoryName(typeof(ConsoleTests).Assembly.Location), "SafeState.Console.exe"); }
+        }
+
+        private static int Run(string args, string stdin, out string stdout, out string stderr, int timeoutMs = 60000)
+        {
+            var psi = new ProcessStartInfo("mono", "\"" + Exe + "\" " + args)
+            {
+                UseShellExecute = false,
+                RedirectStandardInput = true,
+                RedirectStandardOutput = true,
+                RedirectStandardError = true,
+            };
+            psi.EnvironmentVariables.Remove("SAFESTATE_PENDANT_TOKEN");
+            psi.EnvironmentVariables.Remove("SAFESTATE_REMOTE_TOKEN");
+            using (Process p = Process.Start(psi))
+            {
+                var err = p.StandardError.ReadToEndAsync();
+                var outp = p.StandardOutput.ReadToEndAsync();
+                p.StandardInput.Write(stdin);
+                p.StandardInput.Close();
+                if (!p.WaitForExit(timeoutMs))
+                {
+                    p.Kill();
+                    Assert.Fail("the console did not exit");
+                }
+                stdout = outp.Result;
+                stderr = err.Result;
+                return p.ExitCode;
+            }
+        }
+
+        [Test]
+        public void RunsAScriptAndPrintsOneReplyLinePerCommand()
+        {
+            using (var cell = new Cell())
+            {
+                string script = string.Join("\n",
+                    "# an AUTO cycle, then the observer's view",
+                    "wait state=ESTOP_RESET_NEEDED",
+                    "reset",
+                    "servo_on",
+                    "wait state=OPERATIONAL sub=AUTO_IDLE",
+                    "start",
+                    "wait sub=AUTO_RUNNING",
+                    "stop       # a Cat 2 stop back to AUTO_IDLE",
+                    "wait sub=AUTO_IDLE",
+                    "cmd servo_off",
+                    "set_mode T1",
+                    "wait state=IDLE",
+                    "in estop.a=0",
+                    "wait state=ESTOP_ACTIVE",
+                    "alarms",
+                    "history",
+                    "");
+                string stdout, stderr;
+                int code = Run("--url " + cell.Ws + " --role pendant", script, out stdout, out stderr);
+                Assert.AreEqual(0, code, stdout + stderr);
+                string[] replies = stdout.Split('\n').Where(l => l.StartsWith("reply ")).ToArray();
+                CollectionAssert.AreEqual(new[]
+                {
+                    "reply 1 reset OK", "reply 2 servo_on OK", "reply 3 start OK", "reply 4 stop OK", "reply 5 servo_off OK",
+                    "reply 6 set_mode MODE_BY_SELECTOR_ONLY", "reply 7 in OK",
+                }, replies, stdout + stderr);
+                StringAssert.Contains("alarm ESTOP_PRESSED (301, info", stdout);
+                StringAssert.Contains("history ", stdout);
+                StringAssert.IsMatch("history [0-9]+ events, last id [0-9]+", stdout);
+                StringAssert.Contains("connected to safestate", stderr);
+            }
+        }
+
+        [Test]
+        public void ObserverRepliesAndExitCodes()
+        {
+            using (var cell = new Cell())
+            {
+                string stdout, stderr;
+                int code = Run("--url " + cell.Ws + " --role observer", "reset\njog 1 + 5\n", out stdout, out stderr);
+                Assert.AreEqual(0, code, stdout + stderr);
+                StringAssert.Contains("reply 1 reset NOT_CONTROL_OWNER", stdout);
+                StringAssert.Contains("reply 2 jog NOT_CONTROL_OWNER", stdout);
+                // A malformed line is named and makes the exit status 2; the rest still runs.
+                code = Run("--url " + cell.Ws + " --role observer", "jog 9 +\nreset\n", out stdout, out stderr);
+                Assert.AreEqual(2, code, stdout + stderr);
+                StringAssert.Contains("line 1:", stderr);
+                StringAssert.Contains("reply 1 reset NOT_CONTROL_OWNER", stdout);
+                // A wait that times out is exit status 1.
+                code = Run("--url " + cell.Ws + " --role observer", "wait state=OPERATIONAL timeout=0.3\n", out stdout, out stderr);
+                Assert.AreEqual(1, code, stdout + stderr);
+                StringAssert.StartsWith("wait timeout", stdout);
+            }
+        }
+
+        [Test]
+        public void RefusesATokenOnTheCommandLineAndAnUnreachableServer()
+        {
+            string stdout, stderr;
+            int code = Run("--url ws://127.0.0.1:1/ws --role pendant --token s3cret", "", out stdout, out stderr);
+            Assert.AreEqual(2, code);
+            StringAssert.Contains("--token-file", stderr);
+            code = Run("--url ws://127.0.0.1:" + Cell.FreePort() + "/ws --role pendant", "reset\n", out stdout, out stderr);
+            Assert.AreEqual(2, code, stderr);
+            StringAssert.Contains("cannot connect", stderr);
+            code = Run("--url http://x/ --role pendant", "", out stdout, out stderr);
+            Assert.AreEqual(2, code);
+            code = Run("--url ws://127.0.0.1:1/ws --role king", "", out stdout, out stderr);
+            Assert.AreEqual(2, code);
+        }
+    }
+}

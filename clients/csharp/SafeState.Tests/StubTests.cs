@@ -1,0 +1,286 @@
+// Bad server input, from a stub server, never throws into the application: every case is
+// an Error event raised on the application's (UI) thread, and the client keeps working.
+using System;
+using System.Collections.Concurrent;
+using System.Collections.Generic;
+using System.Linq;
+using System.Text;
+using System.Threading;
+using System.Threading.Tasks;
+using NUnit.Framework;
+using SafeState.Client;
+
+namespace SafeState.Tests
+{
+    /// <summary>A UI thread's message loop in miniature: posted callbacks run in order on
+    /// one thread, and an exception escaping one is recorded (a WPF app would crash).</summary>
+    internal sealed class UiThread : SynchronizationContext, IDisposable
+    {
+        private readonly BlockingCollection<KeyValuePair<SendOrPostCallback, object>> queue =
+            new BlockingCollection<KeyValuePair<SendOrPostCallback, object>>();
+        private readonly Thread thread;
+        public readonly List<Exception> Escaped = new List<Exception>();
+
+        public UiThread()
+        {
+            thread = new Thread(Loop) { IsBackground = true, Name = "ui" };
+            thread.Start();
+        }
+
+        public int ThreadId { get { return thread.ManagedThreadId; } }
+
+        private void Loop()
+        {
+            SetSynchronizationContext(this);
+            foreach (var item in queue.GetConsumingEnumerable())
+            {
+                try
+                {
+                    item.Key(item.Value);
+                }
+                catch (Exception e)
+                {
+                    lock (Escaped) Escaped.Add(e);
+                }
+            }
+        }
+
+        public override void Post(SendOrPostCallback d, object state)
+        {
+            queue.Add(new KeyValuePair<SendOrPostCallback, object>(d, state));
+        }
+
+        public T Run<T>(Func<T> f)
+        {
+            var done = new TaskCompletionSource<T>();
+            Post(_ =>
+            {
+                try { done.SetResult(f()); } catch (Exception e) { done.SetException(e); }
+            }, null);
+            return SafeState.Tests.Wait.Result(done.Task, 10, "the UI thread");
+        }
+
+        public void Dispose()
+        {
+            queue.CompleteAdding();
+        }
+    }
+
+    [TestFixture]
+    public class StubTests
+    {
+        private const string ValidStatus =
+            "{\"type\":\"status\",\"t\":5,\"state\":\"IDLE\",\"sub\":null,\"mode\":\"T1\",\"stop\":null,\"contactor\":\"open\"," +
+            "\"drives\":\"disabled\",\"brakes\":\"engaged\",\"reset_lamp\":\"on\",\"tcp_speed\":0,\"alarms\":[\"PROTECTIVE_STOP\"]," +
+            "\"joints\":[0,0,0,0,0,0],\"tcp\":[1,2,3,0,0,0],\"t2_confirmed\":false,\"owner\":\"pendant\"}";
+
+        private static async Task Welcome(StubServer stub)
+        {
+            await stub.AcceptAsync().ConfigureAwait(false);
+            string hello = await stub.ReceiveAsync().ConfigureAwait(false);
+            var h = (JsonObject)Json.Parse(hello);
+            Assert.AreEqual("hello", h["type"]);
+            await stub.SendText("{\"type\":\"welcome\",\"role\":\"" + h["role"] + "\",\"server\":\"stub 1\"}").ConfigureAwait(false);
+        }
+
+        private static long SeqOf(string command)
+        {
+            return (long)((JsonObject)Json.Parse(command))["seq"];
+        }
+
+        [Test]
+        public void BadFramesRaiseErrorOnTheUiThreadAndNeverThrow()
+        {
+            using (var ui = new UiThread())
+            using (var stub = new StubServer())
+            {
+                SafeStateClient client = ui.Run(() => new SafeStateClient(new ClientOptions { AutoReconnect = false }));
+                var errors = new List<ClientError>();
+                var statuses = new List<StatusMessage>();
+                var offThread = 0;
+                ui.Run(() =>
+                {
+                    client.Error += (s, x) => { if (Thread.CurrentThread.ManagedThreadId != ui.ThreadId) ++offThread; errors.Add(x); };
+                    client.Status += (s, x) => { if (Thread.CurrentThread.ManagedThreadId != ui.ThreadId) ++offThread; statuses.Add(x); };
+                    // An application handler that throws is reported, not propagated.
+                    client.Status += (s, x) => { if (x.T == 6) throw new InvalidOperationException("app bug"); };
+                    return 0;
+                });
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.SendText("{not json");
+                    await stub.SendText("[1,2,3]");
+                    await stub.SendText("{\"type\":\"no_such_type\"}");
+                    await stub.SendText("{\"type\":\"status\",\"t\":1}");                               // fields missing
+                    await stub.SendText(ValidStatus.Replace("\"t\":5", "\"t\":\"five\""));               // mistyped
+                    await stub.SendText(ValidStatus.Replace("\"IDLE\"", "\"DANCING\""));                 // unknown state
+                    await stub.SendText(ValidStatus.Replace("\"t\":5,", "\"t\":5,\"t\":6,"));             // duplicate key
+                    await stub.SendText(new string('[', 100) + new string(']', 100));                  // too deep
+                    await stub.SendText("{\"type\":\"reply\",\"seq\":999999,\"result\":\"OK\"}");     // nobody's seq
+                    await stub.SendText("{\"type\":\"error\",\"code\":\"BAD_MESSAGE\",\"detail\":\"x\"}");
+                    await stub.SendText("{\"type\":\"error\",\"code\":\"NOPE\",\"detail\":\"x\"}");      // unknown code
+                    await stub.SendText("{\"type\":\"status\"," + new string(' ', 100 * 1024) + "\"t\":1}"); // oversize
+                    await stub.SendBinary(new byte[] { 1, 2, 3 });
+                    await stub.SendText(ValidStatus.Replace("\"t\":5,", "\"t\":6,\"colour\":\"red\",")); // unknown field: still used
+                    await stub.SendText(ValidStatus);
+                    string cmd = await stub.ReceiveAsync();
+                    long seq = SeqOf(cmd);
+                    await stub.SendText("{\"type\":\"reply\",\"seq\":" + (seq + 1000) + ",\"result\":\"BUSY\"}");
+                    await stub.SendText("{\"type\":\"reply\",\"seq\":" + seq + ",\"result\":\"GATE_OPEN\"}");
+                    string second = await stub.ReceiveAsync();
+                    await stub.SendText("{\"type\":\"reply\",\"seq\":" + SeqOf(second) + ",\"result\":\"PERHAPS\"}"); // unknown result
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect to the stub");
+                try
+                {
+                    Wait.Until(() => ui.Run(() => statuses.Count) >= 2, 10, "the two valid statuses after the bad frames");
+                }
+                catch (AssertionException)
+                {
+                    Console.WriteLine(string.Join("\n", ui.Run(() => errors.ToList()).Select(x => x.ToString())));
+                    throw;
+                }
+                Assert.AreEqual(Result.GATE_OPEN, Wait.Result(client.SendAsync(Command.Start()), 10, "the reply to its own seq"));
+                var bad = client.SendAsync(Command.Stop());
+                var e = Assert.Throws<AggregateException>(() => bad.Wait(10000));
+                Assert.AreEqual(CommandFailure.BadReply, ((CommandFailedException)e.InnerException).Reason);
+                Wait.Done(server, 10, "the stub's script");
+                Thread.Sleep(100);
+
+                List<ClientError> seen = ui.Run(() => errors.ToList());
+                Func<ClientErrorKind, int> count = k => seen.Count(x => x.Kind == k);
+                string all = string.Join("\n", seen.Select(x => x.ToString()));
+                Assert.AreEqual(3, count(ClientErrorKind.BadJson), all);        // {not json, duplicate key, too deep
+                Assert.AreEqual(7, count(ClientErrorKind.BadMessage), all);     // array, type, missing, mistyped, state, unknown code, result
+                Assert.AreEqual(1, count(ClientErrorKind.TooLarge), all);
+                Assert.AreEqual(1, count(ClientErrorKind.BinaryFrame), all);
+                Assert.AreEqual(2, count(ClientErrorKind.UnexpectedReply), all);
+                Assert.AreEqual(1, count(ClientErrorKind.ServerError), all);
+                Assert.AreEqual(1, count(ClientErrorKind.UnknownField), all);
+                Assert.AreEqual(1, count(ClientErrorKind.HandlerFailed), all);
+                StringAssert.Contains("colour", seen.Single(x => x.Kind == ClientErrorKind.UnknownField).Message);
+                Assert.AreEqual("BAD_MESSAGE", seen.Single(x => x.Kind == ClientErrorKind.ServerError).ServerCode);
+
+                List<StatusMessage> st = ui.Run(() => statuses.ToList());
+                Assert.AreEqual(2, st.Count, "only the two valid statuses came through");
+                Assert.AreEqual(6, st[0].T);
+                Assert.AreEqual(State.IDLE, st[1].State);
+                Assert.AreEqual(Mode.T1, st[1].Mode);
+                CollectionAssert.AreEqual(new[] { "PROTECTIVE_STOP" }, st[1].Alarms);
+                Assert.AreEqual(0, ui.Run(() => offThread), "every event is raised on the UI thread");
+                lock (ui.Escaped) Assert.IsEmpty(ui.Escaped, "nothing escaped into the UI thread");
+                Assert.AreEqual(ConnectionState.Connected, client.State, "bad frames do not end the link");
+                client.Dispose();
+            }
+        }
+
+        [Test]
+        public void InvalidUtf8FailsTheLinkAndTheClientReconnectsWithoutResending()
+        {
+            // RFC 6455 8.1: a text frame that is not UTF-8 fails the connection (Mono's
+            // ClientWebSocket does so itself). The client reports it and reconnects; the
+            // command that was waiting fails and is not sent again on the new link.
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
+                var rec = new Recorder(client);
+                string onSecondLink = null;
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.ReceiveAsync();  // the start: never answered on this link
+                    await stub.SendRawText(new byte[] { (byte)'"', 0xC3, 0x28, (byte)'"' });
+                    await Welcome(stub);        // the reconnect
+                    onSecondLink = await stub.ReceiveAsync();
+                    await stub.SendText("{\"type\":\"reply\",\"seq\":" + SeqOf(onSecondLink) + ",\"result\":\"OK\"}");
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
+                var start = client.SendAsync(Command.Start());
+                var e = Assert.Throws<AggregateException>(() => start.Wait(10000));
+                Assert.AreEqual(CommandFailure.Disconnected, ((CommandFailedException)e.InnerException).Reason);
+                Wait.Until(() => client.State == ConnectionState.Connected && client.Reconnects == 1, 10, "the reconnect");
+                Assert.AreEqual(Result.OK, Wait.Result(client.SendAsync(Command.Reset()), 10, "a command on the new link"));
+                Wait.Done(server, 10, "the stub");
+                StringAssert.Contains("\"cmd\":\"reset\"", onSecondLink, "the first message on the new link is the new command, not the start");
+                Assert.AreEqual(1, rec.ErrorsOf(ClientErrorKind.Disconnected).Count);
+                client.Dispose();
+            }
+        }
+
+        [Test]
+        public void AbruptCloseFailsPendingCommandsAndNeverHangs()
+        {
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { AutoReconnect = false, UseSynchronizationContext = false });
+                var rec = new Recorder(client);
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.ReceiveAsync();  // the command: never answered
+                    stub.Drop();
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
+                var pending = client.SendAsync(Command.Jog(1, '+'));
+                var e = Assert.Throws<AggregateException>(() => pending.Wait(10000));
+                var f = (CommandFailedException)e.InnerException;
+                Assert.AreEqual(CommandFailure.Disconnected, f.Reason, f.Message);
+                Wait.Done(server, 5, "the stub");
+                Wait.Until(() => client.State == ConnectionState.Disconnected, 5, "Disconnected");
+                var after = client.SendAsync(Command.Reset());
+                e = Assert.Throws<AggregateException>(() => after.Wait(1000));
+                Assert.AreEqual(CommandFailure.NotConnected, ((CommandFailedException)e.InnerException).Reason);
+                Assert.AreEqual(1, rec.ErrorsOf(ClientErrorKind.Disconnected).Count);
+                client.Dispose();
+            }
+        }
+
+        [Test]
+        public void UnansweredCommandTimesOut()
+        {
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions
+                {
+                    AutoReconnect = false,
+                    UseSynchronizationContext = false,
+                    CommandTimeout = TimeSpan.FromMilliseconds(300),
+                });
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.ReceiveAsync();
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.remote), 10, "connect");
+                var sw = System.Diagnostics.Stopwatch.StartNew();
+                var e = Assert.Throws<AggregateException>(() => client.SendAsync(Command.ServoOn()).Wait(10000));
+                Assert.AreEqual(CommandFailure.Timeout, ((CommandFailedException)e.InnerException).Reason);
+                Assert.Less(sw.ElapsedMilliseconds, 5000);
+                Wait.Done(server, 5, "the stub");
+                client.Dispose();
+            }
+        }
+
+        [Test]
+        public void RefusedHelloFailsConnectWithTheServersCode()
+        {
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
+                Task server = Task.Run(async () =>
+                {
+                    await stub.AcceptAsync();
+                    var hello = (JsonObject)Json.Parse(await stub.ReceiveAsync());
+                    Assert.AreEqual("s3cret", hello["token"]);
+                    await stub.SendText("{\"type\":\"error\",\"code\":\"BAD_TOKEN\",\"detail\":\"wrong token\"}");
+                });
+                var e = Assert.Throws<AggregateException>(() => client.ConnectAsync(stub.Ws, Role.pendant, "s3cret").Wait(10000));
+                Assert.AreEqual("BAD_TOKEN", ((ConnectException)e.InnerException).ServerCode);
+                Assert.AreEqual(ConnectionState.Disconnected, client.State);
+                Wait.Done(server, 5, "the stub");
+                client.Dispose();
+            }
+        }
+    }
+}

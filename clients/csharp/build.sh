@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Builds the C# client library, console and NUnit tests with Debian's Mono (mcs, C# 7.2)
+# into clients/csharp/bin/. Usage: clients/csharp/build.sh (make csharp runs it).
+set -euo pipefail
+cd "$(dirname "$0")"
+mkdir -p bin
+MCS="mcs -langversion:7.2 -codepage:utf8 -nologo -warnaserror+ -debug"
+NUNIT_DIR=/usr/lib/cli/nunit.framework-2.6.3
+$MCS -target:library -out:bin/SafeState.Client.dll -doc:bin/SafeState.Client.xml -nowarn:1591 \
+  -r:System.Net.Http.dll $(find SafeState.Client -name '*.cs' | sort)
+$MCS -target:exe -out:bin/SafeState.Console.exe -r:bin/SafeState.Client.dll \
+  $(find SafeState.Console -name '*.cs' | sort)
+$MCS -target:library -out:bin/SafeState.Tests.dll -r:bin/SafeState.Client.dll -r:System.Net.Http.dll \
+  -r:"$NUNIT_DIR/nunit.framework.dll" $(find SafeState.Tests -name '*.cs' | sort)
+cp -f "$NUNIT_DIR/nunit.framework.dll" bin/
+echo "csharp: built bin/SafeState.Client.dll bin/SafeState.Console.exe bin/SafeState.Tests.dll"
