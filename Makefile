@@ -11,7 +11,7 @@ VENV := .venv
 # The C# client's enums and alarm table, generated from the core's tables by gen_docs.
 CS_NAMES := clients/csharp/SafeState.Client/Generated/Names.g.cs
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp
 
 deps:
 	@$(DEPS) build
@@ -45,7 +45,13 @@ hmi/dist/index.html: hmi/node_modules/.stamp $(HMI_SRC)
 
 hmi: hmi/dist/index.html
 
-test: build $(VENV)/.stamp hmi/dist/index.html
+# The C# client library, console and NUnit tests (Debian's Mono 6.8 and NUnit 2.6, no
+# NuGet) into clients/csharp/bin/; `make test` runs the tests (CTest csharp_client).
+csharp:
+	@$(DEPS) csharp
+	clients/csharp/build.sh
+
+test: build $(VENV)/.stamp hmi/dist/index.html csharp
 	@$(DEPS) embedded browser
 	ctest --preset default
 
@@ -117,4 +123,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules clients/csharp/bin

@@ -1,10 +1,18 @@
 #!/usr/bin/env bash
 # Runs the C# client's NUnit 2.6 tests (unit tests, a stub server, and a real
 # `safestate run` on free loopback ports) and prints the plain summary line
-# `N passed, N failed`. Usage: clients/csharp/run-tests.sh [NUnit -run=NAME]
-# SAFESTATE_BIN points at the safestate binary (default build/bin/safestate).
+# `N passed, N failed`. Usage: clients/csharp/run-tests.sh [--build] [NUnit -run=NAME]
+# (--build: run build.sh first). SAFESTATE_BIN points at the safestate binary (default
+# build/bin/safestate).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
+for tool in mono mcs nunit-console; do
+  command -v "$tool" >/dev/null || { echo "csharp: $tool not found; run \`make csharp\` (installs Mono and NUnit)" >&2; exit 1; }
+done
+if [[ "${1:-}" == "--build" ]]; then
+  shift
+  "$here/build.sh"
+fi
 export SAFESTATE_BIN="${SAFESTATE_BIN:-$here/../../build/bin/safestate}"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
