@@ -10,20 +10,27 @@ namespace SafeState.Tests
     [TestFixture]
     public class ConsoleTests
     {
-        private static string Exe
+        private static string Here
         {
-            get { return Path.Combine(Path.GetDirectoryName(typeof(ConsoleTests).Assembly.Location), "SafeState.Console.exe"); }
+            get { return Path.GetDirectoryName(typeof(ConsoleTests).Assembly.Location); }
+        }
+
+        // Under Mono (make test) the console is SafeState.Console.exe run by mono; under
+        // `dotnet test` (SafeState.Tests.csproj) it is SafeState.Console.dll run by dotnet.
+        private static ProcessStartInfo ConsoleProcess(string args)
+        {
+            bool mono = Type.GetType("Mono.Runtime") != null;
+            return mono ? new ProcessStartInfo("mono", "\"" + Path.Combine(Here, "SafeState.Console.exe") + "\" " + args)
+                        : new ProcessStartInfo("dotnet", "\"" + Path.Combine(Here, "SafeState.Console.dll") + "\" " + args);
         }
 
         private static int Run(string args, string stdin, out string stdout, out string stderr, int timeoutMs = 60000)
         {
-            var psi = new ProcessStartInfo("mono", "\"" + Exe + "\" " + args)
-            {
-                UseShellExecute = false,
-                RedirectStandardInput = true,
-                RedirectStandardOutput = true,
-                RedirectStandardError = true,
-            };
+            ProcessStartInfo psi = ConsoleProcess(args);
+            psi.UseShellExecute = false;
+            psi.RedirectStandardInput = true;
+            psi.RedirectStandardOutput = true;
+            psi.RedirectStandardError = true;
             psi.EnvironmentVariables.Remove("SAFESTATE_PENDANT_TOKEN");
             psi.EnvironmentVariables.Remove("SAFESTATE_REMOTE_TOKEN");
             using (Process p = Process.Start(psi))

@@ -129,6 +129,26 @@ namespace SafeState.Tests
         }
 
         [Test]
+        public void DocumentedTypesExist()
+        {
+            // docs/csharp.md maps SPEC names to C# types; every type it names must exist.
+            string dir = System.IO.Path.GetDirectoryName(typeof(NamesTests).Assembly.Location);
+            while (dir != null && !System.IO.File.Exists(System.IO.Path.Combine(dir, "docs", "csharp.md")))
+            {
+                dir = System.IO.Path.GetDirectoryName(dir);
+            }
+            Assert.IsNotNull(dir, "docs/csharp.md not found above the test assembly");
+            string doc = System.IO.File.ReadAllText(System.IO.Path.Combine(dir, "docs", "csharp.md"));
+            var names = System.Text.RegularExpressions.Regex.Matches(doc, "`SafeState\\.Client\\.([A-Za-z0-9]+)`")
+                .Cast<System.Text.RegularExpressions.Match>().Select(m => m.Groups[1].Value).Distinct().ToList();
+            Assert.GreaterOrEqual(names.Count, 20, "the mapping table");
+            foreach (string n in names)
+            {
+                Assert.IsNotNull(typeof(SafeStateClient).Assembly.GetType("SafeState.Client." + n), "docs/csharp.md names SafeState.Client." + n);
+            }
+        }
+
+        [Test]
         public void ParsingIsExact()
         {
             State s;
