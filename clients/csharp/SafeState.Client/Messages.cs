@@ -62,7 +62,12 @@ namespace SafeState.Client
             return o[key];
         }
 
-        public string Str(string key) { return StrOrNull(key, false) ?? Throw<string>(key, "a string"); }
+        public string Str(string key)
+        {
+            string s = StrOrNull(key, false);
+            if (s == null) throw Bad(key, "a string");
+            return s;
+        }
 
         public string StrOrNull(string key, bool optional = false)
         {
@@ -158,8 +163,6 @@ namespace SafeState.Client
             if (s == no) return false;
             throw Bad(key, "\"" + no + "\" or \"" + yes + "\"");
         }
-
-        private static T Throw<T>(string key, string expected) { throw new MessageException(key + " must be " + expected); }
     }
 
     /// <summary>The 50 Hz status snapshot (protocol.md `status`, also GET /api/status).</summary>

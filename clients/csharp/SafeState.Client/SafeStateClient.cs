@@ -251,10 +251,28 @@ namespace SafeState.Client
             }
             long seq = Interlocked.Increment(ref nextSeq);
             var p = new Pending(what, isSim);
-            lock (gate) pending[seq] = p;
-            p.Timer = new CancellationTokenSource(options.CommandTimeout);
+            p.Timer = new CancellationTokenSource();
             p.Timer.Token.Register(() => Fail(seq, CommandFailure.Timeout,
                 what + " (seq " + seq + "): no reply within " + options.CommandTimeout.TotalMilliseconds + " ms"));
+            bool stale;
+            lock (gate)
+            {
+                pending[seq] = p;
+                stale = current != c;  // lost between the two locks: FailAll may already have run
+            }
+            if (stale)
+            {
+                Fail(seq, CommandFailure.Disconnected, what + ": the link was lost before it could be sent; not re-sent");
+                return new PendingCommand(seq, p.Tcs.Task);
+            }
+            try
+            {
+                p.Timer.CancelAfter(options.CommandTimeout);
+            }
+            catch (ObjectDisposedException)
+            {
+                return new PendingCommand(seq, p.Tcs.Task);  // already failed by a lost link
+            }
             string text = Json.Write(build(seq));
             Interlocked.Increment(ref sent);
             SendWithTimeout(c, text).ContinueWith(t =>
