@@ -209,6 +209,40 @@ namespace SafeState.Tests
         }
 
         [Test]
+        public void RepliesOutOfOrderCompleteTheirOwnCommands()
+        {
+            // A reset that acknowledges drive faults is answered up to 50 cycles late, after
+            // commands sent behind it (SPEC §5): a reply goes to its seq, not to the oldest.
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
+                var rec = new Recorder(client);
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    var seqs = new List<long>();
+                    for (int i = 0; i < 3; ++i) seqs.Add(SeqOf(await stub.ReceiveAsync()));
+                    string[] results = { "FAULT_PRESENT", "BUSY", "WRONG_STATE" };
+                    for (int i = 2; i >= 0; --i)
+                    {
+                        await stub.SendText("{\"type\":\"reply\",\"seq\":" + seqs[i] + ",\"result\":\"" + results[i] + "\"}");
+                    }
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
+                PendingCommand a = client.Submit(Command.Reset());
+                PendingCommand b = client.Submit(Command.ServoOn());
+                PendingCommand c = client.Submit(Command.Start());
+                Assert.AreEqual(Result.WRONG_STATE, Wait.Result(c.Reply, 10, "start"));
+                Assert.AreEqual(Result.BUSY, Wait.Result(b.Reply, 10, "servo_on"));
+                Assert.AreEqual(Result.FAULT_PRESENT, Wait.Result(a.Reply, 10, "reset"));
+                Assert.IsTrue(a.Seq < b.Seq && b.Seq < c.Seq, "seqs grow in sending order");
+                Wait.Done(server, 5, "the stub");
+                Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnexpectedReply));
+                client.Dispose();
+            }
+        }
+
+        [Test]
         public void AbruptCloseFailsPendingCommandsAndNeverHangs()
         {
             using (var stub = new StubServer())
