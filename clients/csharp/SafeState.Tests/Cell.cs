@@ -22,7 +22,13 @@ namespace SafeState.Tests
         private readonly StringBuilder log = new StringBuilder();
         private readonly string dir;
 
-        public Cell()
+        public Cell() : this("", null)
+        {
+        }
+
+        /// <param name="args">extra options of `safestate run`</param>
+        /// <param name="env">extra environment (e.g. SAFESTATE_PENDANT_TOKEN)</param>
+        public Cell(string args, IDictionary<string, string> env)
         {
             Port = FreePort();
             dir = Path.Combine(Path.GetTempPath(), "safestate-cs-" + Port + "-" + Guid.NewGuid().ToString("N").Substring(0, 8));
@@ -30,7 +36,7 @@ namespace SafeState.Tests
             var psi = new ProcessStartInfo(Bin)
             {
                 Arguments = "run --port " + Port + " --db " + Path.Combine(dir, "events.db") + " --cycle-us 1000 " +
-                            (Environment.GetEnvironmentVariable("SAFESTATE_RUN_ARGS") ?? ""),
+                            (Environment.GetEnvironmentVariable("SAFESTATE_RUN_ARGS") ?? "") + " " + args,
                 UseShellExecute = false,
                 RedirectStandardOutput = true,
                 RedirectStandardError = true,
@@ -40,6 +46,10 @@ namespace SafeState.Tests
             // accepted on loopback when the server has none (protocol.md).
             psi.EnvironmentVariables.Remove("SAFESTATE_PENDANT_TOKEN");
             psi.EnvironmentVariables.Remove("SAFESTATE_REMOTE_TOKEN");
+            if (env != null)
+            {
+                foreach (KeyValuePair<string, string> kv in env) psi.EnvironmentVariables[kv.Key] = kv.Value;
+            }
             proc = Process.Start(psi);
             proc.OutputDataReceived += (s, e) => Log(e.Data);
             proc.ErrorDataReceived += (s, e) => Log(e.Data);
@@ -56,6 +66,39 @@ namespace SafeState.Tests
             {
                 Dispose();
                 throw;
+            }
+        }
+
+        /// <summary>A cell whose pendant needs `token`. The lead's convention (issue 12) gives
+        /// `safestate run` the token in SAFESTATE_PENDANT_TOKEN; a gateway from before it takes
+        /// `--token`. Whichever this build understands is used, so the test works with both.</summary>
+        public static Cell WithPendantToken(string token)
+        {
+            var viaEnv = new Cell("", new Dictionary<string, string> { { "SAFESTATE_PENDANT_TOKEN", token } });
+            if (viaEnv.PendantNeedsToken()) return viaEnv;
+            viaEnv.Dispose();
+            var viaOption = new Cell("--token " + token, null);
+            Assert.IsTrue(viaOption.PendantNeedsToken(), "neither SAFESTATE_PENDANT_TOKEN nor --token made the pendant need a token");
+            return viaOption;
+        }
+
+        private bool PendantNeedsToken()
+        {
+            var c = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false, AutoReconnect = false });
+            try
+            {
+                c.ConnectAsync(Ws, Role.pendant).Wait(10000);
+                return false;
+            }
+            catch (AggregateException e)
+            {
+                var refused = e.InnerException as ConnectException;
+                if (refused != null && refused.ServerCode == "BAD_TOKEN") return true;
+                throw;
+            }
+            finally
+            {
+                c.Dispose();
             }
         }
 

@@ -24,7 +24,8 @@ namespace SafeState.Tests
                         : new ProcessStartInfo("dotnet", "\"" + Path.Combine(Here, "SafeState.Console.dll") + "\" " + args);
         }
 
-        private static int Run(string args, string stdin, out string stdout, out string stderr, int timeoutMs = 60000)
+        private static int Run(string args, string stdin, out string stdout, out string stderr, int timeoutMs = 60000,
+                               string pendantToken = null)
         {
             ProcessStartInfo psi = ConsoleProcess(args);
             psi.UseShellExecute = false;
@@ -33,6 +34,7 @@ namespace SafeState.Tests
             psi.RedirectStandardError = true;
             psi.EnvironmentVariables.Remove("SAFESTATE_PENDANT_TOKEN");
             psi.EnvironmentVariables.Remove("SAFESTATE_REMOTE_TOKEN");
+            if (pendantToken != null) psi.EnvironmentVariables["SAFESTATE_PENDANT_TOKEN"] = pendantToken;
             using (Process p = Process.Start(psi))
             {
                 var err = p.StandardError.ReadToEndAsync();
@@ -108,6 +110,40 @@ namespace SafeState.Tests
                 code = Run("--url " + cell.Ws + " --role observer", "wait state=OPERATIONAL timeout=0.3\n", out stdout, out stderr);
                 Assert.AreEqual(1, code, stdout + stderr);
                 StringAssert.StartsWith("wait timeout", stdout);
+            }
+        }
+
+        [Test]
+        public void TokenFromAFileOrTheEnvironmentNeverFromTheCommandLine()
+        {
+            string file = Path.GetTempFileName();
+            try
+            {
+                using (Cell cell = Cell.WithPendantToken("s3cret-token"))
+                {
+                    string stdout, stderr;
+                    File.WriteAllText(file, "s3cret-token\n");  // the trailing newline is stripped
+                    int code = Run("--url " + cell.Ws + " --role pendant --token-file " + file, "reset\n", out stdout, out stderr);
+                    Assert.AreEqual(0, code, stdout + stderr);
+                    StringAssert.Contains("reply 1 reset OK", stdout);
+                    Assert.IsFalse((stdout + stderr).Contains("s3cret-token"), "the token is never printed");
+
+                    File.WriteAllText(file, "wrong\n");
+                    code = Run("--url " + cell.Ws + " --role pendant --token-file " + file, "reset\n", out stdout, out stderr);
+                    Assert.AreEqual(2, code, stdout + stderr);
+                    StringAssert.Contains("BAD_TOKEN", stderr);
+
+                    code = Run("--url " + cell.Ws + " --role pendant", "reset\n", out stdout, out stderr);
+                    Assert.AreEqual(2, code, "no token: refused");
+                    StringAssert.Contains("BAD_TOKEN", stderr);
+
+                    code = Run("--url " + cell.Ws + " --role pendant", "reset\n", out stdout, out stderr, 60000, "s3cret-token");
+                    Assert.AreEqual(0, code, "SAFESTATE_PENDANT_TOKEN: " + stdout + stderr);
+                }
+            }
+            finally
+            {
+                File.Delete(file);
             }
         }
 
