@@ -5,12 +5,14 @@ set -euo pipefail
 cd "$(dirname "$0")"
 mkdir -p bin
 MCS="mcs -langversion:7.2 -codepage:utf8 -nologo -warnaserror+ -debug"
-NUNIT_DIR=/usr/lib/cli/nunit.framework-2.6.3
+# Debian's libnunit-cil-dev says where NUnit's framework assembly is (nunit.pc).
+NUNIT_FRAMEWORK="$(pkg-config --libs nunit | tr ' ' '\n' | sed -n 's/^-r://p' | grep '/nunit\.framework\.dll$' | head -1)"
+[[ -f "$NUNIT_FRAMEWORK" ]] || { echo "csharp: nunit.framework.dll not found (pkg-config nunit); run \`make csharp\`" >&2; exit 1; }
 $MCS -target:library -out:bin/SafeState.Client.dll -doc:bin/SafeState.Client.xml -nowarn:1591 \
   -r:System.Net.Http.dll $(find SafeState.Client -name '*.cs' | sort)
 $MCS -target:exe -out:bin/SafeState.Console.exe -r:bin/SafeState.Client.dll \
   $(find SafeState.Console -name '*.cs' | sort)
 $MCS -target:library -out:bin/SafeState.Tests.dll -r:bin/SafeState.Client.dll -r:System.Net.Http.dll \
-  -r:"$NUNIT_DIR/nunit.framework.dll" $(find SafeState.Tests -name '*.cs' | sort)
-cp -f "$NUNIT_DIR/nunit.framework.dll" bin/
+  -r:"$NUNIT_FRAMEWORK" $(find SafeState.Tests -name '*.cs' | sort)
+cp -f "$NUNIT_FRAMEWORK" bin/
 echo "csharp: built bin/SafeState.Client.dll bin/SafeState.Console.exe bin/SafeState.Tests.dll"

@@ -15,7 +15,7 @@ declare -A GROUPS_PKGS=(
   [browser]="chromium"
   [lint]="clang-tidy-19 cppcheck"
   [bench]="libbenchmark-dev valgrind rt-tests"
-  [csharp]="mono-devel mono-xbuild nunit-console libnunit-cil-dev"
+  [csharp]="mono-devel nunit-console libnunit-cil-dev pkg-config"
 )
 
 missing=()
