@@ -158,6 +158,20 @@ std::vector<std::string> names_of(E last, F name) {
   return v;
 }
 
+// Every value of an enum, up to the first that to_string does not know ("?"), so a value
+// added at the end of an enum (an error code, a result) reaches the C# client without
+// touching this generator.
+template <typename E, typename F>
+std::vector<std::string> all_names_of(F name) {
+  std::vector<std::string> v;
+  for (int i = 0; i < 256; ++i) {
+    const std::string n = name(static_cast<E>(i));
+    if (n == "?") break;
+    v.push_back(n);
+  }
+  return v;
+}
+
 std::string cs_string(const std::string& s) {
   std::string o = "\"";
   for (const char c : s) {
@@ -203,19 +217,21 @@ std::string csharp() {
   using safestate::motion::AxisState;
   namespace gw = safestate::gateway;
   namespace c4 = safestate::core::cia402;
-  const auto state = names_of(State::STOPPING, [](State x) { return to_string(x); });
-  const auto sub = without_first(names_of(Sub::MANUAL_RUNNING, [](Sub x) { return to_string(x); }));
-  const auto mode = names_of(Mode::T2, [](Mode x) { return to_string(x); });
-  const auto stop = without_first(names_of(StopCat::CAT2, [](StopCat x) { return to_string(x); }));
-  const auto result = names_of(Result::QUEUE_FULL, [](Result x) { return to_string(x); });
-  const auto command = names_of(CommandId::set_mode, [](CommandId x) { return to_string(x); });
-  const auto source = names_of(Source::reset_button, [](Source x) { return to_string(x); });
+  const auto state = all_names_of<State>([](State x) { return to_string(x); });
+  const auto sub = without_first(all_names_of<Sub>([](Sub x) { return to_string(x); }));
+  const auto mode = all_names_of<Mode>([](Mode x) { return to_string(x); });
+  const auto stop = without_first(all_names_of<StopCat>([](StopCat x) { return to_string(x); }));
+  const auto result = all_names_of<Result>([](Result x) { return to_string(x); });
+  const auto command = all_names_of<CommandId>([](CommandId x) { return to_string(x); });
+  const auto source = all_names_of<Source>([](Source x) { return to_string(x); });
+  // The connection roles are the command sources that a client can be (not the button).
   const auto role = names_of(Source::observer, [](Source x) { return to_string(x); });
-  const auto severity = names_of(Severity::lockout, [](Severity x) { return to_string(x); });
-  const auto axis = names_of(AxisState::ErrorStop, [](AxisState x) { return safestate::motion::to_string(x); });
+  const auto severity = all_names_of<Severity>([](Severity x) { return to_string(x); });
+  const auto axis = all_names_of<AxisState>([](AxisState x) { return safestate::motion::to_string(x); });
+  // The CiA 402 states of SPEC §6, without the core's internal Unknown (a drive fault).
   const auto drive = names_of(c4::DriveState::Fault, [](c4::DriveState x) { return c4::to_string(x); });
-  const auto error = names_of(gw::ErrorCode::NOT_SIMULATED, [](gw::ErrorCode x) { return gw::to_string(x); });
-  const auto step = names_of(ArmingStep::BRAKES, [](ArmingStep x) { return to_string(x); });
+  const auto error = all_names_of<gw::ErrorCode>([](gw::ErrorCode x) { return gw::to_string(x); });
+  const auto step = all_names_of<ArmingStep>([](ArmingStep x) { return to_string(x); });
   std::vector<std::string> alarm;
   for (const AlarmInfo& a : kAlarms) alarm.emplace_back(a.name);
 
