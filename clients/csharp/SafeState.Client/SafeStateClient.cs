@@ -38,6 +38,7 @@ namespace SafeState.Client
             JogKeepAlive = TimeSpan.FromMilliseconds(40);
             ClientName = "SafeState.Client";
             UseSynchronizationContext = true;
+            MaxErrorsPerSecond = 20;
         }
 
         /// <summary>A command without a reply after this fails with CommandFailure.Timeout.</summary>
@@ -53,6 +54,9 @@ namespace SafeState.Client
         public string ClientName { get; set; }
         /// <summary>Raise events on the SynchronizationContext of the constructing thread (a UI thread).</summary>
         public bool UseSynchronizationContext { get; set; }
+        /// <summary>Error events of one kind per second; beyond it they are counted, and the count is
+        /// reported with the next one, so a server flooding bad frames cannot flood the UI thread.</summary>
+        public int MaxErrorsPerSecond { get; set; }
     }
 
     /// <summary>A command on its way: the seq it was sent with (0: not sent) and its reply.</summary>
@@ -606,8 +610,39 @@ namespace SafeState.Client
 
         internal void Report(ClientErrorKind kind, string message, string code = null)
         {
-            Raise(Error, new ClientError(kind, message, code));
+            long now = Environment.TickCount & int.MaxValue;
+            int suppressed = 0;
+            bool emit;
+            lock (gate)
+            {
+                ErrorWindow w;
+                if (!errorWindows.TryGetValue(kind, out w)) errorWindows[kind] = w = new ErrorWindow { Start = now };
+                if (now - w.Start >= 1000 || now < w.Start)
+                {
+                    suppressed = w.Suppressed;
+                    w.Start = now;
+                    w.Count = 0;
+                    w.Suppressed = 0;
+                }
+                emit = ++w.Count <= options.MaxErrorsPerSecond;
+                if (!emit) ++w.Suppressed;
+            }
+            if (suppressed > 0)
+            {
+                Raise(Error, new ClientError(kind, suppressed + " more " + kind + " errors were not raised (over " +
+                                                   options.MaxErrorsPerSecond + " a second)"));
+            }
+            if (emit) Raise(Error, new ClientError(kind, message, code));
         }
+
+        private sealed class ErrorWindow
+        {
+            public long Start;
+            public int Count;
+            public int Suppressed;
+        }
+
+        private readonly Dictionary<ClientErrorKind, ErrorWindow> errorWindows = new Dictionary<ClientErrorKind, ErrorWindow>();
 
         private void Raise<T>(EventHandler<T> handler, T arg)
         {

@@ -243,6 +243,45 @@ namespace SafeState.Tests
         }
 
         [Test]
+        public void AFloodOfBadFramesIsCountedNotPostedOneByOne()
+        {
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false, MaxErrorsPerSecond = 20 });
+                var rec = new Recorder(client);
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    for (int i = 0; i < 300; ++i) await stub.SendText("{bad " + i);
+                    await stub.SendText(ValidStatus);
+                    await Task.Delay(1200);
+                    await stub.SendText("{bad again");
+                    await stub.SendText(ValidStatus.Replace("\"t\":5", "\"t\":7"));
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.observer), 10, "connect");
+                Wait.Status(client, s => s.T == 7, "the status after the flood");
+                Wait.Done(server, 10, "the stub");
+                List<ClientError> bad = rec.ErrorsOf(ClientErrorKind.BadJson);
+                // Every bad frame is either raised or counted in a later "N more" error, and far
+                // fewer than 301 reach the application (20 per second and kind).
+                var more = new System.Text.RegularExpressions.Regex("^([0-9]+) more BadJson errors");
+                int counted = 0, raised = 0;
+                foreach (ClientError x in bad)
+                {
+                    var m = more.Match(x.Message);
+                    if (m.Success) counted += int.Parse(m.Groups[1].Value);
+                    else ++raised;
+                }
+                string all = string.Join("\n", bad.Select(x => x.Message).Take(40));
+                Assert.AreEqual(301, raised + counted, all);
+                Assert.Less(raised, 100, all);
+                Assert.Greater(counted, 0, all);
+                StringAssert.Contains("{bad again", bad[bad.Count - 1].Message);
+                client.Dispose();
+            }
+        }
+
+        [Test]
         public void AbruptCloseFailsPendingCommandsAndNeverHangs()
         {
             using (var stub = new StubServer())
