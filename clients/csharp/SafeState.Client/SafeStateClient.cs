@@ -197,6 +197,11 @@ namespace SafeState.Client
                         c.Abort();
                         throw new ObjectDisposedException("SafeStateClient");
                     }
+                    if (c.Ended)
+                    {
+                        // Lost between the welcome and here: its end was not treated as a loss.
+                        throw new ConnectException("the link closed right after the welcome from " + uri);
+                    }
                     c.Established = true;
                     current = c;
                 }
@@ -564,6 +569,7 @@ namespace SafeState.Client
             bool reconnect;
             lock (gate)
             {
+                c.Ended = true;
                 if (!c.Established || current != c) return;  // a failed attempt, or closed by us
                 current = null;
                 reconnect = options.AutoReconnect && !life.IsCancellationRequested;
@@ -728,7 +734,8 @@ namespace SafeState.Client
             public readonly TaskCompletionSource<JsonObject> Hello;
             public readonly HashSet<string> ReportedUnknown = new HashSet<string>();
             public Task Receiver;
-            public bool Established;
+            public bool Established;  // both under the client's gate
+            public bool Ended;
 
             public void Abort()
             {
