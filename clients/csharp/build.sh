@@ -16,3 +16,17 @@ $MCS -target:library -out:bin/SafeState.Tests.dll -r:bin/SafeState.Client.dll -r
   -r:"$NUNIT_FRAMEWORK" $(find SafeState.Tests -name '*.cs' | sort)
 cp -f "$NUNIT_FRAMEWORK" bin/
 echo "csharp: built bin/SafeState.Client.dll bin/SafeState.Console.exe bin/SafeState.Tests.dll"
+# The WPF view model of docs/csharp.md must compile against this library (WPF itself is not
+# on Mono: the example uses only INotifyPropertyChanged and ObservableCollection).
+example="$(mktemp -d)"
+trap 'rm -rf "$example"' EXIT
+{
+  printf 'using System; using System.Linq; using System.ComponentModel; using System.Collections.ObjectModel;\n'
+  printf 'using System.Threading.Tasks; using SafeState.Client;\nnamespace DocsExample {\n'
+  awk '/^```csharp$/{grab=1; buf=""; next} /^```$/{if (grab && buf ~ /class CellViewModel/) printf "%s", buf; grab=0; next} grab{buf=buf $0 "\n"}' \
+    ../../docs/csharp.md
+  printf '}\n'
+} >"$example/CellViewModel.cs"
+grep -q "class CellViewModel" "$example/CellViewModel.cs" || { echo "csharp: no CellViewModel example in docs/csharp.md" >&2; exit 1; }
+$MCS -target:library -out:"$example/example.dll" -r:bin/SafeState.Client.dll "$example/CellViewModel.cs"
+echo "csharp: the view model example of docs/csharp.md compiles"
