@@ -76,8 +76,13 @@ namespace SafeState.Tests
                     "history",
                     "");
                 string stdout, stderr;
-                int code = Run("--url " + cell.Ws + " --role pendant", script, out stdout, out stderr);
+                int code = Run("--url " + cell.Ws + " --role pendant --live", script, out stdout, out stderr);
                 Assert.AreEqual(0, code, stdout + stderr);
+                // --live with stderr redirected: one status line per change, and the events.
+                StringAssert.IsMatch("status t=[0-9]+ OPERATIONAL/AUTO_RUNNING mode=AUTO", stderr);
+                StringAssert.IsMatch("status t=[0-9]+ ESTOP_ACTIVE mode=AUTO .*alarms=ESTOP_PRESSED", stderr);
+                StringAssert.Contains("event #", stderr);
+                Assert.IsFalse(stdout.Contains("status t="), "stdout stays machine-readable");
                 string[] replies = stdout.Split('\n').Where(l => l.StartsWith("reply ")).ToArray();
                 CollectionAssert.AreEqual(new[]
                 {
