@@ -101,11 +101,17 @@ namespace SafeState.Client
 
         private void End(string why)
         {
-            if (Interlocked.Exchange(ref ended, 1) != 0) return;
+            bool byRelease;
+            lock (stop)
+            {
+                if (ended != 0) return;
+                byRelease = Volatile.Read(ref released) != 0;
+                if (!byRelease) EndReason = why;  // set before Active turns false: a reader of Active sees it
+                Volatile.Write(ref ended, 1);
+            }
             stop.Cancel();
             client.Forget(this);
-            if (Volatile.Read(ref released) != 0) return;
-            EndReason = why;
+            if (byRelease) return;
             client.Report(ClientErrorKind.JogStopped, "jog " + jog.Axis + " " + jog.Dir + " stopped: " + why);
             EventHandler<string> h = Ended;
             if (h != null)
