@@ -464,7 +464,8 @@ void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
     cause_ = Cause{};
     reset_pending_ = false;
     reply(c, reset_seq_, kResetId, reset_source_, Result::OK);
-  } else if ((now_ - reset_pending_since_) > timing_.fault_reset_reply) {
+  } else if ((now_ - reset_pending_since_) >= timing_.fault_reset_reply) {
+    // SPEC §5: a reset taken at cycle T is answered at T+50 at the latest (not T+51).
     reset_pending_ = false;
     reply(c, reset_seq_, kResetId, reset_source_, Result::FAULT_PRESENT);
   }
@@ -541,6 +542,10 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
     const bool generic = (policy.no_row == Result::WRONG_STATE) || (policy.no_row == Result::BUSY);
     if ((id == CommandId::jog) && (c.in.mode == Mode::AUTO) && generic) {
       return Result::JOG_NOT_IN_AUTO;
+    }
+    // SPEC §9: `confirm_t2` while the mode is not T2 is MODE_INVALID (BOOT included).
+    if ((id == CommandId::confirm_t2) && (c.in.mode != Mode::T2) && generic) {
+      return Result::MODE_INVALID;
     }
     return policy.no_row;
   }

@@ -513,7 +513,8 @@ bool parse_named_key(std::string_view key, std::string_view value, Expectation& 
     ok = named(value, &core::parse_alarm, e);
   } else if (key == "reply") {
     e.key = ExpectKey::reply;
-    ok = named(value, &core::parse_result, e);
+    // SPEC §9: `reply=pending` means the latest command has not been answered yet.
+    ok = (value == "pending") ? ((e.value = kPendingReply), true) : named(value, &core::parse_result, e);
   } else {
     return false;
   }

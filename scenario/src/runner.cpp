@@ -68,7 +68,11 @@ bool holds(const Expectation& e, const Observed& o) noexcept {
     case ExpectKey::reset_lamp: return out.reset_lamp == (e.value != 0U);
     case ExpectKey::alarm: return alarm_active(out, e.value);
     case ExpectKey::noalarm: return !alarm_active(out, e.value);
-    case ExpectKey::reply: return o.latest.sent && o.latest.answered && is(o.latest.result, e.value);
+    case ExpectKey::reply:
+      if (e.value == kPendingReply) {
+        return o.latest.sent && !o.latest.answered;
+      }
+      return o.latest.sent && o.latest.answered && is(o.latest.result, e.value);
     case ExpectKey::tcp_speed: return compare(static_cast<double>(o.tcp_speed), e.cmp, e.limit);
   }
   return false;

@@ -630,9 +630,9 @@ TEST(Idle, ResetWithADriveStillFaultedAnswersFaultPresentWithin50Cycles) {
   b.cycle(3);
   const Command c = b.make(CommandId::reset);
   b.send(c);
-  b.cycle(51);
+  b.cycle(50);  // cycles T..T+49: still waiting for the drives
   EXPECT_TRUE(b.replies.empty() || b.replies.back().seq != c.seq);
-  b.cycle();
+  b.cycle();  // cycle T+50: the answer, at the latest (SPEC §5)
   ASSERT_FALSE(b.replies.empty());
   EXPECT_EQ(b.replies.back().seq, c.seq);
   EXPECT_EQ(b.replies.back().result, Result::FAULT_PRESENT);

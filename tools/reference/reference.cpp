@@ -271,6 +271,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
     case St::ESTOP:
       return Result::ESTOP_ACTIVE;
     case St::BOOT:
+      if (id == CommandId::confirm_t2 && in.mode != Mode::T2) return Result::MODE_INVALID;
       return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
     case St::ESTOP_RESET:
       if (id != CommandId::reset) return Result::RESET_REQUIRED;
@@ -463,7 +464,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
       alarms_ &= ~core::kLatchedAlarms;
       pending_reset_ = false;
       answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::OK);
-    } else if (now_ - pending_since_ > t_.fault_reset_reply) {
+    } else if (now_ - pending_since_ >= t_.fault_reset_reply) {  // answered by T+50
       pending_reset_ = false;
       answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::FAULT_PRESENT);
     }

@@ -81,6 +81,9 @@ enum class ExpectKey : std::uint8_t {
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
 
+// `reply=pending` (and `reply.CMD=pending`): no Result has this value.
+inline constexpr std::uint8_t kPendingReply = 0xFF;
+
 // One key of an `expect` line.
 struct Expectation {
   ExpectKey key = ExpectKey::state;
