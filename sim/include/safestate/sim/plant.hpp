@@ -50,6 +50,11 @@ class SimPlant final : public hal::Backend {
   }
 
  private:
+  // The plant's side of the HAL integrity and self-test inputs.
+  bool integrity_ok_ = true;
+  bool self_test_ok_ = true;
+  bool contactor_welded_ = false;
+
   struct Axis {
     core::cia402::DriveState ds = core::cia402::DriveState::NotReadyToSwitchOn;
     std::uint16_t last_cw = 0;
@@ -62,7 +67,13 @@ class SimPlant final : public hal::Backend {
     std::uint32_t brake_timer = 0;
     bool brake_released = false;
     bool brake_stuck = false;
+    bool brake_stuck_released = false;
+    bool sw_override = false;     // reports sw_value instead of its state's statusword
+    std::uint16_t sw_value = 0;
+    std::uint32_t slow_cycles = 0;  // 0: one enabling step per cycle
+    std::uint32_t slow_timer = 0;
   };
+  [[nodiscard]] std::uint32_t cycles_of_ms(std::uint16_t ms) const noexcept;
   void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
   void physics(Axis& a, std::size_t i, float target) noexcept;
 
