@@ -5,8 +5,10 @@
 //  - `#` starts a comment anywhere on a line; blank and comment-only lines are ignored;
 //    tokens are separated by spaces, tabs or a CR (CRLF files work).
 //  - `config NAME=VALUE ...` is allowed only before the first `@` line. NAME is one of
-//    cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms (unsigned
-//    integers) and standstill_rad_s (a number). A later line overrides an earlier one.
+//    cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms,
+//    max_commands_per_cycle, reset_hold_ms, fault_reset_cycles, queue_size (unsigned
+//    integers), standstill_rad_s and t1_speed_mm_s (numbers). A later line overrides an
+//    earlier one.
 //    When the config section ends (first `@` line or end of file) core::validate() runs;
 //    its field and reason are reported on the line that last set that field (or on the
 //    last config line if the file did not set it).
@@ -30,10 +32,15 @@
 //    one is malformed: the binary record has no room for it, so it would be dropped
 //    silently. `from=` must be the first token after `cmd` and be pendant or remote.
 //    Each command's seq is its line number (unique; the reset button's replies use 0).
-//  - `fault`: exactly the forms of the spec, N a decimal 1..6.
+//  - `fault`: exactly the forms of the spec, N a decimal 1..6; `statusword` takes 0x and
+//    one to four hex digits, `slow_enable` 1..60000 ms.
 //  - `expect`: at least one key; `tcp_speed` takes <=, <, >=, > and a finite number;
 //    every other key takes `=` and a value of the spec (sub and stop use `-` for null).
-//    Unknown keys or values are malformed; `reply=` accepts only result names.
+//    Unknown keys or values are malformed; `reply=` and `reply.CMD=` accept result names
+//    and `pending`. The keys of "More keys, faults and settings" likewise: `axis.N.` with N
+//    1..6, `controlword` as 0x and one to four hex digits, speeds with a comparison;
+//    `cause.signal=-` is accepted for "no cause". `replies=N` must be alone on an
+//    `expect` line (not `expect-once`). `expect-once` takes a window like `expect`.
 #include <algorithm>
 #include <array>
 #include <charconv>
