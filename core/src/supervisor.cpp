@@ -659,8 +659,12 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
   const bool stops = row.stop != StopCat::NONE;
   if (stops) {  // rows into ESTOP_ACTIVE and ERROR_LOCKOUT are all Cat 0 (static_assert)
     set_cause(cause);
-  } else if ((cmd != nullptr) && ((row.to != Leaf::SAME) || (row.effect == Effect::reset_alarms))) {
-    cause_ = Cause{};  // an accepted command that starts something: no stop is current
+  } else if ((cmd != nullptr) && (((row.to != Leaf::SAME) && (row.trigger != Trigger::reset)) ||
+                                  (row.effect == Effect::reset_alarms))) {
+    // An accepted command that starts something: no stop is current. The reset that
+    // leaves ESTOP_RESET_NEEDED only leaves it (SPEC §9): the E-stop stays the last
+    // stop's cause until the reset in IDLE or a new start.
+    cause_ = Cause{};
   }
 
   if (stops) {
