@@ -96,7 +96,12 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       break;
     case AlarmId::PROTECTIVE_STOP: t.s("Guard opened in AUTO").s(ch); break;
     case AlarmId::DRIVE_FAULT: t.s("Drive ").u(axis).s(" fault (statusword 0x").hex4(d.code).s(")"); break;
-    case AlarmId::ARMING_TIMEOUT: t.s("Arming step ").s(d.has_step ? to_string(d.step) : "?").s(" timed out"); break;
+    case AlarmId::ARMING_TIMEOUT:
+      t.s("Arming step ").s(d.has_step ? to_string(d.step) : "?").s(" timed out");
+      if (axis != 0U) {
+        t.s((d.signal == Signal::brake) ? " (brake " : " (drive ").u(axis).s(")");  // the one not there
+      }
+      break;
     case AlarmId::T1_SPEED_EXCEEDED:
       t.s("T1 speed exceeded at link ").u(axis).s(" (").u(d.code).s(" mm/s)");
       break;

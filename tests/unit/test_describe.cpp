@@ -41,6 +41,13 @@ TEST(Describe, ArmingTimeoutNamesTheStep) {
   d.has_step = true;
   char buf[64];
   EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step BRAKES timed out");
+  d.signal = Signal::brake;
+  d.axis = 4;
+  EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step BRAKES timed out (brake 4)");
+  d.step = ArmingStep::DRIVES;
+  d.signal = Signal::drive;
+  d.axis = 2;
+  EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step DRIVES timed out (drive 2)");
 }
 
 TEST(Describe, EnableReleaseAndCommandCauses) {
