@@ -17,7 +17,7 @@ struct Range {
 }  // namespace
 
 ConfigError validate(const Config& c) noexcept {
-  const std::array<Range, 12> ranges{{
+  const std::array<Range, 13> ranges{{
       {"cycle_us", c.cycle_us, 250U, 4000U, "must be 250..4000 (SPEC 1: 0.25-4 ms)"},
       {"discrepancy_ms", c.discrepancy_ms, 1U, 1000U, "must be 1..1000"},
       {"jog_timeout_ms", c.jog_timeout_ms, 1U, 10000U, "must be 1..10000"},
@@ -31,6 +31,7 @@ ConfigError validate(const Config& c) noexcept {
       {"brakes_timeout_ms", c.brakes_timeout_ms, 1U, 60000U, "must be 1..60000"},
       {"reset_hold_max_ms", c.reset_hold_max_ms, 1U, 60000U, "must be 1..60000"},
       {"fault_reset_reply_cycles", c.fault_reset_reply_cycles, 1U, 10000U, "must be 1..10000"},
+      {"queue_size", c.queue_size, 1U, kMaxQueueSize, "must be 1..256"},
   }};
   for (const Range& r : ranges) {
     if ((r.value < r.min) || (r.value > r.max)) {

@@ -96,7 +96,12 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       break;
     case AlarmId::PROTECTIVE_STOP: t.s("Guard opened in AUTO").s(ch); break;
     case AlarmId::DRIVE_FAULT: t.s("Drive ").u(axis).s(" fault (statusword 0x").hex4(d.code).s(")"); break;
-    case AlarmId::ARMING_TIMEOUT: t.s("Arming step ").s(d.has_step ? to_string(d.step) : "?").s(" timed out"); break;
+    case AlarmId::ARMING_TIMEOUT:
+      t.s("Arming step ").s(d.has_step ? to_string(d.step) : "?").s(" timed out");
+      if (axis != 0U) {
+        t.s((d.signal == Signal::brake) ? " (brake " : " (drive ").u(axis).s(")");  // the one not there
+      }
+      break;
     case AlarmId::T1_SPEED_EXCEEDED:
       t.s("T1 speed exceeded at link ").u(axis).s(" (").u(d.code).s(" mm/s)");
       break;
@@ -113,6 +118,8 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::MODE_CHANGED: t.s("Mode changed to ").s(to_string(static_cast<Mode>(d.code & 0x3U))); break;
     case AlarmId::ENABLING_PANIC: t.s("Enabling device squeezed to panic"); break;
     case AlarmId::JOG_LINK_LOST: t.s("Jog keep-alive lost"); break;
+    case AlarmId::CONTACTOR_WELDED: t.s("Main contactor feedback still closed after open was commanded"); break;
+    case AlarmId::BRAKE_NOT_ENGAGED: t.s("Brake ").u(axis).s(" still released after engage was commanded"); break;
   }
   return t.c_str();
 }
@@ -135,6 +142,48 @@ const char* describe(const Cause& c, char* buf, std::size_t n) noexcept {
     case CauseKind::none: break;
   }
   return t.c_str();
+}
+
+// A stop without alarm is named by what asked for it (spec/scenario-format.md `cause=`).
+const char* cause_name(const Cause& c) noexcept {
+  switch (c.kind) {
+    case CauseKind::alarm: return to_string(c.alarm);
+    case CauseKind::command: return to_string(c.command);
+    case CauseKind::event: return (c.rule == 5U) ? "enable_released" : "-";
+    case CauseKind::none: break;
+  }
+  return "-";
+}
+
+// @req AL-CAUSE
+const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept {
+  if (buf == nullptr || n == 0U) {
+    return "";
+  }
+  Text t(buf, n);
+  const bool dual = (d.signal == Signal::estop) || (d.signal == Signal::gate) || (d.signal == Signal::enable);
+  if (d.signal == Signal::none) {
+    t.s("-");
+  } else if (dual && (d.channel == Channel::panic)) {
+    t.s("enable.panic");
+  } else if (dual) {
+    // Both channels at once: channel a is named, the first of the pair to be checked.
+    t.s(to_string(d.signal)).s((d.channel == Channel::b) ? ".b" : ".a");
+  } else if (((d.signal == Signal::drive) || (d.signal == Signal::brake)) && (d.axis != 0U)) {
+    t.s(to_string(d.signal)).s(".").u(d.axis);
+  } else {
+    t.s(to_string(d.signal));
+  }
+  return t.c_str();
+}
+
+const char* detail_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept {
+  if (d.has_step && (buf != nullptr) && (n != 0U)) {
+    Text t(buf, n);
+    t.s(to_string(d.step));
+    return t.c_str();
+  }
+  return signal_name(d, buf, n);
 }
 
 }  // namespace safestate::core

@@ -27,6 +27,9 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   if (v.alarms.active(AlarmId::STOP_TIME_EXCEEDED) && !v.at_standstill) {
     return Result::FAULT_PRESENT;
   }
+  if (v.alarms.active(AlarmId::BRAKE_NOT_ENGAGED) && v.brake_not_engaged) {
+    return Result::FAULT_PRESENT;  // the brake still does not hold
+  }
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)
 }
 

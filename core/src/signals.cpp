@@ -125,6 +125,7 @@ void SignalLayer::update(const RawInputs& raw, Cycle now, const Timing& t) noexc
   out_.enable_panic_edge = enable_.panic_edge();
   out_.enable_discrepancy = enable_.discrepancy();
   out_.enable_fault_channel = enable_.fault_channel();
+  out_.enable_cause = enable_.cause();
   out_.mode = mode_.mode();
   out_.mode_requested = mode_.requested();
   out_.mode_changed = mode_.changed();

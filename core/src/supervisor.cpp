@@ -99,6 +99,8 @@ struct SystemStateManager::CycleCtx {
   AlarmDetail drive_detail{};
   bool drive_offline = false;
   std::uint8_t offline_axis = 0;
+  bool contactor_welded = false;   // rule 1: open commanded, feedback closed > 100 ms
+  std::uint8_t brake_axis = 0;     // rule 3: first axis whose brake did not engage in 300 ms
   std::uint8_t fastest_moving_axis = 0;
 };
 
@@ -115,7 +117,9 @@ SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(
 }
 
 GuardView SystemStateManager::view(const CycleCtx& c) const noexcept {
-  return GuardView{c.in, c.fb, alarms_, timing_, t2_confirmed_, boot_pending_, reset_pending_, c.at_standstill};
+  return GuardView{c.in,           c.fb,           alarms_,         timing_,
+                   t2_confirmed_,  boot_pending_,  reset_pending_,  c.at_standstill,
+                   c.brake_axis != 0U};
 }
 
 void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
@@ -199,6 +203,8 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     alarms_.raise(AlarmId::DRIVE_FAULT, c.drive_detail, now_);
   }
 
+  update_feedback_monitors(c);
+
   // @req TR-BOOT-FAILED
   // BOOT: self-test, fieldbus up, every drive answers, within boot_timeout.
   if (boot_pending_) {
@@ -218,12 +224,13 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     if (!fb.fieldbus_ok) {
       c.boot_detail = detail_of(Signal::fieldbus);
     }
-    if (self_test_ok_ && answered) {
+    const bool self_test = self_test_ok_ && fb.self_test_ok;
+    if (self_test && answered) {
       boot_pending_ = false;
       c.boot_passed = true;
-    } else if (!self_test_ok_ || (now_ > timing_.boot_timeout)) {
+    } else if (!self_test || (now_ > timing_.boot_timeout)) {
       c.boot_failed = true;
-      if (!self_test_ok_) {
+      if (!self_test) {
         c.boot_detail = detail_of(Signal::internal);
       }
     }
@@ -240,6 +247,27 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
     }
   } else if (auto* b = std::get_if<StBoot>(&state_)) {
     ++b->elapsed;
+  }
+}
+
+// @req AL-FEEDBACK
+// ISO 13849-1 external device monitoring (SPEC §7): the contactor's auxiliary contact and
+// every brake feedback must follow what this core commanded in the previous cycle.
+void SystemStateManager::update_feedback_monitors(CycleCtx& c) noexcept {
+  const bool welded_now = !contactor_cmd_ && c.fb.contactor_closed;
+  welded_cycles_ = welded_now ? welded_cycles_ + 1U : 0U;
+  c.contactor_welded = welded_cycles_ > timing_.contactor_timeout;
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    const bool stuck_now = !brakes_release_cmd_ && c.fb.brake_released[i];
+    brake_cycles_[i] = stuck_now ? brake_cycles_[i] + 1U : 0U;
+    if ((brake_cycles_[i] > timing_.brakes_timeout) && (c.brake_axis == 0U)) {
+      c.brake_axis = static_cast<std::uint8_t>(i + 1U);
+    }
+  }
+  if (c.brake_axis != 0U) {
+    // Latched in every state, like DRIVE_FAULT: an axis without its brake is a hazard
+    // whether or not rule 3 has a stop to make.
+    alarms_.raise(AlarmId::BRAKE_NOT_ENGAGED, detail_of(Signal::brake, Channel::none, c.brake_axis), now_);
   }
 }
 
@@ -288,6 +316,9 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         if (c.boot_failed) {
           hit(AlarmId::BOOT_FAILED, c.boot_detail);
         }
+        if (c.contactor_welded) {
+          hit(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor));
+        }
         break;
       case Trigger::estop_pressed:
         if (in.estop_pressed) {
@@ -312,6 +343,9 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         if ((s != nullptr) && !s->braking && (s->elapsed > timing_.max_stop)) {
           hit(AlarmId::STOP_TIME_EXCEEDED, detail_of(Signal::drive, Channel::none, c.fastest_moving_axis));
         }
+        if (c.brake_axis != 0U) {
+          hit(AlarmId::BRAKE_NOT_ENGAGED, detail_of(Signal::brake, Channel::none, c.brake_axis));
+        }
         break;
       }
       case Trigger::gate_open_in_auto:
@@ -328,7 +362,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
             cause.kind = CauseKind::event;
             cause.rule = rule;
             cause.mode = in.mode;
-            cause.detail = detail_of(Signal::enable);
+            cause.detail = detail_of(Signal::enable, in.enable_cause);
           }
         }
         break;
@@ -368,23 +402,25 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
   } else if (auto* a = std::get_if<StArming>(&state_)) {
     bool done = false;
     Cycle limit = timing_.contactor_timeout;
+    std::uint8_t laggard = 0;  // the first axis not there yet: the timeout names it
     switch (a->step) {
       case ArmingStep::CONTACTOR:
         done = c.fb.contactor_closed;
         break;
       case ArmingStep::DRIVES:
         limit = timing_.drives_timeout;
-        done = true;
-        for (const DriveFeedback& d : c.fb.drive) {
-          done = done && (cia402::decode(d.statusword) == cia402::DriveState::OperationEnabled);
+        for (std::size_t i = 0; (i < kAxes) && (laggard == 0U); ++i) {
+          const bool enabled = cia402::decode(c.fb.drive[i].statusword) == cia402::DriveState::OperationEnabled;
+          laggard = enabled ? 0U : static_cast<std::uint8_t>(i + 1U);
         }
+        done = laggard == 0U;
         break;
       case ArmingStep::BRAKES:
         limit = timing_.brakes_timeout;
-        done = true;
-        for (const bool released : c.fb.brake_released) {
-          done = done && released;
+        for (std::size_t i = 0; (i < kAxes) && (laggard == 0U); ++i) {
+          laggard = c.fb.brake_released[i] ? 0U : static_cast<std::uint8_t>(i + 1U);
         }
+        done = laggard == 0U;
         break;
     }
     const auto step_index = static_cast<std::uint8_t>(a->step);
@@ -403,6 +439,7 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
                                                     : ((a->step == ArmingStep::DRIVES) ? Signal::drive : Signal::brake);
       d.step = a->step;
       d.has_step = true;
+      d.axis = laggard;
       alarms_.raise(AlarmId::ARMING_TIMEOUT, d, now_);
       cause = alarm_cause(0U, AlarmId::ARMING_TIMEOUT, d, c.in.mode);
     }
@@ -464,7 +501,8 @@ void SystemStateManager::finish_pending_reset(CycleCtx& c) noexcept {
     cause_ = Cause{};
     reset_pending_ = false;
     reply(c, reset_seq_, kResetId, reset_source_, Result::OK);
-  } else if ((now_ - reset_pending_since_) > timing_.fault_reset_reply) {
+  } else if ((now_ - reset_pending_since_) >= timing_.fault_reset_reply) {
+    // SPEC §5: a reset taken at cycle T is answered at T+50 at the latest (not T+51).
     reset_pending_ = false;
     reply(c, reset_seq_, kResetId, reset_source_, Result::FAULT_PRESENT);
   }
@@ -542,6 +580,11 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
     if ((id == CommandId::jog) && (c.in.mode == Mode::AUTO) && generic) {
       return Result::JOG_NOT_IN_AUTO;
     }
+    // @req SET-READINGS
+    // SPEC §9: `confirm_t2` while the mode is not T2 is MODE_INVALID (BOOT included).
+    if ((id == CommandId::confirm_t2) && (c.in.mode != Mode::T2) && generic) {
+      return Result::MODE_INVALID;
+    }
     return policy.no_row;
   }
   if (row->guard.fn != nullptr) {
@@ -616,8 +659,12 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
   const bool stops = row.stop != StopCat::NONE;
   if (stops) {  // rows into ESTOP_ACTIVE and ERROR_LOCKOUT are all Cat 0 (static_assert)
     set_cause(cause);
-  } else if ((cmd != nullptr) && ((row.to != Leaf::SAME) || (row.effect == Effect::reset_alarms))) {
-    cause_ = Cause{};  // an accepted command that starts something: no stop is current
+  } else if ((cmd != nullptr) && (((row.to != Leaf::SAME) && (row.trigger != Trigger::reset)) ||
+                                  (row.effect == Effect::reset_alarms))) {
+    // An accepted command that starts something: no stop is current. The reset that
+    // leaves ESTOP_RESET_NEEDED only leaves it (SPEC §9): the E-stop stays the last
+    // stop's cause until the reset in IDLE or a new start.
+    cause_ = Cause{};
   }
 
   if (stops) {
@@ -753,6 +800,7 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.motion.fault_reset = reset_pending_;
   o.t2_confirmed = t2_confirmed_;
   o.at_standstill = c.at_standstill;
+  o.pendant_owner = is_manual(c.in.mode);
   o.cause = cause_;
   o.alarms = alarms_.mask();
   o.alarms_raised = alarms_.raised();
@@ -822,6 +870,8 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
     c.discard = true;
     write_outputs(c);
   }
+  contactor_cmd_ = out.contactor;
+  brakes_release_cmd_ = out.brakes_release;
   ++now_;
   return taken;
 }

@@ -138,7 +138,22 @@ export function toneOf(s: Status): Tone {
   }
 }
 
-const LATCHED = ['PROTECTIVE_STOP', 'DRIVE_FAULT', 'ARMING_TIMEOUT', 'T1_SPEED_EXCEEDED', 'STOP_TIME_EXCEEDED'];
+const LATCHED = [
+  'PROTECTIVE_STOP',
+  'DRIVE_FAULT',
+  'ARMING_TIMEOUT',
+  'T1_SPEED_EXCEEDED',
+  'STOP_TIME_EXCEEDED',
+  'BRAKE_NOT_ENGAGED',
+];
+
+/** Feedback-monitoring alarms (SPEC §7) need more than Reset: say what to do first. */
+export const FEEDBACK_ALARM_WORDS: Record<string, string> = {
+  CONTACTOR_WELDED:
+    'The main contactor did not open (welded): isolate the cell at the main switch and have the contactor replaced before power-cycling.',
+  BRAKE_NOT_ENGAGED:
+    'A holding brake did not engage: secure the named axis against falling, check the brake, then press Reset.',
+};
 
 /** What the operator should do next, in one line. */
 export function nextStep(s: Status): string {
@@ -147,6 +162,9 @@ export function nextStep(s: Status): string {
     case 'BOOT':
       return 'Wait: self-test, fieldbus and drives are being checked.';
     case 'ERROR_LOCKOUT':
+      if (s.alarms.includes('CONTACTOR_WELDED')) {
+        return FEEDBACK_ALARM_WORDS.CONTACTOR_WELDED;
+      }
       return s.simulated
         ? 'Fix the cause in the alarm list, then power-cycle (simulated cell: restart make run).'
         : 'Fix the cause in the alarm list, then power-cycle the controller (Reset cannot clear it).';
@@ -155,6 +173,10 @@ export function nextStep(s: Status): string {
     case 'ESTOP_RESET_NEEDED':
       return 'Release all E-stops, then press Reset.';
     case 'IDLE': {
+      const feedback = s.alarms.find((a) => a in FEEDBACK_ALARM_WORDS);
+      if (feedback) {
+        return FEEDBACK_ALARM_WORDS[feedback];
+      }
       if (s.alarms.some((a) => LATCHED.includes(a)) || s.reset_lamp === 'on') {
         return 'Remove the cause of the alarm (see its remedy), then press Reset.';
       }

@@ -5,8 +5,10 @@
 //  - `#` starts a comment anywhere on a line; blank and comment-only lines are ignored;
 //    tokens are separated by spaces, tabs or a CR (CRLF files work).
 //  - `config NAME=VALUE ...` is allowed only before the first `@` line. NAME is one of
-//    cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms (unsigned
-//    integers) and standstill_rad_s (a number). A later line overrides an earlier one.
+//    cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms,
+//    max_commands_per_cycle, reset_hold_ms, fault_reset_cycles, queue_size (unsigned
+//    integers), standstill_rad_s and t1_speed_mm_s (numbers). A later line overrides an
+//    earlier one.
 //    When the config section ends (first `@` line or end of file) core::validate() runs;
 //    its field and reason are reported on the line that last set that field (or on the
 //    last config line if the file did not set it).
@@ -30,10 +32,15 @@
 //    one is malformed: the binary record has no room for it, so it would be dropped
 //    silently. `from=` must be the first token after `cmd` and be pendant or remote.
 //    Each command's seq is its line number (unique; the reset button's replies use 0).
-//  - `fault`: exactly the forms of the spec, N a decimal 1..6.
+//  - `fault`: exactly the forms of the spec, N a decimal 1..6; `statusword` takes 0x and
+//    one to four hex digits, `slow_enable` 1..60000 ms.
 //  - `expect`: at least one key; `tcp_speed` takes <=, <, >=, > and a finite number;
 //    every other key takes `=` and a value of the spec (sub and stop use `-` for null).
-//    Unknown keys or values are malformed; `reply=` accepts only result names.
+//    Unknown keys or values are malformed; `reply=` and `reply.CMD=` accept result names
+//    and `pending`. The keys of "More keys, faults and settings" likewise: `axis.N.` with N
+//    1..6, `controlword` as 0x and one to four hex digits, speeds with a comparison;
+//    `cause.signal=-` is accepted for "no cause". `replies=N` must be alone on an
+//    `expect` line (not `expect-once`). `expect-once` takes a window like `expect`.
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -46,6 +53,8 @@
 #include <vector>
 
 #include "safestate/core/alarms.hpp"
+#include "safestate/core/cia402.hpp"
+#include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
 
 namespace safestate::scenario {
@@ -152,18 +161,27 @@ bool split_pair(std::string_view tok, std::string_view& key, std::string_view& v
 // ---------------------------------------------------------------------------------------
 // config
 
+// The file's names (spec/scenario-format.md) and the core::Config field each sets; the
+// core's name is what core::validate() reports.
 struct ConfigField {
   const char* name;
-  std::uint32_t core::Config::*uint_field;  // nullptr for standstill_rad_s
+  const char* core_name;
+  std::uint32_t core::Config::*uint_field;  // nullptr for the real-valued ones
+  float core::Config::*real_field;
 };
 
-constexpr std::array<ConfigField, 6> kConfigFields{{
-    {"cycle_us", &core::Config::cycle_us},
-    {"discrepancy_ms", &core::Config::discrepancy_ms},
-    {"jog_timeout_ms", &core::Config::jog_timeout_ms},
-    {"max_stop_ms", &core::Config::max_stop_ms},
-    {"boot_timeout_ms", &core::Config::boot_timeout_ms},
-    {"standstill_rad_s", nullptr},
+constexpr std::array<ConfigField, 11> kConfigFields{{
+    {"cycle_us", "cycle_us", &core::Config::cycle_us, nullptr},
+    {"discrepancy_ms", "discrepancy_ms", &core::Config::discrepancy_ms, nullptr},
+    {"jog_timeout_ms", "jog_timeout_ms", &core::Config::jog_timeout_ms, nullptr},
+    {"max_stop_ms", "max_stop_ms", &core::Config::max_stop_ms, nullptr},
+    {"boot_timeout_ms", "boot_timeout_ms", &core::Config::boot_timeout_ms, nullptr},
+    {"standstill_rad_s", "standstill_rad_s", nullptr, &core::Config::standstill_rad_s},
+    {"max_commands_per_cycle", "max_commands_per_cycle", &core::Config::max_commands_per_cycle, nullptr},
+    {"reset_hold_ms", "reset_hold_max_ms", &core::Config::reset_hold_max_ms, nullptr},
+    {"fault_reset_cycles", "fault_reset_reply_cycles", &core::Config::fault_reset_reply_cycles, nullptr},
+    {"queue_size", "queue_size", &core::Config::queue_size, nullptr},
+    {"t1_speed_mm_s", "t1_speed_limit_mm_s", nullptr, &core::Config::t1_speed_limit_mm_s},
 }};
 
 Problem set_config(std::string_view key, std::string_view value, core::Config& cfg, std::size_t& index) {
@@ -182,11 +200,14 @@ Problem set_config(std::string_view key, std::string_view value, core::Config& c
     if (!to_real(value, v)) {
       return "config " + std::string(key) + ": " + quoted(value) + " is not a number";
     }
-    cfg.standstill_rad_s = static_cast<float>(v);
+    cfg.*(f.real_field) = static_cast<float>(v);
     return {};
   }
-  return "unknown config name " + quoted(key) +
-         " (expected cycle_us, discrepancy_ms, jog_timeout_ms, max_stop_ms, boot_timeout_ms or standstill_rad_s)";
+  std::string names;
+  for (const ConfigField& f : kConfigFields) {
+    names += (names.empty() ? "" : ", ") + std::string(f.name);
+  }
+  return "unknown config name " + quoted(key) + " (expected one of " + names + ")";
 }
 
 // ---------------------------------------------------------------------------------------
@@ -408,8 +429,49 @@ bool parse_drive_fault(const Tokens& a, sim::Fault& f) noexcept {
   return false;
 }
 
+// `0x` and one to four hex digits.
+bool hex_word(std::string_view s, std::uint16_t& out) noexcept {
+  if (s.size() < 3 || s.size() > 6 || (s.substr(0, 2) != "0x" && s.substr(0, 2) != "0X")) {
+    return false;
+  }
+  std::uint16_t v = 0;
+  const auto [end, ec] = std::from_chars(s.data() + 2, s.data() + s.size(), v, 16);
+  if (ec != std::errc{} || end != s.data() + s.size()) {
+    return false;
+  }
+  out = v;
+  return true;
+}
+
+// drive N statusword 0xHHHH | drive N slow_enable MS
+bool parse_drive_word_fault(const Tokens& a, sim::Fault& f) noexcept {
+  if (a.size() != 4 || a[0] != "drive" || !axis_1_to_6(a[1], f.axis)) {
+    return false;
+  }
+  if (a[2] == "statusword" && hex_word(a[3], f.value)) {
+    f.kind = sim::FaultKind::drive_statusword;
+    return true;
+  }
+  std::uint16_t ms = 0;
+  if (a[2] == "slow_enable" && to_number(a[3], ms) && ms >= 1U && ms <= 60000U) {
+    f.kind = sim::FaultKind::drive_slow_enable;
+    f.value = ms;
+    return true;
+  }
+  return false;
+}
+
 bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
-  if (parse_drive_fault(a, f)) {
+  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f)) {
+    return true;
+  }
+  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck_released" && axis_1_to_6(a[1], f.axis)) {
+    f.kind = sim::FaultKind::brake_stuck_released;
+    return true;
+  }
+  if (a.size() == 1 && a[0] == "integrity") {
+    f.axis = 0;
+    f.kind = sim::FaultKind::integrity;
     return true;
   }
   if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], f.axis)) {
@@ -420,10 +482,14 @@ bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
   if (a.size() != 2) {
     return false;
   }
-  constexpr std::array<std::pair<std::pair<std::string_view, std::string_view>, sim::FaultKind>, 3> pairs{{
+  constexpr std::array<std::pair<std::pair<std::string_view, std::string_view>, sim::FaultKind>, 7> pairs{{
       {{"fieldbus", "lost"}, sim::FaultKind::fieldbus_lost},
       {{"contactor", "stuck_open"}, sim::FaultKind::contactor_stuck_open},
       {{"clear", "all"}, sim::FaultKind::clear_all},
+      {{"selftest", "fail"}, sim::FaultKind::selftest_fail},
+      {{"contactor", "welded"}, sim::FaultKind::contactor_welded},
+      {{"program", "unload"}, sim::FaultKind::program_unload},
+      {{"jog_link", "drop"}, sim::FaultKind::jog_link_drop},
   }};
   for (const auto& [words, kind] : pairs) {
     if (a[0] == words.first && a[1] == words.second) {
@@ -443,8 +509,9 @@ Problem parse_fault(const Tokens& args, FaultStep& out) {
     written += (written.empty() ? "" : " ") + std::string(a);
   }
   return "bad fault " + quoted(written) +
-         " (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck,"
-         " clear all; N 1..6)";
+         " (expected drive N fault|clear|runaway|nostop, drive N statusword 0xHHHH, drive N slow_enable MS,"
+         " fieldbus lost, contactor stuck_open|welded, brake N stuck|stuck_released, integrity, selftest fail,"
+         " program unload, jog_link drop, clear all; N 1..6, MS 1..60000)";
 }
 
 // ---------------------------------------------------------------------------------------
@@ -513,7 +580,8 @@ bool parse_named_key(std::string_view key, std::string_view value, Expectation& 
     ok = named(value, &core::parse_alarm, e);
   } else if (key == "reply") {
     e.key = ExpectKey::reply;
-    ok = named(value, &core::parse_result, e);
+    // SPEC §9: `reply=pending` means the latest command has not been answered yet.
+    ok = (value == "pending") ? ((e.value = kPendingReply), true) : named(value, &core::parse_result, e);
   } else {
     return false;
   }
@@ -532,13 +600,14 @@ bool parse_choice_key(std::string_view key, std::string_view value, Expectation&
   return false;
 }
 
-Problem parse_tcp_speed(std::string_view tok, Expectation& e) {
-  std::string_view rest = tok.substr(std::string_view("tcp_speed").size());
+// `NAME<=X`, `<`, `>=`, `>` with a finite number; `rest` is what follows NAME.
+Problem parse_compare(std::string_view tok, std::string_view rest, std::string_view name, ExpectKey key,
+                      Expectation& e) {
   constexpr std::array<std::pair<std::string_view, Compare>, 4> ops{{
       {"<=", Compare::le}, {">=", Compare::ge}, {"<", Compare::lt}, {">", Compare::gt}}};
   for (const auto& [op, cmp] : ops) {
     if (rest.substr(0, op.size()) == op) {
-      e.key = ExpectKey::tcp_speed;
+      e.key = key;
       e.cmp = cmp;
       if (!to_real(rest.substr(op.size()), e.limit)) {
         return "expect " + quoted(tok) + ": the speed limit is not a number";
@@ -546,13 +615,191 @@ Problem parse_tcp_speed(std::string_view tok, Expectation& e) {
       return {};
     }
   }
-  return "expect " + quoted(tok) + ": tcp_speed takes <=, <, >= or > and a number";
+  return "expect " + quoted(tok) + ": " + std::string(name) + " takes <=, <, >= or > and a number";
+}
+
+// `axis.N.` prefix: N 1..6 into e.axis; the rest after the second dot.
+bool axis_prefix(std::string_view key, Expectation& e, std::string_view& rest) noexcept {
+  if (key.substr(0, 5) != "axis.") {
+    return false;
+  }
+  const std::string_view tail = key.substr(5);
+  const std::size_t dot = tail.find('.');
+  if (dot == std::string_view::npos || !axis_1_to_6(tail.substr(0, dot), e.axis)) {
+    return false;
+  }
+  rest = tail.substr(dot + 1);
+  return true;
+}
+
+// Speeds: tcp_speed, point_speed (mm/s), axis.N.speed (rad/s). 1 when `tok` is one.
+bool parse_speed(std::string_view tok, Expectation& e, Problem& problem) {
+  constexpr std::array<std::pair<std::string_view, ExpectKey>, 2> points{{
+      {"tcp_speed", ExpectKey::tcp_speed}, {"point_speed", ExpectKey::point_speed}}};
+  for (const auto& [name, key] : points) {
+    if (tok.substr(0, name.size()) == name) {
+      problem = parse_compare(tok, tok.substr(name.size()), name, key, e);
+      return true;
+    }
+  }
+  const std::size_t op = tok.find_first_of("<>=");
+  std::string_view rest;
+  if (op != std::string_view::npos && axis_prefix(tok.substr(0, op), e, rest) && rest == "speed") {
+    problem = parse_compare(tok, tok.substr(op), "axis.N.speed", ExpectKey::axis_speed, e);
+    return true;
+  }
+  return false;
+}
+
+// The signal names of `cause.signal=` and `alarm.NAME.detail=`.
+bool known_signal(std::string_view v) noexcept {
+  constexpr std::array<std::string_view, 14> kFixed{"estop.a", "estop.b",      "gate.a", "gate.b",   "enable.a",
+                                                    "enable.b", "enable.panic", "mode",   "fieldbus", "contactor",
+                                                    "internal", "command",      "reset_button", "-"};
+  if (std::find(kFixed.begin(), kFixed.end(), v) != kFixed.end()) {
+    return true;
+  }
+  std::uint8_t axis = 0;
+  const bool drive = v.substr(0, 6) == "drive." && axis_1_to_6(v.substr(6), axis);
+  const bool brake = v.substr(0, 6) == "brake." && axis_1_to_6(v.substr(6), axis);
+  return drive || brake;
+}
+
+bool known_cause(std::string_view v) noexcept {
+  core::AlarmId a{};
+  constexpr std::array<std::string_view, 6> kStops{"enable_released", "servo_off", "pause", "stop", "jog_stop", "-"};
+  return (std::find(kStops.begin(), kStops.end(), v) != kStops.end()) || lookup(v, &core::parse_alarm, a);
+}
+
+template <typename E, std::size_t N>
+bool from_names(std::string_view v, const std::array<std::string_view, N>& names, Expectation& e) noexcept {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (v == names[i]) {
+      e.value = static_cast<std::uint8_t>(i);
+      return true;
+    }
+  }
+  return false;
+}
+
+// PLCopen axis states (motion::AxisState order) and CiA 402 states (cia402::DriveState order).
+constexpr std::array<std::string_view, 8> kAxisStates{"Disabled",         "Standstill",         "Homing",
+                                                      "DiscreteMotion",   "ContinuousMotion",   "SynchronizedMotion",
+                                                      "Stopping",         "ErrorStop"};
+constexpr std::array<std::string_view, 8> kCia402States{
+    "Not_ready_to_switch_on", "Switch_on_disabled",  "Ready_to_switch_on",    "Switched_on",
+    "Operation_enabled",      "Quick_stop_active",   "Fault_reaction_active", "Fault"};
+
+bool parse_axis_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) {
+  std::string_view rest;
+  if (!axis_prefix(key, e, rest)) {
+    return false;
+  }
+  std::uint16_t word = 0;
+  if (rest == "state") {
+    e.key = ExpectKey::axis_state;
+    ok = from_names<motion::AxisState>(value, kAxisStates, e);
+  } else if (rest == "cia402") {
+    e.key = ExpectKey::axis_cia402;
+    ok = from_names<core::cia402::DriveState>(value, kCia402States, e);
+  } else if (rest == "controlword") {
+    e.key = ExpectKey::axis_controlword;
+    ok = hex_word(value, word);
+    e.number = word;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// alarm.NAME.number=N, alarm.NAME.detail=D
+bool parse_alarm_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) {
+  if (key.substr(0, 6) != "alarm.") {
+    return false;
+  }
+  const std::string_view tail = key.substr(6);
+  const std::size_t dot = tail.rfind('.');
+  core::AlarmId a{};
+  if (dot == std::string_view::npos || !lookup(tail.substr(0, dot), &core::parse_alarm, a)) {
+    return false;
+  }
+  e.value = static_cast<std::uint8_t>(a);
+  const std::string_view what = tail.substr(dot + 1);
+  if (what == "number") {
+    e.key = ExpectKey::alarm_number;
+    ok = to_number(value, e.number);
+  } else if (what == "detail") {
+    e.key = ExpectKey::alarm_detail;
+    ok = known_signal(value) || value == "CONTACTOR" || value == "DRIVES" || value == "BRAKES";
+    e.name = std::string(value);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// reply.CMD=RESULT|pending, reply.reset_button=RESULT
+bool parse_reply_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) {
+  if (key.substr(0, 6) != "reply.") {
+    return false;
+  }
+  const std::string_view cmd = key.substr(6);
+  core::CommandId id{};
+  if (cmd == "reset_button") {
+    e.axis = kResetButtonReply;
+  } else if (lookup(cmd, &core::parse_command, id)) {
+    e.axis = static_cast<std::uint8_t>(id);
+  } else {
+    return false;
+  }
+  e.key = ExpectKey::reply_cmd;
+  ok = (value == "pending") ? ((e.value = kPendingReply), true) : named(value, &core::parse_result, e);
+  return true;
+}
+
+struct YesNo {
+  const char* key;
+  const char* yes;
+  const char* no;
+  ExpectKey id;
+};
+constexpr std::array<YesNo, 3> kYesNo{{
+    {"standstill", "yes", "no", ExpectKey::standstill},
+    {"t2_confirmed", "yes", "no", ExpectKey::t2_confirmed},
+    {"owner", "pendant", "none", ExpectKey::owner},
+}};
+
+// @req SCN-MORE-KEYS
+// The keys of "More keys, faults and settings"; 1 when `key` is one of them.
+bool parse_more_key(std::string_view key, std::string_view value, Expectation& e, bool& ok) {
+  if (key == "cause" || key == "cause.signal") {
+    e.key = (key == "cause") ? ExpectKey::cause : ExpectKey::cause_signal;
+    ok = (key == "cause") ? known_cause(value) : known_signal(value);
+    e.name = std::string(value);
+    return true;
+  }
+  if (key == "mode_requested") {
+    e.key = ExpectKey::mode_requested;
+    ok = named(value, &core::parse_mode, e);
+    return true;
+  }
+  for (const YesNo& y : kYesNo) {
+    if (key == y.key) {
+      e.key = y.id;
+      ok = (value == y.yes) || (value == y.no);
+      e.value = (value == y.yes) ? 1U : 0U;
+      return true;
+    }
+  }
+  return parse_axis_key(key, value, e, ok) || parse_alarm_key(key, value, e, ok) ||
+         parse_reply_key(key, value, e, ok);
 }
 
 Problem parse_expectation(std::string_view tok, Expectation& e) {
   e.text = std::string(tok);
-  if (tok.substr(0, 9) == "tcp_speed") {
-    return parse_tcp_speed(tok, e);
+  Problem speed;
+  if (parse_speed(tok, e, speed)) {
+    return speed;
   }
   std::string_view key;
   std::string_view value;
@@ -560,17 +807,22 @@ Problem parse_expectation(std::string_view tok, Expectation& e) {
     return "expect: expected KEY=VALUE, found " + quoted(tok);
   }
   bool ok = false;
-  if (!parse_named_key(key, value, e, ok) && !parse_choice_key(key, value, e, ok)) {
+  if (key == "replies") {
+    e.key = ExpectKey::replies;
+    ok = to_number(value, e.number);
+  } else if (!parse_named_key(key, value, e, ok) && !parse_choice_key(key, value, e, ok) &&
+             !parse_more_key(key, value, e, ok)) {
     return "unknown expect key " + quoted(key);
   }
   return ok ? Problem{} : "expect: unknown value " + quoted(value) + " for " + std::string(key);
 }
 
-Problem parse_expect(const Tokens& args, ExpectStep& out) {
+Problem parse_expect(const Tokens& args, ExpectStep& out, bool once) {
   if (args.empty()) {
     return "expect needs at least one KEY=VALUE";
   }
   out.checks.reserve(args.size());
+  out.mode = once ? ExpectMode::once : ExpectMode::every;
   for (const std::string_view tok : args) {
     Expectation e;
     if (Problem p = parse_expectation(tok, e); !p.empty()) {
@@ -578,6 +830,12 @@ Problem parse_expect(const Tokens& args, ExpectStep& out) {
     }
     out.checks.push_back(std::move(e));
   }
+  const bool counts = std::any_of(out.checks.begin(), out.checks.end(),
+                                  [](const Expectation& e) { return e.key == ExpectKey::replies; });
+  if (counts && (out.checks.size() != 1U || once)) {
+    return "a line with replies= holds no other key, and is an expect (not expect-once)";
+  }
+  out.mode = counts ? ExpectMode::replies : out.mode;
   return {};
 }
 
@@ -696,12 +954,14 @@ class Parser {
       return;
     }
     std::size_t at = last_config_line_;
+    std::string field = e.field;
     for (std::size_t i = 0; i < kConfigFields.size(); ++i) {
-      if (std::strcmp(kConfigFields[i].name, e.field) == 0 && config_lines_[i] != 0) {
-        at = config_lines_[i];
+      if (std::strcmp(kConfigFields[i].core_name, e.field) == 0) {
+        field = kConfigFields[i].name;  // named as the file names it
+        at = (config_lines_[i] != 0) ? config_lines_[i] : at;
       }
     }
-    fail(at, std::string("invalid config ") + e.field + ": " + e.reason);
+    fail(at, "invalid config " + field + ": " + e.reason);
   }
 
   void timed_line(std::size_t number, const Tokens& tokens) {
@@ -722,7 +982,7 @@ class Parser {
       fail(number, "missing directive after " + std::string(tokens[0]));
       return;
     }
-    if (range && tokens[1] != "expect") {
+    if (range && tokens[1] != "expect" && tokens[1] != "expect-once") {
       fail(number, "a range @T1..T2 is only allowed for expect, not " + std::string(tokens[1]));
       return;
     }
@@ -749,13 +1009,13 @@ class Parser {
     if (name == "fault") {
       return parse_fault(args, step.what.emplace<FaultStep>());
     }
-    if (name == "expect") {
-      return parse_expect(args, step.what.emplace<ExpectStep>());
+    if (name == "expect" || name == "expect-once") {
+      return parse_expect(args, step.what.emplace<ExpectStep>(), name == "expect-once");
     }
     if (name == "config") {
       return "config lines come before the first @ line and take no time";
     }
-    return "unknown directive " + quoted(name) + " (expected in, cmd, fault or expect)";
+    return "unknown directive " + quoted(name) + " (expected in, cmd, fault, expect or expect-once)";
   }
 
   void add(Step&& step) {

@@ -15,6 +15,9 @@
 #include <vector>
 
 #include "safestate/core/alarms.hpp"
+#include "safestate/core/cia402.hpp"
+#include "safestate/core/describe.hpp"
+#include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
 #include "trace.hpp"
 
@@ -30,11 +33,42 @@ struct LatestCommand {
   core::Result result = core::Result::OK;
 };
 
+// The latest reply per command name (`reply.CMD=`), and the reset button's.
+using LatestByCommand = std::array<LatestCommand, core::kCommandCount>;
+
 struct Observed {
   const core::SupervisorOut& out;
   float tcp_speed;
   const LatestCommand& latest;
+  const sim::Cell& cell;
+  const LatestByCommand& by_cmd;
+  const LatestCommand& button;
 };
+
+// Names written into a fixed buffer: no allocation while an expect holds.
+using NameBuf = std::array<char, 32>;
+
+std::string_view cause_signal(const core::SupervisorOut& out, NameBuf& buf) noexcept {
+  if (out.cause.kind == core::CauseKind::none) {
+    return "-";
+  }
+  return core::signal_name(out.cause.detail, buf.data(), buf.size());
+}
+
+const LatestCommand& reply_of(const Expectation& e, const Observed& o) noexcept {
+  return (e.axis == kResetButtonReply) ? o.button : o.by_cmd[e.axis % core::kCommandCount];
+}
+
+bool reply_is(const LatestCommand& l, std::uint8_t expected) noexcept {
+  if (expected == kPendingReply) {
+    return l.sent && !l.answered;
+  }
+  return l.sent && l.answered && (static_cast<std::uint8_t>(l.result) == expected);
+}
+
+std::size_t axis_index(const Expectation& e) noexcept { return static_cast<std::size_t>(e.axis - 1U) % core::kAxes; }
+
+float abs_speed(float v) noexcept { return (v < 0.0F) ? -v : v; }
 
 bool compare(double v, Compare cmp, double limit) noexcept {
   switch (cmp) {
@@ -55,6 +89,36 @@ bool alarm_active(const core::SupervisorOut& out, std::uint8_t id) noexcept {
   return (out.alarms & core::bit(static_cast<core::AlarmId>(id))) != 0U;
 }
 
+// The keys of "More keys, faults and settings".
+bool holds_more(const Expectation& e, const Observed& o) noexcept {
+  const core::SupervisorOut& out = o.out;
+  const sim::CellView& v = o.cell.view();
+  NameBuf buf{};
+  switch (e.key) {
+    case ExpectKey::cause: return e.name == core::cause_name(out.cause);
+    case ExpectKey::cause_signal: return e.name == cause_signal(out, buf);
+    case ExpectKey::alarm_number: return core::kAlarms[e.value % core::kAlarmCount].number == e.number;
+    case ExpectKey::alarm_detail: {
+      const auto id = static_cast<core::AlarmId>(e.value);
+      return alarm_active(out, e.value) &&
+             e.name == core::detail_name(o.cell.alarms().detail(id), buf.data(), buf.size());
+    }
+    case ExpectKey::mode_requested: return is(out.mode_requested, e.value);
+    case ExpectKey::axis_state: return v.axis_code[axis_index(e)] == e.value;
+    case ExpectKey::axis_cia402: return is(core::cia402::decode(v.statusword[axis_index(e)]), e.value);
+    case ExpectKey::axis_controlword: return v.controlword[axis_index(e)] == e.number;
+    case ExpectKey::axis_speed:
+      return compare(static_cast<double>(abs_speed(v.velocities_rad_s[axis_index(e)])), e.cmp, e.limit);
+    case ExpectKey::point_speed: return compare(static_cast<double>(v.max_point_speed_mm_s), e.cmp, e.limit);
+    case ExpectKey::reply_cmd: return reply_is(reply_of(e, o), e.value);
+    case ExpectKey::standstill: return out.at_standstill == (e.value != 0U);
+    case ExpectKey::t2_confirmed: return out.t2_confirmed == (e.value != 0U);
+    case ExpectKey::owner: return out.pendant_owner == (e.value != 0U);
+    default: break;  // replies: counted by the runner over the window
+  }
+  return false;
+}
+
 bool holds(const Expectation& e, const Observed& o) noexcept {
   const core::SupervisorOut& out = o.out;
   switch (e.key) {
@@ -68,8 +132,13 @@ bool holds(const Expectation& e, const Observed& o) noexcept {
     case ExpectKey::reset_lamp: return out.reset_lamp == (e.value != 0U);
     case ExpectKey::alarm: return alarm_active(out, e.value);
     case ExpectKey::noalarm: return !alarm_active(out, e.value);
-    case ExpectKey::reply: return o.latest.sent && o.latest.answered && is(o.latest.result, e.value);
+    case ExpectKey::reply:
+      if (e.value == kPendingReply) {
+        return o.latest.sent && !o.latest.answered;
+      }
+      return o.latest.sent && o.latest.answered && is(o.latest.result, e.value);
     case ExpectKey::tcp_speed: return compare(static_cast<double>(o.tcp_speed), e.cmp, e.limit);
+    default: return holds_more(e, o);
   }
   return false;
 }
@@ -104,6 +173,66 @@ std::string choice(const char* key, bool v, const char* yes, const char* no) {
   return std::string(key) + "=" + (v ? yes : no);
 }
 
+std::string number_found(const char* key, double v) {
+  std::array<char, 32> buf{};
+  const auto r = std::to_chars(buf.data(), buf.data() + buf.size(), v);
+  return std::string(key) + "=" + std::string(buf.data(), r.ptr);
+}
+
+std::string hex_found(const std::string& key, unsigned v) {
+  std::array<char, 8> buf{};
+  constexpr std::array<char, 16> kHex{'0', '1', '2', '3', '4', '5', '6', '7', '8', '9', 'A', 'B', 'C', 'D', 'E', 'F'};
+  for (std::size_t i = 0; i < 4; ++i) {
+    buf[i] = kHex[(v >> (12U - 4U * i)) & 0xFU];
+  }
+  return key + "=0x" + std::string(buf.data(), 4);
+}
+
+std::string cia402_name(std::uint16_t sw) {
+  std::string n = core::cia402::to_string(core::cia402::decode(sw));
+  std::replace(n.begin(), n.end(), ' ', '_');
+  return n;
+}
+
+std::string found_more(const Expectation& e, const Observed& o) {
+  const core::SupervisorOut& out = o.out;
+  const sim::CellView& v = o.cell.view();
+  NameBuf buf{};
+  const std::string axis = "axis." + std::to_string(e.axis);
+  const std::string alarm = "alarm." + std::string(core::kAlarms[e.value % core::kAlarmCount].name);
+  switch (e.key) {
+    case ExpectKey::cause: return std::string("cause=") + core::cause_name(out.cause);
+    case ExpectKey::cause_signal: return "cause.signal=" + std::string(cause_signal(out, buf));
+    case ExpectKey::alarm_number: return alarm + ".number=" + std::to_string(core::kAlarms[e.value % core::kAlarmCount].number);
+    case ExpectKey::alarm_detail:
+      if (!alarm_active(out, e.value)) {
+        return alarm + " not active, " + alarm_list(out.alarms);
+      }
+      return alarm + ".detail=" +
+             core::detail_name(o.cell.alarms().detail(static_cast<core::AlarmId>(e.value)), buf.data(), buf.size());
+    case ExpectKey::mode_requested: return std::string("mode_requested=") + core::to_string(out.mode_requested);
+    case ExpectKey::axis_state:
+      return axis + ".state=" + motion::to_string(static_cast<motion::AxisState>(v.axis_code[axis_index(e)]));
+    case ExpectKey::axis_cia402:
+      return axis + ".cia402=" + cia402_name(v.statusword[axis_index(e)]) + " (statusword " +
+             hex_found("", v.statusword[axis_index(e)]).substr(1) + ")";
+    case ExpectKey::axis_controlword: return hex_found(axis + ".controlword", v.controlword[axis_index(e)]);
+    case ExpectKey::axis_speed:
+      return number_found((axis + ".speed").c_str(), static_cast<double>(abs_speed(v.velocities_rad_s[axis_index(e)])));
+    case ExpectKey::point_speed: return number_found("point_speed", static_cast<double>(v.max_point_speed_mm_s));
+    case ExpectKey::reply_cmd: {
+      const std::string key = (e.axis == kResetButtonReply) ? "reply.reset_button" : "reply." + std::string(core::to_string(static_cast<core::CommandId>(e.axis)));
+      const LatestCommand& l = reply_of(e, o);
+      return key + "=" + (!l.sent ? "none" : (l.answered ? core::to_string(l.result) : "pending"));
+    }
+    case ExpectKey::standstill: return choice("standstill", out.at_standstill, "yes", "no");
+    case ExpectKey::t2_confirmed: return choice("t2_confirmed", out.t2_confirmed, "yes", "no");
+    case ExpectKey::owner: return choice("owner", out.pendant_owner, "pendant", "none");
+    default: break;
+  }
+  return "?";
+}
+
 // What was found, in the same words as the expectation.
 std::string found(const Expectation& e, const Observed& o) {
   const core::SupervisorOut& out = o.out;
@@ -120,6 +249,7 @@ std::string found(const Expectation& e, const Observed& o) {
     case ExpectKey::noalarm: return alarm_list(out.alarms);
     case ExpectKey::reply: return reply_found(o.latest);
     case ExpectKey::tcp_speed: return speed_found(o.tcp_speed);
+    default: return found_more(e, o);
   }
   return "?";
 }
@@ -144,7 +274,8 @@ std::size_t count_ranges(const Scenario& s) noexcept {
 
 class Runner {
  public:
-  Runner(const Scenario& s, const RunOptions& o) : s_(s), opts_(o), cell_(s.config), failed_(s.steps.size(), 0U) {
+  Runner(const Scenario& s, const RunOptions& o)
+      : s_(s), opts_(o), cell_(s.config), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     open_.reserve(count_ranges(s));
     if (o.trace && o.trace_out != nullptr) {
       tracer_.emplace(s, *o.trace_out);
@@ -163,11 +294,13 @@ class Runner {
       }
       cell_.step();
       collect_replies();
+      replies_now_ += cell_.out().reply_count;
       if (tracer_) {
         tracer_->cycle(t, cell_.out(), cell_.view());
       }
       check_open(t);
       check_new(t, next, end);
+      replies_now_ = 0;
       next = end;
       sum.cycles = t + 1;
     }
@@ -187,10 +320,34 @@ class Runner {
   }
 
   void send(const CommandStep& c) {
+    const bool jog = c.command.id == static_cast<std::uint8_t>(core::CommandId::jog);
+    const bool pendant = c.command.source == static_cast<std::uint8_t>(core::Source::pendant);
+    if (jog && pendant && !cell_.jog_link_up()) {
+      // `jog_link drop`: sent, but lost on the way: neither delivered nor answered.
+      remember(c, LatestCommand{true, false, c.command.seq, core::Result::OK});
+      return;
+    }
     const core::Result r = cell_.submit(c.command);
-    latest_ = LatestCommand{true, r == core::Result::QUEUE_FULL, c.command.seq, r};
-    if (r == core::Result::QUEUE_FULL && tracer_) {
-      tracer_->queue_full(c);
+    remember(c, LatestCommand{true, r == core::Result::QUEUE_FULL, c.command.seq, r});
+    if (r == core::Result::QUEUE_FULL) {
+      ++replies_now_;  // the queue's answer, given in this cycle
+      if (tracer_) {
+        tracer_->queue_full(c);
+      }
+    }
+  }
+
+  void remember(const CommandStep& c, const LatestCommand& l) noexcept {
+    latest_ = l;
+    if (c.command.id < core::kCommandCount) {
+      by_cmd_[c.command.id] = l;
+    }
+  }
+
+  static void answer(LatestCommand& l, const core::Reply& r) noexcept {
+    if (l.sent && !l.answered && r.seq == l.seq) {
+      l.answered = true;
+      l.result = r.result;
     }
   }
 
@@ -198,10 +355,13 @@ class Runner {
     const core::SupervisorOut& out = cell_.out();
     for (std::size_t i = 0; i < out.reply_count && i < out.replies.size(); ++i) {
       const core::Reply& r = out.replies[i];
-      const bool from_button = r.source == static_cast<std::uint8_t>(core::Source::reset_button);
-      if (latest_.sent && !latest_.answered && !from_button && r.seq == latest_.seq) {
-        latest_.answered = true;
-        latest_.result = r.result;
+      if (r.source == static_cast<std::uint8_t>(core::Source::reset_button)) {
+        button_ = LatestCommand{true, true, r.seq, r.result};
+        continue;
+      }
+      answer(latest_, r);
+      if (r.cmd < core::kCommandCount) {
+        answer(by_cmd_[r.cmd], r);
       }
     }
   }
@@ -226,26 +386,30 @@ class Runner {
     }
   }
 
+  // failed_[i]: 0 open, 1 failed, 2 settled (an expect-once that held).
   void check(std::size_t i, core::Cycle t) {
     if (failed_[i] != 0U) {
       return;  // a range reports its first failing cycle only
     }
-    const auto& expect = std::get<ExpectStep>(s_.steps[i].what);
-    const Observed o{cell_.out(), cell_.view().tcp_speed_mm_s, latest_};
-    const bool all = std::all_of(expect.checks.begin(), expect.checks.end(),
-                                 [&o](const Expectation& e) { return holds(e, o); });
-    if (all) {
+    const Step& step = s_.steps[i];
+    const auto& expect = std::get<ExpectStep>(step.what);
+    const Observed o{cell_.out(), cell_.view().tcp_speed_mm_s, latest_, cell_, by_cmd_, button_};
+    if (expect.mode == ExpectMode::replies) {
+      count_[i] += replies_now_;
+      if (t == step.t_end && count_[i] != expect.checks.front().number) {
+        fail(i, t, expect.checks.front().text, "replies=" + std::to_string(count_[i]));
+      }
       return;
     }
-    failed_[i] = 1U;
-    ++failures_;
-    if (opts_.report != nullptr) {
-      report(s_.steps[i], expect, o, t);
+    const bool all = std::all_of(expect.checks.begin(), expect.checks.end(),
+                                 [&o](const Expectation& e) { return holds(e, o); });
+    if (all && expect.mode == ExpectMode::once) {
+      failed_[i] = 2U;  // held once: settled
+      return;
     }
-  }
-
-  // FILE:LINE: cycle T: expected state=IDLE, found state=STOPPING (failing keys only).
-  void report(const Step& step, const ExpectStep& expect, const Observed& o, core::Cycle t) const {
+    if (all || (expect.mode == ExpectMode::once && t < step.t_end)) {
+      return;
+    }
     std::string expected;
     std::string actual;
     for (const Expectation& e : expect.checks) {
@@ -254,15 +418,32 @@ class Runner {
         actual += (actual.empty() ? "" : " ") + found(e, o);
       }
     }
-    *opts_.report << s_.file << ':' << step.line << ": cycle " << t << ": expected " << expected << ", found "
-                  << actual << '\n';
+    if (expect.mode == ExpectMode::once) {
+      expected = "once in @" + std::to_string(step.t) + ".." + std::to_string(step.t_end) + ": " + expected;
+      actual = "never all at once; at the last cycle " + actual;
+    }
+    fail(i, t, expected, actual);
+  }
+
+  void fail(std::size_t i, core::Cycle t, const std::string& expected, const std::string& actual) {
+    failed_[i] = 1U;
+    ++failures_;
+    if (opts_.report != nullptr) {
+      // FILE:LINE: cycle T: expected state=IDLE, found state=STOPPING (failing keys only).
+      *opts_.report << s_.file << ':' << s_.steps[i].line << ": cycle " << t << ": expected " << expected
+                    << ", found " << actual << '\n';
+    }
   }
 
   const Scenario& s_;
   const RunOptions& opts_;
   sim::Cell cell_;
   LatestCommand latest_{};
+  LatestByCommand by_cmd_{};
+  LatestCommand button_{};
+  std::size_t replies_now_ = 0;       // replies given for this cycle (queue's and core's)
   std::vector<std::uint8_t> failed_;  // per step: this expect line has failed
+  std::vector<std::size_t> count_;    // per step: replies counted in its window so far
   std::vector<std::size_t> open_;     // ranges being checked
   std::size_t failures_ = 0;
   std::optional<Tracer> tracer_;

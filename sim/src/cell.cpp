@@ -26,6 +26,9 @@ struct Cell::Impl {
       : cfg(c),
         controller(c, motion::kRobot),
         plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c), home_pose()) {
+    load_demo();
+  }
+  void load_demo() noexcept {
     std::uint8_t n = 0;
     const motion::Waypoint* p = demo_program(n);
     controller.load_program(p, n);
@@ -33,7 +36,8 @@ struct Cell::Impl {
   core::Config cfg;
   controller::Controller controller;
   SimPlant plant;
-  core::CommandQueue<64> queue;
+  core::CommandQueue<core::kMaxQueueSize> queue;  // holds cfg.queue_size (SPEC §9: 64)
+  bool jog_link_up = true;
   hal::ProcessImageIn in{};
   hal::ProcessImageOut out{};
   std::array<core::Command, core::kMaxCommandsPerCycle> batch{};
@@ -72,8 +76,30 @@ Cell::~Cell() = default;
 Cell::Cell(const Cell& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
 
 core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
-void Cell::inject(const Fault& f) noexcept { impl_->plant.inject(f); }
-core::Result Cell::submit(const core::Command& c) noexcept { return impl_->queue.push(c); }
+void Cell::inject(const Fault& f) noexcept {
+  Impl& s = *impl_;
+  s.plant.inject(f);
+  if (f.kind == FaultKind::program_unload) {
+    s.controller.load_program(nullptr, 0);
+  } else if (f.kind == FaultKind::jog_link_drop) {
+    s.jog_link_up = false;
+  } else if (f.kind == FaultKind::clear_all) {
+    s.jog_link_up = true;
+    if (!s.controller.motion().program().loaded()) {
+      s.load_demo();
+    }
+  }
+}
+
+core::Result Cell::submit(const core::Command& c) noexcept {
+  Impl& s = *impl_;
+  if (s.queue.size() >= s.cfg.queue_size) {
+    return core::Result::QUEUE_FULL;  // the configured capacity, inside the fixed storage
+  }
+  return s.queue.push(c);
+}
+
+bool Cell::jog_link_up() const noexcept { return impl_->jog_link_up; }
 
 void Cell::step() noexcept {
   Impl& s = *impl_;

@@ -31,6 +31,8 @@ void SimPlant::inject(const Fault& f) noexcept {
       axis_[i].fault_cause = false;
       axis_[i].runaway = false;
       axis_[i].nostop = false;
+      axis_[i].sw_override = false;
+      axis_[i].slow_cycles = 0;
       break;
     case FaultKind::drive_runaway: axis_[i].runaway = true; break;
     case FaultKind::drive_nostop: axis_[i].nostop = true; break;
@@ -43,18 +45,50 @@ void SimPlant::inject(const Fault& f) noexcept {
         a.runaway = false;
         a.nostop = false;
         a.brake_stuck = false;
+        a.brake_stuck_released = false;
+        a.sw_override = false;
+        a.slow_cycles = 0;
       }
       contactor_stuck_open_ = false;
+      contactor_welded_ = false;
       fieldbus_ok_ = true;
+      integrity_ok_ = true;
+      self_test_ok_ = true;
       break;
+    case FaultKind::integrity: integrity_ok_ = false; break;
+    case FaultKind::selftest_fail: self_test_ok_ = false; break;
+    case FaultKind::drive_statusword:
+      axis_[i].sw_override = true;
+      axis_[i].sw_value = f.value;
+      break;
+    case FaultKind::drive_slow_enable:
+      axis_[i].slow_cycles = cycles_of_ms(f.value);
+      axis_[i].slow_timer = 0;
+      break;
+    case FaultKind::contactor_welded:
+      contactor_welded_ = true;
+      contactor_closed_ = true;  // welded shut: closed from now on, whatever the command
+      break;
+    case FaultKind::brake_stuck_released:
+      axis_[i].brake_stuck_released = true;
+      axis_[i].brake_released = true;
+      break;
+    case FaultKind::program_unload:
+    case FaultKind::jog_link_drop:
+      break;  // not the plant's: the cell handles them
   }
+}
+
+std::uint32_t SimPlant::cycles_of_ms(std::uint16_t ms) const noexcept {
+  const float c = std::ceil((static_cast<float>(ms) * 1.0e-3F / dt_) - 1.0e-3F);
+  return (c < 1.0F) ? 1U : static_cast<std::uint32_t>(c);
 }
 
 void SimPlant::read(hal::ProcessImageIn& in) noexcept {
   in.safety = safety_;
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     const Axis& a = axis_[i];
-    in.drive[i].statusword = c402::statusword_of(a.ds);
+    in.drive[i].statusword = a.sw_override ? a.sw_value : c402::statusword_of(a.ds);
     in.drive[i].position_rad = a.q;
     in.drive[i].velocity_rad_s = a.v;
     in.drive[i].online = true;
@@ -62,6 +96,8 @@ void SimPlant::read(hal::ProcessImageIn& in) noexcept {
   }
   in.contactor_closed = contactor_closed_;
   in.fieldbus_ok = fieldbus_ok_;
+  in.integrity_ok = integrity_ok_;
+  in.self_test_ok = self_test_ok_;
 }
 
 void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
@@ -74,7 +110,18 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
   } else if (a.ds == c402::DriveState::Fault && a.fault_cause) {
     // stays in Fault while its cause is present, whatever the controlword
   } else {
-    a.ds = c402::next_state(a.ds, a.last_cw, cw, power);
+    const c402::DriveState next = c402::next_state(a.ds, a.last_cw, cw, power);
+    // slow_enable: each step towards Operation enabled takes slow_cycles (2, 3, 4 of
+    // IEC 61800-7-201); every step away from it stays immediate.
+    const bool enabling = (next == c402::DriveState::ReadyToSwitchOn && a.ds == c402::DriveState::SwitchOnDisabled) ||
+                          (next == c402::DriveState::SwitchedOn && a.ds == c402::DriveState::ReadyToSwitchOn) ||
+                          (next == c402::DriveState::OperationEnabled && a.ds == c402::DriveState::SwitchedOn);
+    if (enabling && a.slow_cycles > 0U && ++a.slow_timer < a.slow_cycles) {
+      // still working on this step
+    } else {
+      a.slow_timer = 0;
+      a.ds = next;
+    }
   }
   a.last_cw = cw;
 }
@@ -121,6 +168,9 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
   if (contactor_stuck_open_) {
     contactor_closed_ = false;
   }
+  if (contactor_welded_) {
+    contactor_closed_ = true;
+  }
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     Axis& a = axis_[i];
     if (out.brakes_release != a.brake_cmd) {
@@ -133,6 +183,9 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
     }
     if (a.brake_stuck) {
       a.brake_released = false;
+    }
+    if (a.brake_stuck_released) {
+      a.brake_released = true;
     }
     drive_state(a, out.drive[i].controlword, contactor_closed_);
     physics(a, i, out.drive[i].target_position_rad);

@@ -19,6 +19,8 @@ struct Plant {
   bool contactor_stuck_open = false;
   std::array<bool, kAxes> brake_stuck{};           // never releases
   bool brake_stuck_released = false;                // feedback never reports engaged
+  std::array<bool, kAxes> brake_welded_released{};  // this brake's feedback: released, always
+  bool contactor_welded = false;                    // feedback closed, always
   std::array<bool, kAxes> drive_fault{};       // cause present: drive reports Fault
   std::array<bool, kAxes> drive_nostop{};      // ignores stop ramps
   std::array<c402::DriveState, kAxes> ds{};
@@ -55,10 +57,10 @@ struct Plant {
   void follow(const SupervisorOut& o) {
     ++age;
     contactor_count = (o.contactor && !contactor_stuck_open) ? contactor_count + 1 : 0;
-    contactor_fb = contactor_count >= contactor_delay;
+    contactor_fb = (contactor_count >= contactor_delay) || contactor_welded;
     for (std::size_t i = 0; i < kAxes; ++i) {
       brake_count[i] = (o.brakes_release && !brake_stuck[i]) ? brake_count[i] + 1 : 0;
-      brake_fb[i] = (brake_count[i] >= brake_delay) || (brake_stuck_released && brake_fb[i]);
+      brake_fb[i] = (brake_count[i] >= brake_delay) || (brake_stuck_released && brake_fb[i]) || brake_welded_released[i];
       auto& s = ds[i];
       if (age < boot_cycles) {
         continue;

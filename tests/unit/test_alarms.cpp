@@ -47,6 +47,8 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"MODE_CHANGED", Severity::info, Latch::until_ok},
       {"ENABLING_PANIC", Severity::info, Latch::until_ok},
       {"JOG_LINK_LOST", Severity::info, Latch::until_ok},
+      {"CONTACTOR_WELDED", Severity::lockout, Latch::power_cycle},
+      {"BRAKE_NOT_ENGAGED", Severity::fault, Latch::reset},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

@@ -41,6 +41,13 @@ TEST(Describe, ArmingTimeoutNamesTheStep) {
   d.has_step = true;
   char buf[64];
   EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step BRAKES timed out");
+  d.signal = Signal::brake;
+  d.axis = 4;
+  EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step BRAKES timed out (brake 4)");
+  d.step = ArmingStep::DRIVES;
+  d.signal = Signal::drive;
+  d.axis = 2;
+  EXPECT_STREQ(describe(AlarmId::ARMING_TIMEOUT, d, buf, sizeof buf), "Arming step DRIVES timed out (drive 2)");
 }
 
 TEST(Describe, EnableReleaseAndCommandCauses) {
@@ -62,4 +69,76 @@ TEST(Describe, TruncatesToTheBuffer) {
   char buf[8];
   describe(AlarmId::FIELDBUS_LOST, AlarmDetail{}, buf, sizeof buf);
   EXPECT_EQ(std::string(buf).size(), 7U);
+}
+
+namespace {
+std::string signal(Signal s, Channel ch = Channel::none, std::uint8_t axis = 0) {
+  AlarmDetail d{};
+  d.signal = s;
+  d.channel = ch;
+  d.axis = axis;
+  char buf[32];
+  return signal_name(d, buf, sizeof buf);
+}
+}  // namespace
+
+// The names of spec/scenario-format.md `cause.signal=` and `alarm.NAME.detail=`.
+// @req AL-CAUSE SCN-MORE-KEYS
+TEST(Names, SignalNamesAreThoseOfTheScenarioFormat) {
+  EXPECT_EQ(signal(Signal::estop, Channel::a), "estop.a");
+  EXPECT_EQ(signal(Signal::estop, Channel::b), "estop.b");
+  EXPECT_EQ(signal(Signal::estop, Channel::both), "estop.a");
+  EXPECT_EQ(signal(Signal::gate, Channel::b), "gate.b");
+  EXPECT_EQ(signal(Signal::enable, Channel::a), "enable.a");
+  EXPECT_EQ(signal(Signal::enable, Channel::panic), "enable.panic");
+  EXPECT_EQ(signal(Signal::mode), "mode");
+  EXPECT_EQ(signal(Signal::fieldbus), "fieldbus");
+  EXPECT_EQ(signal(Signal::drive, Channel::none, 4), "drive.4");
+  EXPECT_EQ(signal(Signal::brake, Channel::none, 6), "brake.6");
+  EXPECT_EQ(signal(Signal::contactor), "contactor");
+  EXPECT_EQ(signal(Signal::internal), "internal");
+  EXPECT_EQ(signal(Signal::command), "command");
+  EXPECT_EQ(signal(Signal::none), "-");
+  char tiny[4];
+  AlarmDetail d{};
+  d.signal = Signal::contactor;
+  EXPECT_EQ(std::string(signal_name(d, tiny, sizeof tiny)), "con") << "truncated, always terminated";
+}
+
+// @req AL-CAUSE SCN-MORE-KEYS
+TEST(Names, DetailNamesTheArmingStep) {
+  AlarmDetail d{};
+  d.signal = Signal::drive;
+  d.axis = 2;
+  d.step = ArmingStep::DRIVES;
+  d.has_step = true;
+  char buf[32];
+  EXPECT_EQ(std::string(detail_name(d, buf, sizeof buf)), "DRIVES");
+  d.has_step = false;
+  EXPECT_EQ(std::string(detail_name(d, buf, sizeof buf)), "drive.2");
+}
+
+// @req AL-FIRST-OUT SCN-MORE-KEYS
+TEST(Names, CauseNames) {
+  Cause c{};
+  EXPECT_STREQ(cause_name(c), "-");
+  c.kind = CauseKind::alarm;
+  c.alarm = AlarmId::BRAKE_NOT_ENGAGED;
+  EXPECT_STREQ(cause_name(c), "BRAKE_NOT_ENGAGED");
+  c.kind = CauseKind::command;
+  c.command = CommandId::jog_stop;
+  EXPECT_STREQ(cause_name(c), "jog_stop");
+  c.kind = CauseKind::event;
+  c.rule = 5;
+  EXPECT_STREQ(cause_name(c), "enable_released");
+  c.rule = 0;  // a program that finished in MANUAL_RUNNING: a stop without a named cause
+  EXPECT_STREQ(cause_name(c), "-");
+}
+
+// @req AL-FEEDBACK
+TEST(Describe, FeedbackAlarms) {
+  EXPECT_EQ(words(AlarmId::BRAKE_NOT_ENGAGED, Signal::brake, Channel::none, 3),
+            "Brake 3 still released after engage was commanded");
+  EXPECT_EQ(words(AlarmId::CONTACTOR_WELDED, Signal::contactor),
+            "Main contactor feedback still closed after open was commanded");
 }

@@ -14,8 +14,15 @@ namespace ref = safestate::reference;
 namespace {
 
 struct Harness {
-  explicit Harness(std::uint32_t seed) : rng(seed) {}
+  explicit Harness(std::uint32_t seed) : rng(seed), feedback_rng(seed * 7919U) {}
   std::mt19937 rng;
+  // Feedback-monitoring faults (SPEC §7) draw from their own stream, and only in the
+  // histories that ask for them, so the other histories keep their coverage.
+  std::mt19937 feedback_rng;
+  bool feedback_faults = false;
+  bool rare_feedback(int per_100k) {
+    return feedback_faults && static_cast<int>(feedback_rng() % 100000U) < per_100k;
+  }
   Timing timing = to_timing(Config{});
   SignalLayer signals;
   SystemStateManager core{timing};
@@ -64,6 +71,9 @@ struct Harness {
     if (rare(1)) { plant.fieldbus = !plant.fieldbus; log << t << ":fieldbus " << plant.fieldbus << "\n"; }
     if (fieldbus_down_until > 0U) { plant.fieldbus = t >= fieldbus_down_until; }
     if (rare(5)) { plant.contactor_stuck_open = !plant.contactor_stuck_open; }
+    if (rare_feedback(3)) { plant.contactor_welded = !plant.contactor_welded; log << t << ":welded " << plant.contactor_welded << "\n"; }
+    if (rare_feedback(10)) { const auto i = feedback_rng() % 6U; plant.brake_welded_released[i] = !plant.brake_welded_released[i]; log << t << ":brake released " << i << "\n"; }
+    if (rare_feedback(2)) { fb.self_test_ok = !fb.self_test_ok; log << t << ":self-test " << fb.self_test_ok << "\n"; }
     if (rare(5)) { const auto i = rng() % 6U; plant.brake_stuck[i] = !plant.brake_stuck[i]; }
     if (rare(10)) { const auto i = rng() % 6U; plant.drive_nostop[i] = !plant.drive_nostop[i]; }
     const bool moving = out.motion.mode == MotionMode::Program || out.motion.mode == MotionMode::Jog;
@@ -219,6 +229,7 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
     if (seed % 8 == 0) {
       h.fieldbus_down_until = 3500;  // the bus never comes up in time: BOOT_FAILED
     }
+    h.feedback_faults = seed % 5 == 3;
     const std::string diff = h.run(kCycles);
     ASSERT_TRUE(diff.empty()) << "seed " << seed << ": " << diff << "\nlast events:\n" << tail(h.log.str(), 25);
     for (std::size_t i = 0; i < states.size(); ++i) states[i] += h.state_cycles[i];

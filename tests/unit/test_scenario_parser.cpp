@@ -528,7 +528,7 @@ TEST(ScenarioParser, BadExpectsAreMalformed) {
   expect_malformed("@0 expect reset_lamp=1\n", 1, "reset_lamp");
   expect_malformed("@0 expect alarm=FIRE\n", 1, "FIRE");
   expect_malformed("@0 expect noalarm=\n", 1, "noalarm");
-  expect_malformed("@0 expect reply=pending\n", 1, "pending");
+  expect_malformed("@0 expect reply=waiting\n", 1, "waiting");  // `pending` is a value (SPEC §9)
   expect_malformed("@0 expect tcp_speed=5\n", 1, "tcp_speed");
   expect_malformed("@0 expect tcp_speed<=fast\n", 1, "tcp_speed");
   expect_malformed("@0 expect tcp_speed<=inf\n", 1, "tcp_speed");

@@ -320,3 +320,67 @@ TEST(ProgramExecutor, AWaypointWhereTheArmAlreadyIsTakesNoTimeAndNoVelocity) {
   for (std::size_t i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(q[i], here[i]) << "it dwells where it is";
   for (float v : p.velocity()) EXPECT_EQ(v, 0.0F) << "no velocity while dwelling";
 }
+
+// --- the injections of "More keys, faults and settings" ------------------------------------------
+
+// @req SIM-CELL
+TEST(SimFaults, SlowEnableMakesEachEnablingStepTakeItsTime) {
+  CellRun r;
+  r.cycles(100);
+  r.cell.inject({sim::FaultKind::drive_slow_enable, 2, 40});  // 40 ms per step at 1 ms
+  ASSERT_EQ(r.cmd(CommandId::reset), Result::OK);
+  ASSERT_EQ(r.cmd(CommandId::servo_on), Result::OK);
+  const auto enabled = [](std::size_t i) {
+    return [i](const sim::Cell& c) {
+      return core::cia402::decode(c.view().statusword[i]) == core::cia402::DriveState::OperationEnabled;
+    };
+  };
+  const int fast = r.until(enabled(0), 200);
+  ASSERT_GT(fast, 0);
+  const int slow = r.until(enabled(1), 400);
+  ASSERT_GT(slow, 0);
+  // Three enabling steps of 40 cycles instead of one each: about 117 cycles later.
+  EXPECT_GE(slow, 3 * 40 - 3 - 2);
+  EXPECT_LE(slow, 3 * 40 + 2);
+}
+
+// @req SIM-CELL
+TEST(SimFaults, RawStatuswordUntilClear) {
+  CellRun r;
+  r.cycles(100);
+  r.cell.inject({sim::FaultKind::drive_statusword, 5, 0x1234});
+  r.cycles(1);
+  EXPECT_EQ(r.cell.view().statusword[4], 0x1234);
+  r.cell.inject({sim::FaultKind::drive_clear, 5, 0});
+  r.cycles(1);
+  EXPECT_EQ(r.cell.view().statusword[4], 0x0040) << "back to its own state: Switch on disabled";
+}
+
+// @req SIM-CELL
+TEST(SimFaults, WeldedContactorAndReleasedBrakeFeedbacks) {
+  CellRun r;
+  r.cycles(10);
+  r.cell.inject({sim::FaultKind::contactor_welded, 0, 0});
+  r.cell.inject({sim::FaultKind::brake_stuck_released, 3, 0});
+  r.cycles(1);
+  EXPECT_TRUE(r.cell.view().contactor_closed) << "closed though commanded open";
+  EXPECT_TRUE(r.cell.view().brake_released[2]) << "released though commanded engaged";
+  EXPECT_FALSE(r.cell.view().brake_released[1]);
+  r.cell.inject({sim::FaultKind::clear_all, 0, 0});
+  r.cycles(2);  // the contacts open in this cycle's write, the next read sees it
+  EXPECT_FALSE(r.cell.view().contactor_closed);
+}
+
+// @req SIM-CELL
+TEST(SimFaults, ProgramUnloadAndJogLinkAreRestoredByClearAll) {
+  CellRun r;
+  r.cell.inject({sim::FaultKind::program_unload, 0, 0});
+  r.cell.inject({sim::FaultKind::jog_link_drop, 0, 0});
+  r.cycles(1);
+  EXPECT_EQ(r.cell.view().program_length, 0U);
+  EXPECT_FALSE(r.cell.jog_link_up());
+  r.cell.inject({sim::FaultKind::clear_all, 0, 0});
+  r.cycles(1);
+  EXPECT_GT(r.cell.view().program_length, 0U);
+  EXPECT_TRUE(r.cell.jog_link_up());
+}

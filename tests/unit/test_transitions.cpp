@@ -630,9 +630,9 @@ TEST(Idle, ResetWithADriveStillFaultedAnswersFaultPresentWithin50Cycles) {
   b.cycle(3);
   const Command c = b.make(CommandId::reset);
   b.send(c);
-  b.cycle(51);
+  b.cycle(50);  // cycles T..T+49: still waiting for the drives
   EXPECT_TRUE(b.replies.empty() || b.replies.back().seq != c.seq);
-  b.cycle();
+  b.cycle();  // cycle T+50: the answer, at the latest (SPEC §5)
   ASSERT_FALSE(b.replies.empty());
   EXPECT_EQ(b.replies.back().seq, c.seq);
   EXPECT_EQ(b.replies.back().result, Result::FAULT_PRESENT);
@@ -751,8 +751,49 @@ TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) 
   ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
   b.cycle(300);
   EXPECT_EQ(b.out.state, State::STOPPING) << "waits brakes_timeout for the brake feedback";
+  EXPECT_TRUE(b.out.drives_enable) << "the drives hold the axis until the timeout";
   b.cycle();
   EXPECT_EQ(b.out.state, State::IDLE);
+  // SPEC §7: BRAKE_NOT_ENGAGED (rule 3, latched) names the axis; power is cut at once.
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  ASSERT_TRUE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).axis, 1U);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).signal, Signal::brake);
+  EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT) << "the brake still does not hold";
+}
+
+// @req AL-FEEDBACK TR-C1
+TEST(FeedbackMonitoring, WeldedContactorLocksOutFromAnyState) {
+  Bench b;
+  b.to_idle();
+  b.plant.contactor_welded = true;  // feedback closed from the next cycle on
+  b.cycle(101);
+  EXPECT_EQ(b.out.state, State::IDLE) << "100 ms of a contradicting feedback are tolerated";
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::CONTACTOR_WELDED));
+  EXPECT_EQ(b.out.stop, StopCat::CAT0);
+  EXPECT_EQ(b.command(CommandId::reset), Result::LOCKED_OUT);
+}
+
+// @req AL-FEEDBACK TR-C3
+TEST(FeedbackMonitoring, BrakeNotEngagedIsLatchedInIdleToo) {
+  Bench b;
+  b.to_idle();
+  b.plant.brake_welded_released[3] = true;  // axis 4, feedback released from the next cycle on
+  b.cycle(301);
+  EXPECT_FALSE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED));
+  b.cycle();
+  ASSERT_TRUE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).axis, 4U);
+  EXPECT_TRUE(b.out.reset_lamp);
+  EXPECT_EQ(b.command(CommandId::servo_on), Result::RESET_REQUIRED);
+  EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT);
+  b.plant.brake_welded_released[3] = false;
+  b.cycle();
+  EXPECT_EQ(b.command(CommandId::reset), Result::OK);
+  EXPECT_FALSE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED));
 }
 
 // @req CYC-MAX-COMMANDS RES-ONE

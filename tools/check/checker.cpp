@@ -1,5 +1,6 @@
 #include "checker.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -33,6 +34,7 @@ const std::vector<std::string>& action_texts() {
       "cmd from=remote start", "cmd from=remote reset", "cmd from=remote servo_on",
       "fault drive 1 fault", "fault drive 1 clear", "fault drive 2 runaway", "fault drive 3 nostop",
       "fault fieldbus lost", "fault contactor stuck_open", "fault brake 1 stuck", "fault clear all",
+      "fault contactor welded", "fault brake 2 stuck_released",
   };
   return k;
 }
@@ -54,11 +56,19 @@ std::vector<Applied> parse_actions() {
   return out;
 }
 
+// How long each feedback has contradicted the command of the cycle before (SPEC §7),
+// counted here from the outside, independently of the core's own monitors.
+struct FeedbackWatch {
+  core::Cycle welded = 0;
+  std::array<core::Cycle, core::kAxes> brake{};
+};
+
 struct Node {
   std::unique_ptr<sim::Cell> cell;
   reference::Supervisor ref;
   std::vector<std::pair<std::uint32_t, core::Cycle>> pending;  // command seq, cycle sent
   std::size_t trail = 0;  // index into the trail (path) table
+  FeedbackWatch watch{};
 };
 
 struct Trail {
@@ -172,6 +182,26 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     v = {"E-stop pressed => ESTOP_ACTIVE or ERROR_LOCKOUT with safe outputs in the same cycle", to_string(o.state),
          "state=ESTOP_ACTIVE contactor=open drives=disabled brakes=engaged", t};
     return false;
+  }
+  // SPEC §7 feedback monitoring: a contactor feedback closed for more than 100 ms after
+  // open was commanded locks out; a brake feedback released for more than 300 ms after
+  // engage was commanded raises BRAKE_NOT_ENGAGED with power removed.
+  const core::Feedback& fb = n.cell->feedback();
+  const core::Timing tm = core::to_timing(n.cell->config());
+  n.watch.welded = (!before.contactor && fb.contactor_closed) ? n.watch.welded + 1U : 0U;
+  if (n.watch.welded > tm.contactor_timeout && o.state != State::ERROR_LOCKOUT) {
+    v = {"contactor feedback closed > 100 ms after open was commanded => ERROR_LOCKOUT (CONTACTOR_WELDED)",
+         to_string(o.state), "state=ERROR_LOCKOUT alarm=CONTACTOR_WELDED", t};
+    return false;
+  }
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    n.watch.brake[i] = (!before.brakes_release && fb.brake_released[i]) ? n.watch.brake[i] + 1U : 0U;
+    const bool alarmed = (o.alarms & core::bit(core::AlarmId::BRAKE_NOT_ENGAGED)) != 0U;
+    if (n.watch.brake[i] > tm.brakes_timeout && (!alarmed || powered_state)) {
+      v = {"brake feedback released > 300 ms after engage was commanded => BRAKE_NOT_ENGAGED, power removed",
+           to_string(o.state), "alarm=BRAKE_NOT_ENGAGED contactor=open", t};
+      return false;
+    }
   }
   if (before.state == State::ERROR_LOCKOUT && o.state != State::ERROR_LOCKOUT) {
     v = {"ERROR_LOCKOUT is never left", to_string(o.state), "state=ERROR_LOCKOUT", t};
@@ -303,7 +333,7 @@ bool Checker::apply_directive(Node& n, const scenario::Directive& d, Violation& 
     return step(n, nullptr, 0, v);
   }
   const auto& c = std::get<scenario::CommandStep>(d);
-  Node base{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail};
+  Node base{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch};
   Violation ignored;
   step(base, nullptr, 0, ignored);
   core::Command cmd = c.command;
@@ -384,7 +414,7 @@ int Checker::run() {
         acts.push_back(kWaitLong);
       }
       for (std::size_t a : acts) {
-        Node child{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail};
+        Node child{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch};
         const core::Cycle t = child.cell->now();
         const std::string line = (a < action_texts().size()) ? action_texts()[a] : std::string();
         Violation v;

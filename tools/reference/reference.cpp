@@ -120,7 +120,8 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   for (const core::DriveFeedback& d : fb.drive) offline = offline || !d.online;
   if (!boot_pending_ && (!fb.fieldbus_ok || offline)) { raise(AlarmId::FIELDBUS_LOST); r1 = true; }
   if (!fb.integrity_ok) { raise(AlarmId::INTEGRITY_FAULT); r1 = true; }
-  if (boot_pending_ && now_ > t_.boot_timeout) { raise(AlarmId::BOOT_FAILED); r1 = true; }
+  if (boot_pending_ && (now_ > t_.boot_timeout || !fb.self_test_ok)) { raise(AlarmId::BOOT_FAILED); r1 = true; }
+  if (contactor_welded_) { raise(AlarmId::CONTACTOR_WELDED); r1 = true; }
   if (r1) {
     done = true;
     cat0_to(St::LOCKOUT);
@@ -145,6 +146,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
       r3 = true;
     }
     if (s0 == St::STOPPING && ramping_at_start && stop_elapsed_at_start > t_.max_stop) { raise(AlarmId::STOP_TIME_EXCEEDED); r3 = true; }
+    if (brake_not_engaged_) r3 = true;  // raised in every state, above
     if (r3 && !done) {
       done = true;
       cat0_to(St::IDLE);
@@ -271,6 +273,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
     case St::ESTOP:
       return Result::ESTOP_ACTIVE;
     case St::BOOT:
+      if (id == CommandId::confirm_t2 && in.mode != Mode::T2) return Result::MODE_INVALID;
       return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
     case St::ESTOP_RESET:
       if (id != CommandId::reset) return Result::RESET_REQUIRED;
@@ -284,6 +287,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           if (has(AlarmId::PROTECTIVE_STOP) && in.gate_open && in.mode == Mode::AUTO) return Result::FAULT_PRESENT;
           if (has(AlarmId::T1_SPEED_EXCEEDED) && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) return Result::FAULT_PRESENT;
           if (has(AlarmId::STOP_TIME_EXCEEDED) && !standstill()) return Result::FAULT_PRESENT;
+          if (has(AlarmId::BRAKE_NOT_ENGAGED) && brake_not_engaged_) return Result::FAULT_PRESENT;
           if (drives_faulted(fb)) {
             pending_reset_ = true;
             pending_since_ = now_;
@@ -433,8 +437,18 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
       const c402::DriveState ds = c402::decode(d.statusword);
       answered = answered && d.online && ds != c402::DriveState::Unknown && ds != c402::DriveState::NotReadyToSwitchOn;
     }
-    if (answered) boot_pending_ = false;
+    if (answered && fb.self_test_ok) boot_pending_ = false;
   }
+  // Contactor commanded open with its feedback closed, brakes commanded engaged with a
+  // feedback released: more than 100 / 300 cycles in a row is a fault (SPEC §7).
+  welded_for_ = (!last_contactor_ && fb.contactor_closed) ? welded_for_ + 1U : 0U;
+  contactor_welded_ = welded_for_ > t_.contactor_timeout;
+  brake_not_engaged_ = false;
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    brake_for_[i] = (!last_brakes_release_ && fb.brake_released[i]) ? brake_for_[i] + 1U : 0U;
+    brake_not_engaged_ = brake_not_engaged_ || brake_for_[i] > t_.brakes_timeout;
+  }
+  if (brake_not_engaged_) raise(AlarmId::BRAKE_NOT_ENGAGED);
   if (st_ == St::ARMING) ++arming_elapsed_;
   if (st_ == St::STOPPING) {
     ++stop_elapsed_;
@@ -463,7 +477,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
       alarms_ &= ~core::kLatchedAlarms;
       pending_reset_ = false;
       answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::OK);
-    } else if (now_ - pending_since_ > t_.fault_reset_reply) {
+    } else if (now_ - pending_since_ >= t_.fault_reset_reply) {  // answered by T+50
       pending_reset_ = false;
       answer(out, pending_seq_, static_cast<std::uint8_t>(CommandId::reset), pending_src_, Result::FAULT_PRESENT);
     }
@@ -487,6 +501,8 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   const std::size_t taken = (cmds == nullptr) ? 0U : (n < limit ? n : limit);
   for (std::size_t i = 0; i < taken; ++i) run(cmds[i]);
   write(out);
+  last_contactor_ = out.contactor;
+  last_brakes_release_ = out.brakes_release;
   ++now_;
   return taken;
 }

@@ -82,6 +82,13 @@ class Supervisor {
   core::Cycle pending_since_ = 0;
   std::uint32_t pending_seq_ = 0;
   std::uint8_t pending_src_ = 0;
+  // SPEC §7 feedback monitoring: last cycle's commands and how long feedback contradicts them.
+  bool last_contactor_ = false;
+  bool last_brakes_release_ = false;
+  core::Cycle welded_for_ = 0;
+  std::array<core::Cycle, core::kAxes> brake_for_{};
+  bool brake_not_engaged_ = false;
+  bool contactor_welded_ = false;
 };
 
 }  // namespace safestate::reference

@@ -28,8 +28,12 @@ enum class AlarmId : std::uint8_t {
   MODE_CHANGED,
   ENABLING_PANIC,
   JOG_LINK_LOST,
+  // SPEC §7 feedback monitoring (ISO 13849-1 external device monitoring); appended so
+  // that the bit of every older alarm keeps its place (bridge, event log, HMI).
+  CONTACTOR_WELDED,
+  BRAKE_NOT_ENGAGED,
 };
-inline constexpr std::size_t kAlarmCount = 17;
+inline constexpr std::size_t kAlarmCount = 19;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -105,6 +109,13 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
   {AlarmId::JOG_LINK_LOST, "JOG_LINK_LOST", 403, Severity::info, Latch::until_ok,
    "Jog keep-alive messages stopped arriving; the jog was stopped.",
    "Check the pendant connection, then jog again."},
+  {AlarmId::CONTACTOR_WELDED, "CONTACTOR_WELDED", 107, Severity::lockout, Latch::power_cycle,
+   "The main contactor was commanded open but its feedback contact still said closed 100 ms later: "
+   "power cannot be removed by this path.",
+   "Isolate the cell at the main switch, replace the main contactor (welded contacts), then power-cycle."},
+  {AlarmId::BRAKE_NOT_ENGAGED, "BRAKE_NOT_ENGAGED", 206, Severity::fault, Latch::reset,
+   "A holding brake was commanded engaged but its feedback still said released 300 ms later; power was cut.",
+   "Secure the named axis against falling, check its brake and brake feedback, then reset."},
 }};
 // clang-format on
 

@@ -23,6 +23,7 @@ struct Config {
   std::uint32_t brakes_timeout_ms = 300;     // ARMING step BRAKES, and brake engage at Cat 1 end
   std::uint32_t reset_hold_max_ms = 5000;    // reset button held longer is not a reset
   std::uint32_t fault_reset_reply_cycles = 50;  // SPEC §5: drives answer a fault reset within
+  std::uint32_t queue_size = 64;                // SPEC §9: commands waiting for a cycle
 };
 
 // The same constants in cycles. A timer "fires" when its count of elapsed cycles is
@@ -55,6 +56,9 @@ struct ConfigError {
 
 // Only meaningful for a Config that validate() accepted.
 [[nodiscard]] Timing to_timing(const Config& c) noexcept;
+
+// The largest command queue a cell may be configured with (fixed storage, no heap).
+inline constexpr std::uint32_t kMaxQueueSize = 256;
 
 // Whole cycles in `ms` at `cycle_us`, rounded down: a limit of N cycles fires after
 // strictly more than `ms` have elapsed.

@@ -26,6 +26,7 @@ struct Feedback {
   std::array<bool, kAxes> brake_released{};      // brake feedback: true = released
   bool fieldbus_ok = true;                       // cyclic data valid this cycle
   bool integrity_ok = true;                      // external integrity checks (HAL, memory)
+  bool self_test_ok = true;                      // the platform's start-up self-test (RAM, watchdog)
   // From the motion layer, computed from measured joint positions (forward kinematics):
   float tcp_speed_mm_s = 0.0F;
   float max_point_speed_mm_s = 0.0F;  // max over the TCP and every link-frame origin

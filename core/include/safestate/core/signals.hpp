@@ -59,6 +59,8 @@ class EnablingDevice {
   [[nodiscard]] bool enabled() const noexcept { return enabled_; }
   [[nodiscard]] bool discrepancy() const noexcept { return centre_.discrepancy(); }
   [[nodiscard]] Channel fault_channel() const noexcept { return centre_.fault_channel(); }
+  // The centre contact that dropped first (the cause of a release).
+  [[nodiscard]] Channel cause() const noexcept { return centre_.cause(); }
   [[nodiscard]] bool panic_edge() const noexcept { return panic_edge_; }
   // True while a return to centre would not count until the device is released.
   [[nodiscard]] bool needs_release() const noexcept { return need_release_; }
@@ -146,6 +148,7 @@ struct SafetyInputs {
   bool enable_panic_edge = false;
   bool enable_discrepancy = false;
   Channel enable_fault_channel = Channel::none;
+  Channel enable_cause = Channel::none;  // the centre contact that dropped first
   Mode mode = Mode::NONE;
   Mode mode_requested = Mode::NONE;
   bool mode_changed = false;

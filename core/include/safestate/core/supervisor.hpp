@@ -49,6 +49,9 @@ struct SupervisorOut {
   std::uint8_t arming_progress = 0;
   bool t2_confirmed = false;
   bool at_standstill = false;
+  // Single point of control (ISO 10218-1 5.3.5): in T1/T2 the pendant alone commands;
+  // in AUTO or NONE no station holds control exclusively.
+  bool pendant_owner = false;
   Cause cause{};  // first-out cause of the current stop or lockout
   AlarmMask alarms = 0;
   AlarmMask alarms_raised = 0;   // this cycle
@@ -81,6 +84,7 @@ class SystemStateManager {
   struct CycleCtx;  // per-cycle scratch, defined in supervisor.cpp
 
   void update_monitors(CycleCtx& c) noexcept;
+  void update_feedback_monitors(CycleCtx& c) noexcept;
   bool evaluate_conditions(CycleCtx& c) noexcept;
   void evaluate_events(CycleCtx& c) noexcept;
   void finish_pending_reset(CycleCtx& c) noexcept;
@@ -115,6 +119,12 @@ class SystemStateManager {
   Cycle reset_pending_since_ = 0;
   std::uint32_t reset_seq_ = 0;
   std::uint8_t reset_source_ = 0;
+  // Feedback monitoring (SPEC §7): what this core commanded last cycle, and how long
+  // each feedback has contradicted it.
+  bool contactor_cmd_ = false;
+  bool brakes_release_cmd_ = false;
+  Cycle welded_cycles_ = 0;
+  std::array<Cycle, kAxes> brake_cycles_{};
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.

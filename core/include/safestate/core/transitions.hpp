@@ -23,9 +23,9 @@ namespace safestate::core {
 
 enum class Trigger : std::uint8_t {
   // Conditions, checked every cycle in this priority (SPEC §4 rules 1..7).
-  lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure
+  lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded
   estop_pressed,       // 2
-  stop_fault,          // 3: drive fault, T1 speed, stop time exceeded
+  stop_fault,          // 3: drive fault, T1 speed, stop time exceeded, brake not engaged
   gate_open_in_auto,   // 4, 4b
   enable_left_centre,  // 5, 5b
   mode_changed,        // 6
@@ -74,6 +74,7 @@ struct GuardView {
   bool boot_pending;
   bool reset_pending;
   bool at_standstill;
+  bool brake_not_engaged;  // a brake feedback contradicts its engaged command (SPEC §7)
 };
 
 using GuardFn = Result (*)(const GuardView&) noexcept;
@@ -169,8 +170,9 @@ inline constexpr auto kTransitions = [] {
   using enum AlarmId;
   using enum Effect;
   constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
-                               bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED);
-  constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED);
+                               bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED);
+  constexpr AlarmMask kRule3 =
+      bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) | bit(BRAKE_NOT_ENGAGED);
   return std::array<Transition, 35>{{
   // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------

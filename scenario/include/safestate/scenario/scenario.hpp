@@ -77,9 +77,30 @@ enum class ExpectKey : std::uint8_t {
   noalarm,
   reply,
   tcp_speed,
+  // "More keys, faults and settings" of the format.
+  cause,             // name: alarm name, enable_released, servo_off, pause, stop, jog_stop, -
+  cause_signal,      // name: estop.a ... brake.N
+  alarm_number,      // value: AlarmId, number: expected number
+  alarm_detail,      // value: AlarmId, name: expected detail
+  mode_requested,    // value: Mode
+  axis_state,        // axis, value: motion::AxisState
+  axis_cia402,       // axis, value: cia402::DriveState
+  axis_controlword,  // axis, number: expected controlword
+  axis_speed,        // axis, cmp, limit (rad/s, |measured velocity|)
+  point_speed,       // cmp, limit (mm/s, fastest of TCP and link origins)
+  reply_cmd,         // axis: CommandId, or kResetButtonReply; value: Result or kPendingReply
+  replies,           // number: replies given in the window's cycles (alone on its line)
+  standstill,        // value 1 = yes
+  t2_confirmed,      // value 1 = yes
+  owner,             // value 1 = pendant, 0 = none
 };
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
+
+// `reply=pending` (and `reply.CMD=pending`): no Result has this value.
+inline constexpr std::uint8_t kPendingReply = 0xFF;
+// `reply.reset_button=`: the reset button's replies instead of one command's.
+inline constexpr std::uint8_t kResetButtonReply = 0xFE;
 
 // One key of an `expect` line.
 struct Expectation {
@@ -88,14 +109,25 @@ struct Expectation {
   // AlarmId or Result. contactor/drives/brakes/reset_lamp: 1 = closed / enabled /
   // released / on, 0 = open / disabled / engaged / off.
   std::uint8_t value = 0;
-  Compare cmp = Compare::le;  // tcp_speed only
-  double limit = 0.0;         // tcp_speed only, mm/s
+  Compare cmp = Compare::le;  // tcp_speed, point_speed, axis.N.speed
+  double limit = 0.0;         // the same: mm/s or rad/s
+  std::uint8_t axis = 0;      // axis.N.*: N (1..6); reply.CMD: the command
+  std::uint32_t number = 0;   // alarm.NAME.number, axis.N.controlword, replies
+  std::string name;           // cause, cause.signal, alarm.NAME.detail: the expected name
   std::string text;           // the token as written, e.g. "state=IDLE" (for messages)
+};
+
+// How an expect line is judged over its window (@T or @T1..T2).
+enum class ExpectMode : std::uint8_t {
+  every,    // `expect`: after every cycle of the window
+  once,     // `expect-once`: after at least one cycle, all keys in the same cycle
+  replies,  // `expect replies=N`: the replies of all the window's cycles, counted once at its end
 };
 
 // `expect KEY...`: every key must hold.
 struct ExpectStep {
   std::vector<Expectation> checks;
+  ExpectMode mode = ExpectMode::every;
 };
 
 using Directive = std::variant<InputStep, CommandStep, FaultStep, ExpectStep>;

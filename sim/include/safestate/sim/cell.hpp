@@ -25,11 +25,21 @@ enum class FaultKind : std::uint8_t {
   contactor_stuck_open,
   brake_stuck,      // brake N never releases
   clear_all,        // every injected cause is gone (drives still need a fault reset)
+  // "More keys, faults and settings" of the format (appended: older codes keep their value).
+  integrity,             // the core's integrity check fails (HAL integrity input)
+  selftest_fail,         // the platform's start-up self-test fails
+  drive_statusword,      // drive N reports the raw word `value` until `drive N clear`
+  drive_slow_enable,     // each enabling CiA 402 step of drive N takes `value` ms
+  contactor_welded,      // the contactor's feedback (and power) stay closed
+  brake_stuck_released,  // brake N's feedback stays released (and it does not hold)
+  program_unload,        // the program is unloaded (the cell's own, not the plant's)
+  jog_link_drop,         // the pendant's jog commands are lost on the way (cell)
 };
 
 struct Fault {
   FaultKind kind = FaultKind::clear_all;
-  std::uint8_t axis = 0;  // 1..6 for the drive_* and brake_stuck kinds
+  std::uint8_t axis = 0;    // 1..6 for the drive_* and brake_* kinds
+  std::uint16_t value = 0;  // drive_statusword: the word; drive_slow_enable: ms per step
 };
 
 // What the simulated cell shows after a cycle, besides the supervisor's output.
@@ -47,7 +57,7 @@ struct CellView {
   bool contactor_closed = false;            // feedback
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
-  std::uint32_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
+  std::uint64_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
   std::uint8_t program_index = 0;           // waypoint the program is heading to
   std::uint8_t program_length = 0;
 };
@@ -66,6 +76,9 @@ class Cell {
   void inject(const Fault& f) noexcept;
   // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
   core::Result submit(const core::Command& c) noexcept;
+  // False after `jog_link drop` until `clear all`: the pendant's `jog` commands are lost
+  // on the way (neither delivered nor answered). The sender asks before submitting.
+  [[nodiscard]] bool jog_link_up() const noexcept;
   // One scan cycle: read inputs and feedback, supervise, move, write, advance physics.
   void step() noexcept;
 

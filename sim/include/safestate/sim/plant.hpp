@@ -34,22 +34,30 @@ class SimPlant final : public hal::Backend {
 
   [[nodiscard]] std::uint16_t controlword(std::size_t i) const noexcept { return axis_[i].last_cw; }
   // Injected causes as bits: per axis i, bit 4i fault, 4i+1 runaway, 4i+2 nostop,
-  // 4i+3 brake stuck; bit 24 fieldbus lost, bit 25 contactor stuck open.
-  [[nodiscard]] std::uint32_t injected() const noexcept {
-    std::uint32_t m = 0;
+  // 4i+3 brake stuck; bit 24 fieldbus lost, 25 contactor stuck open, 26 contactor welded,
+  // 27 integrity failed, 28 self-test failed; per axis i, bit 32+4i brake stuck released,
+  // 33+4i raw statusword, 34+4i slow enable.
+  [[nodiscard]] std::uint64_t injected() const noexcept {
+    std::uint64_t m = 0;
+    const auto b = [](bool v, std::size_t at) { return static_cast<std::uint64_t>(v ? 1U : 0U) << at; };
     for (std::size_t i = 0; i < hal::kAxes; ++i) {
       const Axis& a = axis_[i];
-      m |= (a.fault_cause ? 1U : 0U) << (4U * i);
-      m |= (a.runaway ? 1U : 0U) << (4U * i + 1U);
-      m |= (a.nostop ? 1U : 0U) << (4U * i + 2U);
-      m |= (a.brake_stuck ? 1U : 0U) << (4U * i + 3U);
+      m |= b(a.fault_cause, 4U * i) | b(a.runaway, 4U * i + 1U) | b(a.nostop, 4U * i + 2U) |
+           b(a.brake_stuck, 4U * i + 3U);
+      m |= b(a.brake_stuck_released, 32U + 4U * i) | b(a.sw_override, 33U + 4U * i) |
+           b(a.slow_cycles != 0U, 34U + 4U * i);
     }
-    m |= (fieldbus_ok_ ? 0U : 1U) << 24U;
-    m |= (contactor_stuck_open_ ? 1U : 0U) << 25U;
+    m |= b(!fieldbus_ok_, 24U) | b(contactor_stuck_open_, 25U) | b(contactor_welded_, 26U) |
+         b(!integrity_ok_, 27U) | b(!self_test_ok_, 28U);
     return m;
   }
 
  private:
+  // The plant's side of the HAL integrity and self-test inputs.
+  bool integrity_ok_ = true;
+  bool self_test_ok_ = true;
+  bool contactor_welded_ = false;
+
   struct Axis {
     core::cia402::DriveState ds = core::cia402::DriveState::NotReadyToSwitchOn;
     std::uint16_t last_cw = 0;
@@ -62,7 +70,13 @@ class SimPlant final : public hal::Backend {
     std::uint32_t brake_timer = 0;
     bool brake_released = false;
     bool brake_stuck = false;
+    bool brake_stuck_released = false;
+    bool sw_override = false;     // reports sw_value instead of its state's statusword
+    std::uint16_t sw_value = 0;
+    std::uint32_t slow_cycles = 0;  // 0: one enabling step per cycle
+    std::uint32_t slow_timer = 0;
   };
+  [[nodiscard]] std::uint32_t cycles_of_ms(std::uint16_t ms) const noexcept;
   void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
   void physics(Axis& a, std::size_t i, float target) noexcept;
 
