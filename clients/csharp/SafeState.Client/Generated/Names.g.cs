@@ -176,6 +176,8 @@ namespace SafeState.Client
         MODE_CHANGED = 401,
         ENABLING_PANIC = 402,
         JOG_LINK_LOST = 403,
+        CONTACTOR_WELDED = 107,
+        BRAKE_NOT_ENGAGED = 206,
     }
 
     public static partial class Alarms
@@ -234,6 +236,12 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.JOG_LINK_LOST, 403, Severity.info, AlarmLatch.UntilOk,
                 "Jog keep-alive messages stopped arriving; the jog was stopped.",
                 "Check the pendant connection, then jog again."),
+            new AlarmInfo(AlarmName.CONTACTOR_WELDED, 107, Severity.lockout, AlarmLatch.PowerCycle,
+                "The main contactor was commanded open but its feedback contact still said closed 100 ms later: power cannot be removed by this path.",
+                "Isolate the cell at the main switch, replace the main contactor (welded contacts), then power-cycle."),
+            new AlarmInfo(AlarmName.BRAKE_NOT_ENGAGED, 206, Severity.fault, AlarmLatch.Reset,
+                "A holding brake was commanded engaged but its feedback still said released 300 ms later; power was cut.",
+                "Secure the named axis against falling, check its brake and brake feedback, then reset."),
         };
     }
 
@@ -383,6 +391,8 @@ namespace SafeState.Client
             "MODE_CHANGED",
             "ENABLING_PANIC",
             "JOG_LINK_LOST",
+            "CONTACTOR_WELDED",
+            "BRAKE_NOT_ENGAGED",
         };
     }
 }
