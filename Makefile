@@ -9,7 +9,7 @@ DEPS := tools/scripts/install-deps.sh
 
 VENV := .venv
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint opcua
 
 deps:
 	@$(DEPS) build
@@ -43,7 +43,23 @@ hmi/dist/index.html: hmi/node_modules/.stamp $(HMI_SRC)
 
 hmi: hmi/dist/index.html
 
-test: build $(VENV)/.stamp hmi/dist/index.html
+# The OPC 40010-1 (Robotics) server (TypeScript, node-opcua), started by `safestate run`
+# from adapters/opcua/dist. Same Node.js as the HMI; `npm ci` only when the lock changed.
+OPCUA_SRC := $(shell find adapters/opcua/src -type f 2>/dev/null) adapters/opcua/tsconfig.json
+
+adapters/opcua/node_modules/.stamp: adapters/opcua/package-lock.json adapters/opcua/package.json
+	@node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' || \
+	  { echo "opcua: needs Node.js >= 20 with npm (found: $$(node --version 2>/dev/null || echo none))" >&2; exit 1; }
+	cd adapters/opcua && npm ci --no-audit --no-fund
+	touch $@
+
+adapters/opcua/dist/main.js: adapters/opcua/node_modules/.stamp $(OPCUA_SRC)
+	cd adapters/opcua && npm run build
+	touch $@
+
+opcua: adapters/opcua/dist/main.js
+
+test: build $(VENV)/.stamp hmi/dist/index.html adapters/opcua/dist/main.js
 	@$(DEPS) embedded browser
 	ctest --preset default
 
@@ -98,8 +114,9 @@ embedded:
 	@$(DEPS) embedded
 	tools/scripts/embedded.sh
 
-# The live cell: core in a real-time loop on the simulated cell, gateway with the HMI.
-run: build hmi/dist/index.html
+# The live cell: core in a real-time loop on the simulated cell, gateway with the HMI,
+# OPC UA at opc.tcp://127.0.0.1:4840 (read-only without --opcua-users-file; docs/opcua.md).
+run: build hmi/dist/index.html adapters/opcua/dist/main.js
 	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
@@ -115,4 +132,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules adapters/opcua/dist adapters/opcua/node_modules

@@ -159,7 +159,6 @@ async def call(c, obj, method, *args):
 
 
 # ---------------------------------------------------------------------------- tests
-# @req OPCUA-ADDRESS-SPACE
 def test_browse_from_objects_to_the_mandatory_folders_with_the_nodeset_names(opc):
     async def main():
         async with client(opc.url) as c:
@@ -227,7 +226,6 @@ def test_browse_from_objects_to_the_mandatory_folders_with_the_nodeset_names(opc
     run(main())
 
 
-# @req OPCUA-READ-ONLY
 def test_every_value_is_read_only_and_anonymous_may_not_call(opc):
     async def main():
         async with client(opc.url) as c:
@@ -251,7 +249,6 @@ def test_every_value_is_read_only_and_anonymous_may_not_call(opc):
     run(main())
 
 
-# @req OPCUA-ESTOP-200MS
 def test_a_subscription_sees_emergency_stop_within_200_ms_of_a_press(opc):
     async def main():
         p = await booted(opc.cell)
@@ -293,7 +290,6 @@ def test_a_subscription_sees_emergency_stop_within_200_ms_of_a_press(opc):
     run(main())
 
 
-# @req OPCUA-MODE
 def test_key_switch_modes_show_in_operational_mode(opc):
     async def main():
         p = await booted(opc.cell)
@@ -308,7 +304,6 @@ def test_key_switch_modes_show_in_operational_mode(opc):
     run(main())
 
 
-# @req OPCUA-METHODS
 def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):
     async def main():
         p = await booted(opc.cell)
@@ -349,7 +344,6 @@ def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):
     run(main())
 
 
-# @req OPCUA-ALARMS
 def test_an_alarm_raises_and_clears_an_ac_event_with_its_number(opc):
     async def main():
         p = await booted(opc.cell)
@@ -399,7 +393,6 @@ def test_an_alarm_raises_and_clears_an_ac_event_with_its_number(opc):
     run(main())
 
 
-# @req OPCUA-COMM-LOSS
 def test_killing_the_gateway_turns_values_bad_and_they_recover(opc):
     async def main():
         async with client(opc.url) as c:
@@ -427,7 +420,6 @@ def adapter(tmp_path, *args):
                              *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
-# @req OPCUA-SECURITY
 def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tmp_path):
     port = free_port()
     a = adapter(tmp_path, "--bind", "0.0.0.0", "--port", str(port))
