@@ -384,6 +384,16 @@ def test_an_alarm_raises_and_clears_an_ac_event_with_its_number(opc):
             assert "ESTOP_PRESSED" in names
             numbers = await (await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:numbers")).read_value()
             assert active["number"] in numbers
+            # Acknowledging is a method too: an anonymous client may not.
+            condition = await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:ESTOP_PRESSED")
+            ack = await c.nodes.base_event_type.get_child(["0:ConditionType", "0:AcknowledgeableConditionType",
+                                                          "0:Acknowledge"])
+            req = ua.CallMethodRequest()
+            req.ObjectId, req.MethodId = condition.nodeid, ack.nodeid
+            req.InputArguments = [ua.Variant(raised.EventId, ua.VariantType.ByteString),
+                                  ua.Variant(ua.LocalizedText("seen"), ua.VariantType.LocalizedText)]
+            [res] = await c.uaclient.call([req])
+            assert res.StatusCode.name == "BadUserAccessDenied", res.StatusCode
             assert (await p.sim(set={"estop.a": 1, "estop.b": 1}))["result"] == "OK"
             cleared = await next_event(lambda e: e.AlarmName == "ESTOP_PRESSED" and e.ActiveState.Text == "Inactive",
                                        "the ESTOP_PRESSED cleared event")

@@ -7,7 +7,7 @@ import { MessageSecurityMode, OPCUACertificateManager, OPCUAServer, SecurityPoli
 import { Alarms } from "./alarms";
 import { Config, ConfigError, isLoopback, parseArgs } from "./config";
 import { GatewayClient } from "./gateway_client";
-import { addMethods } from "./methods";
+import { addMethods, requireAuthenticatedCalls } from "./methods";
 import { Model } from "./model";
 import { Users, hashLine } from "./users";
 
@@ -81,10 +81,13 @@ async function serve(cfg: Config): Promise<void> {
   const server = makeServer(cfg, users);
   await server.initialize();
   const as = server.engine.addressSpace!;
+  // Binds the A&C type methods (Acknowledge, ConditionRefresh, ...) of OPC 10000-9.
+  as.installAlarmsAndConditionsService();
   const model = new Model(as, cfg.cycleUs, cfg.version);
   const alarms = new Alarms(as, model);
   const gateway = new GatewayClient(cfg.gateway, cfg.gatewayHttp, cfg.remoteToken, cfg.version);
   addMethods(model, gateway);
+  requireAuthenticatedCalls(as);
   readOnly(model);
 
   let alarmKey = "";

@@ -4,7 +4,9 @@
 // Nothing only the pendant may do (reset, jog, servo_on in manual modes, T2 confirm) is
 // reachable: ISO 10218-1 5.3.5 single point of control, enforced again by the gateway.
 import {
+  AddressSpace,
   Argument,
+  MethodIds,
   CallMethodResultOptions,
   DataType,
   ISessionContext,
@@ -65,6 +67,24 @@ const METHODS: Spec[] = [
 export function authenticated(context: ISessionContext): boolean {
   const session = (context as unknown as { session?: { userIdentityToken?: unknown } }).session;
   return session?.userIdentityToken instanceof UserNameIdentityToken;
+}
+
+// Methods that only concern the caller's own subscriptions (OPC 10000-5 / 10000-9): a
+// read-only client needs them to keep an alarm list and its data changes in step.
+const READ_LIKE = new Set([
+  MethodIds.ConditionType_ConditionRefresh,
+  MethodIds.ConditionType_ConditionRefresh2,
+  MethodIds.Server_GetMonitoredItems,
+  MethodIds.Server_ResendData,
+]);
+
+// Every other method — ours, A&C Acknowledge/Confirm/AddComment/Enable/Disable/shelving,
+// the Server object's — needs an authenticated user (IEC 62443-3-3 SR 1.1, SR 2.1).
+export function requireAuthenticatedCalls(as: AddressSpace): void {
+  as.addMethodCallInterceptor((context: ISessionContext, _object: unknown, method: UAMethod) => {
+    const standard = method.nodeId.namespace === 0 && READ_LIKE.has(method.nodeId.value as number);
+    return standard || authenticated(context) ? StatusCodes.Good : StatusCodes.BadUserAccessDenied;
+  });
 }
 
 function result(statusCode: StatusCode, code: string): CallMethodResultOptions {
