@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
   run->add_option("--opcua-users-file", run_opt.opcua_users_file,
                   "users who may call OPC UA methods (name:scrypt:SALT:HASH lines, see docs/opcua.md)");
   run->add_option("--opcua-pki", run_opt.opcua_pki, "OPC UA certificate store (default opcua-pki beside --db)");
+  run->add_option("--opcua-main", run_opt.opcua_main, "the adapter's main.js (default: this build's adapters/opcua)");
   safestate::runtime::RtBenchOptions rtb_opt;
   auto* rtbench = app.add_subcommand("rtbench", "measure the real-time loop's wake-up lateness (no gateway)");
   rtbench->add_option("--seconds", rtb_opt.seconds, "how long to run")->check(CLI::Range(1, 3600));

@@ -472,3 +472,47 @@ def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tm
     finally:
         a.send_signal(signal.SIGTERM)
         a.wait(timeout=10)
+
+
+def test_a_busy_opcua_port_harms_nothing_and_the_adapter_comes_when_it_is_free(tmp_path):
+    """Decision (docs/opcua.md): an adapter that cannot bind exits and `safestate run` retries
+    it with back-off; the core and the gateway carry on."""
+    import socket
+    blocker = socket.socket()
+    blocker.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    blocker.bind(("127.0.0.1", 0))
+    blocker.listen()
+    port = blocker.getsockname()[1]
+    cell = SafeState(tmp_path, args=["--opcua-port", str(port)])
+    try:
+        wait_until(lambda: f"port {port} on 127.0.0.1 is in use" in cell.output(), 20, "the adapter to say the port is busy")
+        wait_until(lambda: "the OPC UA adapter exited" in cell.output(), 10, "safestate run to notice")
+        assert try_status(cell.port)["state"] == "ESTOP_RESET_NEEDED", "the gateway serves on"
+        blocker.close()
+
+        async def served():
+            deadline = time.monotonic() + 45
+            while True:
+                try:
+                    async with UaClient(f"opc.tcp://127.0.0.1:{port}", timeout=2) as c:
+                        n = await Nodes.of(c)
+                        dv = await (await n.estop_node()).read_data_value(raise_on_bad_status=False)
+                        if dv.StatusCode.is_good():
+                            return
+                except (OSError, asyncio.TimeoutError, ua.UaError, ConnectionError):
+                    pass
+                assert time.monotonic() < deadline, cell.output()
+                await asyncio.sleep(0.5)
+        run(served())
+    finally:
+        blocker.close()
+        assert cell.stop() == 0, cell.output()
+
+
+def test_safestate_run_without_the_adapter_built_says_so_and_serves_on(tmp_path):
+    cell = SafeState(tmp_path, args=["--opcua-port", str(free_port()), "--opcua-main", str(tmp_path / "nowhere.js")])
+    try:
+        wait_until(lambda: "the OPC UA adapter is not built" in cell.output(), 10, "the message")
+        assert try_status(cell.port) is not None
+    finally:
+        assert cell.stop() == 0, cell.output()
