@@ -469,9 +469,56 @@ def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tm
             asyncio.run(asyncio.wait_for(anonymous(), 30))
         assert e.value.code in (ua.StatusCodes.BadSecurityModeRejected, ua.StatusCodes.BadIdentityTokenInvalid,
                                 ua.StatusCodes.BadSecurityPolicyRejected), e.value
+        run(authenticated_client_once_its_certificate_is_trusted(tmp_path, port))
     finally:
         a.send_signal(signal.SIGTERM)
         a.wait(timeout=10)
+
+
+async def authenticated_client_once_its_certificate_is_trusted(tmp_path, port):
+    """Beyond loopback: Basic256Sha256 Sign&Encrypt with a user, and a client certificate that an
+    administrator has trusted (moved from pki/rejected to pki/trusted/certs)."""
+    from asyncua.crypto.cert_gen import setup_self_signed_certificate
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+    key, cert = tmp_path / "client-key.pem", tmp_path / "client-cert.der"
+    uri = "urn:safestate:test:plc"
+    await setup_self_signed_certificate(key, cert, uri, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH],
+                                        {"commonName": "safestate test plc"})
+
+    async def connect_and_call():
+        c = client(f"opc.tcp://127.0.0.1:{port}", user=True)
+        c.application_uri = uri
+        await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key),
+                             mode=ua.MessageSecurityMode.SignAndEncrypt)
+        async with c:
+            n = await Nodes.of(c)
+            estop = await n.estop_node()
+            # This adapter has no gateway (127.0.0.1:9): values are bad, never stale.
+            dv = await estop.read_data_value(raise_on_bad_status=False)
+            assert dv.StatusCode.value == ua.StatusCodes.BadCommunicationError, dv
+            tc = await n.task_control()
+            return await call(c, tc, await tc.get_child([f"{n.own}:Start"]), "")
+
+    with pytest.raises(Exception):  # an unknown client certificate is refused beyond loopback
+        await asyncio.wait_for(connect_and_call(), 30)
+    rejected = list((tmp_path / "pki" / "rejected").glob("*"))
+    assert rejected, "the refused certificate waits in pki/rejected for an administrator"
+    trusted = tmp_path / "pki" / "trusted" / "certs"
+    for f in rejected:
+        f.rename(trusted / f.name)
+    # Authenticated and trusted: the call goes through to the (absent) gateway. The server
+    # notices the moved file by watching its store: allow it a few seconds.
+    deadline = time.monotonic() + 20
+    while True:
+        try:
+            result = await asyncio.wait_for(connect_and_call(), 30)
+            break
+        except Exception:
+            if time.monotonic() > deadline:
+                raise
+            await asyncio.sleep(1)
+    assert result == ("BadCommunicationError", ["GATEWAY_UNAVAILABLE"])
 
 
 def test_a_busy_opcua_port_harms_nothing_and_the_adapter_comes_when_it_is_free(tmp_path):
