@@ -207,7 +207,11 @@ export class GatewayClient extends EventEmitter {
     this.latest = null;
     if (this.live) {
       this.live = false;
-      process.stderr.write(`safestate-opcua: lost the gateway (${why}); every value is BadCommunicationError\n`);
+      if (!this.closed) {
+        process.stderr.write(
+          `safestate-opcua: lost the gateway (${why}); every value is BadCommunicationError\n`,
+        );
+      }
       this.emit("down");
     }
     this.ws?.terminate();
