@@ -234,9 +234,19 @@ def test_every_value_is_read_only_and_anonymous_may_not_call(opc):
             with pytest.raises(ua.UaStatusCodeError) as e:
                 await estop.write_value(ua.DataValue(ua.Variant(False, ua.VariantType.Boolean)))
             assert e.value.code == ua.StatusCodes.BadNotWritable
-            with pytest.raises(ua.UaStatusCodeError) as e:
-                await (await n.own_var("state")).write_value(ua.DataValue(ua.Variant("IDLE", ua.VariantType.String)))
-            assert e.value.code == ua.StatusCodes.BadNotWritable
+            writes = [
+                (await n.own_var("state"), ua.Variant("IDLE", ua.VariantType.String)),
+                (await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:names"),
+                 ua.Variant(["X"], ua.VariantType.String)),
+                (await n.get(f"{n.rob}:MotionDevices", f"{n.own}:Robot", f"{n.di}:Manufacturer"),
+                 ua.Variant(ua.LocalizedText("X"), ua.VariantType.LocalizedText)),
+                (await n.get(f"{n.rob}:MotionDevices", f"{n.own}:Robot", f"{n.di}:ParameterSet",
+                             f"{n.rob}:SpeedOverride"), ua.Variant(50.0, ua.VariantType.Double)),
+            ]
+            for node, value in writes:
+                with pytest.raises(ua.UaStatusCodeError) as e:
+                    await node.write_value(ua.DataValue(value))
+                assert e.value.code == ua.StatusCodes.BadNotWritable, node
             tc = await n.task_control()
             start = await tc.get_child([f"{n.own}:Start"])
             code, _ = await call(c, tc, start, "")

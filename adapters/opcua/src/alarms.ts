@@ -3,7 +3,7 @@
 // and severity name), raised when the alarm becomes active and cleared when it goes, so a
 // SCADA alarm list follows without polling. The active list itself is also served as plain
 // arrays in SafeState's namespace.
-import { AddressSpace, DataType, LocalizedText, StatusCodes, UAObject, UAObjectType, UAVariable } from "node-opcua";
+import { DataType, LocalizedText, StatusCodes, UAObject, UAObjectType, UAVariable, VariantArrayType } from "node-opcua";
 import type { UAAlarmConditionEx } from "node-opcua-address-space";
 import { AlarmInfo } from "./gateway_client";
 import { Model } from "./model";
@@ -27,10 +27,7 @@ export class Alarms {
   private readonly active = new Map<string, AlarmInfo>();
   private readonly columns: Columns;
 
-  constructor(
-    private readonly as: AddressSpace,
-    private readonly model: Model,
-  ) {
+  constructor(private readonly model: Model) {
     const ns = model.ns;
     this.type = ns.addEventType({
       browseName: "SafeStateAlarmType",
@@ -81,7 +78,7 @@ export class Alarms {
 
   private publishColumns(list: AlarmInfo[]): void {
     const set = (v: UAVariable, dataType: DataType, value: unknown[]) =>
-      v.setValueFromSource({ dataType, arrayType: 1 /* Array */, value }, StatusCodes.Good);
+      v.setValueFromSource({ dataType, arrayType: VariantArrayType.Array, value }, StatusCodes.Good);
     set(this.columns.names, DataType.String, list.map((a) => a.name));
     set(this.columns.numbers, DataType.UInt32, list.map((a) => a.number));
     set(this.columns.severities, DataType.String, list.map((a) => a.severity));

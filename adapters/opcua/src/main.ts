@@ -3,7 +3,7 @@
 // core; if it hangs or dies the core and the gateway do not notice.
 import * as fs from "fs";
 import * as path from "path";
-import { MessageSecurityMode, OPCUACertificateManager, OPCUAServer, SecurityPolicy, StatusCodes, WellKnownRoles, makeRoles, nodesets } from "node-opcua";
+import { AccessLevelFlag, BaseNode, MessageSecurityMode, NodeClass, UAObject, UAVariable, OPCUACertificateManager, OPCUAServer, SecurityPolicy, StatusCodes, WellKnownRoles, makeRoles, nodesets } from "node-opcua";
 import { Alarms } from "./alarms";
 import { Config, ConfigError, isLoopback, parseArgs } from "./config";
 import { GatewayClient } from "./gateway_client";
@@ -68,11 +68,21 @@ function makeServer(cfg: Config, users: Users | null): OPCUAServer {
   });
 }
 
-// Writes to any of our values are refused (BadNotWritable): the adapter only reports.
-function readOnly(model: Model): void {
-  for (const v of model.ownNodes()) {
-    v.accessLevel = 1; // CurrentRead
-    v.userAccessLevel = 1;
+// Writes to any of our values are refused (BadNotWritable): the adapter only reports. The
+// whole MotionDeviceSystem tree is swept, its SafeState variables and alarm conditions too.
+function readOnly(node: BaseNode, seen = new Set<string>()): void {
+  const key = node.nodeId.toString();
+  if (seen.has(key)) {
+    return;
+  }
+  seen.add(key);
+  if (node.nodeClass === NodeClass.Variable) {
+    const v = node as UAVariable;
+    v.accessLevel = AccessLevelFlag.CurrentRead;
+    v.userAccessLevel = AccessLevelFlag.CurrentRead;
+  }
+  for (const child of (node as UAObject).getAggregates?.() ?? []) {
+    readOnly(child, seen);
   }
 }
 
@@ -84,11 +94,11 @@ async function serve(cfg: Config): Promise<void> {
   // Binds the A&C type methods (Acknowledge, ConditionRefresh, ...) of OPC 10000-9.
   as.installAlarmsAndConditionsService();
   const model = new Model(as, cfg.cycleUs, cfg.version);
-  const alarms = new Alarms(as, model);
+  const alarms = new Alarms(model);
   const gateway = new GatewayClient(cfg.gateway, cfg.gatewayHttp, cfg.remoteToken, cfg.version);
   addMethods(model, gateway);
   requireAuthenticatedCalls(as);
-  readOnly(model);
+  readOnly(model.mds);
 
   let alarmKey = "";
   const syncAlarms = async () => {
@@ -96,6 +106,7 @@ async function serve(cfg: Config): Promise<void> {
     if (list !== null && gateway.connected) {
       try {
         alarms.sync(list);
+        readOnly(model.mds); // conditions are created on an alarm's first occurrence
       } catch (e) {
         log(`alarm update failed: ${e instanceof Error ? e.message : String(e)}`);
       }

@@ -8,12 +8,10 @@ import {
   DataType,
   LocalizedText,
   Namespace,
-  NodeId,
   StatusCode,
   StatusCodes,
   UAObject,
   UAVariable,
-  VariantArrayType,
   standardUnits,
   makeEUInformation,
 } from "node-opcua";
@@ -398,5 +396,3 @@ function executionState(s: Status): string {
       return "Idle";
   }
 }
-
-export { NodeId, VariantArrayType };
