@@ -343,6 +343,17 @@ def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):
             await p.state("OPERATIONAL", "AUTO_RUNNING")
             execution = await tc.get_child([f"{n.own}:ExecutionState"])
             await wait_value(execution, lambda dv: dv.Value.Value == "Running", what="ExecutionState Running")
+            # The arm moves: some axis reports a speed, consistent with its position changing.
+            axes = [await n.get(f"{n.rob}:MotionDevices", f"{n.own}:Robot", f"{n.rob}:Axes", f"{n.own}:Axis{i}",
+                                f"{n.di}:ParameterSet") for i in range(1, 7)]
+            speeds = [await a.get_child([f"{n.rob}:ActualSpeed"]) for a in axes]
+            positions = [await a.get_child([f"{n.rob}:ActualPosition"]) for a in axes]
+            before = [await p_.read_value() for p_ in positions]
+            deadline = time.monotonic() + 5
+            while max([abs(await v.read_value()) for v in speeds]) <= 0.5:
+                assert time.monotonic() < deadline, "no axis reports a speed while the program runs"
+                await asyncio.sleep(0.05)
+            assert [await p_.read_value() for p_ in positions] != before, "positions follow the motion"
             assert await call(c, tc, m["Pause"]) == ("Good", ["OK"])
             await p.state("OPERATIONAL", "AUTO_PAUSED")
             assert await call(c, tc, m["Resume"]) == ("Good", ["OK"])
@@ -573,3 +584,16 @@ def test_safestate_run_without_the_adapter_built_says_so_and_serves_on(tmp_path)
         assert try_status(cell.port) is not None
     finally:
         assert cell.stop() == 0, cell.output()
+
+
+def test_a_killed_adapter_is_restarted(opc):
+    pids = subprocess.run(["pgrep", "-P", str(opc.cell.proc.pid), "-f", "adapters/opcua/dist/main.js"],
+                          capture_output=True, text=True).stdout.split()
+    assert len(pids) == 1, pids
+    os.kill(int(pids[0]), signal.SIGKILL)
+    wait_until(lambda: "the OPC UA adapter exited (signal 9)" in opc.cell.output(), 10, "safestate run to notice")
+    run(opc.wait_served())
+    again = subprocess.run(["pgrep", "-P", str(opc.cell.proc.pid), "-f", "adapters/opcua/dist/main.js"],
+                           capture_output=True, text=True).stdout.split()
+    assert len(again) == 1 and again != pids, again
+    assert try_status(opc.cell.port) is not None, "the gateway never noticed"
