@@ -1,6 +1,7 @@
 // Start, Stop, Pause, Resume of the program, for the plant in AUTO: each is forwarded as
-// the `remote` command of the same name, and the core's answer comes back as the OPC UA
-// status (mapped below) and as the output argument Result (the SafeState code itself).
+// the `remote` command of the same name (Start from IDLE sends `servo_on` first), and the
+// core's answer comes back as the OPC UA status (mapped below) and as the output argument
+// Result (the SafeState code itself).
 // Nothing only the pendant may do (reset, jog, servo_on in manual modes, T2 confirm) is
 // reachable: ISO 10218-1 5.3.5 single point of control, enforced again by the gateway.
 import {
