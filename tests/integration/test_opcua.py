@@ -353,7 +353,9 @@ def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):
             while max([abs(await v.read_value()) for v in speeds]) <= 0.5:
                 assert time.monotonic() < deadline, "no axis reports a speed while the program runs"
                 await asyncio.sleep(0.05)
-            assert [await p_.read_value() for p_ in positions] != before, "positions follow the motion"
+            while [await p_.read_value() for p_ in positions] == before:
+                assert time.monotonic() < deadline, "positions do not follow the motion"
+                await asyncio.sleep(0.05)
             assert await call(c, tc, m["Pause"]) == ("Good", ["OK"])
             await p.state("OPERATIONAL", "AUTO_PAUSED")
             assert await call(c, tc, m["Resume"]) == ("Good", ["OK"])
@@ -463,6 +465,9 @@ def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tm
     assert bad.returncode == 2 and "--port" in out, out
 
     users = users_file(tmp_path / "users")
+    unknown = run(make_client_certificate(tmp_path, "stranger"))
+    known = run(make_client_certificate(tmp_path, "plc"))
+    trust(tmp_path / "pki", known[1])
     a = adapter(tmp_path, "--bind", "0.0.0.0", "--port", str(port), "--users-file", str(users))
     try:
         async def main():
@@ -490,56 +495,57 @@ def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tm
             asyncio.run(asyncio.wait_for(anonymous(), 30))
         assert e.value.code in (ua.StatusCodes.BadSecurityModeRejected, ua.StatusCodes.BadIdentityTokenInvalid,
                                 ua.StatusCodes.BadSecurityPolicyRejected), e.value
-        run(authenticated_client_once_its_certificate_is_trusted(tmp_path, port))
+        run(unknown_certificate_refused_trusted_one_served(tmp_path, port, unknown, known))
     finally:
         a.send_signal(signal.SIGTERM)
         a.wait(timeout=10)
 
 
-async def authenticated_client_once_its_certificate_is_trusted(tmp_path, port):
-    """Beyond loopback: Basic256Sha256 Sign&Encrypt with a user, and a client certificate that an
-    administrator has trusted (moved from pki/rejected to pki/trusted/certs)."""
+async def make_client_certificate(tmp_path, name):
+    """(key, DER certificate, application URI) of a new self-signed client certificate."""
     from asyncua.crypto.cert_gen import setup_self_signed_certificate
-    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
     from cryptography.x509.oid import ExtendedKeyUsageOID
-    key, cert = tmp_path / "client-key.pem", tmp_path / "client-cert.der"
-    uri = "urn:safestate:test:plc"
+    key, cert = tmp_path / f"{name}-key.pem", tmp_path / f"{name}-cert.der"
+    uri = f"urn:safestate:test:{name}"
     await setup_self_signed_certificate(key, cert, uri, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH],
-                                        {"commonName": "safestate test plc"})
+                                        {"commonName": f"safestate test {name}"})
+    return key, cert, uri
 
-    async def connect_and_call():
-        c = client(f"opc.tcp://127.0.0.1:{port}", user=True)
-        c.application_uri = uri
-        await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key),
-                             mode=ua.MessageSecurityMode.SignAndEncrypt)
-        async with c:
-            n = await Nodes.of(c)
-            estop = await n.estop_node()
-            # This adapter has no gateway (127.0.0.1:9): values are bad, never stale.
-            dv = await estop.read_data_value(raise_on_bad_status=False)
-            assert dv.StatusCode.value == ua.StatusCodes.BadCommunicationError, dv
-            tc = await n.task_control()
-            return await call(c, tc, await tc.get_child([f"{n.own}:Start"]), "")
 
-    with pytest.raises(Exception):  # an unknown client certificate is refused beyond loopback
-        await asyncio.wait_for(connect_and_call(), 30)
+def trust(pki, cert):
+    """What an administrator does before the server starts: the client's certificate into
+    pki/trusted/certs (PEM)."""
+    from cryptography import x509
+    from cryptography.hazmat.primitives.serialization import Encoding
+    trusted = pki / "trusted" / "certs"
+    trusted.mkdir(parents=True, exist_ok=True)
+    pem = x509.load_der_x509_certificate(cert.read_bytes()).public_bytes(Encoding.PEM)
+    (trusted / (cert.stem + ".pem")).write_bytes(pem)
+
+
+async def secure_call(port, key, cert, uri):
+    """Basic256Sha256 Sign&Encrypt with the test user: (EmergencyStop's status, Start's answer)."""
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+    c = client(f"opc.tcp://127.0.0.1:{port}", user=True)
+    c.application_uri = uri
+    await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key), mode=ua.MessageSecurityMode.SignAndEncrypt)
+    async with c:
+        n = await Nodes.of(c)
+        dv = await (await n.estop_node()).read_data_value(raise_on_bad_status=False)
+        tc = await n.task_control()
+        return dv.StatusCode.name, await call(c, tc, await tc.get_child([f"{n.own}:Start"]), "")
+
+
+async def unknown_certificate_refused_trusted_one_served(tmp_path, port, unknown, known):
+    """Beyond loopback a client certificate must have been trusted by an administrator."""
+    with pytest.raises(Exception):
+        await asyncio.wait_for(secure_call(port, *unknown), 30)
     rejected = list((tmp_path / "pki" / "rejected").glob("*"))
     assert rejected, "the refused certificate waits in pki/rejected for an administrator"
-    trusted = tmp_path / "pki" / "trusted" / "certs"
-    for f in rejected:
-        f.rename(trusted / f.name)
-    # Authenticated and trusted: the call goes through to the (absent) gateway. The server
-    # notices the moved file by watching its store: allow it a few seconds.
-    deadline = time.monotonic() + 20
-    while True:
-        try:
-            result = await asyncio.wait_for(connect_and_call(), 30)
-            break
-        except Exception:
-            if time.monotonic() > deadline:
-                raise
-            await asyncio.sleep(1)
-    assert result == ("BadCommunicationError", ["GATEWAY_UNAVAILABLE"])
+    # Trusted and authenticated: reads work (bad values: this adapter has no gateway, never a
+    # stale good) and the call goes through to the absent gateway.
+    assert await asyncio.wait_for(secure_call(port, *known), 30) == \
+        ("BadCommunicationError", ("BadCommunicationError", ["GATEWAY_UNAVAILABLE"]))
 
 
 def test_a_busy_opcua_port_harms_nothing_and_the_adapter_comes_when_it_is_free(tmp_path):
