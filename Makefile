@@ -106,8 +106,9 @@ lint: build
 	@$(DEPS) lint
 	tools/scripts/lint.sh $(BUILD_DIR)
 
-docs: build
+docs: build adapters/opcua/dist/main.js
 	$(BIN)/gen_docs --out docs
+	node adapters/opcua/dist/main.js --write-node-map docs/opcua-nodes.md > /dev/null
 	python3 tools/trace/traceability.py
 
 embedded:

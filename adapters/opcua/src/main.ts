@@ -9,6 +9,7 @@ import { Config, ConfigError, isLoopback, parseArgs } from "./config";
 import { GatewayClient } from "./gateway_client";
 import { addMethods, requireAuthenticatedCalls } from "./methods";
 import { Model } from "./model";
+import { nodeMap } from "./nodemap";
 import { Users, hashLine } from "./users";
 
 const EXIT_CONFIG = 2;
@@ -86,6 +87,20 @@ function readOnly(node: BaseNode, seen = new Set<string>()): void {
   }
 }
 
+// The generated node list (docs/opcua-nodes.md): the address space is built, nothing listens.
+async function writeNodeMap(file: string): Promise<void> {
+  const server = new OPCUAServer({ nodeset_filename: [nodesets.standard, nodesets.di, nodesets.ia, nodesets.robotics] });
+  await server.initialize();
+  const as = server.engine.addressSpace!;
+  as.installAlarmsAndConditionsService();
+  const model = new Model(as, 1000, "VERSION");
+  new Alarms(model);
+  addMethods(model, new GatewayClient("ws://127.0.0.1:1/ws", "http://127.0.0.1:1", "", "0"));
+  // A file, not stdout: node-opcua prints its own notices on stdout.
+  fs.writeFileSync(file, nodeMap(as, model.mds));
+  process.exit(0);
+}
+
 async function serve(cfg: Config): Promise<void> {
   const users = cfg.usersFile !== null ? Users.load(cfg.usersFile) : null;
   const server = makeServer(cfg, users);
@@ -156,6 +171,10 @@ async function main(): Promise<void> {
   const version = packageVersion();
   let cfg: Config | "hash-password";
   try {
+    if (process.argv[2] === "--write-node-map" && process.argv.length === 4) {
+      await writeNodeMap(process.argv[3]);
+      return;
+    }
     cfg = parseArgs(process.argv.slice(2), version);
     if (cfg === "hash-password") {
       await hashPassword();
