@@ -11,7 +11,7 @@ VENV := .venv
 # The C# client's enums and alarm table, generated from the core's tables by gen_docs.
 CS_NAMES := clients/csharp/SafeState.Client/Generated/Names.g.cs
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp opcua
 
 deps:
 	@$(DEPS) build
@@ -51,7 +51,23 @@ csharp:
 	@$(DEPS) csharp
 	clients/csharp/build.sh
 
-test: build $(VENV)/.stamp hmi/dist/index.html csharp
+# The OPC 40010-1 (Robotics) server (TypeScript, node-opcua), started by `safestate run`
+# from adapters/opcua/dist. Same Node.js as the HMI; `npm ci` only when the lock changed.
+OPCUA_SRC := $(shell find adapters/opcua/src -type f 2>/dev/null) adapters/opcua/tsconfig.json
+
+adapters/opcua/node_modules/.stamp: adapters/opcua/package-lock.json adapters/opcua/package.json
+	@node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' || \
+	  { echo "opcua: needs Node.js >= 20 with npm (found: $$(node --version 2>/dev/null || echo none))" >&2; exit 1; }
+	cd adapters/opcua && npm ci --no-audit --no-fund
+	touch $@
+
+adapters/opcua/dist/main.js: adapters/opcua/node_modules/.stamp $(OPCUA_SRC)
+	cd adapters/opcua && npm run build
+	touch $@
+
+opcua: adapters/opcua/dist/main.js
+
+test: build $(VENV)/.stamp hmi/dist/index.html csharp adapters/opcua/dist/main.js
 	@$(DEPS) embedded browser
 	ctest --preset default
 
@@ -98,16 +114,18 @@ lint: build
 	@$(DEPS) lint
 	tools/scripts/lint.sh $(BUILD_DIR)
 
-docs: build
+docs: build adapters/opcua/dist/main.js
 	$(BIN)/gen_docs --out docs --csharp $(CS_NAMES)
+	node adapters/opcua/dist/main.js --write-node-map docs/opcua-nodes.md > /dev/null
 	python3 tools/trace/traceability.py
 
 embedded:
 	@$(DEPS) embedded
 	tools/scripts/embedded.sh
 
-# The live cell: core in a real-time loop on the simulated cell, gateway with the HMI.
-run: build hmi/dist/index.html
+# The live cell: core in a real-time loop on the simulated cell, gateway with the HMI,
+# OPC UA at opc.tcp://127.0.0.1:4840 (read-only without --opcua-users-file; docs/opcua.md).
+run: build hmi/dist/index.html adapters/opcua/dist/main.js
 	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
@@ -123,4 +141,4 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules clients/csharp/bin
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules clients/csharp/bin adapters/opcua/dist adapters/opcua/node_modules

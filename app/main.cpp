@@ -57,6 +57,14 @@ int main(int argc, char** argv) {
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
   run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
   run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
+  run->add_flag("!--no-opcua", run_opt.opcua, "do not start the OPC UA (OPC 40010-1) adapter");
+  run->add_option("--opcua-port", run_opt.opcua_port, "OPC UA port (default 4840)")->check(CLI::Range(1, 65535));
+  run->add_option("--opcua-bind", run_opt.opcua_bind,
+                  "OPC UA listen address (beyond loopback --opcua-users-file is required)");
+  run->add_option("--opcua-users-file", run_opt.opcua_users_file,
+                  "users who may call OPC UA methods (name:scrypt:SALT:HASH lines, see docs/opcua.md)");
+  run->add_option("--opcua-pki", run_opt.opcua_pki, "OPC UA certificate store (default opcua-pki beside --db)");
+  run->add_option("--opcua-main", run_opt.opcua_main, "the adapter's main.js (default: this build's adapters/opcua)");
   safestate::runtime::RtBenchOptions rtb_opt;
   auto* rtbench = app.add_subcommand("rtbench", "measure the real-time loop's wake-up lateness (no gateway)");
   rtbench->add_option("--seconds", rtb_opt.seconds, "how long to run")->check(CLI::Range(1, 3600));

@@ -126,7 +126,7 @@ before(async () => {
   const port = await freePort();
   const logPath = path.join(tmp, 'run.log');
   const log = fs.openSync(logPath, 'w');
-  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, 'events.db'), '--static', DIST, ...RUN_ARGS], {
+  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, 'events.db'), '--static', DIST, '--no-opcua', ...RUN_ARGS], {
     cwd: ROOT,
     stdio: ['ignore', log, log],
   });

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <thread>
@@ -76,6 +77,129 @@ void stop_gateway(pid_t pid) {
 
 double ms(std::uint64_t ns) { return static_cast<double>(ns) / 1.0e6; }
 
+// ---------------------------------------------------------------- the OPC UA adapter
+// A non-real-time child like the gateway, supervised the same way: a crash or a busy port
+// costs the plant its OPC UA view, never the core or the gateway anything.
+constexpr int kAdapterConfigError = 2;  // adapters/opcua/src/main.ts: EXIT_CONFIG
+
+struct Adapter {
+  pid_t pid = -1;
+  bool enabled = false;
+  int backoff_s = 1;
+  timespec started{};
+  timespec next_start{};
+};
+
+double seconds_since(const timespec& t) {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return static_cast<double>(now.tv_sec - t.tv_sec) + static_cast<double>(now.tv_nsec - t.tv_nsec) / 1e9;
+}
+
+std::string opcua_main(const RunOptions& opt) {
+#ifdef SAFESTATE_OPCUA_MAIN
+  return opt.opcua_main.empty() ? std::string(SAFESTATE_OPCUA_MAIN) : opt.opcua_main;
+#else
+  return opt.opcua_main;
+#endif
+}
+
+std::string opcua_pki(const RunOptions& opt) {
+  if (!opt.opcua_pki.empty()) {
+    return opt.opcua_pki;
+  }
+  const std::size_t slash = opt.db.rfind('/');
+  return (slash == std::string::npos) ? std::string("opcua-pki") : opt.db.substr(0, slash + 1) + "opcua-pki";
+}
+
+// The adapter reaches the gateway over loopback when the gateway listens on every address.
+std::string gateway_host(const RunOptions& opt) {
+  return (opt.bind == "0.0.0.0" || opt.bind == "::") ? std::string("127.0.0.1") : opt.bind;
+}
+
+pid_t spawn_adapter(const RunOptions& opt) {
+  // Secrets (the remote token) reach it through the environment, never argv.
+  std::vector<std::string> args = {"node", opcua_main(opt), "--bind", opt.opcua_bind,
+                                   "--port", std::to_string(opt.opcua_port),
+                                   "--gateway", gateway_host(opt) + ":" + std::to_string(opt.port),
+                                   "--pki", opcua_pki(opt), "--cycle-us", std::to_string(opt.rt.cycle_us)};
+  if (!opt.opcua_users_file.empty()) {
+    args.emplace_back("--users-file");
+    args.push_back(opt.opcua_users_file);
+  }
+  std::vector<char*> argv;
+  for (std::string& a : args) {
+    argv.push_back(a.data());
+  }
+  argv.push_back(nullptr);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none;
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setpgroup(&attr, 0);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETPGROUP);
+  pid_t pid = -1;
+  const int rc = posix_spawnp(&pid, "node", nullptr, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
+  if (rc != 0) {
+    std::fprintf(stderr, "safestate run: cannot start the OPC UA adapter (node: %s); continuing without OPC UA\n",
+                 std::strerror(rc));
+    return -1;
+  }
+  return pid;
+}
+
+Adapter start_adapter(const RunOptions& opt) {
+  Adapter a;
+  if (!opt.opcua) {
+    return a;
+  }
+  if (access(opcua_main(opt).c_str(), R_OK) != 0) {
+    std::fprintf(stderr,
+                 "safestate run: the OPC UA adapter is not built (%s missing; `make opcua` builds it); "
+                 "continuing without OPC UA\n",
+                 opcua_main(opt).c_str());
+    return a;
+  }
+  a.pid = spawn_adapter(opt);
+  a.enabled = a.pid > 0;
+  clock_gettime(CLOCK_MONOTONIC, &a.started);
+  return a;
+}
+
+// Restart a dead adapter with growing back-off (1 s .. 30 s; reset after 10 s of life);
+// a configuration error is not retried: it would fail the same way.
+void supervise_adapter(const RunOptions& opt, Adapter& a) {
+  if (!a.enabled) {
+    return;
+  }
+  int status = 0;
+  if (a.pid > 0 && waitpid(a.pid, &status, WNOHANG) == a.pid) {
+    a.pid = -1;
+    if (WIFEXITED(status) && WEXITSTATUS(status) == kAdapterConfigError) {
+      std::fprintf(stderr, "safestate run: the OPC UA adapter refused its configuration; OPC UA stays off\n");
+      a.enabled = false;
+      return;
+    }
+    a.backoff_s = (seconds_since(a.started) > 10.0) ? 1 : std::min(a.backoff_s * 2, 30);
+    std::fprintf(stderr, "safestate run: the OPC UA adapter exited (%s %d); restarting it in %d s\n",
+                 WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status),
+                 a.backoff_s);
+    clock_gettime(CLOCK_MONOTONIC, &a.next_start);
+    a.next_start.tv_sec += a.backoff_s;
+  }
+  if (a.pid < 0) {
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    if (now.tv_sec >= a.next_start.tv_sec) {
+      a.pid = spawn_adapter(opt);
+      a.enabled = a.pid > 0;
+      a.started = now;
+    }
+  }
+}
+
 }  // namespace
 
 int run_main(const RunOptions& opt) {
@@ -121,6 +245,10 @@ int run_main(const RunOptions& opt) {
   pid_t gateway = spawn_gateway(opt, shm);
   std::printf("SafeState running: http://%s:%u  (simulated cell, %u us cycle, events in %s)\n", opt.bind.c_str(),
               opt.port, rt.cycle_us, opt.db.c_str());
+  Adapter adapter = start_adapter(opt);
+  if (adapter.enabled) {
+    std::printf("OPC UA (OPC 40010-1 Robotics): opc.tcp://%s:%u\n", opt.opcua_bind.c_str(), opt.opcua_port);
+  }
   std::printf("Press Ctrl-C for a Cat 1 stop and a clean exit.\n");
   std::fflush(stdout);
 
@@ -132,6 +260,7 @@ int run_main(const RunOptions& opt) {
     if (sig == SIGINT || sig == SIGTERM) {
       break;
     }
+    supervise_adapter(opt, adapter);
     int status = 0;
     if (gateway > 0 && waitpid(gateway, &status, WNOHANG) == gateway) {
       std::fprintf(stderr, "safestate run: the gateway exited (%s %d); the core keeps cycling; restarting it\n",
@@ -149,6 +278,7 @@ int run_main(const RunOptions& opt) {
   std::fflush(stdout);
   stop.store(true);
   rt_thread.join();
+  stop_gateway(adapter.pid);
   stop_gateway(gateway);
   const bridge::Metrics& m = seg->metrics();
   std::printf("safestate run: stopped in state %s after %llu cycles; overruns %llu, max lateness %.3f ms, max cycle %.3f ms\n",

@@ -90,6 +90,12 @@ def wait_until(fn, timeout, what):
         time.sleep(0.05)
 
 
+def opcua_args(args):
+    """No OPC UA adapter unless a test asks for one: many cells run one after another and
+    the adapter's default port 4840 is one per machine (test_opcua.py uses free ports)."""
+    return [] if any(str(a).startswith("--opcua") for a in args) else ["--no-opcua"]
+
+
 class SafeState:
     """One `safestate run` on the simulated cell, with its gateway."""
 
@@ -101,7 +107,8 @@ class SafeState:
         if not os.access(BIN, os.X_OK):
             pytest.fail(f"{BIN} not found or not executable (set SAFESTATE_BIN)")
         self.proc = subprocess.Popen(
-            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS, *args],
+            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS,
+             *opcua_args(args), *args],
             stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT))
         try:
             wait_until(lambda: self.proc.poll() is not None or try_status(self.port),

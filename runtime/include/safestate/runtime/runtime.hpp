@@ -78,6 +78,13 @@ struct RunOptions {
   std::string token;
   std::string static_dir = "hmi/dist";
   std::string shm;  // default: /safestate-<port>
+  // The OPC 40010-1 adapter (adapters/opcua, Node.js), a supervised `remote` client.
+  bool opcua = true;
+  unsigned opcua_port = 4840;
+  std::string opcua_bind = "127.0.0.1";
+  std::string opcua_users_file;  // required by the adapter beyond loopback
+  std::string opcua_pki;         // default: opcua-pki beside the event database
+  std::string opcua_main;        // default: SAFESTATE_OPCUA_MAIN (the build's adapters/opcua/dist/main.js)
   RtOptions rt{};
   core::Config core{};
 };

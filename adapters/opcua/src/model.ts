@@ -1,0 +1,398 @@
+// The address space: one MotionDeviceSystem instantiated from the official OPC 40010-1
+// (Robotics 1.02) ObjectTypes of node-opcua-nodesets, plus SafeState's own variables in its
+// own namespace. Every value is read-only; every value goes BadCommunicationError when the
+// gateway is lost (OPC 10000-8 §5.2: a client must never read a stale value as Good).
+import {
+  AddressSpace,
+  BaseNode,
+  DataType,
+  LocalizedText,
+  Namespace,
+  StatusCode,
+  StatusCodes,
+  UAObject,
+  UAVariable,
+  standardUnits,
+  makeEUInformation,
+} from "node-opcua";
+import { Status } from "./gateway_client";
+
+export const SAFESTATE_NS = "urn:safestate:opcua";
+const ROBOTICS_NS = "http://opcfoundation.org/UA/Robotics/";
+const DI_NS = "http://opcfoundation.org/UA/DI/";
+const AXES = 6;
+export const PROGRAM_NAME = "demo"; // the simulated cell's built-in program (SPEC §6)
+
+// OPC 40010-1 OperationalModeEnumeration (ISO 10218-1 5.7 operating modes).
+const OPERATIONAL_MODE: Record<string, number> = { T1: 1, T2: 2, AUTO: 3 }; // else 0 OTHER
+const ARTICULATED_ROBOT = 1; // MotionDeviceCategoryEnumeration
+const ROTARY = 1; // AxisMotionProfileEnumeration
+const RAD_TO_DEG = 180 / Math.PI;
+// UNECE Rec. 20 common code E96 (OPC 10000-8 §5.6.3 EUInformation).
+const degPerSecond = makeEUInformation("E96", "°/s", "degree per second");
+
+type Getter = (s: Status) => [DataType, unknown];
+
+interface Bound {
+  v: UAVariable;
+  get: Getter;
+  last: string; // JSON of the last value set, so an unchanged value is not re-set at 50 Hz
+}
+
+export class Model {
+  readonly ns: Namespace;
+  readonly rob: number;
+  readonly di: number;
+  readonly mds: UAObject;
+  readonly safeState: UAObject;
+  readonly taskControl: UAObject;
+  private readonly bound: Bound[] = [];
+  private softwareRevision: UAVariable | null = null;
+  private prev: { t: number; joints: number[] } | null = null;
+  private speeds: number[] = new Array(AXES).fill(0);
+
+  constructor(
+    private readonly as: AddressSpace,
+    private readonly cycleUs: number,
+    version: string,
+  ) {
+    this.ns = as.registerNamespace(SAFESTATE_NS);
+    this.rob = as.getNamespaceIndex(ROBOTICS_NS);
+    this.di = as.getNamespaceIndex(DI_NS);
+    if (this.rob < 0 || this.di < 0) {
+      throw new Error("the DI and Robotics nodesets are not loaded");
+    }
+    this.mds = this.type("MotionDeviceSystemType").instantiate({
+      browseName: { name: "MotionDeviceSystem", namespaceIndex: this.ns.index },
+      componentOf: this.deviceSet(),
+      eventNotifier: 1,
+    });
+    // Also straight under Objects, so a generic client finds it without knowing DI.
+    as.rootFolder.objects.addReference({ referenceType: "Organizes", nodeId: this.mds });
+    const server = as.rootFolder.objects.server;
+    // OPC 10000-9 §4.8: the Server Object is the root of the HasNotifier/HasEventSource
+    // hierarchy, so a SCADA subscribed to Server sees every SafeState alarm.
+    server.addReference({ referenceType: "HasNotifier", nodeId: this.mds });
+    server.addReference({ referenceType: "HasEventSource", nodeId: this.mds });
+    const safety = this.safetyState();
+    const device = this.motionDevice();
+    const controller = this.controller(version);
+    this.taskControl = this.taskControlOf(controller);
+    this.relate(controller, "Controls", device);
+    this.relate(controller, "HasSafetyStates", safety);
+    this.safeState = this.ns.addObject({
+      browseName: "SafeState",
+      componentOf: this.mds,
+      description: "SafeState's own status (SPEC.md): state, sub-state, stop, alarms, first-out cause",
+    });
+    this.ownVariables();
+    this.markBad(StatusCodes.BadCommunicationError);
+  }
+
+  // ---------------------------------------------------------------- building
+  private type(name: string) {
+    const t = this.as.findObjectType(name, this.rob) ?? this.as.findObjectType(name, this.di);
+    if (t === null) {
+      throw new Error(`ObjectType ${name} not found in the Robotics/DI nodesets`);
+    }
+    return t;
+  }
+
+  private deviceSet(): BaseNode {
+    const ds = this.as.rootFolder.objects.getFolderElementByName("DeviceSet", this.di);
+    return ds ?? this.as.rootFolder.objects;
+  }
+
+  private child(node: BaseNode, path: string, nsIndex?: number): BaseNode {
+    let n: BaseNode | null = node;
+    for (const name of path.split(".")) {
+      const next: BaseNode | null = (n as UAObject).getChildByName(name, nsIndex ?? undefined) as BaseNode | null;
+      if (next === null) {
+        throw new Error(`no ${path} under ${node.browseName.toString()}`);
+      }
+      n = next;
+    }
+    return n;
+  }
+
+  private variable(node: BaseNode, path: string): UAVariable {
+    return this.child(node, path) as UAVariable;
+  }
+
+  private relate(from: BaseNode, refType: string, to: BaseNode): void {
+    const rt = this.as.findReferenceType(refType, this.rob);
+    if (rt !== null) {
+      from.addReference({ referenceType: rt.nodeId, nodeId: to.nodeId });
+    }
+  }
+
+  private constant(v: UAVariable, dataType: DataType, value: unknown): void {
+    v.setValueFromSource({ dataType, value });
+  }
+
+  private text(v: UAVariable, s: string): void {
+    this.constant(v, DataType.LocalizedText, new LocalizedText({ text: s, locale: "en" }));
+  }
+
+  private bind(v: UAVariable, get: Getter): void {
+    this.bound.push({ v, get, last: "" });
+  }
+
+  private safetyState(): UAObject {
+    const folder = this.child(this.mds, "SafetyStates");
+    const s = this.type("SafetyStateType").instantiate({
+      browseName: { name: "SafetyState", namespaceIndex: this.ns.index },
+      componentOf: folder,
+      optionals: ["EmergencyStopFunctions", "ProtectiveStopFunctions"],
+    });
+    const estopActive = (st: Status) => st.state === "ESTOP_ACTIVE" || st.state === "ESTOP_RESET_NEEDED";
+    // PROTECTIVE_STOP is raised with the stop and latched until a reset (SPEC §7), so it
+    // covers both "stop in progress" and "latched alarm waiting".
+    const pstop = (st: Status) => st.alarms.includes("PROTECTIVE_STOP");
+    this.bind(this.variable(s, "ParameterSet.EmergencyStop"), (st) => [DataType.Boolean, estopActive(st)]);
+    this.bind(this.variable(s, "ParameterSet.ProtectiveStop"), (st) => [DataType.Boolean, pstop(st)]);
+    this.bind(this.variable(s, "ParameterSet.OperationalMode"), (st) => [DataType.Int32, OPERATIONAL_MODE[st.mode] ?? 0]);
+    const es = this.type("EmergencyStopFunctionType").instantiate({
+      browseName: { name: "EmergencyStopCircuit", namespaceIndex: this.ns.index },
+      componentOf: this.child(s, "EmergencyStopFunctions"),
+    });
+    this.constant(this.variable(es, "Name"), DataType.String, "estop (two channels estop.a, estop.b; ISO 13850)");
+    this.bind(this.variable(es, "Active"), (st) => [DataType.Boolean, estopActive(st)]);
+    const ps = this.type("ProtectiveStopFunctionType").instantiate({
+      browseName: { name: "Gate", namespaceIndex: this.ns.index },
+      componentOf: this.child(s, "ProtectiveStopFunctions"),
+    });
+    this.constant(this.variable(ps, "Name"), DataType.String, "gate (interlocked guard, channels gate.a, gate.b)");
+    // The guard stops the robot in AUTO; in T1/T2 the enabling device protects instead.
+    this.bind(this.variable(ps, "Enabled"), (st) => [DataType.Boolean, st.mode === "AUTO"]);
+    this.bind(this.variable(ps, "Active"), (st) => [DataType.Boolean, pstop(st)]);
+    return s;
+  }
+
+  private motionDevice(): UAObject {
+    const folder = this.child(this.mds, "MotionDevices");
+    const d = this.type("MotionDeviceType").instantiate({
+      browseName: { name: "Robot", namespaceIndex: this.ns.index },
+      componentOf: folder,
+    });
+    this.text(this.variable(d, "Manufacturer"), "SafeState (simulated cell)");
+    this.text(this.variable(d, "Model"), "6R arm with IRB 120 kinematics (simulated)");
+    this.constant(this.variable(d, "ProductCode"), DataType.String, "SAFESTATE-SIM-6R");
+    this.constant(this.variable(d, "SerialNumber"), DataType.String, "SIM-0001");
+    this.constant(this.variable(d, "MotionDeviceCategory"), DataType.Int32, ARTICULATED_ROBOT);
+    // SafeState has no speed override: programs run at their programmed speed (100 %),
+    // T1 is capped at 250 mm/s by the core's monitor, not by an override.
+    this.bind(this.variable(d, "ParameterSet.SpeedOverride"), () => [DataType.Double, 100.0]);
+    const axes = this.child(d, "Axes");
+    const trains = this.child(d, "PowerTrains");
+    for (let i = 0; i < AXES; ++i) {
+      this.axis(axes, i);
+      this.powerTrain(trains, i);
+    }
+    return d;
+  }
+
+  private axis(folder: BaseNode, i: number): void {
+    const a = this.type("AxisType").instantiate({
+      browseName: { name: `Axis${i + 1}`, namespaceIndex: this.ns.index },
+      componentOf: folder,
+      optionals: ["ParameterSet.ActualSpeed"],
+    });
+    this.constant(this.variable(a, "MotionProfile"), DataType.Int32, ROTARY);
+    const pos = this.variable(a, "ParameterSet.ActualPosition");
+    const speed = this.variable(a, "ParameterSet.ActualSpeed");
+    this.constant(this.variable(pos, "EngineeringUnits"), DataType.ExtensionObject, standardUnits.degree);
+    this.constant(this.variable(speed, "EngineeringUnits"), DataType.ExtensionObject, degPerSecond);
+    this.bind(pos, (st) => [DataType.Double, round(st.joints[i] * RAD_TO_DEG, 1e4)]);
+    this.bind(speed, () => [DataType.Double, round(this.speeds[i], 1e3)]);
+  }
+
+  private powerTrain(folder: BaseNode, i: number): void {
+    const n = i + 1;
+    const p = this.type("PowerTrainType").instantiate({
+      browseName: { name: `PowerTrain${n}`, namespaceIndex: this.ns.index },
+      componentOf: folder,
+    });
+    const m = this.type("MotorType").instantiate({
+      browseName: { name: `Motor${n}`, namespaceIndex: this.ns.index },
+      componentOf: p,
+      optionals: ["ParameterSet.BrakeReleased"],
+    });
+    this.text(this.variable(m, "Manufacturer"), "SafeState (simulated cell)");
+    this.text(this.variable(m, "Model"), "simulated servo motor with holding brake");
+    this.constant(this.variable(m, "ProductCode"), DataType.String, "SAFESTATE-SIM-MOTOR");
+    this.constant(this.variable(m, "SerialNumber"), DataType.String, `SIM-M${n}`);
+    this.bind(this.variable(m, "ParameterSet.BrakeReleased"), (st) => [DataType.Boolean, st.brakes === "released"]);
+    // The simulated cell has no temperature model: say so rather than invent a value.
+    const temp = this.variable(m, "ParameterSet.MotorTemperature");
+    this.bind(temp, () => [DataType.Double, NO_SENSOR]);
+    const drive = this.type("DriveType").instantiate({
+      browseName: { name: `Drive${n}`, namespaceIndex: this.ns.index },
+      componentOf: p,
+    });
+    this.constant(this.variable(drive, "ProductCode"), DataType.String, "SAFESTATE-SIM-CIA402");
+    this.relate(m, "IsDrivenBy", drive);
+    const state = this.ns.addVariable({
+      browseName: "AxisState",
+      componentOf: drive,
+      dataType: DataType.String,
+      description: "PLCopen axis state of this axis (Disabled, Standstill, DiscreteMotion, Stopping, ErrorStop)",
+    });
+    this.bind(state, (st) => [DataType.String, st.axis_state?.[i] ?? ""]);
+    const enabled = this.ns.addVariable({
+      browseName: "OperationEnabled",
+      componentOf: drive,
+      dataType: DataType.Boolean,
+      description: "CiA 402 'Operation enabled' (all six drives, as the core reports them)",
+    });
+    this.bind(enabled, (st) => [DataType.Boolean, st.drives === "enabled"]);
+  }
+
+  private controller(version: string): UAObject {
+    const folder = this.child(this.mds, "Controllers");
+    const c = this.type("ControllerType").instantiate({
+      browseName: { name: "Controller", namespaceIndex: this.ns.index },
+      componentOf: folder,
+    });
+    this.text(this.variable(c, "Manufacturer"), "SafeState");
+    this.text(this.variable(c, "Model"), "SafeState safety supervisor and motion controller");
+    this.constant(this.variable(c, "ProductCode"), DataType.String, "SAFESTATE");
+    this.constant(this.variable(c, "SerialNumber"), DataType.String, "SIM-C0001");
+    this.constant(this.variable(c, "CurrentUser.Level"), DataType.String, "remote (OPC UA adapter)");
+    const sw = this.type("SoftwareType").instantiate({
+      browseName: { name: "SafeState", namespaceIndex: this.ns.index },
+      componentOf: this.child(c, "Software"),
+    });
+    this.text(this.variable(sw, "Manufacturer"), "SafeState");
+    this.text(this.variable(sw, "Model"), "safestate");
+    this.softwareRevision = this.variable(sw, "SoftwareRevision");
+    this.constant(this.softwareRevision, DataType.String, version);
+    return c;
+  }
+
+  private taskControlOf(controller: UAObject): UAObject {
+    const tc = this.type("TaskControlType").instantiate({
+      browseName: { name: "TaskControl", namespaceIndex: this.ns.index },
+      componentOf: this.child(controller, "TaskControls"),
+    });
+    this.text(this.variable(tc, "ComponentName"), "SafeState program task");
+    this.bind(this.variable(tc, "ParameterSet.TaskProgramName"), (st) => [
+      DataType.String,
+      (st.program_length ?? 0) > 0 ? PROGRAM_NAME : "",
+    ]);
+    this.bind(this.variable(tc, "ParameterSet.TaskProgramLoaded"), (st) => [DataType.Boolean, (st.program_length ?? 0) > 0]);
+    const exec = this.ns.addVariable({
+      browseName: "ExecutionState",
+      componentOf: tc,
+      dataType: DataType.String,
+      description: "Running, Paused or Idle, from SafeState's sub-state (AUTO_RUNNING, AUTO_PAUSED, ...)",
+    });
+    this.bind(exec, (st) => [DataType.String, executionState(st)]);
+    const index = this.ns.addVariable({
+      browseName: "ProgramIndex",
+      componentOf: tc,
+      dataType: DataType.UInt32,
+      description: "waypoint of the program being executed (0-based) of ProgramLength",
+    });
+    this.bind(index, (st) => [DataType.UInt32, st.program_index ?? 0]);
+    const length = this.ns.addVariable({ browseName: "ProgramLength", componentOf: tc, dataType: DataType.UInt32 });
+    this.bind(length, (st) => [DataType.UInt32, st.program_length ?? 0]);
+    return tc;
+  }
+
+  private ownVariables(): void {
+    const str = (name: string, description: string, get: (s: Status) => string | null) => {
+      const v = this.ns.addVariable({ browseName: name, componentOf: this.safeState, dataType: DataType.String, description });
+      this.bind(v, (st) => [DataType.String, get(st) ?? ""]);
+    };
+    str("state", "SPEC §3 state (BOOT, IDLE, ARMING, OPERATIONAL, STOPPING, ESTOP_ACTIVE, ...)", (s) => s.state);
+    str("sub", "sub-state in OPERATIONAL (AUTO_IDLE, AUTO_RUNNING, ...), empty otherwise", (s) => s.sub);
+    str("stop", "category of the stop in progress (CAT0, CAT1, CAT2), empty when none", (s) => s.stop);
+    str("mode", "effective operating mode (T1, T2, AUTO, NONE)", (s) => s.mode);
+    str("owner", "role in control (pendant, remote), empty when none", (s) => s.owner);
+    str("first_out_cause", "first-out cause of the current stop or refusal (SPEC §7)", (s) => s.cause);
+    str("contactor", "main contactor (open, closed)", (s) => s.contactor);
+    str("drives", "drives (enabled, disabled)", (s) => s.drives);
+    str("brakes", "brakes (engaged, released)", (s) => s.brakes);
+    const tcp = this.ns.addVariable({
+      browseName: "tcp_speed",
+      componentOf: this.safeState,
+      dataType: DataType.Double,
+      description: "TCP speed in mm/s",
+    });
+    this.bind(tcp, (s) => [DataType.Double, s.tcp_speed]);
+    this.bind(
+      this.ns.addVariable({ browseName: "cycle", componentOf: this.safeState, dataType: DataType.Double, description: "core cycle counter t" }),
+      (s) => [DataType.Double, s.t],
+    );
+  }
+
+  // ---------------------------------------------------------------- updating
+  update(s: Status): void {
+    this.updateSpeeds(s);
+    for (const b of this.bound) {
+      const [dataType, value] = b.get(s);
+      const key = JSON.stringify(value);
+      if (key === b.last) {
+        continue;
+      }
+      b.last = key;
+      if (value === NO_SENSOR) {
+        b.v.setValueFromSource({ dataType: DataType.Null }, StatusCodes.BadNotConnected);
+      } else {
+        b.v.setValueFromSource({ dataType, value }, StatusCodes.Good);
+      }
+    }
+  }
+
+  // ActualSpeed from two successive positions and the core's cycle counter (status comes
+  // at 50 Hz; the cycle counter, not the wall clock, gives the elapsed time).
+  private updateSpeeds(s: Status): void {
+    if (this.prev !== null && s.t > this.prev.t) {
+      const dt = ((s.t - this.prev.t) * this.cycleUs) / 1e6;
+      for (let i = 0; i < AXES; ++i) {
+        this.speeds[i] = ((s.joints[i] - this.prev.joints[i]) / dt) * RAD_TO_DEG;
+      }
+    }
+    this.prev = { t: s.t, joints: s.joints.slice() };
+  }
+
+  // The gateway's welcome names the running core's version ("safestate x.y.z").
+  setCoreVersion(server: string): void {
+    const v = server.replace(/^safestate\s+/, "");
+    if (v !== "" && this.softwareRevision !== null) {
+      this.softwareRevision.setValueFromSource({ dataType: DataType.String, value: v });
+    }
+  }
+
+  markBad(code: StatusCode): void {
+    this.prev = null;
+    for (const b of this.bound) {
+      b.last = "";
+      b.v.setValueFromSource({ dataType: DataType.Null }, code);
+    }
+  }
+
+  // Every variable this adapter serves, for the read-only check.
+  ownNodes(): UAVariable[] {
+    return this.bound.map((b) => b.v);
+  }
+}
+
+const NO_SENSOR = Symbol("no sensor");
+
+function round(v: number, scale: number): number {
+  return Math.round(v * scale) / scale + 0;
+}
+
+function executionState(s: Status): string {
+  switch (s.sub) {
+    case "AUTO_RUNNING":
+    case "MANUAL_RUNNING":
+      return "Running";
+    case "AUTO_PAUSED":
+      return "Paused";
+    default:
+      return "Idle";
+  }
+}
