@@ -20,6 +20,7 @@ import {
   WellKnownRoles,
   makeRoles,
 } from "node-opcua";
+import { hasArguments, noArguments } from "./arguments";
 import { GatewayClient } from "./gateway_client";
 import { Model, PROGRAM_NAME } from "./model";
 
@@ -50,19 +51,17 @@ interface Spec {
   name: string;
   cmd: string;
   description: string;
-  programArg: boolean;
 }
 
 const METHODS: Spec[] = [
   {
     name: "Start",
     cmd: "start",
-    description: "power the drives if they are off (servo_on), then start the loaded program (-> AUTO_RUNNING)",
-    programArg: true,
+    description: `power the drives if they are off (servo_on), then start the loaded program "${PROGRAM_NAME}" (-> AUTO_RUNNING)`,
   },
-  { name: "Stop", cmd: "stop", description: "stop the program (Cat 2 stop, then AUTO_IDLE)", programArg: false },
-  { name: "Pause", cmd: "pause", description: "pause the program (Cat 2 stop, then AUTO_PAUSED)", programArg: false },
-  { name: "Resume", cmd: "resume", description: "resume a paused program (AUTO_PAUSED -> AUTO_RUNNING)", programArg: false },
+  { name: "Stop", cmd: "stop", description: "stop the program (Cat 2 stop, then AUTO_IDLE)" },
+  { name: "Pause", cmd: "pause", description: "pause the program (Cat 2 stop, then AUTO_PAUSED)" },
+  { name: "Resume", cmd: "resume", description: "resume a paused program (AUTO_PAUSED -> AUTO_RUNNING)" },
 ];
 
 export function authenticated(context: ISessionContext): boolean {
@@ -113,22 +112,14 @@ async function start(gateway: GatewayClient): Promise<string> {
 
 export function addMethods(model: Model, gateway: GatewayClient): UAMethod[] {
   return METHODS.map((m) => {
-    const inputArguments = m.programArg
-      ? [
-          new Argument({
-            name: "ProgramName",
-            dataType: DataType.String,
-            valueRank: -1,
-            description: { text: `the program to start: "${PROGRAM_NAME}" or empty for the loaded one` },
-          }),
-        ]
-      : [];
     const method = model.ns.addMethod(model.taskControl, {
       browseName: m.name,
       description: m.description,
-      inputArguments,
+      inputArguments: [],
       outputArguments: [RESULT_ARG],
     });
+    // Any argument is BadInvalidArgument (after the permission check), and nothing is sent.
+    noArguments(method);
     // Anonymous sessions may browse and read, never call (the issue: "methods always need
     // an authenticated user"); UserExecutable then says so to UaExpert as well.
     method.setRolePermissions([
@@ -142,11 +133,8 @@ export function addMethods(model: Model, gateway: GatewayClient): UAMethod[] {
       if (!authenticated(context)) {
         return result(StatusCodes.BadUserAccessDenied, "NOT_AUTHENTICATED");
       }
-      if (m.programArg) {
-        const name = String(inputs[0]?.value ?? "");
-        if (name !== "" && name !== PROGRAM_NAME) {
-          return result(StatusCodes.BadInvalidArgument, "BAD_ARGUMENT");
-        }
+      if (hasArguments(inputs)) {
+        return { statusCode: StatusCodes.BadInvalidArgument };
       }
       const code = m.cmd === "start" ? await start(gateway) : await gateway.command(m.cmd);
       return result(statusOf(code), code);
