@@ -8,6 +8,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "safestate/ecat/ecat_sim.hpp"
 #include "checker.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/runtime/runtime.hpp"
@@ -74,6 +75,20 @@ int main(int argc, char** argv) {
   gateway->add_option("--db", gw_opt.db_path, "SQLite event database")->required();
   gateway->add_option("--token", gw_opt.token, "token a pendant must present");
   gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
+  safestate::ecat::EcatSimOptions ecat_opt;
+  auto* ecat_sim = app.add_subcommand(
+      "ecat-sim",
+      "emulate an EtherCAT segment on a network interface: EMULATED subdevices (a DI terminal, a DO terminal, six "
+      "CiA 402 CSP drives) in front of the simulated cell. It stands in for real hardware: it is no drive, no I/O, "
+      "no safety device");
+  ecat_sim->add_option("--ifname", ecat_opt.ifname, "network interface to answer EtherCAT frames on (needs CAP_NET_RAW)")
+      ->required();
+  ecat_sim->add_option("--control", ecat_opt.control,
+                       "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`), JSON sim messages, `status`");
+  ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
+      ->check(CLI::Range(250, 4000));
+  ecat_sim->add_option("--product", ecat_opt.product_override, "POS=CODE: give subdevice POS another product code (tests)");
   safestate::check::CheckOptions check_opt;
   auto* check = app.add_subcommand("check", "explore every reachable state of the real core and check the invariants");
   check->add_option("--depth", check_opt.max_depth, "actions from boot to explore")->check(CLI::Range(1, 64));
@@ -86,6 +101,9 @@ int main(int argc, char** argv) {
   if (check->parsed()) {
     safestate::check::CheckStats stats;
     return safestate::check::check_main(check_opt, stats);
+  }
+  if (ecat_sim->parsed()) {
+    return safestate::ecat::ecat_sim_main(ecat_opt);
   }
   if (gateway->parsed()) {
     return safestate::gateway::gateway_main(gw_opt);
