@@ -57,10 +57,12 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   const scenario::Directive& d = r.scenario.steps.front().what;
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
     scenario::apply(*in, cell.inputs());
+    cell.latch_inputs();
     return "OK";
   }
   if (const auto* f = std::get_if<scenario::FaultStep>(&d)) {
     cell.inject(f->fault);
+    cell.latch_inputs();
     return "OK";
   }
   return "ERROR only in and fault lines change the emulated cell";

@@ -66,12 +66,13 @@ class EmulatedCell {
   void poll(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
   void step() noexcept;  // one plant cycle on the outputs the subdevices hold
+  // The input terminals show a changed contact at once, as real ones do between cycles.
+  void latch_inputs() noexcept;
   [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return out_; }
   [[nodiscard]] const hal::ProcessImageIn& last_inputs() const noexcept { return in_; }
   [[nodiscard]] std::uint64_t cycles() const noexcept { return cycles_; }
 
  private:
-  void latch_inputs() noexcept;
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
   Segment segment_;
