@@ -6,6 +6,9 @@
 #include <linux/if_packet.h>
 #include <net/if.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -151,6 +154,22 @@ bool apply_override(std::vector<SubdeviceDesc>& devs, const std::string& spec, s
   return true;
 }
 
+// A real ESC answers within nanoseconds; masters give a frame a few milliseconds at most.
+// On a shared machine the emulator must not wait behind other work: SCHED_FIFO when
+// permitted, as the real-time loop of `safestate run` does.
+void realtime(int priority) {
+  if (priority <= 0) {
+    return;
+  }
+  mlockall(MCL_CURRENT | MCL_FUTURE);
+  sched_param sp{};
+  sp.sched_priority = priority;
+  const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  if (rc != 0) {
+    std::fprintf(stderr, "ecat-sim: warning: SCHED_FIFO not permitted (%s)\n", std::strerror(rc));
+  }
+}
+
 }  // namespace
 
 int ecat_sim_main(const EcatSimOptions& opt) {
@@ -171,6 +190,7 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     close(raw);
     return 1;
   }
+  realtime(opt.priority);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   EmulatedCell cell(opt.cycle_us, devs);

@@ -15,6 +15,7 @@ struct EcatSimOptions {
   std::string ifname;
   std::string control;      // Unix socket path; empty = no control channel
   std::uint32_t cycle_us = 1000;
+  int priority = 70;  // SCHED_FIFO when permitted; 0 = ordinary scheduling
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
 };
 
