@@ -58,6 +58,11 @@ int main(int argc, char** argv) {
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
   run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
   run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
+  run->add_option("--fieldbus", run_opt.fieldbus, "sim (the in-process simulated cell, default) or ethercat")
+      ->check(CLI::IsMember({"sim", "ethercat"}));
+  run->add_option("--ifname", run_opt.ifname, "ethercat: network interface of the segment (needs CAP_NET_RAW)");
+  run->add_option("--bus-config", run_opt.bus_config,
+                  "ethercat: topology file (default: built-in, the segment of `safestate ecat-sim`)");
   safestate::runtime::RtBenchOptions rtb_opt;
   auto* rtbench = app.add_subcommand("rtbench", "measure the real-time loop's wake-up lateness (no gateway)");
   rtbench->add_option("--seconds", rtb_opt.seconds, "how long to run")->check(CLI::Range(1, 3600));

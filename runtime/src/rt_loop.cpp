@@ -138,7 +138,7 @@ void Publisher::publish() noexcept {
   s.brakes_released = o.brakes_release;
   s.reset_lamp = o.reset_lamp;
   s.t2_confirmed = o.t2_confirmed;
-  s.simulated = true;
+  s.simulated = simulated_;
   s.arming_step = o.arming_step;
   s.arming_progress = o.arming_progress;
   s.program_index = v.program_index;
@@ -210,7 +210,7 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
 
 // ------------------------------------------------------------------ RtLoop
 RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
-    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell) {}
+    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell, opt.simulated) {}
 
 RtLoop::~RtLoop() {
   if (dma_latency_fd_ >= 0) {
@@ -254,7 +254,7 @@ void RtLoop::setup() {
     }
   }
   seg_.metrics().cycle_us.store(opt_.cycle_us, std::memory_order_relaxed);
-  seg_.header().simulated.store(1U, std::memory_order_relaxed);
+  seg_.header().simulated.store(opt_.simulated ? 1U : 0U, std::memory_order_relaxed);
 }
 
 void RtLoop::one_cycle() noexcept {

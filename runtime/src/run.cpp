@@ -9,10 +9,12 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "safestate/hal/ethercat.hpp"
 #include "safestate/runtime/runtime.hpp"
 
 extern char** environ;
@@ -103,8 +105,30 @@ int run_main(const RunOptions& opt) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  sim::Cell cell(cfg);
+  // --fieldbus ethercat: the cell's controller runs on the EtherCAT backend; BOOT is what
+  // decides whether the bus is right (a wrong or missing subdevice is BOOT_FAILED).
+  std::unique_ptr<hal::ethercat::Backend> bus;
   RtOptions rt = opt.rt;
+  if (opt.fieldbus == "ethercat") {
+    hal::ethercat::BusConfig bc;
+    std::string err;
+    const bool ok = opt.bus_config.empty() ? hal::ethercat::parse_bus_config(hal::ethercat::default_bus_config(), bc, err)
+                                           : hal::ethercat::load_bus_config(opt.bus_config, bc, err);
+    if (!ok) {
+      std::fprintf(stderr, "safestate run: bus configuration: %s\n", err.c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
+    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us);
+    if (!bus->booted()) {
+      std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
+    }
+    rt.simulated = false;
+  } else if (opt.fieldbus != "sim") {
+    std::fprintf(stderr, "safestate run: --fieldbus must be sim or ethercat\n");
+    return 2;
+  }
+  sim::Cell cell(cfg, bus.get());
   RtLoop loop(*seg, cell, rt);
   std::atomic<bool> stop{false};
   std::atomic<bool> ready{false};
@@ -119,8 +143,8 @@ int run_main(const RunOptions& opt) {
   std::fputs(loop.setup_report().c_str(), stderr);
 
   pid_t gateway = spawn_gateway(opt, shm);
-  std::printf("SafeState running: http://%s:%u  (simulated cell, %u us cycle, events in %s)\n", opt.bind.c_str(),
-              opt.port, rt.cycle_us, opt.db.c_str());
+  std::printf("SafeState running: http://%s:%u  (%s, %u us cycle, events in %s)\n", opt.bind.c_str(), opt.port,
+              bus ? "EtherCAT" : "simulated cell", rt.cycle_us, opt.db.c_str());
   std::printf("Press Ctrl-C for a Cat 1 stop and a clean exit.\n");
   std::fflush(stdout);
 

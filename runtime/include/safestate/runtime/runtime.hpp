@@ -21,12 +21,14 @@ struct RtOptions {
   int priority = 80;                // SCHED_FIFO priority; 0 = do not ask for real-time scheduling
   int cpu = -1;                     // pin the loop to this CPU; -1 = no pinning
   std::uint32_t max_records_per_cycle = 16;
+  bool simulated = true;            // the cell is the in-process simulation (sim messages apply)
 };
 
 // Copies one cycle of the cell into the bridge. Fixed work, no allocation.
 class Publisher {
  public:
-  Publisher(bridge::Segment& seg, const sim::Cell& cell) noexcept : seg_(seg), cell_(cell) {}
+  Publisher(bridge::Segment& seg, const sim::Cell& cell, bool simulated = true) noexcept
+      : seg_(seg), cell_(cell), simulated_(simulated) {}
   void publish() noexcept;                         // after cell.step()
   void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
 
@@ -34,6 +36,7 @@ class Publisher {
   void event(const bridge::EventRecord& e) noexcept;
   bridge::Segment& seg_;
   const sim::Cell& cell_;
+  bool simulated_;
 };
 
 // Applies one record from the gateway to the cell; answers sim records and refused
@@ -80,6 +83,9 @@ struct RunOptions {
   std::string shm;  // default: /safestate-<port>
   RtOptions rt{};
   core::Config core{};
+  std::string fieldbus = "sim";  // sim | ethercat
+  std::string ifname;            // ethercat: the interface of the segment
+  std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
 };
 
 // `safestate run`: the core on the simulated cell in a real-time thread, plus the
