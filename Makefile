@@ -116,3 +116,22 @@ demo: build
 
 clean:
 	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules
+
+# The cell over real EtherCAT frames: `safestate ecat-sim` (EMULATED subdevices) in a
+# network namespace of its own on one end of a veth pair; `safestate run --fieldbus
+# ethercat` in this namespace on the other end, so the HMI stays on 127.0.0.1:8080.
+# Needs root (namespaces, raw sockets). The namespace and the pair go away on Ctrl-C.
+ECAT_NS ?= safestate-ecat
+ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
+.PHONY: run-ethercat
+run-ethercat: build hmi/dist/index.html
+	@ip netns del $(ECAT_NS) 2>/dev/null || true
+	ip netns add $(ECAT_NS)
+	ip link add ss-ecm type veth peer name ss-ecs netns $(ECAT_NS)
+	ip link set ss-ecm up
+	ip -n $(ECAT_NS) link set ss-ecs up
+	@trap 'kill $$SIM 2>/dev/null; ip link del ss-ecm 2>/dev/null; ip netns del $(ECAT_NS) 2>/dev/null' EXIT INT TERM; \
+	  ip netns exec $(ECAT_NS) $(BIN)/safestate ecat-sim --ifname ss-ecs --control $(ECAT_CONTROL) & SIM=$$!; \
+	  sleep 0.5; \
+	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 --port 8080 \
+	    --db safestate-events.db --static hmi/dist

@@ -61,6 +61,8 @@ int main(int argc, char** argv) {
   run->add_option("--fieldbus", run_opt.fieldbus, "sim (the in-process simulated cell, default) or ethercat")
       ->check(CLI::IsMember({"sim", "ethercat"}));
   run->add_option("--ifname", run_opt.ifname, "ethercat: network interface of the segment (needs CAP_NET_RAW)");
+  run->add_option("--ecat-sim-control", run_opt.ecat_sim_control,
+                  "ethercat on `safestate ecat-sim`: its --control socket, so the HMI's sim panel drives the emulator");
   run->add_option("--bus-config", run_opt.bus_config,
                   "ethercat: topology file (default: built-in, the segment of `safestate ecat-sim`)");
   safestate::runtime::RtBenchOptions rtb_opt;

@@ -178,7 +178,8 @@ void Publisher::publish() noexcept {
   seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
 }
 
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept {
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
+                 SimForward* forward) noexcept {
   bridge::ReplyRecord r{};
   r.seq = rec.seq;
   r.kind = rec.kind;
@@ -195,6 +196,17 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       }
       return;  // otherwise the core answers in the cycle that takes it
     }
+    case bridge::RecordKind::sim_set:
+    case bridge::RecordKind::sim_fault:
+      if (forward != nullptr) {
+        r.sim = forward->push(rec) ? bridge::SimResult::ok : bridge::SimResult::not_simulated;
+        pub.reply(r);
+        return;
+      }
+      break;
+  }
+  switch (rec.kind) {
+    case bridge::RecordKind::command: return;
     case bridge::RecordKind::sim_set:
       apply_contacts(rec.set_mask, rec.set_values, cell.inputs());
       break;
@@ -260,7 +272,7 @@ void RtLoop::setup() {
 void RtLoop::one_cycle() noexcept {
   bridge::CommandRecord rec{};
   for (std::uint32_t k = 0; k < opt_.max_records_per_cycle && seg_.commands().pop(rec); ++k) {
-    take_record(rec, cell_, pub_, cell_.now());
+    take_record(rec, cell_, pub_, cell_.now(), opt_.sim_forward);
   }
   seg_.metrics().command_queue_depth.store(static_cast<std::uint32_t>(seg_.commands().size()),
                                            std::memory_order_relaxed);

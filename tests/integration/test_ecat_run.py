@@ -45,7 +45,8 @@ class Cell:
                 sh("ip", "-n", self.ns, "link", "set", dev, "up")
             self.sim = self.spawn("sim", BIN, "ecat-sim", "--ifname", "ecs", "--control", self.control, *sim_args)
             self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
-            self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--port",
+            self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm",
+                                  "--ecat-sim-control", self.control, "--port",
                                   str(self.port), "--db", os.path.join(self.tmp.name, "ev.db"), "--static",
                                   self.tmp.name)
             self.wait(lambda: self.status() is not None, "safestate run serving /api/status", 30)
@@ -131,7 +132,7 @@ def cell():
 
 def test_boots_to_estop_reset_needed_over_ethercat(cell):
     s = cell.wait_state("ESTOP_RESET_NEEDED")
-    assert s["simulated"] is False
+    assert "(EtherCAT," in cell.log("run")
     assert s["alarms"] == []
     assert all(sw & 0x4F == 0x40 for sw in s["statusword"])  # read from the emulated drives' TxPDOs
     assert cell.wire()["al_state"] == [8] * 8
@@ -178,6 +179,8 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
         sh("ip", "-n", cell.ns, "link", "set", "ecs", "down")
     s = cell.wait_state("ERROR_LOCKOUT", 10)
     assert "FIELDBUS_LOST" in s["alarms"]
+    named = "FIELDBUS_LOST: subdevice 8 (drive axis 6)" if how == "unplug" else "FIELDBUS_LOST: the bus as a whole"
+    cell.wait(lambda: named in cell.log("run"), "the log naming what was lost: " + named, 5)
 
 
 def test_wrong_product_id_is_boot_failed():
@@ -189,3 +192,10 @@ def test_wrong_product_id_is_boot_failed():
         assert "product 0x00001234" in c.log("run")
     finally:
         c.close()
+
+
+def test_hmi_sim_panel_drives_the_emulator(cell):
+    """The gateway's `sim` message (as the HMI's panel sends it) reaches ecat-sim's contacts."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    s = cell.pendant("sim:estop=pressed", "ESTOP_ACTIVE")
+    assert s["state"] == "ESTOP_ACTIVE" and "ESTOP_PRESSED" in s["alarms"], s

@@ -139,6 +139,8 @@ void Backend::boot(const std::string& ifname) {
 void Backend::lose(std::uint8_t position, const char* why) noexcept {
   if (health_.ok) {
     health_ = Health{false, position, why};
+    lost_position_.store(position, std::memory_order_relaxed);
+    lost_why_.store(why, std::memory_order_release);
   }
 }
 

@@ -18,13 +18,17 @@ async def main(port, cmds, want):
             seq += 1
             name, *args = cmd.split(":")
             msg = {"type": "command", "seq": seq, "cmd": name}
-            if name == "jog":
+            if name == "sim":  # sim:KEY=VALUE, as the HMI's simulated-cell panel sends it
+                key, value = args[0].split("=")
+                msg = {"type": "sim", "seq": seq, "set": {key: int(value) if value.isdigit() else value}}
+            elif name == "jog":
                 msg.update(axis=int(args[0]), dir=args[1], speed=int(args[2]))
             await ws.send(json.dumps(msg))
             deadline = time.monotonic() + 10
             while time.monotonic() < deadline:
                 m = json.loads(await asyncio.wait_for(ws.recv(), 10))
-                if m.get("type") == "reply" and m.get("seq") == seq:
+                if m.get("type") in ("reply", "error") and m.get("seq", seq) == seq:
+                    print(json.dumps({"answer": m}), file=sys.stderr)
                     break
             await asyncio.sleep(0.3)
         if cmds.split(",")[-1].startswith("jog"):
@@ -35,10 +39,10 @@ async def main(port, cmds, want):
                 seq_hold += 1
                 msg["seq"] = seq_hold
                 await ws.send(json.dumps(msg))
-                tick = time.monotonic() + 0.1
+                tick = time.monotonic() + 0.04
                 while time.monotonic() < tick:
                     try:
-                        m = json.loads(await asyncio.wait_for(ws.recv(), 0.05))
+                        m = json.loads(await asyncio.wait_for(ws.recv(), 0.02))
                     except asyncio.TimeoutError:
                         continue
                     if m.get("type") == "status":

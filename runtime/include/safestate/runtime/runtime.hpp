@@ -5,6 +5,7 @@
 // blocks, waits or allocates on the bridge; it never parses network input.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <span>
@@ -15,13 +16,33 @@
 
 namespace safestate::runtime {
 
+// The physical world of a cell on a real fieldbus is not in this process: `sim` records
+// for an emulated segment (ecat-sim) are handed, without blocking, to a non-real-time
+// thread that writes them to the emulator's control socket. Single producer (the RT
+// loop), single consumer; full = the record is refused.
+class SimForward {
+ public:
+  bool push(const bridge::CommandRecord& r) noexcept;
+  bool pop(bridge::CommandRecord& r) noexcept;
+
+ private:
+  static constexpr std::uint32_t kSize = 64;
+  std::array<bridge::CommandRecord, kSize> ring_{};
+  std::atomic<std::uint32_t> head_{0};
+  std::atomic<std::uint32_t> tail_{0};
+};
+
+// One `sim` record as a line of the emulator's control channel (`in ...` / `fault ...`).
+std::string sim_line(const bridge::CommandRecord& r);
+
 struct RtOptions {
   std::uint32_t cycle_us = 1000;
   std::uint32_t watchdog_ms = 100;  // EtherCAT process-data watchdog: a longer stall = fieldbus lost
   int priority = 80;                // SCHED_FIFO priority; 0 = do not ask for real-time scheduling
   int cpu = -1;                     // pin the loop to this CPU; -1 = no pinning
   std::uint32_t max_records_per_cycle = 16;
-  bool simulated = true;            // the cell is the in-process simulation (sim messages apply)
+  bool simulated = true;            // sim messages are accepted (in-process cell, or forwarded)
+  SimForward* sim_forward = nullptr;  // non-null: sim records go there instead of to the cell
 };
 
 // Copies one cycle of the cell into the bridge. Fixed work, no allocation.
@@ -41,7 +62,8 @@ class Publisher {
 
 // Applies one record from the gateway to the cell; answers sim records and refused
 // commands at once (commands are otherwise answered by the core).
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept;
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
+                 SimForward* forward = nullptr) noexcept;
 
 class RtLoop {
  public:
@@ -86,6 +108,7 @@ struct RunOptions {
   std::string fieldbus = "sim";  // sim | ethercat
   std::string ifname;            // ethercat: the interface of the segment
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
+  std::string ecat_sim_control;  // ethercat on ecat-sim: its control socket, for the HMI's sim panel
 };
 
 // `safestate run`: the core on the simulated cell in a real-time thread, plus the

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "safestate/hal/process_image.hpp"
@@ -75,6 +77,16 @@ class Backend final : public hal::Backend {
   // Latched: the first loss of the bus and whom it concerns.
   [[nodiscard]] const Health& health() const noexcept { return health_; }
   [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
+  // The same, for another thread (the supervisor's log): position (1-based, 0 = the bus as
+  // a whole) and reason once the bus is lost, else {0, nullptr}.
+  [[nodiscard]] std::pair<std::uint8_t, const char*> lost() const noexcept {
+    const char* why = lost_why_.load(std::memory_order_acquire);  // published after the position
+    return {lost_position_.load(std::memory_order_relaxed), why};
+  }
+  [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
+    static const std::string none = "the bus";
+    return (position >= 1U && position <= cfg_.subdevices.size()) ? cfg_.subdevices[position - 1U].name : none;
+  }
 
  private:
   void boot(const std::string& ifname);
@@ -90,6 +102,8 @@ class Backend final : public hal::Backend {
   std::vector<std::uint8_t> out_buf_;
   std::vector<std::size_t> in_off_;
   std::vector<std::size_t> out_off_;
+  std::atomic<std::uint8_t> lost_position_{0};
+  std::atomic<const char*> lost_why_{nullptr};
   std::uint32_t lost_frames_max_;
   std::uint32_t lost_in_row_ = 0;
   std::uint64_t exchanges_ = 0;
