@@ -142,12 +142,17 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
 def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
-    assert s["state"] == "OPERATIONAL", s
+    assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
     w = cell.wire()
     assert w["contactor"] is True and w["contactor_closed"] is True
     assert all(cw == 0x000F for cw in w["controlword"])  # Enable operation on every drive
     assert cell.control_line("in estop.b=0") == "OK"
     cell.wait(lambda: cell.wire()["contactor"] is False, "contactor bit cleared on the wire", 5)
+    # the input bit goes out in exchange k, the core opens the contactor in the cycle that
+    # reads it, the cleared bit comes back in exchange k+1 (goal: at most 2 cycles)
+    reaction = cell.wire()["reaction"]
+    assert reaction is not None and 1 <= reaction["cycles"] <= 2, reaction
+    print("reaction on the wire:", reaction)
     s = cell.status()
     assert s["contactor"] == "open" and "ESTOP_PRESSED" in s["alarms"], s
     # the other channel never followed: after discrepancy_ms the core locks out (SPEC §2)

@@ -171,7 +171,12 @@ void EmulatedCell::step() noexcept {
     const std::span<const std::uint8_t> o = segment_.esc(kPosFirstDrive + a).outputs();
     std::memcpy(rx[a], o.data(), kDriveRxBytes);
   }
+  const bool was_closed = out_.contactor;
   unpack_outputs(dout.data(), rx, out_);
+  if (was_closed && !out_.contactor && reaction_.cleared_cycle == 0U) {
+    reaction_.cleared_cycle = cycles_;
+    reaction_.cleared_ns = now_ns_;
+  }
   plant_.write(out_);
   ++cycles_;
   last_step_ns_ = now_ns_;

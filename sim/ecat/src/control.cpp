@@ -58,6 +58,7 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
     scenario::apply(*in, cell.inputs());
     cell.latch_inputs();
+    cell.mark_input_change();
     return "OK";
   }
   if (const auto* f = std::get_if<scenario::FaultStep>(&d)) {
@@ -121,6 +122,12 @@ std::string status(EmulatedCell& cell) {
   j["statusword"] = sw;
   j["joints"] = q;
   j["contactor_closed"] = in.contactor_closed;
+  const EmulatedCell::Reaction& r = cell.reaction();
+  if (r.cleared_cycle != 0U) {
+    j["reaction"] = {{"cycles", r.cleared_cycle - r.input_cycle}, {"us", (r.cleared_ns - r.input_ns) / 1000U}};
+  } else {
+    j["reaction"] = nullptr;
+  }
   return j.dump();
 }
 

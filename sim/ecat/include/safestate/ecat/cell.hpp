@@ -71,6 +71,16 @@ class EmulatedCell {
   [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return out_; }
   [[nodiscard]] const hal::ProcessImageIn& last_inputs() const noexcept { return in_; }
   [[nodiscard]] std::uint64_t cycles() const noexcept { return cycles_; }
+  // Safety reaction on the wire: from the plant cycle in which an input contact changed
+  // (as the master will read it) to the first exchange whose outputs clear the contactor.
+  struct Reaction {
+    std::uint64_t input_cycle = 0;
+    std::uint64_t input_ns = 0;
+    std::uint64_t cleared_cycle = 0;  // 0 = not since the last input change
+    std::uint64_t cleared_ns = 0;
+  };
+  void mark_input_change() noexcept { reaction_ = Reaction{cycles_, now_ns_, 0, 0}; }
+  [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
 
  private:
   std::uint32_t cycle_us_;
@@ -82,6 +92,7 @@ class EmulatedCell {
   std::uint64_t last_step_ns_ = 0;
   std::uint64_t now_ns_ = 0;
   bool free_running_ = false;
+  Reaction reaction_{};
   std::uint64_t next_free_ns_ = 0;
 };
 
