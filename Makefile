@@ -115,7 +115,7 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov build-cargo $(VENV) hmi/dist hmi/node_modules
 
 # The cell over real EtherCAT frames: `safestate ecat-sim` (EMULATED subdevices) in a
 # network namespace of its own on one end of a veth pair; `safestate run --fieldbus
