@@ -73,6 +73,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 99));
   rtbench->add_option("--cpu", rtb_opt.rt.cpu, "pin the loop to this CPU");
   rtbench->add_flag("--json", rtb_opt.json, "print one JSON object");
+  safestate::runtime::EcatBenchOptions eb_opt;
+  auto* ecat_bench = app.add_subcommand("ecat-bench", "measure the EtherCAT exchange round trip (no core, no gateway)");
+  ecat_bench->add_option("--ifname", eb_opt.ifname, "network interface of the segment")->required();
+  ecat_bench->add_option("--bus-config", eb_opt.bus_config, "topology file (default: built-in)");
+  ecat_bench->add_option("--cycles", eb_opt.cycles, "exchanges to time")->check(CLI::Range(1, 10000000));
+  ecat_bench->add_option("--cycle-us", eb_opt.cycle_us, "period in microseconds")->check(CLI::Range(250, 4000));
+  ecat_bench->add_flag("--json", eb_opt.json, "print one JSON object");
   safestate::gateway::GatewayOptions gw_opt;
   gw_opt.version = SAFESTATE_VERSION;
   auto* gateway = app.add_subcommand("gateway", "the non-real-time gateway (started by `safestate run`)");
@@ -116,6 +123,9 @@ int main(int argc, char** argv) {
   }
   if (gateway->parsed()) {
     return safestate::gateway::gateway_main(gw_opt);
+  }
+  if (ecat_bench->parsed()) {
+    return safestate::runtime::ecat_bench_main(eb_opt);
   }
   if (rtbench->parsed()) {
     return safestate::runtime::rtbench_main(rtb_opt);

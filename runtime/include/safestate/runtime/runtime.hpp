@@ -127,4 +127,15 @@ struct RtBenchOptions {
 // the overruns and the execution time, in text or JSON. Used by bench/run.py beside cyclictest.
 int rtbench_main(const RtBenchOptions& opt);
 
+struct EcatBenchOptions {
+  std::string ifname;
+  std::string bus_config;  // empty = built-in (ecat-sim's segment)
+  std::uint32_t cycles = 5000;
+  std::uint32_t cycle_us = 1000;
+  bool json = false;
+};
+
+// `safestate ecat-bench`: EtherCAT exchange round trip p50/p99/max on the bus alone.
+int ecat_bench_main(const EcatBenchOptions& opt);
+
 }  // namespace safestate::runtime
