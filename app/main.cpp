@@ -18,6 +18,8 @@ using namespace safestate::core;
 
 namespace safestate::app {
 int demo_main(const std::string& file);
+int replay_ethercat_main(const std::string& file, bool trace, const std::string& ifname, const std::string& control,
+                         const std::string& bus_config);
 }
 
 namespace {
@@ -40,6 +42,16 @@ int main(int argc, char** argv) {
   auto* replay = app.add_subcommand("replay", "run .scn scenarios on the simulated cell (exit 0 pass, 1 fail, 2 malformed)");
   replay->add_option("FILE", files, "scenario files")->required();
   replay->add_flag("--trace", trace, "print a JSON Lines trace on stdout");
+  std::string replay_fieldbus = "sim";
+  std::string replay_ifname;
+  std::string replay_control;
+  std::string replay_bus;
+  replay->add_option("--fieldbus", replay_fieldbus, "sim (default) or ethercat: the controller on the EtherCAT backend "
+                                                   "against `safestate ecat-sim` (one file)")
+      ->check(CLI::IsMember({"sim", "ethercat"}));
+  replay->add_option("--ifname", replay_ifname, "ethercat: interface of the segment");
+  replay->add_option("--ecat-sim-control", replay_control, "ethercat: ecat-sim's control socket (in/fault lines go there)");
+  replay->add_option("--bus-config", replay_bus, "ethercat: topology file (default: built-in)");
   std::string demo_file = "examples/demo.scn";
   auto* demo = app.add_subcommand("demo", "replay a scenario on the simulated cell and narrate it in words");
   demo->add_option("FILE", demo_file, "scenario file (default examples/demo.scn)");
@@ -135,6 +147,13 @@ int main(int argc, char** argv) {
   }
   if (demo->parsed()) {
     return safestate::app::demo_main(demo_file);
+  }
+  if (replay->parsed() && replay_fieldbus == "ethercat") {
+    if (files.size() != 1U || replay_ifname.empty() || replay_control.empty()) {
+      std::fprintf(stderr, "safestate replay --fieldbus ethercat: one FILE, --ifname and --ecat-sim-control\n");
+      return 2;
+    }
+    return safestate::app::replay_ethercat_main(files[0], trace, replay_ifname, replay_control, replay_bus);
   }
   if (replay->parsed()) {
     return safestate::scenario::replay_main(files, trace);

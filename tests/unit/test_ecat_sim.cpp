@@ -314,6 +314,18 @@ TEST(EcatWire, DroppedAndCorruptedFrames) {
   EXPECT_EQ(r[0].wkc, 8);
 }
 
+TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
+  EmulatedCell cell(1000);
+  bool answered = true;
+  ASSERT_EQ(control_line(cell, "fault fieldbus lost"), "OK");
+  exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_FALSE(answered);
+  ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
+  auto r = exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_TRUE(answered);
+  EXPECT_EQ(r[0].wkc, 8);
+}
+
 TEST(EcatWire, NotEtherCatOrTruncatedIsNotAnswered) {
   Segment seg(default_segment());
   std::vector<std::uint8_t> ip(60, 0);

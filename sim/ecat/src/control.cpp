@@ -62,6 +62,13 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
     return "OK";
   }
   if (const auto* f = std::get_if<scenario::FaultStep>(&d)) {
+    // On a real bus "fieldbus lost" is the wire going silent, not a flag: the master must
+    // find out by itself (the drives' own bus watchdogs react as in the plant).
+    if (f->fault.kind == sim::FaultKind::fieldbus_lost) {
+      cell.segment().go_silent();
+    } else if (f->fault.kind == sim::FaultKind::clear_all) {
+      cell.segment().clear_wire_faults();
+    }
     cell.inject(f->fault);
     cell.latch_inputs();
     return "OK";

@@ -61,6 +61,9 @@ bool Segment::process(std::span<std::uint8_t> frame, std::uint64_t now_ns) noexc
   if ((h >> 12U) != 1U || kEthHeader + 2U + len > frame.size() || connected() == 0U) {
     return false;
   }
+  if (silent_) {
+    return false;
+  }
   if (drop_ > 0U) {
     --drop_;
     return false;

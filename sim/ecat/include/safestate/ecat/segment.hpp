@@ -38,6 +38,13 @@ class Segment {
   void cut_before(std::size_t position) noexcept;  // 1-based; 0 = every cable plugged
   void drop_frames(std::uint32_t n) noexcept { drop_ += n; }
   void corrupt_frames(std::uint32_t n) noexcept { corrupt_ += n; }
+  // The whole bus silent (a cable cut at the master) until clear_wire_faults().
+  void go_silent() noexcept { silent_ = true; }
+  void clear_wire_faults() noexcept {
+    silent_ = false;
+    drop_ = 0;
+    corrupt_ = 0;
+  }
   [[nodiscard]] std::size_t connected() const noexcept;
 
   [[nodiscard]] std::size_t size() const noexcept { return escs_.size(); }
@@ -57,6 +64,7 @@ class Segment {
   std::size_t cut_ = 0;
   std::uint32_t drop_ = 0;
   std::uint32_t corrupt_ = 0;
+  bool silent_ = false;
   std::uint64_t frames_ = 0;
   std::vector<std::uint8_t> scratch_;
   std::function<void()> on_pd_;
