@@ -44,7 +44,7 @@ hmi/dist/index.html: hmi/node_modules/.stamp $(HMI_SRC)
 hmi: hmi/dist/index.html
 
 test: build $(VENV)/.stamp hmi/dist/index.html
-	@$(DEPS) embedded browser
+	@$(DEPS) embedded browser ecat
 	ctest --preset default
 
 # AddressSanitizer + UndefinedBehaviorSanitizer over the whole suite.
@@ -105,7 +105,7 @@ run: build hmi/dist/index.html
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
 bench: $(VENV)/.stamp
-	@$(DEPS) build bench embedded
+	@$(DEPS) build bench embedded ecat
 	cmake --preset default
 	cmake --build --preset default
 	VENV_PY=$(VENV)/bin/python python3 bench/run.py
@@ -125,6 +125,7 @@ ECAT_NS ?= safestate-ecat
 ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
 .PHONY: run-ethercat
 run-ethercat: build hmi/dist/index.html
+	@$(DEPS) ecat
 	@ip netns del $(ECAT_NS) 2>/dev/null || true
 	ip netns add $(ECAT_NS)
 	ip link add ss-ecm type veth peer name ss-ecs netns $(ECAT_NS)

@@ -3,7 +3,8 @@
 # Groups: build (compilers, CMake, GoogleTest), embedded (Cortex-M4 toolchain),
 # lint (clang-tidy, cppcheck), bench (Google Benchmark, callgrind, cyclictest),
 # browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
-# the machine: Debian 12's nodejs is too old for Vite).
+# the machine: Debian 12's nodejs is too old for Vite), ecat (ip: network namespaces and veth
+# pairs for the EtherCAT tests; cargo comes from rustup, Debian 12's is too old for ethercrab).
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
@@ -14,6 +15,7 @@ declare -A GROUPS_PKGS=(
   [browser]="chromium"
   [lint]="clang-tidy-19 cppcheck"
   [bench]="libbenchmark-dev valgrind rt-tests"
+  [ecat]="iproute2"
 )
 
 missing=()
