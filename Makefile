@@ -68,7 +68,7 @@ adapters/opcua/dist/main.js: adapters/opcua/node_modules/.stamp $(OPCUA_SRC)
 opcua: adapters/opcua/dist/main.js
 
 test: build $(VENV)/.stamp hmi/dist/index.html csharp adapters/opcua/dist/main.js
-	@$(DEPS) embedded browser
+	@$(DEPS) embedded browser ecat
 	ctest --preset default
 
 # AddressSanitizer + UndefinedBehaviorSanitizer over the whole suite.
@@ -131,7 +131,7 @@ run: build hmi/dist/index.html adapters/opcua/dist/main.js
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
 bench: $(VENV)/.stamp
-	@$(DEPS) build bench embedded
+	@$(DEPS) build bench embedded ecat
 	cmake --preset default
 	cmake --build --preset default
 	VENV_PY=$(VENV)/bin/python python3 bench/run.py
@@ -141,4 +141,24 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov $(VENV) hmi/dist hmi/node_modules clients/csharp/bin adapters/opcua/dist adapters/opcua/node_modules
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov build-cargo $(VENV) hmi/dist hmi/node_modules clients/csharp/bin adapters/opcua/dist adapters/opcua/node_modules
+
+# The cell over real EtherCAT frames: `safestate ecat-sim` (EMULATED subdevices) in a
+# network namespace of its own on one end of a veth pair; `safestate run --fieldbus
+# ethercat` in this namespace on the other end, so the HMI stays on 127.0.0.1:8080.
+# Needs root (namespaces, raw sockets). The namespace and the pair go away on Ctrl-C.
+ECAT_NS ?= safestate-ecat
+ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
+.PHONY: run-ethercat
+run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
+	@$(DEPS) ecat
+	@ip netns del $(ECAT_NS) 2>/dev/null || true
+	ip netns add $(ECAT_NS)
+	ip link add ss-ecm type veth peer name ss-ecs netns $(ECAT_NS)
+	ip link set ss-ecm up
+	ip -n $(ECAT_NS) link set ss-ecs up
+	@trap 'kill $$SIM 2>/dev/null; ip link del ss-ecm 2>/dev/null; ip netns del $(ECAT_NS) 2>/dev/null' EXIT INT TERM; \
+	  ip netns exec $(ECAT_NS) $(BIN)/safestate ecat-sim --ifname ss-ecs --control $(ECAT_CONTROL) & SIM=$$!; \
+	  sleep 0.5; \
+	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 --port 8080 \
+	    --db safestate-events.db --static hmi/dist

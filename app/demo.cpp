@@ -121,7 +121,7 @@ int demo_main(const std::string& file) {
   }
   scenario::Summary summary{};
   std::ostringstream quiet;
-  const int rc = scenario::run(scn, scenario::RunOptions{false, nullptr, &quiet}, summary);
+  const int rc = scenario::run(scn, scenario::RunOptions{false, nullptr, &quiet, nullptr, {}}, summary);
   failures = static_cast<int>(summary.failed);
   std::printf("\nFastest point of the arm: %.0f mm/s in AUTO, %.0f mm/s in T1 (limit 250).\n",
               static_cast<double>(top_auto), static_cast<double>(top_t1));

@@ -8,6 +8,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
+#include "safestate/ecat/ecat_sim.hpp"
 #include "checker.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/runtime/runtime.hpp"
@@ -17,6 +18,8 @@ using namespace safestate::core;
 
 namespace safestate::app {
 int demo_main(const std::string& file);
+int replay_ethercat_main(const std::string& file, bool trace, const std::string& ifname, const std::string& control,
+                         const std::string& bus_config);
 }
 
 namespace {
@@ -39,6 +42,16 @@ int main(int argc, char** argv) {
   auto* replay = app.add_subcommand("replay", "run .scn scenarios on the simulated cell (exit 0 pass, 1 fail, 2 malformed)");
   replay->add_option("FILE", files, "scenario files")->required();
   replay->add_flag("--trace", trace, "print a JSON Lines trace on stdout");
+  std::string replay_fieldbus = "sim";
+  std::string replay_ifname;
+  std::string replay_control;
+  std::string replay_bus;
+  replay->add_option("--fieldbus", replay_fieldbus, "sim (default) or ethercat: the controller on the EtherCAT backend "
+                                                   "against `safestate ecat-sim` (one file)")
+      ->check(CLI::IsMember({"sim", "ethercat"}));
+  replay->add_option("--ifname", replay_ifname, "ethercat: interface of the segment");
+  replay->add_option("--ecat-sim-control", replay_control, "ethercat: ecat-sim's control socket (in/fault lines go there)");
+  replay->add_option("--bus-config", replay_bus, "ethercat: topology file (default: built-in)");
   std::string demo_file = "examples/demo.scn";
   auto* demo = app.add_subcommand("demo", "replay a scenario on the simulated cell and narrate it in words");
   demo->add_option("FILE", demo_file, "scenario file (default examples/demo.scn)");
@@ -65,6 +78,13 @@ int main(int argc, char** argv) {
                   "users who may call OPC UA methods (name:scrypt:SALT:HASH lines, see docs/opcua.md)");
   run->add_option("--opcua-pki", run_opt.opcua_pki, "OPC UA certificate store (default opcua-pki beside --db)");
   run->add_option("--opcua-main", run_opt.opcua_main, "the adapter's main.js (default: this build's adapters/opcua)");
+  run->add_option("--fieldbus", run_opt.fieldbus, "sim (the in-process simulated cell, default) or ethercat")
+      ->check(CLI::IsMember({"sim", "ethercat"}));
+  run->add_option("--ifname", run_opt.ifname, "ethercat: network interface of the segment (needs CAP_NET_RAW)");
+  run->add_option("--ecat-sim-control", run_opt.ecat_sim_control,
+                  "ethercat on `safestate ecat-sim`: its --control socket, so the HMI's sim panel drives the emulator");
+  run->add_option("--bus-config", run_opt.bus_config,
+                  "ethercat: topology file (default: built-in, the segment of `safestate ecat-sim`)");
   safestate::runtime::RtBenchOptions rtb_opt;
   auto* rtbench = app.add_subcommand("rtbench", "measure the real-time loop's wake-up lateness (no gateway)");
   rtbench->add_option("--seconds", rtb_opt.seconds, "how long to run")->check(CLI::Range(1, 3600));
@@ -73,6 +93,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 99));
   rtbench->add_option("--cpu", rtb_opt.rt.cpu, "pin the loop to this CPU");
   rtbench->add_flag("--json", rtb_opt.json, "print one JSON object");
+  safestate::runtime::EcatBenchOptions eb_opt;
+  auto* ecat_bench = app.add_subcommand("ecat-bench", "measure the EtherCAT exchange round trip (no core, no gateway)");
+  ecat_bench->add_option("--ifname", eb_opt.ifname, "network interface of the segment")->required();
+  ecat_bench->add_option("--bus-config", eb_opt.bus_config, "topology file (default: built-in)");
+  ecat_bench->add_option("--cycles", eb_opt.cycles, "exchanges to time")->check(CLI::Range(1, 10000000));
+  ecat_bench->add_option("--cycle-us", eb_opt.cycle_us, "period in microseconds")->check(CLI::Range(250, 4000));
+  ecat_bench->add_flag("--json", eb_opt.json, "print one JSON object");
   safestate::gateway::GatewayOptions gw_opt;
   gw_opt.version = SAFESTATE_VERSION;
   auto* gateway = app.add_subcommand("gateway", "the non-real-time gateway (started by `safestate run`)");
@@ -82,6 +109,22 @@ int main(int argc, char** argv) {
   gateway->add_option("--db", gw_opt.db_path, "SQLite event database")->required();
   gateway->add_option("--token", gw_opt.token, "token a pendant must present");
   gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
+  safestate::ecat::EcatSimOptions ecat_opt;
+  auto* ecat_sim = app.add_subcommand(
+      "ecat-sim",
+      "emulate an EtherCAT segment on a network interface: EMULATED subdevices (a DI terminal, a DO terminal, six "
+      "CiA 402 CSP drives) in front of the simulated cell. It stands in for real hardware: it is no drive, no I/O, "
+      "no safety device");
+  ecat_sim->add_option("--ifname", ecat_opt.ifname, "network interface to answer EtherCAT frames on (needs CAP_NET_RAW)")
+      ->required();
+  ecat_sim->add_option("--control", ecat_opt.control,
+                       "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`), JSON sim messages, `status`");
+  ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
+      ->check(CLI::Range(250, 4000));
+  ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")
+      ->check(CLI::Range(0, 99));
+  ecat_sim->add_option("--product", ecat_opt.product_override, "POS=CODE: give subdevice POS another product code (tests)");
   safestate::check::CheckOptions check_opt;
   auto* check = app.add_subcommand("check", "explore every reachable state of the real core and check the invariants");
   check->add_option("--depth", check_opt.max_depth, "actions from boot to explore")->check(CLI::Range(1, 64));
@@ -95,8 +138,14 @@ int main(int argc, char** argv) {
     safestate::check::CheckStats stats;
     return safestate::check::check_main(check_opt, stats);
   }
+  if (ecat_sim->parsed()) {
+    return safestate::ecat::ecat_sim_main(ecat_opt);
+  }
   if (gateway->parsed()) {
     return safestate::gateway::gateway_main(gw_opt);
+  }
+  if (ecat_bench->parsed()) {
+    return safestate::runtime::ecat_bench_main(eb_opt);
   }
   if (rtbench->parsed()) {
     return safestate::runtime::rtbench_main(rtb_opt);
@@ -106,6 +155,13 @@ int main(int argc, char** argv) {
   }
   if (demo->parsed()) {
     return safestate::app::demo_main(demo_file);
+  }
+  if (replay->parsed() && replay_fieldbus == "ethercat") {
+    if (files.size() != 1U || replay_ifname.empty() || replay_control.empty()) {
+      std::fprintf(stderr, "safestate replay --fieldbus ethercat: one FILE, --ifname and --ecat-sim-control\n");
+      return 2;
+    }
+    return safestate::app::replay_ethercat_main(files[0], trace, replay_ifname, replay_control, replay_bus);
   }
   if (replay->parsed()) {
     return safestate::scenario::replay_main(files, trace);

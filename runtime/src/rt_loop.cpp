@@ -138,7 +138,7 @@ void Publisher::publish() noexcept {
   s.brakes_released = o.brakes_release;
   s.reset_lamp = o.reset_lamp;
   s.t2_confirmed = o.t2_confirmed;
-  s.simulated = true;
+  s.simulated = simulated_;
   s.arming_step = o.arming_step;
   s.arming_progress = o.arming_progress;
   s.program_index = v.program_index;
@@ -178,7 +178,8 @@ void Publisher::publish() noexcept {
   seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
 }
 
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept {
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
+                 SimForward* forward) noexcept {
   bridge::ReplyRecord r{};
   r.seq = rec.seq;
   r.kind = rec.kind;
@@ -196,6 +197,17 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       return;  // otherwise the core answers in the cycle that takes it
     }
     case bridge::RecordKind::sim_set:
+    case bridge::RecordKind::sim_fault:
+      if (forward != nullptr) {
+        r.sim = forward->push(rec) ? bridge::SimResult::ok : bridge::SimResult::not_simulated;
+        pub.reply(r);
+        return;
+      }
+      break;
+  }
+  switch (rec.kind) {
+    case bridge::RecordKind::command: return;
+    case bridge::RecordKind::sim_set:
       apply_contacts(rec.set_mask, rec.set_values, cell.inputs());
       break;
     case bridge::RecordKind::sim_fault:
@@ -210,7 +222,7 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
 
 // ------------------------------------------------------------------ RtLoop
 RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
-    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell) {}
+    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell, opt.simulated) {}
 
 RtLoop::~RtLoop() {
   if (dma_latency_fd_ >= 0) {
@@ -254,13 +266,13 @@ void RtLoop::setup() {
     }
   }
   seg_.metrics().cycle_us.store(opt_.cycle_us, std::memory_order_relaxed);
-  seg_.header().simulated.store(1U, std::memory_order_relaxed);
+  seg_.header().simulated.store(opt_.simulated ? 1U : 0U, std::memory_order_relaxed);
 }
 
 void RtLoop::one_cycle() noexcept {
   bridge::CommandRecord rec{};
   for (std::uint32_t k = 0; k < opt_.max_records_per_cycle && seg_.commands().pop(rec); ++k) {
-    take_record(rec, cell_, pub_, cell_.now());
+    take_record(rec, cell_, pub_, cell_.now(), opt_.sim_forward);
   }
   seg_.metrics().command_queue_depth.store(static_cast<std::uint32_t>(seg_.commands().size()),
                                            std::memory_order_relaxed);

@@ -1,6 +1,8 @@
 #include <pthread.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -10,10 +12,12 @@
 #include <cstdio>
 #include <algorithm>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "safestate/hal/ethercat.hpp"
 #include "safestate/runtime/runtime.hpp"
 
 extern char** environ;
@@ -26,6 +30,44 @@ std::string self_exe() {
   char buf[4096];
   const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1U);
   return (n > 0) ? std::string(buf, static_cast<std::size_t>(n)) : std::string("safestate");
+}
+
+// Writes each forwarded `sim` record as a line to ecat-sim's control socket (a Unix
+// socket: reachable from any network namespace) and logs a refusal. Not real-time.
+void forward_sim(SimForward& fwd, const std::string& path, const std::atomic<bool>& run) {
+  int fd = -1;
+  while (run.load()) {
+    bridge::CommandRecord rec{};
+    if (!fwd.pop(rec)) {
+      usleep(2000);
+      continue;
+    }
+    if (fd < 0) {
+      fd = socket(AF_UNIX, SOCK_STREAM, 0);
+      sockaddr_un sa{};
+      sa.sun_family = AF_UNIX;
+      std::snprintf(sa.sun_path, sizeof sa.sun_path, "%s", path.c_str());
+      if (connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
+        std::fprintf(stderr, "safestate run: ecat-sim control %s: %s\n", path.c_str(), std::strerror(errno));
+        close(fd);
+        fd = -1;
+        continue;
+      }
+    }
+    const std::string line = sim_line(rec) + "\n";
+    char answer[512] = {0};
+    if (send(fd, line.data(), line.size(), MSG_NOSIGNAL) < 0 || recv(fd, answer, sizeof answer - 1U, 0) <= 0) {
+      close(fd);
+      fd = -1;
+      continue;
+    }
+    if (std::strncmp(answer, "OK", 2) != 0) {
+      std::fprintf(stderr, "safestate run: ecat-sim refused '%s': %s", sim_line(rec).c_str(), answer);
+    }
+  }
+  if (fd >= 0) {
+    close(fd);
+  }
 }
 
 pid_t spawn_gateway(const RunOptions& opt, const std::string& shm) {
@@ -227,8 +269,38 @@ int run_main(const RunOptions& opt) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  sim::Cell cell(cfg);
+  // --fieldbus ethercat: the cell's controller runs on the EtherCAT backend; BOOT is what
+  // decides whether the bus is right (a wrong or missing subdevice is BOOT_FAILED).
+  std::unique_ptr<hal::ethercat::Backend> bus;
   RtOptions rt = opt.rt;
+  if (opt.fieldbus == "ethercat") {
+    hal::ethercat::BusConfig bc;
+    std::string err;
+    const bool ok = opt.bus_config.empty() ? hal::ethercat::parse_bus_config(hal::ethercat::default_bus_config(), bc, err)
+                                           : hal::ethercat::load_bus_config(opt.bus_config, bc, err);
+    if (!ok) {
+      std::fprintf(stderr, "safestate run: bus configuration: %s\n", err.c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
+    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us);
+    if (!bus->booted()) {
+      std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
+    }
+    rt.simulated = !opt.ecat_sim_control.empty();
+  } else if (opt.fieldbus != "sim") {
+    std::fprintf(stderr, "safestate run: --fieldbus must be sim or ethercat\n");
+    return 2;
+  }
+  sim::Cell cell(cfg, bus.get());
+  // The HMI's sim panel on an emulated segment: records to ecat-sim's control socket.
+  SimForward forward;
+  std::atomic<bool> forwarding{!opt.ecat_sim_control.empty() && bus != nullptr};
+  std::thread forwarder;
+  if (forwarding.load()) {
+    rt.sim_forward = &forward;
+    forwarder = std::thread([&] { forward_sim(forward, opt.ecat_sim_control, forwarding); });
+  }
   RtLoop loop(*seg, cell, rt);
   std::atomic<bool> stop{false};
   std::atomic<bool> ready{false};
@@ -243,8 +315,8 @@ int run_main(const RunOptions& opt) {
   std::fputs(loop.setup_report().c_str(), stderr);
 
   pid_t gateway = spawn_gateway(opt, shm);
-  std::printf("SafeState running: http://%s:%u  (simulated cell, %u us cycle, events in %s)\n", opt.bind.c_str(),
-              opt.port, rt.cycle_us, opt.db.c_str());
+  std::printf("SafeState running: http://%s:%u  (%s, %u us cycle, events in %s)\n", opt.bind.c_str(), opt.port,
+              bus ? "EtherCAT" : "simulated cell", rt.cycle_us, opt.db.c_str());
   Adapter adapter = start_adapter(opt);
   if (adapter.enabled) {
     std::printf("OPC UA (OPC 40010-1 Robotics): opc.tcp://%s:%u\n", opt.opcua_bind.c_str(), opt.opcua_port);
@@ -252,6 +324,7 @@ int run_main(const RunOptions& opt) {
   std::printf("Press Ctrl-C for a Cat 1 stop and a clean exit.\n");
   std::fflush(stdout);
 
+  bool bus_loss_reported = false;
   timespec last_restart{};
   clock_gettime(CLOCK_MONOTONIC, &last_restart);
   for (;;) {
@@ -261,6 +334,14 @@ int run_main(const RunOptions& opt) {
       break;
     }
     supervise_adapter(opt, adapter);
+    // The core says FIELDBUS_LOST; this names whom it concerns (read off the RT path).
+    if (bus && !bus_loss_reported && bus->lost().second != nullptr) {
+      const auto [pos, why] = bus->lost();
+      const std::string whom =
+          pos != 0U ? "subdevice " + std::to_string(pos) + " (" + bus->subdevice_name(pos) + ")" : "the bus as a whole";
+      std::fprintf(stderr, "safestate run: FIELDBUS_LOST: %s: %s\n", whom.c_str(), why);
+      bus_loss_reported = true;
+    }
     int status = 0;
     if (gateway > 0 && waitpid(gateway, &status, WNOHANG) == gateway) {
       std::fprintf(stderr, "safestate run: the gateway exited (%s %d); the core keeps cycling; restarting it\n",
@@ -279,6 +360,10 @@ int run_main(const RunOptions& opt) {
   stop.store(true);
   rt_thread.join();
   stop_gateway(adapter.pid);
+  forwarding.store(false);
+  if (forwarder.joinable()) {
+    forwarder.join();
+  }
   stop_gateway(gateway);
   const bridge::Metrics& m = seg->metrics();
   std::printf("safestate run: stopped in state %s after %llu cycles; overruns %llu, max lateness %.3f ms, max cycle %.3f ms\n",

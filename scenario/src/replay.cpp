@@ -85,7 +85,7 @@ int replay_one(const std::string& path, bool trace, std::ostream& trace_out, std
     return 2;
   }
   Summary summary;
-  const RunOptions opts{trace, &trace_out, &report};
+  const RunOptions opts{trace, &trace_out, &report, nullptr, {}};
   const int rc = run(parsed.scenario, opts, summary);
   print_summary(report, path, rc, summary);
   return rc;

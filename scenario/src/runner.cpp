@@ -275,7 +275,7 @@ std::size_t count_ranges(const Scenario& s) noexcept {
 class Runner {
  public:
   Runner(const Scenario& s, const RunOptions& o)
-      : s_(s), opts_(o), cell_(s.config), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
+      : s_(s), opts_(o), cell_(s.config, o.bus), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     open_.reserve(count_ranges(s));
     if (o.trace && o.trace_out != nullptr) {
       tracer_.emplace(s, *o.trace_out);
@@ -304,12 +304,17 @@ class Runner {
       next = end;
       sum.cycles = t + 1;
     }
-    sum.failed = failures_;
+    sum.failed = failures_ + world_failures_;
     return sum;
   }
 
  private:
   void act(const Step& step) {
+    const bool world = std::holds_alternative<InputStep>(step.what) || std::holds_alternative<FaultStep>(step.what);
+    if (world && opts_.world) {
+      world_failures_ += opts_.world(step) ? 0U : 1U;
+      return;
+    }
     if (const auto* in = std::get_if<InputStep>(&step.what)) {
       apply(*in, cell_.inputs());
     } else if (const auto* c = std::get_if<CommandStep>(&step.what)) {
@@ -446,6 +451,7 @@ class Runner {
   std::vector<std::size_t> count_;    // per step: replies counted in its window so far
   std::vector<std::size_t> open_;     // ranges being checked
   std::size_t failures_ = 0;
+  std::size_t world_failures_ = 0;  // in/fault steps the world behind the bus refused
   std::optional<Tracer> tracer_;
 };
 

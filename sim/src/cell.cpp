@@ -22,8 +22,9 @@ PlantTiming plant_timing(const core::Config& cfg) {
 }  // namespace
 
 struct Cell::Impl {
-  explicit Impl(const core::Config& c)
+  Impl(const core::Config& c, hal::Backend* b)
       : cfg(c),
+        bus(b),
         controller(c, motion::kRobot),
         plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c), home_pose()) {
     load_demo();
@@ -34,6 +35,7 @@ struct Cell::Impl {
     controller.load_program(p, n);
   }
   core::Config cfg;
+  hal::Backend* bus;  // null: the simulated plant
   controller::Controller controller;
   SimPlant plant;
   core::CommandQueue<core::kMaxQueueSize> queue;  // holds cfg.queue_size (SPEC §9: 64)
@@ -71,7 +73,7 @@ struct Cell::Impl {
   }
 };
 
-Cell::Cell(const core::Config& cfg) : impl_(std::make_unique<Impl>(cfg)) {}
+Cell::Cell(const core::Config& cfg, hal::Backend* bus) : impl_(std::make_unique<Impl>(cfg, bus)) {}
 Cell::~Cell() = default;
 Cell::Cell(const Cell& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
 
@@ -103,11 +105,12 @@ bool Cell::jog_link_up() const noexcept { return impl_->jog_link_up; }
 
 void Cell::step() noexcept {
   Impl& s = *impl_;
-  s.plant.read(s.in);
+  hal::Backend& io = (s.bus != nullptr) ? *s.bus : static_cast<hal::Backend&>(s.plant);
+  io.read(s.in);
   const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
   s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
   s.queue.pop(s.taken);
-  s.plant.write(s.out);
+  io.write(s.out);
   s.update_view();
   ++s.now;
 }

@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (r.scenario.cycles <= 3000U) {
     std::ostringstream sink;
     safestate::scenario::Summary summary{};
-    const int rc = safestate::scenario::run(r.scenario, safestate::scenario::RunOptions{false, nullptr, &sink}, summary);
+    const int rc = safestate::scenario::run(r.scenario, safestate::scenario::RunOptions{false, nullptr, &sink, nullptr, {}}, summary);
     if (rc != 0 && rc != 1) __builtin_trap();
   }
   return 0;

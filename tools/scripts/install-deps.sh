@@ -4,7 +4,8 @@
 # lint (clang-tidy, cppcheck), bench (Google Benchmark, callgrind, cyclictest),
 # browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
 # the machine: Debian 12's nodejs is too old for Vite),
-# csharp (Mono 6.8 and NUnit 2.6 for clients/csharp; no NuGet).
+# csharp (Mono 6.8 and NUnit 2.6 for clients/csharp; no NuGet), ecat (ip: network namespaces and
+# veth pairs for the EtherCAT tests; cargo comes from rustup, Debian 12's is too old for ethercrab).
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
@@ -16,6 +17,7 @@ declare -A GROUPS_PKGS=(
   [lint]="clang-tidy-19 cppcheck"
   [bench]="libbenchmark-dev valgrind rt-tests"
   [csharp]="mono-devel nunit-console libnunit-cil-dev pkg-config"
+  [ecat]="iproute2"
 )
 
 missing=()

@@ -5,6 +5,7 @@
 // blocks, waits or allocates on the bridge; it never parses network input.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <span>
@@ -15,18 +16,40 @@
 
 namespace safestate::runtime {
 
+// The physical world of a cell on a real fieldbus is not in this process: `sim` records
+// for an emulated segment (ecat-sim) are handed, without blocking, to a non-real-time
+// thread that writes them to the emulator's control socket. Single producer (the RT
+// loop), single consumer; full = the record is refused.
+class SimForward {
+ public:
+  bool push(const bridge::CommandRecord& r) noexcept;
+  bool pop(bridge::CommandRecord& r) noexcept;
+
+ private:
+  static constexpr std::uint32_t kSize = 64;
+  std::array<bridge::CommandRecord, kSize> ring_{};
+  std::atomic<std::uint32_t> head_{0};
+  std::atomic<std::uint32_t> tail_{0};
+};
+
+// One `sim` record as a line of the emulator's control channel (`in ...` / `fault ...`).
+std::string sim_line(const bridge::CommandRecord& r);
+
 struct RtOptions {
   std::uint32_t cycle_us = 1000;
   std::uint32_t watchdog_ms = 100;  // EtherCAT process-data watchdog: a longer stall = fieldbus lost
   int priority = 80;                // SCHED_FIFO priority; 0 = do not ask for real-time scheduling
   int cpu = -1;                     // pin the loop to this CPU; -1 = no pinning
   std::uint32_t max_records_per_cycle = 16;
+  bool simulated = true;            // sim messages are accepted (in-process cell, or forwarded)
+  SimForward* sim_forward = nullptr;  // non-null: sim records go there instead of to the cell
 };
 
 // Copies one cycle of the cell into the bridge. Fixed work, no allocation.
 class Publisher {
  public:
-  Publisher(bridge::Segment& seg, const sim::Cell& cell) noexcept : seg_(seg), cell_(cell) {}
+  Publisher(bridge::Segment& seg, const sim::Cell& cell, bool simulated = true) noexcept
+      : seg_(seg), cell_(cell), simulated_(simulated) {}
   void publish() noexcept;                         // after cell.step()
   void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
 
@@ -34,11 +57,13 @@ class Publisher {
   void event(const bridge::EventRecord& e) noexcept;
   bridge::Segment& seg_;
   const sim::Cell& cell_;
+  bool simulated_;
 };
 
 // Applies one record from the gateway to the cell; answers sim records and refused
 // commands at once (commands are otherwise answered by the core).
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t) noexcept;
+void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
+                 SimForward* forward = nullptr) noexcept;
 
 class RtLoop {
  public:
@@ -87,6 +112,10 @@ struct RunOptions {
   std::string opcua_main;        // default: SAFESTATE_OPCUA_MAIN (the build's adapters/opcua/dist/main.js)
   RtOptions rt{};
   core::Config core{};
+  std::string fieldbus = "sim";  // sim | ethercat
+  std::string ifname;            // ethercat: the interface of the segment
+  std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
+  std::string ecat_sim_control;  // ethercat on ecat-sim: its control socket, for the HMI's sim panel
 };
 
 // `safestate run`: the core on the simulated cell in a real-time thread, plus the
@@ -104,5 +133,16 @@ struct RtBenchOptions {
 // the demo program in AUTO, for a given time; prints the wake-up lateness p50/p99/p99.9/max,
 // the overruns and the execution time, in text or JSON. Used by bench/run.py beside cyclictest.
 int rtbench_main(const RtBenchOptions& opt);
+
+struct EcatBenchOptions {
+  std::string ifname;
+  std::string bus_config;  // empty = built-in (ecat-sim's segment)
+  std::uint32_t cycles = 5000;
+  std::uint32_t cycle_us = 1000;
+  bool json = false;
+};
+
+// `safestate ecat-bench`: EtherCAT exchange round trip p50/p99/max on the bus alone.
+int ecat_bench_main(const EcatBenchOptions& opt);
 
 }  // namespace safestate::runtime

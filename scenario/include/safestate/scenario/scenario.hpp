@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -177,6 +178,11 @@ struct RunOptions {
   bool trace = false;
   std::ostream* trace_out = nullptr;  // JSON Lines, when `trace`
   std::ostream* report = nullptr;     // human messages (failing expects); none when null
+  // Run the controller on this HAL backend (a real fieldbus) instead of the simulated
+  // plant; `world` then applies the file's `in` and `fault` steps to whatever stands
+  // behind the bus (e.g. ecat-sim's control channel) and says whether it took them.
+  hal::Backend* bus = nullptr;
+  std::function<bool(const Step&)> world;
 };
 
 struct Summary {

@@ -12,6 +12,7 @@
 #include "safestate/core/signals.hpp"
 #include "safestate/core/supervisor.hpp"
 #include "safestate/core/types.hpp"
+#include "safestate/hal/process_image.hpp"
 
 namespace safestate::sim {
 
@@ -64,8 +65,10 @@ struct CellView {
 
 class Cell {
  public:
-  // `cfg` must have passed core::validate().
-  explicit Cell(const core::Config& cfg);
+  // `cfg` must have passed core::validate(). With `bus`, the controller runs on that HAL
+  // backend (a real fieldbus) instead of the simulated plant; inputs() and inject() then
+  // act on the unused plant only. `bus` must outlive the cell.
+  explicit Cell(const core::Config& cfg, hal::Backend* bus = nullptr);
   ~Cell();
   // A deep copy: the exhaustive checker forks the whole cell to explore alternatives.
   Cell(const Cell& other);

@@ -1,0 +1,112 @@
+// The `ethercat` HAL backend: the process image mapped onto the PDOs of a real EtherCAT
+// segment through our master (ethercrab, hal/ethercat/master-rs). The topology it
+// expects comes from a validated configuration file (docs/ethercat.md), not from code.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "safestate/hal/process_image.hpp"
+
+namespace safestate::hal::ethercat {
+
+enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive };
+
+// Named bits of the safety I/O terminals, in the order of the names below.
+inline constexpr std::size_t kInputBits = 18;   // SPEC §2 contacts + contactor/brake feedbacks
+inline constexpr std::size_t kOutputBits = 3;
+extern const char* const kInputBitNames[kInputBits];
+extern const char* const kOutputBitNames[kOutputBits];
+
+struct Subdevice {
+  std::string name;
+  Role role = Role::drive;
+  std::uint32_t vendor_id = 0;
+  std::uint32_t product_code = 0;
+  std::uint32_t revision = 0;
+  bool check_revision = false;
+  std::uint16_t in_bytes = 0;
+  std::uint16_t out_bytes = 0;
+  std::array<std::uint16_t, kInputBits> in_bit{};    // safety_inputs: bit of each named input
+  std::array<std::uint16_t, kOutputBits> out_bit{};  // safety_outputs
+  std::uint8_t axis = 0;                             // drive: 1..6
+  double counts_per_rad = 0.0;                       // drive: encoder increments per radian
+  std::uint16_t controlword = 0, target_position = 0;                    // RxPDO byte offsets
+  std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0;  // TxPDO byte offsets
+};
+
+struct BusConfig {
+  std::vector<Subdevice> subdevices;  // in bus order
+  std::uint32_t frame_timeout_us = 900;
+};
+
+// Parses and validates a configuration (JSON text). On error returns false and names
+// the field that is wrong in `err`; `out` is then unspecified.
+bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err);
+bool load_bus_config(const std::string& path, BusConfig& out, std::string& err);
+// hal/ethercat/default-bus.json, built in: the segment of `safestate ecat-sim`.
+const char* default_bus_config() noexcept;
+
+struct Health {
+  bool ok = true;
+  std::uint8_t subdevice = 0;  // 1-based position of the first subdevice at fault, 0 = none
+  const char* why = "";  // a literal: set in the real-time path
+};
+
+class Backend final : public hal::Backend {
+ public:
+  // Opens the interface, scans, checks every identity against `cfg`, maps, goes to OP.
+  // Never throws; on failure the backend reports the fieldbus down (BOOT then fails) and
+  // boot_error() names the subdevice.
+  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max);
+  ~Backend() override;
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
+
+  // One cyclic exchange: the outputs of the last write() go out, inputs come back.
+  void read(ProcessImageIn& in) noexcept override;
+  void write(const ProcessImageOut& out) noexcept override;
+
+  [[nodiscard]] bool booted() const noexcept { return master_ != nullptr && boot_error_.empty(); }
+  [[nodiscard]] const std::string& boot_error() const noexcept { return boot_error_; }
+  // Latched: the first loss of the bus and whom it concerns.
+  [[nodiscard]] const Health& health() const noexcept { return health_; }
+  [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
+  // The same, for another thread (the supervisor's log): position (1-based, 0 = the bus as
+  // a whole) and reason once the bus is lost, else {0, nullptr}.
+  [[nodiscard]] std::pair<std::uint8_t, const char*> lost() const noexcept {
+    const char* why = lost_why_.load(std::memory_order_acquire);  // published after the position
+    return {lost_position_.load(std::memory_order_relaxed), why};
+  }
+  [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
+    static const std::string none = "the bus";
+    return (position >= 1U && position <= cfg_.subdevices.size()) ? cfg_.subdevices[position - 1U].name : none;
+  }
+
+ private:
+  void boot(const std::string& ifname);
+  void decode(ProcessImageIn& in) const noexcept;
+  void lose(std::uint8_t position, const char* why) noexcept;
+
+  BusConfig cfg_;
+  struct Master;
+  Master* master_ = nullptr;
+  std::string boot_error_;
+  Health health_;
+  std::vector<std::uint8_t> in_buf_;
+  std::vector<std::uint8_t> out_buf_;
+  std::vector<std::size_t> in_off_;
+  std::vector<std::size_t> out_off_;
+  std::atomic<std::uint8_t> lost_position_{0};
+  std::atomic<const char*> lost_why_{nullptr};
+  std::uint32_t lost_frames_max_;
+  std::uint32_t lost_in_row_ = 0;
+  std::uint64_t exchanges_ = 0;
+};
+
+}  // namespace safestate::hal::ethercat

@@ -1,0 +1,298 @@
+//! SafeState's EtherCAT master: ethercrab (MIT/Apache-2.0) behind a plain C ABI, for the
+//! `ethercat` backend of hal/. One master per process (ethercrab's PDU storage is static).
+//!
+//! Open and scan allocate and may take seconds (they run in BOOT); the cyclic exchange does
+//! not allocate and blocks only for the frame round trip, bounded by the PDU timeout.
+
+use core::ffi::{c_char, CStr};
+use ethercrab::{
+    std::{ethercat_now, tx_rx_task},
+    subdevice_group::{Op, SafeOp},
+    MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
+};
+use futures_lite::future::block_on;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+const MAX_SUBDEVICES: usize = 16;
+const MAX_PDI: usize = 1024;
+const MAX_FRAMES: usize = 16;
+const MAX_PDU_DATA: usize = PduStorage::element_size(1100);
+
+static PDU_STORAGE: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
+static OPENED: AtomicBool = AtomicBool::new(false);
+
+/// One subdevice as found on the bus (C layout).
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct SsEcatSub {
+    pub vendor_id: u32,
+    pub product_code: u32,
+    pub revision: u32,
+    pub serial: u32,
+    pub configured_address: u16,
+    pub in_bytes: u16,
+    pub out_bytes: u16,
+    pub name: [c_char; 64],
+}
+
+/// The outcome of one cyclic exchange (C layout).
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct SsEcatCycle {
+    pub wkc: u16,
+    pub expected_wkc: u16,
+    pub count: u16,
+    /// AL state per subdevice (1 INIT, 2 PREOP, 4 SAFEOP, 8 OP, 0 unknown).
+    pub al_state: [u8; MAX_SUBDEVICES],
+}
+
+type SafeGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, SafeOp>;
+type OpGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, Op>;
+
+pub struct SsEcatMaster {
+    md: &'static MainDevice<'static>,
+    safe: Option<SafeGroup>,
+    op: Option<OpGroup>,
+    expected_wkc: u16,
+    error: [u8; 256],
+}
+
+impl SsEcatMaster {
+    fn fail(&mut self, msg: &str) -> i32 {
+        let n = msg.len().min(self.error.len() - 1);
+        self.error[..n].copy_from_slice(&msg.as_bytes()[..n]);
+        self.error[n] = 0;
+        -1
+    }
+}
+
+fn state_code(s: SubDeviceState) -> u8 {
+    match s {
+        SubDeviceState::Init => 1,
+        SubDeviceState::PreOp => 2,
+        SubDeviceState::Bootstrap => 3,
+        SubDeviceState::SafeOp => 4,
+        SubDeviceState::Op => 8,
+        _ => 0,
+    }
+}
+
+fn write_err(err: *mut c_char, errlen: usize, msg: &str) {
+    if err.is_null() || errlen == 0 {
+        return;
+    }
+    let n = msg.len().min(errlen - 1);
+    // SAFETY: the caller gives a buffer of errlen bytes.
+    unsafe {
+        core::ptr::copy_nonoverlapping(msg.as_ptr(), err as *mut u8, n);
+        *err.add(n) = 0;
+    }
+}
+
+/// The frame thread answers within the cycle only if it is not queued behind ordinary
+/// work: SCHED_FIFO when permitted (as the real-time loop of `safestate run`).
+fn realtime(priority: i32) {
+    if priority <= 0 {
+        return;
+    }
+    let param = libc::sched_param { sched_priority: priority };
+    // SAFETY: plain libc call on the current thread with a valid parameter.
+    unsafe {
+        libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param);
+    }
+}
+
+/// Opens the interface (raw socket, needs CAP_NET_RAW) and starts the frame thread.
+/// `pdu_timeout_us` bounds every frame round trip. Returns null on failure (reason in `err`).
+///
+/// # Safety
+/// `ifname` is a NUL-terminated string; `err` points to `errlen` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_open(
+    ifname: *const c_char,
+    pdu_timeout_us: u32,
+    state_timeout_ms: u32,
+    tx_rx_priority: i32,
+    err: *mut c_char,
+    errlen: usize,
+) -> *mut SsEcatMaster {
+    if ifname.is_null() {
+        write_err(err, errlen, "no interface name");
+        return core::ptr::null_mut();
+    }
+    let name = match CStr::from_ptr(ifname).to_str() {
+        Ok(s) => s.to_owned(),
+        Err(_) => {
+            write_err(err, errlen, "interface name is not UTF-8");
+            return core::ptr::null_mut();
+        }
+    };
+    if OPENED.swap(true, Ordering::SeqCst) {
+        write_err(err, errlen, "one EtherCAT master per process");
+        return core::ptr::null_mut();
+    }
+    let Ok((tx, rx, pdu_loop)) = PDU_STORAGE.try_split() else {
+        write_err(err, errlen, "PDU storage already in use");
+        return core::ptr::null_mut();
+    };
+    let task = match tx_rx_task(&name, tx, rx) {
+        Ok(t) => t,
+        Err(e) => {
+            write_err(err, errlen, &format!("cannot open {}: {} (needs CAP_NET_RAW)", name, e));
+            return core::ptr::null_mut();
+        }
+    };
+    let spawned = std::thread::Builder::new().name("ecat-txrx".into()).spawn(move || {
+        realtime(tx_rx_priority);
+        // async-io's block_on drives the socket reactor on this (real-time) thread itself,
+        // instead of waking it from async-io's ordinary background thread.
+        let _ = async_io::block_on(task);
+    });
+    if spawned.is_err() {
+        write_err(err, errlen, "cannot start the frame thread");
+        return core::ptr::null_mut();
+    }
+    let timeouts = Timeouts {
+        pdu: Duration::from_micros(u64::from(pdu_timeout_us.max(100))),
+        state_transition: Duration::from_millis(u64::from(state_timeout_ms.max(100))),
+        wait_loop_delay: Duration::from_millis(1),
+        ..Timeouts::default()
+    };
+    let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
+    let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
+    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, error: [0; 256] }))
+}
+
+/// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open`.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_error(m: *const SsEcatMaster) -> *const c_char {
+    if m.is_null() {
+        return c"no master".as_ptr();
+    }
+    (*m).error.as_ptr() as *const c_char
+}
+
+/// Scans the bus, reads every SII, maps the PDOs and brings the subdevices to SAFE-OP
+/// (outputs still safe). Fills up to `max` entries of `subs` in bus order; returns the
+/// number of subdevices found, or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open`; `subs` points to `max` entries.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub, max: usize) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let group = match block_on(md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercat_now)) {
+        Ok(g) => g,
+        Err(e) => return m.fail(&format!("scan: {}", e)),
+    };
+    let group = match block_on(group.into_safe_op(md)) {
+        Ok(g) => g,
+        Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP: {}", e)),
+    };
+    let mut n = 0usize;
+    let mut expected = 0u16;
+    for sd in group.iter(md) {
+        let id = sd.identity();
+        let in_bytes = sd.inputs_raw().len() as u16;
+        let out_bytes = sd.outputs_raw().len() as u16;
+        expected += u16::from(in_bytes > 0) + 2 * u16::from(out_bytes > 0);
+        if n < max && !subs.is_null() {
+            let mut name = [0 as c_char; 64];
+            for (d, s) in name.iter_mut().zip(sd.name().bytes().take(63)) {
+                *d = s as c_char;
+            }
+            *subs.add(n) = SsEcatSub {
+                vendor_id: id.vendor_id,
+                product_code: id.product_id,
+                revision: id.revision,
+                serial: id.serial,
+                configured_address: sd.configured_address(),
+                in_bytes,
+                out_bytes,
+                name,
+            };
+        }
+        n += 1;
+    }
+    m.expected_wkc = expected;
+    m.safe = Some(group);
+    n as i32
+}
+
+/// SAFE-OP -> OP for every subdevice. 0 or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let Some(group) = m.safe.take() else { return m.fail("not scanned") };
+    match block_on(group.into_op(m.md)) {
+        Ok(g) => {
+            m.op = Some(g);
+            0
+        }
+        Err(e) => m.fail(&format!("SAFE-OP -> OP: {}", e)),
+    }
+}
+
+/// One cyclic exchange: writes `outputs` (every subdevice's output bytes in bus order,
+/// concatenated), sends one LRW (with the AL status checks in the same frame), waits for
+/// it, and copies the inputs (concatenated likewise) into `inputs`. Returns 0, or -1 when
+/// the frame did not come back in time or could not be sent. No allocation.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open`; the buffers hold `out_len` / `in_len` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_exchange(
+    m: *mut SsEcatMaster,
+    outputs: *const u8,
+    out_len: usize,
+    inputs: *mut u8,
+    in_len: usize,
+    cycle: *mut SsEcatCycle,
+) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let Some(group) = m.op.as_ref().or(None) else { return -1 };
+    let outs = if outputs.is_null() { &[][..] } else { core::slice::from_raw_parts(outputs, out_len) };
+    let mut off = 0usize;
+    for sd in group.iter(md) {
+        let mut o = sd.outputs_raw_mut();
+        let k = o.len().min(outs.len().saturating_sub(off));
+        o[..k].copy_from_slice(&outs[off..off + k]);
+        off += o.len();
+    }
+    let result = block_on(group.tx_rx(md));
+    let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
+    let mut off = 0usize;
+    for sd in group.iter(md) {
+        let i = sd.inputs_raw();
+        let k = i.len().min(ins.len().saturating_sub(off));
+        ins[off..off + k].copy_from_slice(&i[..k]);
+        off += i.len();
+    }
+    let Some(c) = cycle.as_mut() else { return if result.is_ok() { 0 } else { -1 } };
+    c.expected_wkc = m.expected_wkc;
+    c.al_state = [0; MAX_SUBDEVICES];
+    match result {
+        Ok(r) => {
+            c.wkc = r.working_counter;
+            c.count = r.subdevice_states.len() as u16;
+            for (d, s) in c.al_state.iter_mut().zip(r.subdevice_states.iter()) {
+                *d = state_code(*s);
+            }
+            0
+        }
+        Err(_) => {
+            c.wkc = 0;
+            c.count = 0;
+            -1
+        }
+    }
+}

@@ -1,0 +1,219 @@
+// The `ethercat` backend. The cycle does one exchange (one LRW with the AL status checks in
+// the same frame) in read(): the outputs written in the previous cycle go out, the inputs
+// come back; nothing else blocks, nothing allocates.
+#include <cmath>
+#include <cstring>
+
+#include "safestate/hal/ethercat.hpp"
+
+extern "C" {
+struct SsEcatMaster;
+struct SsEcatSub {
+  std::uint32_t vendor_id, product_code, revision, serial;
+  std::uint16_t configured_address, in_bytes, out_bytes;
+  char name[64];
+};
+struct SsEcatCycle {
+  std::uint16_t wkc, expected_wkc, count;
+  std::uint8_t al_state[16];
+};
+SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std::uint32_t state_timeout_ms,
+                           int tx_rx_priority, char* err, std::size_t errlen);
+const char* ss_ecat_error(const SsEcatMaster* m);
+int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
+int ss_ecat_to_op(SsEcatMaster* m);
+int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
+                     std::size_t in_len, SsEcatCycle* cycle);
+}
+
+namespace safestate::hal::ethercat {
+
+struct Backend::Master {
+  SsEcatMaster* m = nullptr;
+  SsEcatCycle cycle{};
+};
+
+namespace {
+
+std::string hex(std::uint32_t v) {
+  char b[16];
+  std::snprintf(b, sizeof b, "0x%08X", v);
+  return b;
+}
+
+bool bit(const std::uint8_t* p, std::uint16_t i) noexcept { return ((p[i / 8U] >> (i % 8U)) & 1U) != 0U; }
+void set_bit(std::uint8_t* p, std::uint16_t i, bool v) noexcept {
+  const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
+  p[i / 8U] = static_cast<std::uint8_t>(v ? (p[i / 8U] | m) : (p[i / 8U] & ~m));
+}
+std::uint16_t get16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8U)); }
+std::int32_t get32(const std::uint8_t* p) noexcept {
+  return static_cast<std::int32_t>(static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8U) |
+                                   (static_cast<std::uint32_t>(p[2]) << 16U) | (static_cast<std::uint32_t>(p[3]) << 24U));
+}
+void put16(std::uint8_t* p, std::uint16_t v) noexcept {
+  p[0] = static_cast<std::uint8_t>(v & 0xFFU);
+  p[1] = static_cast<std::uint8_t>(v >> 8U);
+}
+void put32(std::uint8_t* p, std::int32_t v) noexcept {
+  const auto u = static_cast<std::uint32_t>(v);
+  for (std::size_t k = 0; k < 4U; ++k) {
+    p[k] = static_cast<std::uint8_t>((u >> (8U * k)) & 0xFFU);
+  }
+}
+
+}  // namespace
+
+Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max)
+    : cfg_(cfg), lost_frames_max_(lost_frames_max) {
+  std::size_t in = 0;
+  std::size_t out = 0;
+  for (const Subdevice& s : cfg_.subdevices) {
+    in_off_.push_back(in);
+    out_off_.push_back(out);
+    in += s.in_bytes;
+    out += s.out_bytes;
+  }
+  in_buf_.assign(in, 0);
+  out_buf_.assign(out, 0);
+  boot(ifname);
+  if (!boot_error_.empty()) {
+    health_ = Health{false, health_.subdevice, "boot failed"};
+  }
+}
+
+Backend::~Backend() { delete master_; }
+
+// BOOT (SPEC §4 rule 1): every expected subdevice found, in order, with its identity and
+// PDO sizes, and in OP; otherwise the first that is wrong or missing is named.
+void Backend::boot(const std::string& ifname) {
+  char err[256] = {0};
+  SsEcatMaster* m = ss_ecat_open(ifname.c_str(), cfg_.frame_timeout_us, 5000, 85, err, sizeof err);
+  if (m == nullptr) {
+    boot_error_ = std::string("EtherCAT: ") + err;
+    return;
+  }
+  master_ = new Master{m, {}};
+  std::array<SsEcatSub, 16> found{};
+  const int n = ss_ecat_scan(m, found.data(), found.size());
+  if (n < 0) {
+    boot_error_ = std::string("EtherCAT scan: ") + ss_ecat_error(m);
+    return;
+  }
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const Subdevice& want = cfg_.subdevices[i];
+    const std::string who = "subdevice " + std::to_string(i + 1U) + " (" + want.name + ")";
+    if (i >= static_cast<std::size_t>(n)) {
+      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
+      boot_error_ = who + " missing: " + std::to_string(n) + " found on the bus";
+      return;
+    }
+    const SsEcatSub& got = found[i];
+    if (got.vendor_id != want.vendor_id || got.product_code != want.product_code ||
+        (want.check_revision && got.revision != want.revision)) {
+      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
+      boot_error_ = who + " has the wrong identity: vendor " + hex(got.vendor_id) + " product " + hex(got.product_code) +
+                    " revision " + hex(got.revision) + ", expected vendor " + hex(want.vendor_id) + " product " +
+                    hex(want.product_code);
+      return;
+    }
+    if (got.in_bytes != want.in_bytes || got.out_bytes != want.out_bytes) {
+      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
+      boot_error_ = who + " maps " + std::to_string(got.in_bytes) + "/" + std::to_string(got.out_bytes) +
+                    " input/output bytes, expected " + std::to_string(want.in_bytes) + "/" +
+                    std::to_string(want.out_bytes);
+      return;
+    }
+  }
+  if (static_cast<std::size_t>(n) > cfg_.subdevices.size()) {
+    health_.subdevice = static_cast<std::uint8_t>(cfg_.subdevices.size() + 1U);
+    boot_error_ = "unexpected subdevice " + std::to_string(cfg_.subdevices.size() + 1U) + " (" + found[cfg_.subdevices.size()].name +
+                  "): the configuration lists " + std::to_string(cfg_.subdevices.size());
+    return;
+  }
+  if (ss_ecat_to_op(m) != 0) {
+    boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+  }
+}
+
+void Backend::lose(std::uint8_t position, const char* why) noexcept {
+  if (health_.ok) {
+    health_ = Health{false, position, why};
+    lost_position_.store(position, std::memory_order_relaxed);
+    lost_why_.store(why, std::memory_order_release);
+  }
+}
+
+void Backend::read(ProcessImageIn& in) noexcept {
+  if (!booted()) {
+    in.fieldbus_ok = false;
+    for (auto& d : in.drive) {
+      d.online = false;
+    }
+    return;
+  }
+  SsEcatCycle& c = master_->cycle;
+  const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c);
+  ++exchanges_;
+  if (rc != 0) {
+    // A lost frame is tolerated up to the fieldbus watchdog, on the last good inputs.
+    if (++lost_in_row_ > lost_frames_max_) {
+      lose(0, "frames lost for longer than the fieldbus watchdog");
+    }
+  } else {
+    lost_in_row_ = 0;
+    for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+      if (i >= c.count || c.al_state[i] != 8U) {
+        lose(static_cast<std::uint8_t>(i + 1U), "subdevice left OP");
+        break;
+      }
+    }
+    if (c.wkc != c.expected_wkc) {
+      lose(0, "working counter differs from the expected one");
+    }
+  }
+  decode(in);
+}
+
+void Backend::decode(ProcessImageIn& in) const noexcept {
+  in.fieldbus_ok = health_.ok;
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const Subdevice& s = cfg_.subdevices[i];
+    const std::uint8_t* p = in_buf_.data() + in_off_[i];
+    if (s.role == Role::safety_inputs) {
+      bool v[kInputBits];
+      for (std::size_t b = 0; b < kInputBits; ++b) {
+        v[b] = bit(p, s.in_bit[b]);
+      }
+      in.safety = core::RawInputs{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10]};
+      in.contactor_closed = v[11];
+      for (std::size_t a = 0; a < kAxes; ++a) {
+        in.brake_released[a] = v[12U + a];
+      }
+    } else if (s.role == Role::drive) {
+      core::DriveFeedback& d = in.drive[s.axis - 1U];
+      d.statusword = get16(p + s.statusword);
+      d.position_rad = static_cast<float>(get32(p + s.position_actual) / s.counts_per_rad);
+      d.velocity_rad_s = static_cast<float>(get32(p + s.velocity_actual) / s.counts_per_rad);
+      d.online = health_.ok || (health_.subdevice != 0U && health_.subdevice != i + 1U);
+    }
+  }
+}
+
+void Backend::write(const ProcessImageOut& out) noexcept {
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const Subdevice& s = cfg_.subdevices[i];
+    std::uint8_t* p = out_buf_.data() + out_off_[i];
+    if (s.role == Role::safety_outputs) {
+      set_bit(p, s.out_bit[0], out.contactor);
+      set_bit(p, s.out_bit[1], out.brakes_release);
+      set_bit(p, s.out_bit[2], out.reset_lamp);
+    } else if (s.role == Role::drive) {
+      const DriveOut& d = out.drive[s.axis - 1U];
+      put16(p + s.controlword, d.controlword);
+      put32(p + s.target_position, static_cast<std::int32_t>(std::lround(static_cast<double>(d.target_position_rad) * s.counts_per_rad)));
+    }
+  }
+}
+
+}  // namespace safestate::hal::ethercat

@@ -1,0 +1,246 @@
+// The bus configuration file: which subdevices, in which order, with which identity and
+// PDO layout. Everything is checked before the bus is touched, and an error names the
+// field (IEC 62443: input from outside is validated).
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "safestate/hal/ethercat.hpp"
+
+namespace safestate::hal::ethercat {
+
+const char* const kInputBitNames[kInputBits] = {
+    "estop.a",      "estop.b",      "gate.a",     "gate.b",     "enable.a",   "enable.b",
+    "enable.panic", "mode.auto",    "mode.t1",    "mode.t2",    "reset_button", "contactor_fb",
+    "brake_fb.1",   "brake_fb.2",   "brake_fb.3", "brake_fb.4", "brake_fb.5", "brake_fb.6"};
+const char* const kOutputBitNames[kOutputBits] = {"contactor", "brakes_release", "reset_lamp"};
+
+namespace {
+
+using Json = nlohmann::json;
+
+struct Checker {
+  std::string err;
+  bool fail(const std::string& where, const std::string& what) {
+    if (err.empty()) {
+      err = where + ": " + what;
+    }
+    return false;
+  }
+};
+
+// A 32-bit id: a number or a "0x..." string.
+bool id32(const Json& j, const std::string& where, std::uint32_t& out, Checker& c) {
+  if (j.is_number_unsigned() && j.get<std::uint64_t>() <= 0xFFFFFFFFULL) {
+    out = static_cast<std::uint32_t>(j.get<std::uint64_t>());
+    return true;
+  }
+  if (j.is_string()) {
+    const std::string s = j.get<std::string>();
+    std::size_t used = 0;
+    try {
+      const unsigned long long v = std::stoull(s, &used, 0);
+      if (used == s.size() && v <= 0xFFFFFFFFULL) {
+        out = static_cast<std::uint32_t>(v);
+        return true;
+      }
+    } catch (...) {  // reported below
+    }
+  }
+  return c.fail(where, "expected a 32-bit number (e.g. \"0x00005AFE\")");
+}
+
+bool uint_in(const Json& obj, const char* key, const std::string& where, std::uint64_t lo, std::uint64_t hi,
+             std::uint64_t& out, Checker& c) {
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_number_unsigned() || it->get<std::uint64_t>() < lo || it->get<std::uint64_t>() > hi) {
+    return c.fail(where + "." + key, "expected an integer " + std::to_string(lo) + ".." + std::to_string(hi));
+  }
+  out = it->get<std::uint64_t>();
+  return true;
+}
+
+template <std::size_t N>
+bool bit_map(const Json& obj, const std::string& where, const char* const (&names)[N], std::uint16_t bytes,
+             std::array<std::uint16_t, N>& out, Checker& c) {
+  const auto it = obj.find("bits");
+  if (it == obj.end() || !it->is_object()) {
+    return c.fail(where + ".bits", "expected an object naming the bit of each signal");
+  }
+  std::set<std::uint64_t> used;
+  for (std::size_t i = 0; i < N; ++i) {
+    std::uint64_t b = 0;
+    if (!uint_in(*it, names[i], where + ".bits", 0, bytes * 8U - 1U, b, c)) {
+      return false;
+    }
+    if (!used.insert(b).second) {
+      return c.fail(where + ".bits." + names[i], "bit " + std::to_string(b) + " is used twice");
+    }
+    out[i] = static_cast<std::uint16_t>(b);
+  }
+  for (const auto& [k, v] : it->items()) {
+    if (std::find_if(std::begin(names), std::end(names), [&](const char* n) { return k == n; }) == std::end(names)) {
+      return c.fail(where + ".bits." + k, "unknown signal");
+    }
+  }
+  return true;
+}
+
+bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  std::uint64_t v = 0;
+  if (!uint_in(s, "axis", where, 1, kAxes, v, c)) {
+    return false;
+  }
+  d.axis = static_cast<std::uint8_t>(v);
+  if (!uint_in(s, "counts_per_revolution", where, 1, 1ULL << 31U, v, c)) {
+    return false;
+  }
+  d.counts_per_rad = static_cast<double>(v) / 6.283185307179586;
+  const auto pdo = s.find("pdo");
+  if (pdo == s.end() || !pdo->is_object()) {
+    return c.fail(where + ".pdo", "expected the byte offsets of the CiA 402 objects");
+  }
+  const std::string p = where + ".pdo";
+  const struct {
+    const char* key;
+    std::uint16_t* field;
+    std::uint16_t bytes;   // object size
+    std::uint16_t limit;   // image size
+  } objs[] = {{"controlword", &d.controlword, 2, d.out_bytes},
+              {"target_position", &d.target_position, 4, d.out_bytes},
+              {"statusword", &d.statusword, 2, d.in_bytes},
+              {"position_actual", &d.position_actual, 4, d.in_bytes},
+              {"velocity_actual", &d.velocity_actual, 4, d.in_bytes}};
+  for (const auto& o : objs) {
+    if (o.limit < o.bytes || !uint_in(*pdo, o.key, p, 0, o.limit - o.bytes, v, c)) {
+      return c.fail(p + "." + o.key, "offset outside the PDO image");
+    }
+    *o.field = static_cast<std::uint16_t>(v);
+  }
+  return true;
+}
+
+bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  if (!s.is_object()) {
+    return c.fail(where, "expected an object");
+  }
+  const auto name = s.find("name");
+  d.name = (name != s.end() && name->is_string()) ? name->get<std::string>() : where;
+  const auto role = s.find("role");
+  const std::string r = (role != s.end() && role->is_string()) ? role->get<std::string>() : "";
+  if (r == "safety_inputs") {
+    d.role = Role::safety_inputs;
+  } else if (r == "safety_outputs") {
+    d.role = Role::safety_outputs;
+  } else if (r == "drive") {
+    d.role = Role::drive;
+  } else {
+    return c.fail(where + ".role", "expected safety_inputs, safety_outputs or drive");
+  }
+  for (const char* k : {"vendor_id", "product_code"}) {
+    if (s.find(k) == s.end()) {
+      return c.fail(where + "." + k, "missing");
+    }
+  }
+  if (!id32(s["vendor_id"], where + ".vendor_id", d.vendor_id, c) ||
+      !id32(s["product_code"], where + ".product_code", d.product_code, c)) {
+    return false;
+  }
+  d.check_revision = s.contains("revision");
+  if (d.check_revision && !id32(s["revision"], where + ".revision", d.revision, c)) {
+    return false;
+  }
+  std::uint64_t v = 0;
+  if (!uint_in(s, "in_bytes", where, 0, 512, v, c)) {
+    return false;
+  }
+  d.in_bytes = static_cast<std::uint16_t>(v);
+  if (!uint_in(s, "out_bytes", where, 0, 512, v, c)) {
+    return false;
+  }
+  d.out_bytes = static_cast<std::uint16_t>(v);
+  switch (d.role) {
+    case Role::safety_inputs:
+      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, d.in_bytes, d.in_bit, c)
+                            : c.fail(where + ".in_bytes", "safety inputs need input bytes");
+    case Role::safety_outputs:
+      return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, d.out_bytes, d.out_bit, c)
+                             : c.fail(where + ".out_bytes", "safety outputs need output bytes");
+    case Role::drive: return drive(s, where, d, c);
+  }
+  return false;
+}
+
+}  // namespace
+
+bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err) {
+  Checker c;
+  const Json j = Json::parse(text, nullptr, false, true);
+  if (j.is_discarded() || !j.is_object()) {
+    err = "not a JSON object";
+    return false;
+  }
+  out = BusConfig{};
+  if (j.contains("frame_timeout_us")) {
+    std::uint64_t v = 0;
+    if (!uint_in(j, "frame_timeout_us", "bus", 100, 100000, v, c)) {
+      err = c.err;
+      return false;
+    }
+    out.frame_timeout_us = static_cast<std::uint32_t>(v);
+  }
+  const auto subs = j.find("subdevices");
+  if (subs == j.end() || !subs->is_array() || subs->empty() || subs->size() > 16U) {
+    err = "subdevices: expected a list of 1..16 subdevices in bus order";
+    return false;
+  }
+  std::array<int, kAxes> axes{};
+  int inputs = 0;
+  int outputs = 0;
+  for (std::size_t i = 0; i < subs->size(); ++i) {
+    Subdevice d;
+    const std::string where = "subdevices[" + std::to_string(i) + "]";
+    if (!subdevice((*subs)[i], where, d, c)) {
+      err = c.err;
+      return false;
+    }
+    if (d.role == Role::drive && ++axes[d.axis - 1U] > 1) {
+      err = where + ".axis: axis " + std::to_string(d.axis) + " appears twice";
+      return false;
+    }
+    inputs += d.role == Role::safety_inputs ? 1 : 0;
+    outputs += d.role == Role::safety_outputs ? 1 : 0;
+    out.subdevices.push_back(std::move(d));
+  }
+  for (std::size_t a = 0; a < kAxes; ++a) {
+    if (axes[a] == 0) {
+      err = "subdevices: no drive for axis " + std::to_string(a + 1U);
+      return false;
+    }
+  }
+  if (inputs != 1 || outputs != 1) {
+    err = "subdevices: expected exactly one safety_inputs and one safety_outputs subdevice";
+    return false;
+  }
+  return true;
+}
+
+bool load_bus_config(const std::string& path, BusConfig& out, std::string& err) {
+  std::ifstream f(path);
+  if (!f) {
+    err = "cannot read " + path;
+    return false;
+  }
+  std::stringstream ss;
+  ss << f.rdbuf();
+  if (!parse_bus_config(ss.str(), out, err)) {
+    err = path + ": " + err;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace safestate::hal::ethercat

@@ -1,0 +1,57 @@
+// `sim` records for an emulated segment: from the RT loop (never blocking) to the
+// emulator's control socket (written by a non-real-time thread of `safestate run`).
+#include <string>
+
+#include "safestate/runtime/runtime.hpp"
+#include "safestate/sim/cell.hpp"
+
+namespace safestate::runtime {
+
+bool SimForward::push(const bridge::CommandRecord& r) noexcept {
+  const std::uint32_t h = head_.load(std::memory_order_relaxed);
+  if (h - tail_.load(std::memory_order_acquire) >= kSize) {
+    return false;
+  }
+  ring_[h % kSize] = r;
+  head_.store(h + 1U, std::memory_order_release);
+  return true;
+}
+
+bool SimForward::pop(bridge::CommandRecord& r) noexcept {
+  const std::uint32_t t = tail_.load(std::memory_order_relaxed);
+  if (t == head_.load(std::memory_order_acquire)) {
+    return false;
+  }
+  r = ring_[t % kSize];
+  tail_.store(t + 1U, std::memory_order_release);
+  return true;
+}
+
+std::string sim_line(const bridge::CommandRecord& r) {
+  // Contacts in the order of scenario::Contact (the bit order of set_mask).
+  static const char* const kContacts[] = {"estop.a", "estop.b", "gate.a",    "gate.b",  "enable.a",    "enable.b",
+                                          "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button"};
+  if (r.kind == bridge::RecordKind::sim_set) {
+    std::string line = "in";
+    for (std::size_t i = 0; i < std::size(kContacts); ++i) {
+      if (((r.set_mask >> i) & 1U) != 0U) {
+        line += std::string(" ") + kContacts[i] + "=" + (((r.set_values >> i) & 1U) != 0U ? "1" : "0");
+      }
+    }
+    return line;
+  }
+  const std::string n = std::to_string(r.fault_axis);
+  switch (static_cast<sim::FaultKind>(r.fault_kind)) {
+    case sim::FaultKind::drive_fault: return "fault drive " + n + " fault";
+    case sim::FaultKind::drive_clear: return "fault drive " + n + " clear";
+    case sim::FaultKind::drive_runaway: return "fault drive " + n + " runaway";
+    case sim::FaultKind::drive_nostop: return "fault drive " + n + " nostop";
+    case sim::FaultKind::fieldbus_lost: return "fault fieldbus lost";
+    case sim::FaultKind::contactor_stuck_open: return "fault contactor stuck_open";
+    case sim::FaultKind::brake_stuck: return "fault brake " + n + " stuck";
+    case sim::FaultKind::clear_all: return "fault clear all";
+  }
+  return "fault ?";
+}
+
+}  // namespace safestate::runtime

@@ -1,0 +1,99 @@
+// The default emulated segment of `safestate ecat-sim` and what stands behind it: the
+// simulated plant of sim/ (six CiA 402 drives, contactor, brakes, safety contacts, arm
+// physics) reached through the PDOs of a digital input terminal, a digital output
+// terminal and six CSP drives. It stands in for real hardware on a real segment.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "safestate/ecat/segment.hpp"
+#include "safestate/hal/process_image.hpp"
+#include "safestate/sim/cell.hpp"
+#include "safestate/sim/plant.hpp"
+
+namespace safestate::ecat {
+
+// Identities of the emulated subdevices. The vendor id is not one ETG assigned to
+// anybody: these subdevices exist only here (docs/ethercat.md).
+inline constexpr std::uint32_t kVendorId = 0x00005AFE;
+inline constexpr std::uint32_t kProductDrive = 0x00402001;
+inline constexpr std::uint32_t kProductDigitalIn = 0x00D10018;
+inline constexpr std::uint32_t kProductDigitalOut = 0x00D00003;
+inline constexpr std::uint32_t kRevision = 0x00010000;
+
+// Positions on the line (0-based): the I/O terminals in the cabinet first, then drives.
+inline constexpr std::size_t kPosDigitalIn = 0;
+inline constexpr std::size_t kPosDigitalOut = 1;
+inline constexpr std::size_t kPosFirstDrive = 2;
+inline constexpr std::size_t kSubdevices = 8;
+
+// Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
+enum class DiBit : std::uint8_t {
+  estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic,
+  mode_auto, mode_t1, mode_t2, reset_button, contactor_fb,
+  brake_fb1, brake_fb2, brake_fb3, brake_fb4, brake_fb5, brake_fb6,
+};
+inline constexpr std::size_t kDiBytes = 4;  // 18 contacts, padded to 32 bits
+// Bits of the digital output terminal's RxPDO (0x7000:01..).
+enum class DoBit : std::uint8_t { contactor, brakes_release, reset_lamp };
+inline constexpr std::size_t kDoBytes = 2;
+// Drive PDOs (CSP): RxPDO 0x1600 = 0x6040 controlword (u16), 0x607A target position
+// (i32); TxPDO 0x1A00 = 0x6041 statusword (u16), 0x6064 position actual (i32), 0x606C
+// velocity actual (i32). Little-endian, as on the wire.
+inline constexpr std::size_t kDriveRxBytes = 6;
+inline constexpr std::size_t kDriveTxBytes = 10;
+// Encoder resolution of the emulated drives: 2^20 increments per revolution.
+inline constexpr double kCountsPerRad = 1048576.0 / 6.283185307179586;
+
+std::vector<SubdeviceDesc> default_segment();
+
+// Process image <-> PDO bytes of the default layout (used by both sides of the wire in tests).
+void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (*drive_tx)[kDriveTxBytes]) noexcept;
+void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint8_t (*drive_rx)[kDriveRxBytes]) noexcept;
+void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDriveRxBytes], hal::ProcessImageOut& out) noexcept;
+
+// The plant behind the segment. One process-data exchange = one plant cycle, so a master
+// cycling once per scan cycle sees exactly what the in-process cell sees; when no
+// process data arrives the plant runs on by itself with its outputs in the safe state.
+class EmulatedCell {
+ public:
+  explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment());
+  Segment& segment() noexcept { return segment_; }
+  core::RawInputs& inputs() noexcept { return plant_.inputs(); }
+  void inject(const sim::Fault& f) noexcept { plant_.inject(f); }
+  // Idle work: watchdogs, and free-running physics when the master is silent.
+  void poll(std::uint64_t now_ns) noexcept;
+  void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
+  void step() noexcept;  // one plant cycle on the outputs the subdevices hold
+  // The input terminals show a changed contact at once, as real ones do between cycles.
+  void latch_inputs() noexcept;
+  [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return out_; }
+  [[nodiscard]] const hal::ProcessImageIn& last_inputs() const noexcept { return in_; }
+  [[nodiscard]] std::uint64_t cycles() const noexcept { return cycles_; }
+  // Safety reaction on the wire: from the plant cycle in which an input contact changed
+  // (as the master will read it) to the first exchange whose outputs clear the contactor.
+  struct Reaction {
+    std::uint64_t input_cycle = 0;
+    std::uint64_t input_ns = 0;
+    std::uint64_t cleared_cycle = 0;  // 0 = not since the last input change
+    std::uint64_t cleared_ns = 0;
+  };
+  void mark_input_change() noexcept { reaction_ = Reaction{cycles_, now_ns_, 0, 0}; }
+  [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
+
+ private:
+  std::uint32_t cycle_us_;
+  sim::SimPlant plant_;
+  Segment segment_;
+  hal::ProcessImageIn in_{};
+  hal::ProcessImageOut out_{};
+  std::uint64_t cycles_ = 0;
+  std::uint64_t last_step_ns_ = 0;
+  std::uint64_t now_ns_ = 0;
+  bool free_running_ = false;
+  Reaction reaction_{};
+  std::uint64_t next_free_ns_ = 0;
+};
+
+}  // namespace safestate::ecat

@@ -1,0 +1,27 @@
+// `safestate ecat-sim`: the emulated segment on a network interface (a raw AF_PACKET
+// socket, EtherType 0x88A4), with a control channel on a Unix socket through which the
+// physical world and the faults are changed (the `in` and `fault` vocabulary of the
+// scenario format, or the gateway's `sim` JSON messages).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "safestate/ecat/cell.hpp"
+
+namespace safestate::ecat {
+
+struct EcatSimOptions {
+  std::string ifname;
+  std::string control;      // Unix socket path; empty = no control channel
+  std::uint32_t cycle_us = 1000;
+  int priority = 70;  // SCHED_FIFO when permitted; 0 = ordinary scheduling
+  std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
+};
+
+// One control line -> "OK" or "ERROR <why>"; `status` -> one JSON object. Exposed for tests.
+std::string control_line(EmulatedCell& cell, const std::string& line);
+
+int ecat_sim_main(const EcatSimOptions& opt);
+
+}  // namespace safestate::ecat

@@ -1,0 +1,144 @@
+// One emulated EtherCAT slave controller (ESC): the register and process-RAM space a
+// master reads and writes with datagrams, the AL state machine, the SII EEPROM
+// interface, the FMMUs and sync managers, the process-data watchdog. It stands in for
+// the ESC chip of a real subdevice (ETG.1000.4 data link layer, ETG.1000.6 application
+// layer, ETG.2010 SII); nothing here is certified or timing-accurate.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace safestate::ecat {
+
+// Register addresses of ETG.1000.4 / the ESC datasheets that the emulation gives meaning to.
+namespace reg {
+inline constexpr std::uint16_t type = 0x0000;
+inline constexpr std::uint16_t fmmu_count = 0x0004;
+inline constexpr std::uint16_t sm_count = 0x0005;
+inline constexpr std::uint16_t ram_size = 0x0006;
+inline constexpr std::uint16_t port_desc = 0x0007;
+inline constexpr std::uint16_t features = 0x0008;
+inline constexpr std::uint16_t station_addr = 0x0010;
+inline constexpr std::uint16_t station_alias = 0x0012;
+inline constexpr std::uint16_t dl_status = 0x0110;
+inline constexpr std::uint16_t al_control = 0x0120;
+inline constexpr std::uint16_t al_status = 0x0130;
+inline constexpr std::uint16_t al_status_code = 0x0134;
+inline constexpr std::uint16_t pdi_control = 0x0140;
+inline constexpr std::uint16_t wdg_divider = 0x0400;
+inline constexpr std::uint16_t wdg_time_pd = 0x0420;
+inline constexpr std::uint16_t wdg_status_pd = 0x0440;
+inline constexpr std::uint16_t wdg_counter_pd = 0x0442;
+inline constexpr std::uint16_t eep_config = 0x0500;
+inline constexpr std::uint16_t eep_control = 0x0502;
+inline constexpr std::uint16_t eep_address = 0x0504;
+inline constexpr std::uint16_t eep_data = 0x0508;
+inline constexpr std::uint16_t fmmu = 0x0600;
+inline constexpr std::uint16_t sm = 0x0800;
+inline constexpr std::uint16_t process_ram = 0x1000;
+}  // namespace reg
+
+inline constexpr std::size_t kEscMemory = 0x3000;  // 4 KiB registers + 8 KiB process RAM
+inline constexpr std::size_t kFmmus = 8;
+inline constexpr std::size_t kSyncManagers = 8;
+
+enum class AlState : std::uint8_t { init = 1, preop = 2, boot = 3, safeop = 4, op = 8 };
+
+// AL status codes of ETG.1000.6 table 11 that the emulation raises.
+namespace al_code {
+inline constexpr std::uint16_t none = 0x0000;
+inline constexpr std::uint16_t invalid_state_change = 0x0011;
+inline constexpr std::uint16_t unknown_state = 0x0012;
+inline constexpr std::uint16_t bootstrap_not_supported = 0x0013;
+inline constexpr std::uint16_t sm_watchdog = 0x001B;
+inline constexpr std::uint16_t invalid_output_config = 0x001D;
+inline constexpr std::uint16_t invalid_input_config = 0x001E;
+}  // namespace al_code
+
+// One object entry of a PDO (SII PDO category entry, ETG.2010 table 15). index 0 = padding.
+struct PdoEntry {
+  std::uint16_t index = 0;
+  std::uint8_t subindex = 0;
+  std::uint8_t bits = 0;
+  std::uint8_t data_type = 0;  // CoE data type: 0x0001 BOOL, 0x0006 UINT16, 0x0004 INT32 ...
+  std::string name;
+};
+
+struct Pdo {
+  std::uint16_t index = 0;  // 0x16xx RxPDO (outputs), 0x1Axx TxPDO (inputs)
+  std::vector<PdoEntry> entries;
+  [[nodiscard]] std::size_t bytes() const noexcept;
+};
+
+// What a subdevice is: its identity (SII words 0x0008..0x000F) and its fixed PDO layout.
+struct SubdeviceDesc {
+  std::uint32_t vendor_id = 0;
+  std::uint32_t product_code = 0;
+  std::uint32_t revision = 0;
+  std::uint32_t serial = 0;
+  std::string name;       // SII string, shown by masters
+  Pdo rx;                 // outputs (master -> subdevice); no entries = none
+  Pdo tx;                 // inputs (subdevice -> master)
+  std::uint16_t out_address = 0x1000;  // process RAM of the output sync manager
+  std::uint16_t in_address = 0x1800;   // process RAM of the input sync manager
+};
+
+// The SII EEPROM image (ETG.2010): identity, general, strings, FMMU, sync-manager and PDO
+// categories, no mailbox (the PDO layout is fixed, as on simple I/O terminals).
+std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d);
+
+class Esc {
+ public:
+  explicit Esc(SubdeviceDesc desc);
+
+  // Power-on: registers to their reset values, AL state INIT.
+  void reset();
+
+  // ECAT-side access (what datagrams do). A write touches only the ECAT-writable bytes
+  // and then runs the register side effects (AL control, EEPROM command).
+  void read(std::uint16_t address, std::span<std::uint8_t> out) const noexcept;
+  void write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept;
+
+  // Logical addressing through the FMMUs. Each returns true when an active FMMU of the
+  // direction mapped at least one bit of [logical, logical + data.size()).
+  bool logical_write(std::uint32_t logical, std::span<const std::uint8_t> data, std::uint64_t now_ns) noexcept;
+  bool logical_read(std::uint32_t logical, std::span<std::uint8_t> data) const noexcept;
+
+  // The application side (PDI): outputs the master wrote (zeros outside OP or after the
+  // watchdog expired: the safe state of the outputs), inputs it will read.
+  [[nodiscard]] std::span<const std::uint8_t> outputs() const noexcept;
+  void set_inputs(std::span<const std::uint8_t> in) noexcept;
+  // A register the application (PDI) sets, read-only from the wire (e.g. DL status).
+  void pdi_write(std::uint16_t address, std::span<const std::uint8_t> in) noexcept;
+  // Process-data watchdog (ETG.1000.4 6.3): no write to the output sync manager for
+  // longer than its time = outputs safe, and the application falls back to SAFEOP
+  // with AL status code 0x001B.
+  void poll_watchdog(std::uint64_t now_ns) noexcept;
+
+  [[nodiscard]] AlState state() const noexcept;
+  [[nodiscard]] std::uint16_t al_status_code() const noexcept;
+  [[nodiscard]] std::uint16_t station_address() const noexcept;
+  [[nodiscard]] const SubdeviceDesc& desc() const noexcept { return desc_; }
+
+ private:
+  void set_al(std::uint8_t state, bool error, std::uint16_t code) noexcept;
+  void on_al_control() noexcept;
+  void on_eeprom_control() noexcept;
+  [[nodiscard]] std::uint16_t transition_error(AlState from, std::uint8_t to) const noexcept;
+  [[nodiscard]] bool sm_matches(std::uint16_t start, std::size_t bytes) const noexcept;
+  [[nodiscard]] std::uint64_t watchdog_ns() const noexcept;
+  [[nodiscard]] std::uint16_t u16(std::uint16_t a) const noexcept;
+  void put16(std::uint16_t a, std::uint16_t v) noexcept;
+
+  SubdeviceDesc desc_;
+  std::vector<std::uint16_t> sii_;
+  std::array<std::uint8_t, kEscMemory> mem_{};
+  std::array<std::uint8_t, 512> zeros_{};
+  std::uint64_t last_output_ns_ = 0;
+  bool outputs_valid_ = false;
+};
+
+}  // namespace safestate::ecat

@@ -1,0 +1,73 @@
+// An emulated EtherCAT segment: subdevices in a line, each an emulated ESC, processing
+// the datagrams of every frame in order as the frame passes them (ETG.1000.4 5.4: auto-
+// increment, configured-address, broadcast and logical addressing, working counters),
+// and the wire faults a test needs: a cable cut in front of a subdevice, damaged frames,
+// lost frames.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "safestate/ecat/esc.hpp"
+
+namespace safestate::ecat {
+
+inline constexpr std::uint16_t kEtherTypeEcat = 0x88A4;
+
+enum class Cmd : std::uint8_t {
+  NOP = 0, APRD, APWR, APRW, FPRD, FPWR, FPRW, BRD, BWR, BRW, LRD, LWR, LRW, ARMW, FRMW
+};
+
+class Segment {
+ public:
+  explicit Segment(const std::vector<SubdeviceDesc>& devices);
+
+  // Called once per frame whose logical datagrams wrote process data, between the
+  // writes and the reads (the applications take their outputs and latch new inputs).
+  void on_process_data(std::function<void()> f) { on_pd_ = std::move(f); }
+
+  // Processes one Ethernet frame in place. Returns false when no frame comes back
+  // (not EtherCAT, malformed, dropped, or nothing connected).
+  bool process(std::span<std::uint8_t> frame, std::uint64_t now_ns) noexcept;
+
+  void poll(std::uint64_t now_ns) noexcept;  // process-data watchdogs
+
+  // Wire faults.
+  void cut_before(std::size_t position) noexcept;  // 1-based; 0 = every cable plugged
+  void drop_frames(std::uint32_t n) noexcept { drop_ += n; }
+  void corrupt_frames(std::uint32_t n) noexcept { corrupt_ += n; }
+  // The whole bus silent (a cable cut at the master) until clear_wire_faults().
+  void go_silent() noexcept { silent_ = true; }
+  void clear_wire_faults() noexcept {
+    silent_ = false;
+    drop_ = 0;
+    corrupt_ = 0;
+  }
+  [[nodiscard]] std::size_t connected() const noexcept;
+
+  [[nodiscard]] std::size_t size() const noexcept { return escs_.size(); }
+  Esc& esc(std::size_t i) noexcept { return escs_[i]; }
+  [[nodiscard]] const Esc& esc(std::size_t i) const noexcept { return escs_[i]; }
+  [[nodiscard]] std::uint64_t frames() const noexcept { return frames_; }
+
+ private:
+  bool datagram(std::span<std::uint8_t> dg, std::uint64_t now_ns, bool& pd_written) noexcept;
+  void physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<std::uint8_t> data, std::uint16_t& wkc,
+                std::uint64_t now_ns) noexcept;
+  void logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, std::uint16_t& wkc, std::uint64_t now_ns,
+               bool& pd_written) noexcept;
+  void update_dl_status() noexcept;
+
+  std::vector<Esc> escs_;
+  std::size_t cut_ = 0;
+  std::uint32_t drop_ = 0;
+  std::uint32_t corrupt_ = 0;
+  bool silent_ = false;
+  std::uint64_t frames_ = 0;
+  std::vector<std::uint8_t> scratch_;
+  std::function<void()> on_pd_;
+};
+
+}  // namespace safestate::ecat

@@ -1,0 +1,203 @@
+#include "safestate/ecat/cell.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "safestate/motion/robot.hpp"
+
+namespace safestate::ecat {
+
+namespace {
+
+constexpr std::uint8_t kBool = 0x01;
+constexpr std::uint8_t kInt32 = 0x04;
+constexpr std::uint8_t kUint16 = 0x06;
+
+const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "gate.b",      "enable.a",
+                                "enable.b",     "enable.panic", "mode.auto", "mode.t1",     "mode.t2",
+                                "reset_button", "contactor_fb", "brake_fb.1", "brake_fb.2", "brake_fb.3",
+                                "brake_fb.4",   "brake_fb.5", "brake_fb.6"};
+const char* const kDoNames[] = {"contactor", "brakes_release", "reset_lamp"};
+
+SubdeviceDesc digital_in() {
+  SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI18 safety contacts", {}, {}};
+  d.tx.index = 0x1A00;
+  std::uint8_t sub = 1;
+  for (const char* n : kDiNames) {
+    d.tx.entries.push_back({0x6000, sub++, 1, kBool, n});
+  }
+  d.tx.entries.push_back({0, 0, static_cast<std::uint8_t>(kDiBytes * 8U - (sub - 1U)), 0, ""});  // padding
+  d.in_address = 0x1000;
+  return d;
+}
+
+SubdeviceDesc digital_out() {
+  SubdeviceDesc d{kVendorId, kProductDigitalOut, kRevision, 2, "SafeState emu DO3 contactor brakes lamp", {}, {}};
+  d.rx.index = 0x1600;
+  std::uint8_t sub = 1;
+  for (const char* n : kDoNames) {
+    d.rx.entries.push_back({0x7000, sub++, 1, kBool, n});
+  }
+  d.rx.entries.push_back({0, 0, static_cast<std::uint8_t>(kDoBytes * 8U - (sub - 1U)), 0, ""});
+  d.out_address = 0x1000;
+  return d;
+}
+
+SubdeviceDesc drive(std::size_t axis) {
+  SubdeviceDesc d{kVendorId, kProductDrive, kRevision, static_cast<std::uint32_t>(10U + axis),
+                  "SafeState emu CiA402 CSP drive " + std::to_string(axis), {}, {}};
+  d.rx.index = 0x1600;
+  d.rx.entries = {{0x6040, 0, 16, kUint16, "Controlword"}, {0x607A, 0, 32, kInt32, "Target position"}};
+  d.tx.index = 0x1A00;
+  d.tx.entries = {{0x6041, 0, 16, kUint16, "Statusword"},
+                  {0x6064, 0, 32, kInt32, "Position actual value"},
+                  {0x606C, 0, 32, kInt32, "Velocity actual value"}};
+  d.out_address = 0x1000;
+  d.in_address = 0x1800;
+  return d;
+}
+
+void set_bit(std::uint8_t* b, std::size_t i, bool v) noexcept {
+  const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
+  b[i / 8U] = static_cast<std::uint8_t>(v ? (b[i / 8U] | m) : (b[i / 8U] & ~m));
+}
+bool get_bit(const std::uint8_t* b, std::size_t i) noexcept { return ((b[i / 8U] >> (i % 8U)) & 1U) != 0U; }
+void put16(std::uint8_t* p, std::uint16_t v) noexcept {
+  p[0] = static_cast<std::uint8_t>(v & 0xFFU);
+  p[1] = static_cast<std::uint8_t>(v >> 8U);
+}
+void put32(std::uint8_t* p, std::int32_t v) noexcept {
+  const auto u = static_cast<std::uint32_t>(v);
+  for (std::size_t k = 0; k < 4U; ++k) {
+    p[k] = static_cast<std::uint8_t>((u >> (8U * k)) & 0xFFU);
+  }
+}
+std::int32_t get32(const std::uint8_t* p) noexcept {
+  std::uint32_t u = 0;
+  for (std::size_t k = 0; k < 4U; ++k) {
+    u |= static_cast<std::uint32_t>(p[k]) << (8U * k);
+  }
+  return static_cast<std::int32_t>(u);
+}
+std::int32_t to_counts(float rad) noexcept {
+  return static_cast<std::int32_t>(std::lround(static_cast<double>(rad) * kCountsPerRad));
+}
+constexpr std::size_t bit(DiBit b) { return static_cast<std::size_t>(b); }
+constexpr std::size_t bit(DoBit b) { return static_cast<std::size_t>(b); }
+
+sim::PlantTiming timing(std::uint32_t cycle_us) {
+  const auto cycles = [&](std::uint32_t ms) {
+    const std::uint32_t c = (ms * 1000U + cycle_us - 1U) / cycle_us;
+    return (c == 0U) ? 1U : c;
+  };
+  return sim::PlantTiming{cycles(10), cycles(60), cycles(50)};
+}
+
+}  // namespace
+
+std::vector<SubdeviceDesc> default_segment() {
+  std::vector<SubdeviceDesc> v{digital_in(), digital_out()};
+  for (std::size_t a = 1; a <= hal::kAxes; ++a) {
+    v.push_back(drive(a));
+  }
+  return v;
+}
+
+void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (*drive_tx)[kDriveTxBytes]) noexcept {
+  std::memset(di, 0, kDiBytes);
+  const core::RawInputs& s = in.safety;
+  const bool contacts[] = {s.estop_a, s.estop_b, s.gate_a, s.gate_b, s.enable_a, s.enable_b,
+                           s.enable_panic, s.mode_auto, s.mode_t1, s.mode_t2, s.reset_button, in.contactor_closed};
+  for (std::size_t i = 0; i < std::size(contacts); ++i) {
+    set_bit(di, i, contacts[i]);
+  }
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    set_bit(di, bit(DiBit::brake_fb1) + a, in.brake_released[a]);
+    put16(&drive_tx[a][0], in.drive[a].statusword);
+    put32(&drive_tx[a][2], to_counts(in.drive[a].position_rad));
+    put32(&drive_tx[a][6], to_counts(in.drive[a].velocity_rad_s));
+  }
+}
+
+void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint8_t (*drive_rx)[kDriveRxBytes]) noexcept {
+  std::memset(dout, 0, kDoBytes);
+  set_bit(dout, bit(DoBit::contactor), out.contactor);
+  set_bit(dout, bit(DoBit::brakes_release), out.brakes_release);
+  set_bit(dout, bit(DoBit::reset_lamp), out.reset_lamp);
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    put16(&drive_rx[a][0], out.drive[a].controlword);
+    put32(&drive_rx[a][2], to_counts(out.drive[a].target_position_rad));
+  }
+}
+
+void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDriveRxBytes],
+                    hal::ProcessImageOut& out) noexcept {
+  out.contactor = get_bit(dout, bit(DoBit::contactor));
+  out.brakes_release = get_bit(dout, bit(DoBit::brakes_release));
+  out.reset_lamp = get_bit(dout, bit(DoBit::reset_lamp));
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    out.drive[a].controlword = static_cast<std::uint16_t>(drive_rx[a][0] | (drive_rx[a][1] << 8U));
+    out.drive[a].target_position_rad = static_cast<float>(get32(&drive_rx[a][2]) / kCountsPerRad);
+  }
+}
+
+EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices)
+    : cycle_us_(cycle_us),
+      plant_(motion::kRobot, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
+      segment_(devices) {
+  segment_.on_process_data([this] {
+    free_running_ = false;
+    step();
+  });
+  latch_inputs();
+}
+
+void EmulatedCell::latch_inputs() noexcept {
+  plant_.read(in_);
+  std::uint8_t di[kDiBytes];
+  std::uint8_t tx[hal::kAxes][kDriveTxBytes];
+  pack_inputs(in_, di, tx);
+  segment_.esc(kPosDigitalIn).set_inputs(di);
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    segment_.esc(kPosFirstDrive + a).set_inputs(tx[a]);
+  }
+}
+
+void EmulatedCell::step() noexcept {
+  std::uint8_t rx[hal::kAxes][kDriveRxBytes];
+  const std::span<const std::uint8_t> dout = segment_.esc(kPosDigitalOut).outputs();
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    const std::span<const std::uint8_t> o = segment_.esc(kPosFirstDrive + a).outputs();
+    std::memcpy(rx[a], o.data(), kDriveRxBytes);
+  }
+  const bool was_closed = out_.contactor;
+  unpack_outputs(dout.data(), rx, out_);
+  if (was_closed && !out_.contactor && reaction_.cleared_cycle == 0U) {
+    reaction_.cleared_cycle = cycles_;
+    reaction_.cleared_ns = now_ns_;
+  }
+  plant_.write(out_);
+  ++cycles_;
+  last_step_ns_ = now_ns_;
+  latch_inputs();
+}
+
+void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
+  now_ns_ = now_ns;
+  segment_.poll(now_ns);
+  // Physics does not wait for the master: after 20 silent cycles it runs on by itself,
+  // one cycle per period, with whatever outputs the subdevices hold (safe ones once
+  // their watchdogs have expired).
+  const std::uint64_t period = static_cast<std::uint64_t>(cycle_us_) * 1000U;
+  if (!free_running_ && now_ns - last_step_ns_ > 20U * period) {
+    free_running_ = true;
+    next_free_ns_ = now_ns;
+  }
+  for (std::uint32_t k = 0; free_running_ && next_free_ns_ <= now_ns && k < 1000U; ++k) {
+    step();
+    next_free_ns_ += period;
+  }
+}
+
+}  // namespace safestate::ecat

@@ -1,0 +1,173 @@
+// The control channel of the emulated segment. Everything from outside is validated:
+// a bad line is answered with an error naming what is wrong, and changes nothing.
+#include <nlohmann/json.hpp>
+
+#include <charconv>
+#include <sstream>
+#include <string>
+#include <string_view>
+
+#include "safestate/ecat/ecat_sim.hpp"
+#include "safestate/scenario/scenario.hpp"
+
+namespace safestate::ecat {
+
+namespace {
+
+bool parse_count(std::string_view s, std::uint32_t lo, std::uint32_t hi, std::uint32_t& v) {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc{} && r.ptr == s.data() + s.size() && v >= lo && v <= hi;
+}
+
+// Wire faults, beyond the in-process cell's vocabulary.
+std::string wire_fault(EmulatedCell& cell, std::string_view what, std::string_view arg, bool& handled) {
+  handled = true;
+  std::uint32_t n = 0;
+  if (what == "replug" && arg.empty()) {
+    cell.segment().cut_before(0);
+    return "OK";
+  }
+  if (what == "unplug") {
+    if (!parse_count(arg, 1, static_cast<std::uint32_t>(cell.segment().size()), n)) {
+      return "ERROR unplug needs a subdevice position 1.." + std::to_string(cell.segment().size());
+    }
+    cell.segment().cut_before(n);
+    return "OK";
+  }
+  if (what == "drop" || what == "corrupt") {
+    if (!parse_count(arg, 1, 1000000, n)) {
+      return "ERROR " + std::string(what) + " needs a frame count 1..1000000";
+    }
+    (what == "drop") ? cell.segment().drop_frames(n) : cell.segment().corrupt_frames(n);
+    return "OK";
+  }
+  handled = false;
+  return {};
+}
+
+std::string scenario_line(EmulatedCell& cell, const std::string& line) {
+  scenario::ParseResult r = scenario::parse("@0 " + line + "\n", "control");
+  if (!r.ok()) {
+    std::string m = r.error->message;
+    return "ERROR " + m;
+  }
+  if (r.scenario.steps.size() != 1U) {
+    return "ERROR expected one in or fault line";
+  }
+  const scenario::Directive& d = r.scenario.steps.front().what;
+  if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
+    scenario::apply(*in, cell.inputs());
+    cell.latch_inputs();
+    cell.mark_input_change();
+    return "OK";
+  }
+  if (const auto* f = std::get_if<scenario::FaultStep>(&d)) {
+    // On a real bus "fieldbus lost" is the wire going silent, not a flag: the master must
+    // find out by itself (the drives' own bus watchdogs react as in the plant).
+    if (f->fault.kind == sim::FaultKind::fieldbus_lost) {
+      cell.segment().go_silent();
+    } else if (f->fault.kind == sim::FaultKind::clear_all) {
+      cell.segment().clear_wire_faults();
+    }
+    cell.inject(f->fault);
+    cell.latch_inputs();
+    return "OK";
+  }
+  return "ERROR only in and fault lines change the emulated cell";
+}
+
+// {"type":"sim","set":{...}} / {"fault":"..."} as the gateway's protocol writes them.
+std::string json_line(EmulatedCell& cell, const std::string& line) {
+  const nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) {
+    return "ERROR not a JSON object";
+  }
+  if (const auto f = j.find("fault"); f != j.end()) {
+    return f->is_string() ? control_line(cell, "fault " + f->get<std::string>()) : "ERROR \"fault\" must be a string";
+  }
+  const auto set = j.find("set");
+  if (set == j.end() || !set->is_object() || set->empty()) {
+    return "ERROR expected \"set\" (a non-empty object) or \"fault\"";
+  }
+  std::string in = "in";
+  for (const auto& [k, v] : set->items()) {
+    if (v.is_number_integer()) {
+      in += " " + k + "=" + std::to_string(v.get<long long>());
+    } else if (v.is_string()) {
+      in += " " + k + "=" + v.get<std::string>();
+    } else {
+      return "ERROR value of \"" + k + "\" must be a number or a string";
+    }
+  }
+  return scenario_line(cell, in);
+}
+
+std::string status(EmulatedCell& cell) {
+  nlohmann::json j;
+  const hal::ProcessImageOut& o = cell.last_outputs();
+  const hal::ProcessImageIn& in = cell.last_inputs();
+  j["cycles"] = cell.cycles();
+  j["frames"] = cell.segment().frames();
+  j["connected"] = cell.segment().connected();
+  nlohmann::json al = nlohmann::json::array();
+  for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+    al.push_back(static_cast<int>(cell.segment().esc(i).state()));
+  }
+  j["al_state"] = al;
+  j["contactor"] = o.contactor;
+  j["brakes_release"] = o.brakes_release;
+  j["reset_lamp"] = o.reset_lamp;
+  nlohmann::json cw = nlohmann::json::array();
+  nlohmann::json sw = nlohmann::json::array();
+  nlohmann::json q = nlohmann::json::array();
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    cw.push_back(o.drive[a].controlword);
+    sw.push_back(in.drive[a].statusword);
+    q.push_back(in.drive[a].position_rad);
+  }
+  j["controlword"] = cw;
+  j["statusword"] = sw;
+  j["joints"] = q;
+  j["contactor_closed"] = in.contactor_closed;
+  const EmulatedCell::Reaction& r = cell.reaction();
+  if (r.cleared_cycle != 0U) {
+    j["reaction"] = {{"cycles", r.cleared_cycle - r.input_cycle}, {"us", (r.cleared_ns - r.input_ns) / 1000U}};
+  } else {
+    j["reaction"] = nullptr;
+  }
+  return j.dump();
+}
+
+}  // namespace
+
+std::string control_line(EmulatedCell& cell, const std::string& raw) {
+  std::string line = raw;
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) {
+    line.pop_back();
+  }
+  if (line.size() > 4096U) {
+    return "ERROR line too long";
+  }
+  if (line == "status") {
+    return status(cell);
+  }
+  if (!line.empty() && line.front() == '{') {
+    return json_line(cell, line);
+  }
+  std::istringstream words(line);
+  std::string verb, what, arg, extra;
+  words >> verb >> what >> arg >> extra;
+  if (verb == "fault" && extra.empty()) {
+    bool handled = false;
+    std::string r = wire_fault(cell, what, arg, handled);
+    if (handled) {
+      return r;
+    }
+  }
+  if (verb == "in" || verb == "fault") {
+    return scenario_line(cell, line);
+  }
+  return "ERROR unknown line (expected in ..., fault ..., status, or a JSON sim message)";
+}
+
+}  // namespace safestate::ecat

@@ -1,0 +1,237 @@
+// The emulated segment on a network interface. One thread: poll() on the raw socket and
+// the control channel, a 1 ms tick for the watchdogs and the free-running physics.
+#include "safestate/ecat/ecat_sim.hpp"
+
+#include <arpa/inet.h>
+#include <linux/if_packet.h>
+#include <net/if.h>
+#include <poll.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <string>
+#include <vector>
+
+namespace safestate::ecat {
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop.store(true); }
+
+std::uint64_t now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+int open_raw(const std::string& ifname, std::string& err) {
+  const unsigned idx = if_nametoindex(ifname.c_str());
+  if (idx == 0U) {
+    err = "no network interface named '" + ifname + "'";
+    return -1;
+  }
+  const int fd = socket(AF_PACKET, SOCK_RAW | SOCK_NONBLOCK, htons(kEtherTypeEcat));
+  if (fd < 0) {
+    err = std::string("raw socket: ") + std::strerror(errno) + " (needs CAP_NET_RAW)";
+    return -1;
+  }
+  sockaddr_ll sll{};
+  sll.sll_family = AF_PACKET;
+  sll.sll_protocol = htons(kEtherTypeEcat);
+  sll.sll_ifindex = static_cast<int>(idx);
+  if (bind(fd, reinterpret_cast<sockaddr*>(&sll), sizeof sll) != 0) {
+    err = std::string("bind to ") + ifname + ": " + std::strerror(errno);
+    close(fd);
+    return -1;
+  }
+  packet_mreq mr{};
+  mr.mr_ifindex = static_cast<int>(idx);
+  mr.mr_type = PACKET_MR_PROMISC;
+  setsockopt(fd, SOL_PACKET, PACKET_ADD_MEMBERSHIP, &mr, sizeof mr);
+  return fd;
+}
+
+int open_control(const std::string& path, std::string& err) {
+  sockaddr_un sa{};
+  if (path.size() >= sizeof sa.sun_path) {
+    err = "control socket path too long";
+    return -1;
+  }
+  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK, 0);
+  sa.sun_family = AF_UNIX;
+  std::memcpy(sa.sun_path, path.c_str(), path.size() + 1U);
+  unlink(path.c_str());
+  const mode_t old = umask(0077);  // owner only: the control channel moves the emulated world
+  const int rc = bind(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa);
+  umask(old);
+  if (rc != 0 || listen(fd, 4) != 0) {
+    err = "control socket " + path + ": " + std::strerror(errno);
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+struct Client {
+  int fd = -1;
+  std::string buf;
+};
+
+void serve_client(EmulatedCell& cell, Client& c) {
+  char b[1024];
+  const ssize_t n = recv(c.fd, b, sizeof b, MSG_DONTWAIT);
+  if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
+    close(c.fd);
+    c.fd = -1;
+    return;
+  }
+  if (n < 0) {
+    return;
+  }
+  c.buf.append(b, static_cast<std::size_t>(n));
+  for (std::size_t nl = c.buf.find('\n'); nl != std::string::npos; nl = c.buf.find('\n')) {
+    const std::string reply = control_line(cell, c.buf.substr(0, nl)) + "\n";
+    c.buf.erase(0, nl + 1U);
+    if (send(c.fd, reply.data(), reply.size(), MSG_NOSIGNAL) < 0) {
+      close(c.fd);
+      c.fd = -1;
+      return;
+    }
+  }
+  if (c.buf.size() > 8192U) {
+    close(c.fd);  // a line that never ends
+    c.fd = -1;
+  }
+}
+
+void serve_frames(EmulatedCell& cell, int raw) {
+  std::uint8_t frame[2048];
+  for (int k = 0; k < 64; ++k) {
+    sockaddr_ll from{};
+    socklen_t fl = sizeof from;
+    const ssize_t n = recvfrom(raw, frame, sizeof frame, 0, reinterpret_cast<sockaddr*>(&from), &fl);
+    if (n <= 0) {
+      return;
+    }
+    if (from.sll_pkttype == PACKET_OUTGOING) {
+      continue;  // our own replies
+    }
+    const std::uint64_t t = now_ns();
+    cell.set_time(t);
+    if (cell.segment().process(std::span<std::uint8_t>(frame, static_cast<std::size_t>(n)), t)) {
+      send(raw, frame, static_cast<std::size_t>(n), 0);
+    }
+  }
+}
+
+bool apply_override(std::vector<SubdeviceDesc>& devs, const std::string& spec, std::string& err) {
+  const std::size_t eq = spec.find('=');
+  unsigned long pos = 0;
+  unsigned long code = 0;
+  try {
+    pos = std::stoul(spec.substr(0, eq));
+    code = std::stoul(spec.substr(eq + 1U), nullptr, 0);
+  } catch (...) {
+    pos = 0;  // reported below
+  }
+  if (eq == std::string::npos || pos < 1U || pos > devs.size() || code > 0xFFFFFFFFUL) {
+    err = "--product expects POS=CODE with POS 1.." + std::to_string(devs.size());
+    return false;
+  }
+  devs[pos - 1U].product_code = static_cast<std::uint32_t>(code);
+  return true;
+}
+
+// A real ESC answers within nanoseconds; masters give a frame a few milliseconds at most.
+// On a shared machine the emulator must not wait behind other work: SCHED_FIFO when
+// permitted, as the real-time loop of `safestate run` does.
+void realtime(int priority) {
+  if (priority <= 0) {
+    return;
+  }
+  mlockall(MCL_CURRENT | MCL_FUTURE);
+  sched_param sp{};
+  sp.sched_priority = priority;
+  const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  if (rc != 0) {
+    std::fprintf(stderr, "ecat-sim: warning: SCHED_FIFO not permitted (%s)\n", std::strerror(rc));
+  }
+}
+
+}  // namespace
+
+int ecat_sim_main(const EcatSimOptions& opt) {
+  std::vector<SubdeviceDesc> devs = default_segment();
+  std::string err;
+  if (!opt.product_override.empty() && !apply_override(devs, opt.product_override, err)) {
+    std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
+    return 2;
+  }
+  const int raw = open_raw(opt.ifname, err);
+  if (raw < 0) {
+    std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
+    return 1;
+  }
+  const int ctl = opt.control.empty() ? -1 : open_control(opt.control, err);
+  if (!opt.control.empty() && ctl < 0) {
+    std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
+    close(raw);
+    return 1;
+  }
+  realtime(opt.priority);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  EmulatedCell cell(opt.cycle_us, devs);
+  std::fprintf(stderr, "ecat-sim: %zu emulated subdevices on %s%s%s\n", cell.segment().size(), opt.ifname.c_str(),
+               opt.control.empty() ? "" : ", control ", opt.control.c_str());
+  std::vector<Client> clients;
+  while (!g_stop.load()) {
+    std::vector<pollfd> fds{{raw, POLLIN, 0}};
+    if (ctl >= 0) {
+      fds.push_back({ctl, POLLIN, 0});
+    }
+    for (const Client& c : clients) {
+      fds.push_back({c.fd, POLLIN, 0});
+    }
+    poll(fds.data(), fds.size(), 1);
+    cell.poll(now_ns());
+    serve_frames(cell, raw);
+    for (std::size_t i = 0; i < clients.size(); ++i) {
+      if ((fds[(ctl >= 0 ? 2U : 1U) + i].revents & (POLLIN | POLLHUP)) != 0) {
+        serve_client(cell, clients[i]);
+      }
+    }
+    if (ctl >= 0 && (fds[1].revents & POLLIN) != 0) {
+      const int c = accept4(ctl, nullptr, nullptr, SOCK_NONBLOCK);
+      if (c >= 0 && clients.size() < 8U) {
+        clients.push_back({c, {}});
+      } else if (c >= 0) {
+        close(c);
+      }
+    }
+    std::erase_if(clients, [](const Client& c) { return c.fd < 0; });
+  }
+  for (const Client& c : clients) {
+    close(c.fd);
+  }
+  if (ctl >= 0) {
+    close(ctl);
+    unlink(opt.control.c_str());
+  }
+  close(raw);
+  return 0;
+}
+
+}  // namespace safestate::ecat

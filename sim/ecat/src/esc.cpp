@@ -1,0 +1,302 @@
+// The emulated ESC: register space, AL state machine (ETG.1000.6 6.4), SII access
+// (ETG.1000.4 6.4), FMMUs (ETG.1000.4 6.6), sync-manager checks and the process-data
+// watchdog.
+#include <algorithm>
+#include <cstring>
+#include <utility>
+
+#include "safestate/ecat/esc.hpp"
+
+namespace safestate::ecat {
+
+namespace {
+
+struct Range {
+  std::uint16_t first;
+  std::uint16_t last;
+};
+
+// The bytes a master may write (the ESC datasheets' "ECAT write" column); everything
+// else below the process RAM is read-only from the wire.
+constexpr Range kWritable[] = {
+    {0x0010, 0x0011},  // configured station address
+    {0x0100, 0x0103},  // DL control
+    {0x0108, 0x0109},  // physical read/write offset
+    {0x0120, 0x0121},  // AL control
+    {0x0200, 0x0203},  // ECAT event mask
+    {0x0300, 0x0313},  // error counters (a write clears them)
+    {0x0400, 0x0401},  // watchdog divider
+    {0x0410, 0x0411},  // watchdog time PDI
+    {0x0420, 0x0421},  // watchdog time process data
+    {0x0442, 0x0443},  // watchdog counters
+    {0x0500, 0x0500},  // EEPROM configuration
+    {0x0502, 0x050F},  // EEPROM control, address, data
+    {0x0600, 0x06FF},  // FMMUs
+    {0x0800, 0x087F},  // sync managers (status and PDI control bytes excepted below)
+    {0x0900, 0x09FF},  // distributed clocks: plain memory, no DC function behind it
+};
+
+bool writable(std::uint32_t a) noexcept {
+  if (a >= reg::process_ram) {
+    return a < kEscMemory;
+  }
+  if (a >= reg::sm && a < reg::sm + 0x80U && ((a & 7U) == 5U || (a & 7U) == 7U)) {
+    return false;
+  }
+  return std::any_of(std::begin(kWritable), std::end(kWritable),
+                     [a](const Range& r) { return a >= r.first && a <= r.last; });
+}
+
+bool touches(std::uint16_t address, std::size_t n, std::uint16_t first, std::uint16_t last) noexcept {
+  const std::uint32_t end = static_cast<std::uint32_t>(address) + static_cast<std::uint32_t>(n);
+  return n > 0U && address <= last && end > first;
+}
+
+bool valid_state(std::uint8_t s) noexcept { return s == 1U || s == 2U || s == 3U || s == 4U || s == 8U; }
+
+}  // namespace
+
+Esc::Esc(SubdeviceDesc desc) : desc_(std::move(desc)), sii_(build_sii(desc_)) { reset(); }
+
+std::uint16_t Esc::u16(std::uint16_t a) const noexcept {
+  return static_cast<std::uint16_t>(mem_[a] | (mem_[a + 1U] << 8U));
+}
+
+void Esc::put16(std::uint16_t a, std::uint16_t v) noexcept {
+  mem_[a] = static_cast<std::uint8_t>(v & 0xFFU);
+  mem_[a + 1U] = static_cast<std::uint8_t>(v >> 8U);
+}
+
+void Esc::reset() {
+  mem_.fill(0);
+  mem_[reg::type] = 0xE0;  // not a real ESC type: an emulation
+  mem_[reg::fmmu_count] = kFmmus;
+  mem_[reg::sm_count] = kSyncManagers;
+  mem_[reg::ram_size] = 8;       // KiB of process RAM
+  mem_[reg::port_desc] = 0x0F;   // ports 0 and 1: MII
+  put16(reg::features, 0x0000);  // bit-wise FMMU mapping, no DC
+  put16(reg::wdg_divider, 2498); // 100 us watchdog ticks
+  put16(0x0410, 1000);
+  put16(reg::wdg_time_pd, 1000);  // 100 ms
+  put16(reg::pdi_control, 0x0004);
+  set_al(static_cast<std::uint8_t>(AlState::init), false, al_code::none);
+  last_output_ns_ = 0;
+}
+
+void Esc::read(std::uint16_t address, std::span<std::uint8_t> out) const noexcept {
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const std::size_t a = static_cast<std::size_t>(address) + i;
+    out[i] = (a < kEscMemory) ? mem_[a] : 0U;
+  }
+}
+
+void Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept {
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const std::uint32_t a = static_cast<std::uint32_t>(address) + static_cast<std::uint32_t>(i);
+    if (writable(a)) {
+      mem_[a] = in[i];
+    }
+  }
+  if (touches(address, in.size(), 0x0300, 0x0313)) {
+    std::fill(mem_.begin() + 0x0300, mem_.begin() + 0x0314, 0);  // a write clears the counters
+  }
+  if (touches(address, in.size(), reg::eep_control, reg::eep_control + 1U)) {
+    on_eeprom_control();
+  }
+  if (touches(address, in.size(), reg::al_control, reg::al_control + 1U)) {
+    on_al_control();
+    last_output_ns_ = now_ns;  // the watchdog counts from entering the state
+  }
+  if (touches(address, in.size(), desc_.out_address, static_cast<std::uint16_t>(desc_.out_address + 0x7FFU))) {
+    last_output_ns_ = now_ns;
+  }
+}
+
+void Esc::set_al(std::uint8_t state, bool error, std::uint16_t code) noexcept {
+  put16(reg::al_status, static_cast<std::uint16_t>(state | (error ? 0x10U : 0U)));
+  put16(reg::al_status_code, code);
+  mem_[reg::wdg_status_pd] = (state == static_cast<std::uint8_t>(AlState::op)) ? 1U : 0U;
+}
+
+std::uint16_t Esc::transition_error(AlState from, std::uint8_t to) const noexcept {
+  if (!valid_state(to)) {
+    return al_code::unknown_state;
+  }
+  if (to == static_cast<std::uint8_t>(AlState::boot)) {
+    return al_code::bootstrap_not_supported;
+  }
+  const auto f = static_cast<std::uint8_t>(from);
+  const bool up_one = (f == 1U && to == 2U) || (f == 2U && to == 4U) || (f == 4U && to == 8U);
+  const bool down = to < f || (f == 8U && to == 4U);
+  return (up_one || down) ? al_code::none : al_code::invalid_state_change;
+}
+
+bool Esc::sm_matches(std::uint16_t start, std::size_t bytes) const noexcept {
+  for (std::size_t i = 0; i < kSyncManagers; ++i) {
+    const auto base = static_cast<std::uint16_t>(reg::sm + i * 8U);
+    const bool enabled = (mem_[base + 6U] & 1U) != 0U;
+    if (enabled && u16(base) == start && u16(static_cast<std::uint16_t>(base + 2U)) == bytes) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// ETG.1000.6 6.4.1: an error indication is cleared only by a request with the
+// acknowledge bit; a request without it is ignored while the error is shown.
+void Esc::on_al_control() noexcept {
+  const std::uint16_t ctl = u16(reg::al_control);
+  const auto req = static_cast<std::uint8_t>(ctl & 0x0FU);
+  const bool ack = (ctl & 0x10U) != 0U;
+  const std::uint16_t status = u16(reg::al_status);
+  const auto cur = static_cast<AlState>(status & 0x0FU);
+  const bool error = (status & 0x10U) != 0U;
+  if (error && !ack) {
+    return;
+  }
+  if (req == static_cast<std::uint8_t>(cur)) {
+    set_al(req, false, al_code::none);
+    return;
+  }
+  const std::uint16_t code = transition_error(cur, req);
+  if (code != al_code::none) {
+    set_al(static_cast<std::uint8_t>(cur), true, code);
+    return;
+  }
+  if (cur == AlState::preop && req == static_cast<std::uint8_t>(AlState::safeop)) {
+    if (!desc_.rx.entries.empty() && !sm_matches(desc_.out_address, desc_.rx.bytes())) {
+      set_al(static_cast<std::uint8_t>(cur), true, al_code::invalid_output_config);
+      return;
+    }
+    if (!desc_.tx.entries.empty() && !sm_matches(desc_.in_address, desc_.tx.bytes())) {
+      set_al(static_cast<std::uint8_t>(cur), true, al_code::invalid_input_config);
+      return;
+    }
+  }
+  set_al(req, false, al_code::none);
+}
+
+// ETG.1000.4 6.4: command in bits 8..10 of 0x0502 (1 read, 2 write, 4 reload), word
+// address in 0x0504, 4 data bytes in 0x0508 (8-byte reads are not offered: bit 6 = 0).
+void Esc::on_eeprom_control() noexcept {
+  const std::uint16_t ctl = u16(reg::eep_control);
+  const auto cmd = static_cast<std::uint16_t>((ctl >> 8U) & 0x7U);
+  std::uint16_t result = 0;
+  if (cmd == 1U) {
+    const std::uint32_t a = static_cast<std::uint32_t>(u16(reg::eep_address)) |
+                            (static_cast<std::uint32_t>(u16(reg::eep_address + 2U)) << 16U);
+    for (std::uint32_t k = 0; k < 2U; ++k) {
+      const std::uint32_t w = a + k;
+      put16(static_cast<std::uint16_t>(reg::eep_data + 2U * k), (w < sii_.size()) ? sii_[w] : 0xFFFFU);
+    }
+  } else if (cmd == 2U) {
+    result = 0x2000;  // command error: the image is read-only
+  }
+  put16(reg::eep_control, result);  // done at once: never busy
+}
+
+bool Esc::logical_write(std::uint32_t logical, std::span<const std::uint8_t> data, std::uint64_t now_ns) noexcept {
+  bool hit = false;
+  const std::uint64_t dg_first = static_cast<std::uint64_t>(logical) * 8U;
+  const std::uint64_t dg_last = dg_first + data.size() * 8U - 1U;
+  for (std::size_t i = 0; i < kFmmus && !data.empty(); ++i) {
+    const std::uint8_t* f = &mem_[reg::fmmu + i * 16U];
+    const std::uint32_t lstart = static_cast<std::uint32_t>(f[0] | (f[1] << 8U) | (f[2] << 16U)) |
+                                 (static_cast<std::uint32_t>(f[3]) << 24U);
+    const auto len = static_cast<std::uint16_t>(f[4] | (f[5] << 8U));
+    const auto phys = static_cast<std::uint16_t>(f[8] | (f[9] << 8U));
+    if ((f[12] & 1U) == 0U || (f[11] & 2U) == 0U || len == 0U) {
+      continue;
+    }
+    const std::uint64_t first = static_cast<std::uint64_t>(lstart) * 8U + (f[6] & 7U);
+    const std::uint64_t last = (static_cast<std::uint64_t>(lstart) + len - 1U) * 8U + (f[7] & 7U);
+    const std::uint64_t lo = std::max(first, dg_first);
+    const std::uint64_t hi = std::min(last, dg_last);
+    for (std::uint64_t b = lo; b <= hi && lo <= hi; ++b) {
+      const std::uint64_t pbit = static_cast<std::uint64_t>(phys) * 8U + (f[10] & 7U) + (b - first);
+      if (pbit / 8U >= kEscMemory) {
+        break;
+      }
+      const std::uint64_t d = b - dg_first;
+      const bool v = ((data[d / 8U] >> (d % 8U)) & 1U) != 0U;
+      auto& m = mem_[pbit / 8U];
+      const auto bit = static_cast<std::uint8_t>(1U << (pbit % 8U));
+      m = static_cast<std::uint8_t>(v ? (m | bit) : (m & ~bit));
+      hit = true;
+    }
+  }
+  if (hit) {
+    last_output_ns_ = now_ns;
+  }
+  return hit;
+}
+
+bool Esc::logical_read(std::uint32_t logical, std::span<std::uint8_t> data) const noexcept {
+  bool hit = false;
+  const std::uint64_t dg_first = static_cast<std::uint64_t>(logical) * 8U;
+  const std::uint64_t dg_last = dg_first + data.size() * 8U - 1U;
+  for (std::size_t i = 0; i < kFmmus && !data.empty(); ++i) {
+    const std::uint8_t* f = &mem_[reg::fmmu + i * 16U];
+    const std::uint32_t lstart = static_cast<std::uint32_t>(f[0] | (f[1] << 8U) | (f[2] << 16U)) |
+                                 (static_cast<std::uint32_t>(f[3]) << 24U);
+    const auto len = static_cast<std::uint16_t>(f[4] | (f[5] << 8U));
+    const auto phys = static_cast<std::uint16_t>(f[8] | (f[9] << 8U));
+    if ((f[12] & 1U) == 0U || (f[11] & 1U) == 0U || len == 0U) {
+      continue;
+    }
+    const std::uint64_t first = static_cast<std::uint64_t>(lstart) * 8U + (f[6] & 7U);
+    const std::uint64_t last = (static_cast<std::uint64_t>(lstart) + len - 1U) * 8U + (f[7] & 7U);
+    const std::uint64_t lo = std::max(first, dg_first);
+    const std::uint64_t hi = std::min(last, dg_last);
+    for (std::uint64_t b = lo; b <= hi && lo <= hi; ++b) {
+      const std::uint64_t pbit = static_cast<std::uint64_t>(phys) * 8U + (f[10] & 7U) + (b - first);
+      if (pbit / 8U >= kEscMemory) {
+        break;
+      }
+      const bool v = ((mem_[pbit / 8U] >> (pbit % 8U)) & 1U) != 0U;
+      const std::uint64_t d = b - dg_first;
+      auto& out = data[d / 8U];
+      const auto bit = static_cast<std::uint8_t>(1U << (d % 8U));
+      out = static_cast<std::uint8_t>(v ? (out | bit) : (out & ~bit));
+      hit = true;
+    }
+  }
+  return hit;
+}
+
+std::span<const std::uint8_t> Esc::outputs() const noexcept {
+  const std::size_t n = std::min(desc_.rx.bytes(), zeros_.size());
+  if (state() != AlState::op) {
+    return {zeros_.data(), n};  // outputs in their safe state outside OP (ETG.1000.6 6.4.1)
+  }
+  return {&mem_[desc_.out_address], n};
+}
+
+void Esc::set_inputs(std::span<const std::uint8_t> in) noexcept {
+  const std::size_t n = std::min(in.size(), kEscMemory - desc_.in_address);
+  std::memcpy(&mem_[desc_.in_address], in.data(), n);
+}
+
+void Esc::pdi_write(std::uint16_t address, std::span<const std::uint8_t> in) noexcept {
+  const std::size_t n = std::min(in.size(), kEscMemory - std::min<std::size_t>(address, kEscMemory));
+  std::memcpy(&mem_[address], in.data(), n);
+}
+
+std::uint64_t Esc::watchdog_ns() const noexcept {
+  return (static_cast<std::uint64_t>(u16(reg::wdg_divider)) + 2U) * 40U * u16(reg::wdg_time_pd);
+}
+
+void Esc::poll_watchdog(std::uint64_t now_ns) noexcept {
+  const std::uint64_t limit = watchdog_ns();
+  if (state() != AlState::op || desc_.rx.entries.empty() || limit == 0U || now_ns - last_output_ns_ <= limit) {
+    return;
+  }
+  set_al(static_cast<std::uint8_t>(AlState::safeop), true, al_code::sm_watchdog);
+  ++mem_[reg::wdg_counter_pd];
+}
+
+AlState Esc::state() const noexcept { return static_cast<AlState>(mem_[reg::al_status] & 0x0FU); }
+std::uint16_t Esc::al_status_code() const noexcept { return u16(reg::al_status_code); }
+std::uint16_t Esc::station_address() const noexcept { return u16(reg::station_addr); }
+
+}  // namespace safestate::ecat

@@ -1,0 +1,190 @@
+"""A third-party EtherCAT master against `safestate ecat-sim`, run inside the test's
+network namespace (`ip netns exec NS python probe.py MASTER IFNAME ACTION [ARGS]`).
+Prints one JSON object on stdout. MASTER is `soem` (pysoem) or `kick` (kickcat): two
+independent master stacks, neither of them ours.
+"""
+
+import json
+import socket
+import sys
+import time
+
+CW_SHUTDOWN, CW_SWITCH_ON, CW_ENABLE = 0x0006, 0x0007, 0x000F
+
+
+def control(path, line):
+    """One line to the emulator's control socket; returns its answer."""
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        s.settimeout(5)
+        s.connect(path)
+        s.sendall((line + "\n").encode())
+        buf = b""
+        while not buf.endswith(b"\n"):
+            chunk = s.recv(65536)
+            if not chunk:
+                break
+            buf += chunk
+        return buf.decode().strip()
+
+
+# ------------------------------------------------------------------------------ pysoem
+class Soem:
+    def __init__(self, ifname):
+        import pysoem
+        self.p = pysoem
+        self.m = pysoem.Master()
+        self.m.open(ifname)
+        self.count = self.m.config_init()
+
+    def identities(self):
+        return [{"vendor": s.man, "product": s.id, "revision": s.rev, "name": s.name} for s in self.m.slaves]
+
+    def to_op(self):
+        p, m = self.p, self.m
+        m.config_map()
+        if m.state_check(p.SAFEOP_STATE, 500000) != p.SAFEOP_STATE:
+            return False
+        m.state = p.OP_STATE
+        m.write_state()
+        for _ in range(2000):
+            self.cycle()
+            if m.state_check(p.OP_STATE, 2000) == p.OP_STATE:
+                return True
+        return False
+
+    def cycle(self):
+        self.m.send_processdata()
+        return self.m.receive_processdata(20000)
+
+    def inputs(self):
+        return [bytes(s.input) for s in self.m.slaves]
+
+    def set_output(self, pos, data):
+        self.m.slaves[pos].output = bytes(data)
+
+    def al_states(self):
+        self.m.read_state()
+        return [{"state": s.state, "code": s.al_status} for s in self.m.slaves]
+
+    def close(self):
+        self.m.state = self.p.INIT_STATE
+        self.m.write_state()
+        self.m.close()
+
+
+# ----------------------------------------------------------------------------- kickcat
+class Kick:
+    def __init__(self, ifname):
+        import kickcat
+        self.k = kickcat
+        self.bus = kickcat.Bus(kickcat.create_link(ifname, ""))
+        self.bus.init(0.1)
+        self.count = len(self.bus.slaves())
+
+    def identities(self):
+        return None  # kickcat's Python binding does not expose the SII identity
+
+    def to_op(self):
+        k, bus = self.k, self.bus
+        bus.create_mapping()
+        bus.request_state(k.State.SAFE_OP)
+        bus.wait_for_state(k.State.SAFE_OP, 1.0)
+        bus.request_state(k.State.OPERATIONAL)
+        bus.wait_for_state(k.State.OPERATIONAL, 2.0, lambda: self.cycle())
+        return all(bus.get_state(s) == k.State.OPERATIONAL for s in bus.slaves())
+
+    def cycle(self):
+        self.bus.process_data()
+
+    def inputs(self):
+        return [bytes(s.input_data) for s in self.bus.slaves()]
+
+    def set_output(self, pos, data):
+        self.bus.slaves()[pos].set_output_bytes(bytes(data))
+
+    def sizes(self):
+        return [[s.input_size, s.output_size] for s in self.bus.slaves()]
+
+    def close(self):
+        self.bus.request_state(self.k.State.INIT)
+
+
+def statuswords(inputs):
+    return [int.from_bytes(i[0:2], "little") for i in inputs[2:8]]
+
+
+def run_cycles(m, n, period=0.001):
+    for _ in range(n):
+        m.cycle()
+        time.sleep(period)
+
+
+def wait_statusword(m, axis, mask, value, cycles=2000):
+    for _ in range(cycles):
+        m.cycle()
+        if statuswords(m.inputs())[axis] & mask == value:
+            return True
+        time.sleep(0.0005)
+    return False
+
+
+def main():
+    master, ifname, action = sys.argv[1:4]
+    args = sys.argv[4:]
+    m = Soem(ifname) if master == "soem" else Kick(ifname)
+    out = {"count": m.count, "identities": m.identities()}
+    if action == "scan":
+        out["op"] = m.to_op()
+        # the emulated drives leave "Not ready to switch on" after 50 plant cycles
+        out["ready"] = wait_statusword(m, 0, 0x4F, 0x40)
+        ins = m.inputs()
+        out["statuswords"] = statuswords(ins)
+        out["di"] = ins[0].hex()
+        out["input_bytes"] = [len(i) for i in ins]
+        if master == "soem":
+            out["wkc"] = m.cycle()
+            out["expected_wkc"] = m.m.expected_wkc
+        else:
+            out["sizes"] = m.sizes()
+    elif action == "estop":  # args: control socket
+        out["op"] = m.to_op()
+        run_cycles(m, 5)
+        out["before"] = m.inputs()[0].hex()
+        out["answer"] = control(args[0], "in estop.b=0")
+        run_cycles(m, 2)
+        out["after"] = m.inputs()[0].hex()
+    elif action == "power":  # close the contactor, walk drive 1 to Operation enabled
+        out["op"] = m.to_op()
+        out["ready"] = wait_statusword(m, 0, 0x4F, 0x40)
+        m.set_output(1, bytes([0x01, 0x00]))  # DO: contactor
+        fb = False
+        for _ in range(200):
+            m.cycle()
+            if m.inputs()[0][1] & 0x08:  # DI bit 11: contactor feedback
+                fb = True
+                break
+            time.sleep(0.0005)
+        out["contactor_fb"] = fb
+        seq = []
+        for cw, want in ((CW_SHUTDOWN, 0x21), (CW_SWITCH_ON, 0x23), (CW_ENABLE, 0x27)):
+            m.set_output(2, cw.to_bytes(2, "little") + bytes(4))
+            seq.append(wait_statusword(m, 0, 0x6F, want, 200))
+        out["sequence"] = seq
+        out["statusword"] = statuswords(m.inputs())[0]
+    elif action == "unplug":  # args: control socket, position
+        out["op"] = m.to_op()
+        out["wkc_before"] = m.cycle()
+        out["answer"] = control(args[0], "fault unplug " + args[1])
+        out["wkc_after"] = m.cycle()
+        out["expected_wkc"] = m.m.expected_wkc
+    elif action == "watchdog":
+        out["op"] = m.to_op()
+        run_cycles(m, 5)
+        time.sleep(0.3)  # no process data for longer than the 100 ms watchdog
+        out["al"] = m.al_states()
+    m.close()
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

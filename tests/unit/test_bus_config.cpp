@@ -1,0 +1,78 @@
+// The EtherCAT bus configuration is input from outside: every mistake is refused with
+// the field named, and the built-in default matches the emulated segment.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "safestate/ecat/cell.hpp"
+#include "safestate/hal/ethercat.hpp"
+
+using namespace safestate::hal::ethercat;
+using Json = nlohmann::json;
+
+namespace {
+std::string refused(const Json& j) {
+  BusConfig c;
+  std::string err;
+  EXPECT_FALSE(parse_bus_config(j.dump(), c, err)) << j.dump();
+  return err;
+}
+Json default_json() { return Json::parse(default_bus_config()); }
+}  // namespace
+
+TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  const auto segment = safestate::ecat::default_segment();
+  ASSERT_EQ(c.subdevices.size(), segment.size());
+  for (std::size_t i = 0; i < segment.size(); ++i) {
+    EXPECT_EQ(c.subdevices[i].vendor_id, segment[i].vendor_id) << i;
+    EXPECT_EQ(c.subdevices[i].product_code, segment[i].product_code) << i;
+    EXPECT_EQ(c.subdevices[i].in_bytes, segment[i].tx.bytes()) << i;
+    EXPECT_EQ(c.subdevices[i].out_bytes, segment[i].rx.bytes()) << i;
+  }
+  EXPECT_EQ(c.subdevices[0].in_bit[0], 0);   // estop.a
+  EXPECT_EQ(c.subdevices[0].in_bit[11], 11); // contactor feedback
+  EXPECT_NEAR(c.subdevices[2].counts_per_rad, safestate::ecat::kCountsPerRad, 1e-9);
+}
+
+TEST(BusConfig, EveryMistakeIsNamed) {
+  Json j = default_json();
+  j["subdevices"][2]["vendor_id"] = "0xZZ";
+  EXPECT_NE(refused(j).find("subdevices[2].vendor_id"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"]["estop.b"] = 0;  // same bit as estop.a
+  EXPECT_NE(refused(j).find("used twice"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"]["estop.c"] = 20;
+  EXPECT_NE(refused(j).find("subdevices[0].bits.estop.c: unknown signal"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"].erase("gate.b");
+  EXPECT_NE(refused(j).find("subdevices[0].bits.gate.b"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][3]["axis"] = 1;  // axis 1 twice, axis 2 missing
+  EXPECT_NE(refused(j).find("appears twice"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][4]["pdo"]["velocity_actual"] = 8;  // 4 bytes at 8 of a 10-byte image
+  EXPECT_NE(refused(j).find("subdevices[4].pdo.velocity_actual"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][1]["role"] = "relay";
+  EXPECT_NE(refused(j).find("subdevices[1].role"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"].erase(7);
+  EXPECT_NE(refused(j).find("no drive for axis 6"), std::string::npos);
+
+  j = default_json();
+  j["frame_timeout_us"] = 5;
+  EXPECT_NE(refused(j).find("frame_timeout_us"), std::string::npos);
+
+  EXPECT_EQ(refused(Json::array()), "not a JSON object");
+}

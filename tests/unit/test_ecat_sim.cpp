@@ -1,0 +1,363 @@
+// The emulated EtherCAT segment, frame by frame, without a network: addressing modes,
+// working counters, the AL state machine and its error codes, SII identity, FMMU
+// mapping, the lock-step plant cycle, the process-data watchdog, wire faults and the
+// control channel.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <vector>
+
+#include "safestate/ecat/cell.hpp"
+#include "safestate/ecat/ecat_sim.hpp"
+
+using namespace safestate;
+using namespace safestate::ecat;
+
+namespace {
+
+struct Dg {
+  Cmd cmd;
+  std::uint16_t adp;
+  std::uint16_t ado;
+  std::vector<std::uint8_t> data;
+  std::uint16_t wkc = 0;
+};
+
+// Builds one Ethernet frame with the datagrams, processes it, returns the datagrams back.
+std::vector<Dg> exchange(Segment& seg, std::vector<Dg> dgs, std::uint64_t t = 0, bool* answered = nullptr) {
+  std::vector<std::uint8_t> f(14, 0xFF);
+  f[6] = 0x01;
+  f[12] = 0x88;
+  f[13] = 0xA4;
+  std::size_t len = 0;
+  for (const Dg& d : dgs) {
+    len += 12U + d.data.size();
+  }
+  f.push_back(static_cast<std::uint8_t>(len & 0xFFU));
+  f.push_back(static_cast<std::uint8_t>(0x10U | (len >> 8U)));
+  for (std::size_t i = 0; i < dgs.size(); ++i) {
+    const Dg& d = dgs[i];
+    const std::uint16_t l = static_cast<std::uint16_t>(d.data.size() | ((i + 1 < dgs.size()) ? 0x8000U : 0U));
+    const std::uint8_t h[10] = {static_cast<std::uint8_t>(d.cmd), static_cast<std::uint8_t>(i),
+                                static_cast<std::uint8_t>(d.adp & 0xFF), static_cast<std::uint8_t>(d.adp >> 8),
+                                static_cast<std::uint8_t>(d.ado & 0xFF), static_cast<std::uint8_t>(d.ado >> 8),
+                                static_cast<std::uint8_t>(l & 0xFF), static_cast<std::uint8_t>(l >> 8), 0, 0};
+    f.insert(f.end(), h, h + 10);
+    f.insert(f.end(), d.data.begin(), d.data.end());
+    f.push_back(0);
+    f.push_back(0);
+  }
+  const bool ok = seg.process(f, t);
+  if (answered != nullptr) {
+    *answered = ok;
+  }
+  std::size_t o = 16;
+  for (Dg& d : dgs) {
+    d.adp = static_cast<std::uint16_t>(f[o + 2] | (f[o + 3] << 8));
+    std::memcpy(d.data.data(), &f[o + 10], d.data.size());
+    d.wkc = static_cast<std::uint16_t>(f[o + 10 + d.data.size()] | (f[o + 11 + d.data.size()] << 8));
+    o += 12 + d.data.size();
+  }
+  return dgs;
+}
+
+std::vector<std::uint8_t> le16(std::uint16_t v) { return {static_cast<std::uint8_t>(v & 0xFF), static_cast<std::uint8_t>(v >> 8)}; }
+std::uint16_t u16(const std::vector<std::uint8_t>& d, std::size_t o = 0) { return static_cast<std::uint16_t>(d[o] | (d[o + 1] << 8)); }
+
+// Station addresses 0x1001.. by auto-increment position, as every master does first.
+void address_all(Segment& seg) {
+  for (std::size_t p = 0; p < seg.size(); ++p) {
+    auto r = exchange(seg, {{Cmd::APWR, static_cast<std::uint16_t>(0U - p), reg::station_addr, le16(static_cast<std::uint16_t>(0x1001 + p))}});
+    ASSERT_EQ(r[0].wkc, 1);
+  }
+}
+
+std::uint32_t sii_u32(Segment& seg, std::uint16_t station, std::uint32_t word) {
+  std::vector<std::uint8_t> cmd = {0x00, 0x01, static_cast<std::uint8_t>(word & 0xFF), static_cast<std::uint8_t>(word >> 8), 0, 0};
+  exchange(seg, {{Cmd::FPWR, station, reg::eep_control, cmd}});
+  auto r = exchange(seg, {{Cmd::FPRD, station, reg::eep_data, std::vector<std::uint8_t>(4)}});
+  return static_cast<std::uint32_t>(r[0].data[0] | (r[0].data[1] << 8) | (r[0].data[2] << 16)) |
+         (static_cast<std::uint32_t>(r[0].data[3]) << 24);
+}
+
+std::uint16_t al_status(Segment& seg, std::uint16_t station) {
+  return u16(exchange(seg, {{Cmd::FPRD, station, reg::al_status, std::vector<std::uint8_t>(2)}})[0].data);
+}
+
+void request(Segment& seg, std::uint16_t station, std::uint16_t state) {
+  exchange(seg, {{Cmd::FPWR, station, reg::al_control, le16(state)}});
+}
+
+// Sync manager + FMMU for one direction, as a master configures them from the SII.
+void map(Segment& seg, std::uint16_t station, std::uint16_t sm_index, std::uint16_t phys, std::uint16_t len,
+         std::uint8_t control, std::uint16_t fmmu_index, std::uint32_t logical, std::uint8_t type) {
+  std::vector<std::uint8_t> sm = {static_cast<std::uint8_t>(phys & 0xFF), static_cast<std::uint8_t>(phys >> 8),
+                                  static_cast<std::uint8_t>(len), 0, control, 0, 1, 0};
+  exchange(seg, {{Cmd::FPWR, station, static_cast<std::uint16_t>(reg::sm + sm_index * 8), sm}});
+  std::vector<std::uint8_t> fm = {static_cast<std::uint8_t>(logical & 0xFF), static_cast<std::uint8_t>((logical >> 8) & 0xFF),
+                                  static_cast<std::uint8_t>((logical >> 16) & 0xFF), static_cast<std::uint8_t>(logical >> 24),
+                                  static_cast<std::uint8_t>(len), 0, 0, 7,
+                                  static_cast<std::uint8_t>(phys & 0xFF), static_cast<std::uint8_t>(phys >> 8), 0, type, 1, 0, 0, 0};
+  exchange(seg, {{Cmd::FPWR, station, static_cast<std::uint16_t>(reg::fmmu + fmmu_index * 16), fm}});
+}
+
+// The default segment mapped at logical 0x10000.. (inputs) and 0x20000.. (outputs) and in OP.
+void bring_to_op(Segment& seg) {
+  address_all(seg);
+  exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
+  map(seg, 0x1001, 0, 0x1000, kDiBytes, 0x20, 0, 0x10000, 1);
+  map(seg, 0x1002, 0, 0x1000, kDoBytes, 0x64, 0, 0x20000, 2);
+  for (std::uint16_t a = 0; a < 6; ++a) {
+    const auto st = static_cast<std::uint16_t>(0x1003 + a);
+    map(seg, st, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x20002 + a * kDriveRxBytes, 2);
+    map(seg, st, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x10004 + a * kDriveTxBytes, 1);
+  }
+  exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(4)}});
+  exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(8)}});
+}
+
+constexpr std::size_t kInBytes = kDiBytes + 6 * kDriveTxBytes;
+constexpr std::size_t kOutBytes = kDoBytes + 6 * kDriveRxBytes;
+
+}  // namespace
+
+TEST(EcatSegment, BroadcastReadCountsEverySubdevice) {
+  Segment seg(default_segment());
+  auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(r[0].wkc, 8);
+  EXPECT_EQ(r[0].adp, 8);  // every subdevice increments the position field
+}
+
+TEST(EcatSegment, AutoIncrementAddressesOnePositionOnly) {
+  Segment seg(default_segment());
+  auto r = exchange(seg, {{Cmd::APWR, static_cast<std::uint16_t>(0U - 3U), reg::station_addr, le16(0x0777)}});
+  EXPECT_EQ(r[0].wkc, 1);
+  EXPECT_EQ(seg.esc(3).station_address(), 0x0777);
+  EXPECT_EQ(seg.esc(2).station_address(), 0);
+  auto none = exchange(seg, {{Cmd::APRD, static_cast<std::uint16_t>(0U - 9U), reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(none[0].wkc, 0);  // no subdevice at position 9
+}
+
+TEST(EcatSegment, ReadOnlyRegistersIgnoreWrites) {
+  Segment seg(default_segment());
+  address_all(seg);
+  exchange(seg, {{Cmd::FPWR, 0x1001, reg::al_status, le16(8)}});
+  EXPECT_EQ(al_status(seg, 0x1001), 1);  // still INIT
+  auto r = exchange(seg, {{Cmd::FPRD, 0x1001, reg::fmmu_count, std::vector<std::uint8_t>(2)}});
+  EXPECT_EQ(r[0].data[0], kFmmus);
+  EXPECT_EQ(r[0].data[1], kSyncManagers);
+}
+
+TEST(EcatSegment, SiiCarriesTheIdentity) {
+  Segment seg(default_segment());
+  address_all(seg);
+  EXPECT_EQ(sii_u32(seg, 0x1001, 0x08), kVendorId);
+  EXPECT_EQ(sii_u32(seg, 0x1001, 0x0A), kProductDigitalIn);
+  EXPECT_EQ(sii_u32(seg, 0x1002, 0x0A), kProductDigitalOut);
+  EXPECT_EQ(sii_u32(seg, 0x1005, 0x0A), kProductDrive);
+  EXPECT_EQ(sii_u32(seg, 0x1005, 0x0C), kRevision);
+  EXPECT_EQ(sii_u32(seg, 0x1005, 0x0E), 13U);  // serial of axis 3
+}
+
+TEST(EcatSegment, SiiCategoriesDescribeThePdos) {
+  const std::vector<std::uint16_t> w = build_sii(default_segment()[kPosFirstDrive]);
+  std::size_t o = 0x40;
+  std::size_t tx_bits = 0;
+  std::size_t rx_bits = 0;
+  while (o + 1 < w.size() && w[o] != 0xFFFF) {
+    const std::uint16_t type = w[o];
+    const std::uint16_t len = w[o + 1];
+    if (type == 50 || type == 51) {
+      const std::size_t n = w[o + 3] & 0xFF;
+      for (std::size_t e = 0; e < n; ++e) {
+        const std::size_t bits = w[o + 2 + 4 + e * 4 + 2] >> 8;
+        (type == 50 ? tx_bits : rx_bits) += bits;
+      }
+    }
+    o += 2 + len;
+  }
+  EXPECT_EQ(tx_bits, kDriveTxBytes * 8);
+  EXPECT_EQ(rx_bits, kDriveRxBytes * 8);
+}
+
+TEST(EcatAl, WalksInitPreopSafeopOp) {
+  Segment seg(default_segment());
+  bring_to_op(seg);
+  for (std::uint16_t st = 0x1001; st <= 0x1008; ++st) {
+    EXPECT_EQ(al_status(seg, st), 8) << "station " << st;
+  }
+}
+
+TEST(EcatAl, RefusesToSkipAState) {
+  Segment seg(default_segment());
+  address_all(seg);
+  request(seg, 0x1003, 8);
+  EXPECT_EQ(al_status(seg, 0x1003), 0x11);  // INIT with the error flag
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_state_change);
+  request(seg, 0x1003, 2);  // no acknowledge: ignored while the error shows
+  EXPECT_EQ(al_status(seg, 0x1003), 0x11);
+  request(seg, 0x1003, 0x12);  // acknowledge + PREOP
+  EXPECT_EQ(al_status(seg, 0x1003), 2);
+  EXPECT_EQ(seg.esc(2).al_status_code(), 0);
+}
+
+TEST(EcatAl, SafeopNeedsTheSyncManagersOfTheSii) {
+  Segment seg(default_segment());
+  address_all(seg);
+  request(seg, 0x1003, 2);
+  request(seg, 0x1003, 4);
+  EXPECT_EQ(al_status(seg, 0x1003), 0x12);  // PREOP + error
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_output_config);
+  map(seg, 0x1003, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x20000, 2);
+  request(seg, 0x1003, 0x14);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_input_config);
+  map(seg, 0x1003, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x10000, 1);
+  request(seg, 0x1003, 0x14);
+  EXPECT_EQ(al_status(seg, 0x1003), 4);
+}
+
+TEST(EcatAl, UnknownAndBootStatesAreRefused) {
+  Segment seg(default_segment());
+  address_all(seg);
+  request(seg, 0x1001, 5);
+  EXPECT_EQ(seg.esc(0).al_status_code(), al_code::unknown_state);
+  request(seg, 0x1001, 0x13);
+  EXPECT_EQ(seg.esc(0).al_status_code(), al_code::bootstrap_not_supported);
+}
+
+TEST(EcatProcessData, LogicalReadWriteCountsAndCarriesTheImage) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  bring_to_op(seg);
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[0] = 0x01;  // contactor
+  out[2] = 0x06;  // drive 1 controlword: Shutdown
+  auto w = exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}});  // logical 0x20000
+  EXPECT_EQ(w[0].wkc, 7);  // DO terminal + six drives
+  auto r = exchange(seg, {{Cmd::LRD, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)}});
+  EXPECT_EQ(r[0].wkc, 7);  // DI terminal + six drives
+  EXPECT_EQ(r[0].data[0], 0x8F);  // estop.a/b, gate.a/b healthy, mode.auto
+  EXPECT_EQ(cell.last_outputs().contactor, true);
+  EXPECT_EQ(cell.last_outputs().drive[0].controlword, 0x0006);
+  EXPECT_EQ(cell.cycles(), 1U);  // one process-data write = one plant cycle
+}
+
+TEST(EcatProcessData, LrwOnOverlappingAreasGivesThreePerSubdeviceWithBoth) {
+  Segment seg(default_segment());
+  address_all(seg);
+  exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
+  // A drive with inputs and outputs at the same logical address (as kickcat maps them).
+  map(seg, 0x1003, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x30000, 2);
+  map(seg, 0x1003, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x30000, 1);
+  auto r = exchange(seg, {{Cmd::LRW, 0x0000, 0x0003, std::vector<std::uint8_t>(kDriveTxBytes)}});
+  EXPECT_EQ(r[0].wkc, 3);
+}
+
+TEST(EcatProcessData, InputsFollowThePlantAndEstopOnOneChannel) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  ASSERT_EQ(control_line(cell, "in estop.b=0"), "OK");
+  auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
+                                     {Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes)}});
+  EXPECT_EQ(r[0].data[0] & 0x03, 0x01);  // estop.a closed, estop.b open
+}
+
+TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  exchange(cell.segment(), {{Cmd::BWR, 0, reg::al_control, le16(4)}});  // back to SAFEOP
+  std::vector<std::uint8_t> out(kOutBytes, 0xFF);
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_FALSE(cell.last_outputs().contactor);
+  EXPECT_EQ(cell.last_outputs().drive[3].controlword, 0);
+}
+
+TEST(EcatWatchdog, SilenceLongerThanTheWatchdogDropsToSafeop) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[0] = 0x01;
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, 1'000'000);
+  cell.poll(50'000'000);
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::op);  // 100 ms not yet over
+  cell.poll(102'000'000);
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::safeop);
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).al_status_code(), al_code::sm_watchdog);
+  EXPECT_FALSE(cell.last_outputs().contactor);  // the free-running plant sees safe outputs
+  EXPECT_EQ(cell.segment().esc(kPosDigitalIn).state(), AlState::op);  // inputs only: no watchdog
+}
+
+TEST(EcatWire, CutBeforeADriveHidesItAndEverythingBehind) {
+  Segment seg(default_segment());
+  seg.cut_before(5);
+  auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(r[0].wkc, 4);
+  seg.cut_before(0);
+  r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(r[0].wkc, 8);
+  EXPECT_EQ(seg.esc(6).state(), AlState::init);  // re-powered
+}
+
+TEST(EcatWire, DroppedAndCorruptedFrames) {
+  Segment seg(default_segment());
+  seg.drop_frames(2);
+  bool answered = true;
+  exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_FALSE(answered);
+  exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_FALSE(answered);
+  seg.corrupt_frames(1);
+  auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_TRUE(answered);
+  EXPECT_EQ(r[0].wkc, 0);
+  r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(r[0].wkc, 8);
+}
+
+TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
+  EmulatedCell cell(1000);
+  bool answered = true;
+  ASSERT_EQ(control_line(cell, "fault fieldbus lost"), "OK");
+  exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_FALSE(answered);
+  ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
+  auto r = exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
+  EXPECT_TRUE(answered);
+  EXPECT_EQ(r[0].wkc, 8);
+}
+
+TEST(EcatWire, NotEtherCatOrTruncatedIsNotAnswered) {
+  Segment seg(default_segment());
+  std::vector<std::uint8_t> ip(60, 0);
+  ip[12] = 0x08;
+  EXPECT_FALSE(seg.process(ip, 0));
+  std::vector<std::uint8_t> f(14, 0);
+  f[12] = 0x88;
+  f[13] = 0xA4;
+  f.push_back(0x40);  // claims 64 bytes of datagrams
+  f.push_back(0x10);
+  f.resize(30, 0);
+  EXPECT_FALSE(seg.process(f, 0));
+}
+
+TEST(EcatControl, ValidatesEveryLine) {
+  EmulatedCell cell(1000);
+  EXPECT_EQ(control_line(cell, "in gate=open"), "OK");
+  EXPECT_FALSE(cell.inputs().gate_a);
+  EXPECT_EQ(control_line(cell, R"({"type":"sim","set":{"gate":"closed","estop.a":0}})"), "OK");
+  EXPECT_TRUE(cell.inputs().gate_a);
+  EXPECT_FALSE(cell.inputs().estop_a);
+  EXPECT_EQ(control_line(cell, "fault unplug 4"), "OK");
+  EXPECT_EQ(cell.segment().connected(), 3U);
+  EXPECT_EQ(control_line(cell, "fault replug"), "OK");
+  EXPECT_EQ(cell.segment().connected(), 8U);
+  const core::RawInputs before = cell.inputs();
+  for (const char* bad : {"in gate=ajar", "fault unplug 9", "fault drop 0", "fault corrupt x", "launch",
+                          R"({"set":{"gate":[1]}})", "{oops", "fault drive 7 fault"}) {
+    const std::string r = control_line(cell, bad);
+    EXPECT_EQ(r.rfind("ERROR ", 0), 0U) << bad << " -> " << r;
+  }
+  EXPECT_EQ(cell.inputs().gate_a, before.gate_a);
+  EXPECT_EQ(cell.segment().connected(), 8U);
+  EXPECT_NE(control_line(cell, "status").find("\"al_state\""), std::string::npos);
+}
