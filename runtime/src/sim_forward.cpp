@@ -50,6 +50,16 @@ std::string sim_line(const bridge::CommandRecord& r) {
     case sim::FaultKind::contactor_stuck_open: return "fault contactor stuck_open";
     case sim::FaultKind::brake_stuck: return "fault brake " + n + " stuck";
     case sim::FaultKind::clear_all: return "fault clear all";
+    case sim::FaultKind::contactor_welded: return "fault contactor welded";
+    case sim::FaultKind::brake_stuck_released: return "fault brake " + n + " stuck_released";
+    // The record has no value field (statusword, ms), and the rest act on the core's side
+    // of the cell, not on the segment: the gateway does not send them (rt_loop refuses them).
+    case sim::FaultKind::integrity:
+    case sim::FaultKind::selftest_fail:
+    case sim::FaultKind::drive_statusword:
+    case sim::FaultKind::drive_slow_enable:
+    case sim::FaultKind::program_unload:
+    case sim::FaultKind::jog_link_drop: break;
   }
   return "fault ?";
 }
