@@ -312,6 +312,16 @@ class Runner {
   void act(const Step& step) {
     const bool world = std::holds_alternative<InputStep>(step.what) || std::holds_alternative<FaultStep>(step.what);
     if (world && opts_.world) {
+      const auto* f = std::get_if<FaultStep>(&step.what);
+      // The controller's own faults (integrity, self-test, program, jog link) stay in the
+      // cell; the field's go to the world behind the bus; `clear all` to both.
+      if (f != nullptr && controller_side(f->fault.kind)) {
+        cell_.inject(f->fault);
+        return;
+      }
+      if (f != nullptr && f->fault.kind == sim::FaultKind::clear_all) {
+        cell_.inject(f->fault);
+      }
       world_failures_ += opts_.world(step) ? 0U : 1U;
       return;
     }
@@ -322,6 +332,11 @@ class Runner {
     } else if (const auto* f = std::get_if<FaultStep>(&step.what)) {
       cell_.inject(f->fault);
     }
+  }
+
+  static bool controller_side(sim::FaultKind k) noexcept {
+    return k == sim::FaultKind::integrity || k == sim::FaultKind::selftest_fail ||
+           k == sim::FaultKind::program_unload || k == sim::FaultKind::jog_link_drop;
   }
 
   void send(const CommandStep& c) {

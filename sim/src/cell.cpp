@@ -107,6 +107,9 @@ void Cell::step() noexcept {
   Impl& s = *impl_;
   hal::Backend& io = (s.bus != nullptr) ? *s.bus : static_cast<hal::Backend&>(s.plant);
   io.read(s.in);
+  if (s.bus != nullptr) {
+    s.plant.read_platform(s.in);
+  }
   const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
   s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
   s.queue.pop(s.taken);

@@ -29,6 +29,12 @@ class SimPlant final : public hal::Backend {
   void inject(const Fault& f) noexcept;
 
   void read(hal::ProcessImageIn& in) noexcept override;
+  // The controller platform's own checks (integrity, start-up self-test): injected here
+  // whatever carries the field I/O, so a cell on EtherCAT sees them as well.
+  void read_platform(hal::ProcessImageIn& in) const noexcept {
+    in.integrity_ok = in.integrity_ok && integrity_ok_;
+    in.self_test_ok = in.self_test_ok && self_test_ok_;
+  }
   // Applies the outputs and advances the physics by one cycle.
   void write(const hal::ProcessImageOut& out) noexcept override;
 
