@@ -47,14 +47,6 @@ bool parse_int64(std::string_view s, std::int64_t& out) {
   return !s.empty() && ec == std::errc{} && p == end;
 }
 
-// The request line of a head that did not fit in kHeadLimit: is it the URL that is long?
-bool url_too_long(const beast::flat_buffer& b) {
-  const auto data = b.data();
-  const std::string_view head(static_cast<const char*>(data.data()), data.size());
-  const std::size_t eol = head.find("\r\n");
-  return (eol == std::string_view::npos ? head.size() : eol) > kUrlLimit + 16U;  // + method and version
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------ registry
@@ -128,7 +120,8 @@ void HttpSession::on_read(beast::error_code ec, std::size_t /*bytes*/) {
 void HttpSession::on_too_big(beast::error_code ec) {
   if (ec == http::error::body_limit) {
     answer(text_answer(413, "request body too large\n"), true);
-  } else if (url_too_long(buffer_)) {
+  } else if (parser_->get().target().empty() || parser_->get().target().size() > kUrlLimit) {
+    // No target yet: the request line alone did not fit, so it is the URL that is long.
     answer(text_answer(414, "URL too long: at most 2 KiB\n"), true);
   } else {
     answer(text_answer(431, "request head too large: at most 8 KiB\n"), true);
