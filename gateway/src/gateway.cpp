@@ -174,7 +174,12 @@ class Poller {
     const auto boundary =
         Clock::time_point(std::chrono::nanoseconds(header_.next_cycle_ns.load(std::memory_order_acquire)));
     const auto at = boundary + kAfterBoundary;
-    return (at > now && at < now + kPollPeriod) ? at : now + kRetry;
+    if (at > now && at < now + kPollPeriod) {
+      return at;
+    }
+    // The boundary has passed and the core has not published the next one yet: look
+    // again soon; a core that stalls for long (or does not publish) gets the idle period.
+    return (now - at < kPollPeriod) ? now + kRetry : now + kPollPeriod;
   }
   void arm(Clock::time_point at) {
     armed_ = at;

@@ -14,12 +14,15 @@
 //    kMaxRefusedPerSecond such refusals in a second, the client's socket is not read
 //    until the second is over (every command still gets its one reply, later).
 //  - sim needs a hello'd loopback peer and a simulated cell, else NOT_HELLO /
-//    NOT_SIMULATED. With more than kMaxPendingPerClient commands in flight a client
+//    NOT_SIMULATED. With kMaxPendingPerClient records in flight, or beyond
+//    kMaxRecordsPerSecond sustained (a token bucket of kMaxPendingPerClient), a client
 //    gets reply QUEUE_FULL from the gateway (also for sim).
 //  - Refused frames (error messages) are counted per client; kMaxBadFrames in a row
 //    close the connection after the last error is sent. Any accepted message resets the
 //    count.
 #include "safestate/gateway/hub.hpp"
+
+#include <algorithm>
 
 namespace safestate::gateway {
 
@@ -165,8 +168,22 @@ void Hub::local_reply(Client& c, const Json& client_seq, core::Result r) {
   send(c, make_reply(client_seq, core::to_string(r)));
 }
 
+bool Hub::take_token(Client& c) {
+  const auto now = Clock::now();
+  if (c.bucket_at != Clock::time_point{}) {
+    const double refill = std::chrono::duration<double>(now - c.bucket_at).count() * kMaxRecordsPerSecond;
+    c.bucket = std::min(static_cast<double>(kMaxPendingPerClient), c.bucket + refill);
+  }
+  c.bucket_at = now;
+  if (c.bucket < 1.0) {
+    return false;
+  }
+  c.bucket -= 1.0;
+  return true;
+}
+
 void Hub::submit(Client& c, bridge::CommandRecord record, const Json& client_seq, bool sim, const std::string& name) {
-  if (c.pending >= kMaxPendingPerClient) {
+  if (c.pending >= kMaxPendingPerClient || !take_token(c)) {
     local_reply(c, client_seq, core::Result::QUEUE_FULL);
     return;
   }

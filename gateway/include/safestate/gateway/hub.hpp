@@ -33,6 +33,12 @@ using Frame = std::shared_ptr<const std::string>;
 // A client may have this many commands in flight; more get QUEUE_FULL from the gateway
 // (one client cannot fill the core's ring for everybody else).
 inline constexpr std::size_t kMaxPendingPerClient = 64;
+// ... and put at most this many records per second on the ring, sustained (a token
+// bucket of kMaxPendingPerClient): more get QUEUE_FULL from the gateway. Far above what
+// a pendant (jog keep-alive at 25 Hz) or a PLC needs; it keeps one client from flooding
+// the core's command stream and every other client with command events (protocol.md
+// "Fairness").
+inline constexpr double kMaxRecordsPerSecond = 250.0;
 // Consecutive refused frames after which a client is disconnected.
 inline constexpr unsigned kMaxBadFrames = 32;
 // Commands remembered for their command events (client seq and name).
@@ -67,6 +73,8 @@ class Client {
   Clock::time_point refused_window{};
   unsigned refused = 0;
   Clock::time_point hold_reads_until{};
+  double bucket = static_cast<double>(kMaxPendingPerClient);  // records it may still submit now
+  Clock::time_point bucket_at{};
 };
 
 // Commands the gateway refuses itself (an observer's), per client and second, before
@@ -133,6 +141,7 @@ class Hub {
   void submit(Client& c, bridge::CommandRecord record, const Json& client_seq, bool sim, const std::string& name);
   void local_reply(Client& c, const Json& client_seq, core::Result r);
   void refuse_command(Client& c, const Json& client_seq);
+  bool take_token(Client& c);
   [[nodiscard]] std::size_t hello_others() const;
   std::uint32_t next_seq();
   void drain_replies();
