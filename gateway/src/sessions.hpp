@@ -8,7 +8,9 @@
 #include <boost/asio.hpp>
 #include <boost/beast.hpp>
 
+#include <array>
 #include <deque>
+#include <string>
 #include <memory>
 #include <vector>
 
@@ -53,6 +55,11 @@ class Sessions {
   std::vector<std::weak_ptr<WsSession>> list_;
 };
 
+// One WebSocket connection. Beast performs the opening handshake; after it the session
+// frames RFC 6455 itself on the TCP socket: every complete message already received is
+// handled in one go (a pipelining client is not read one message per turn of the event
+// loop, behind every other client's writes), and queued frames go out in one gathered
+// write (one system call for many frames: protocol.md "Fairness", batched writes).
 class WsSession : public Client, public std::enable_shared_from_this<WsSession> {
  public:
   WsSession(tcp::socket&& socket, Hub& hub);
@@ -63,46 +70,73 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   void close_after_flush() override;
   [[nodiscard]] bool loopback_peer() const override { return loopback_; }
 
-  void shutdown() { close_when_flushed(websocket::close_code::going_away); }
+  void shutdown();
   // Gives its slot away (Sessions::admit): it had not said hello.
   void evict();
   [[nodiscard]] bool live() const noexcept { return !aborted_; }
   [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
 
  private:
+  // Incoming frame parser state (RFC 6455 section 5.2).
+  struct Incoming {
+    bool in_frame = false;       // header parsed, payload being consumed
+    std::uint8_t opcode = 0;     // of the current frame
+    bool fin = false;
+    std::array<std::uint8_t, 4> mask{};
+    std::uint64_t remaining = 0;  // payload bytes of the current frame still to come
+    std::uint64_t offset = 0;     // payload bytes of the current frame consumed (mask index)
+    std::uint8_t message_opcode = 0;  // 1 text, 2 binary; 0 = no message in progress
+    std::size_t message_bytes = 0;
+    bool oversize = false;
+    std::string message;  // at most kMaxFrameBytes
+    std::string control;  // a control frame's payload (<= 125)
+  };
+
   void on_accept(beast::error_code ec);
-  void on_hello_deadline(beast::error_code ec);
+  void arm_tick();
+  void on_tick(beast::error_code ec);
   void do_read();
   void on_read(beast::error_code ec, std::size_t bytes);
+  // Consumes what is in rbuf_; false when the connection must end (protocol error).
+  bool parse();
+  int parse_header(std::size_t& pos);
+  void frame_done();
   void message_done();
+  void queue_control(std::uint8_t opcode, std::string payload);
   void do_write();
   void on_write(beast::error_code ec, std::size_t bytes);
-  void close_when_flushed(websocket::close_code code);
-  void do_close(websocket::close_code code);
+  void close_with(std::uint16_t code);
   void abort();
   void leave();
 
-  websocket::stream<beast::tcp_stream> ws_;
+  websocket::stream<beast::tcp_stream> ws_;  // the handshake only
   Hub& hub_;
   http::request<http::string_body> req_;
-  beast::flat_buffer buffer_;
-  asio::steady_timer timer_;  // hello deadline, then read throttling
-  std::deque<Frame> queue_;   // replies, events, errors: every one is delivered
-  Frame status_;              // the newest unsent status (protocol.md: replaces an older one)
-  Frame current_;             // the frame being written
+  asio::steady_timer tick_;   // every second: hello deadline, keep-alive, stalled writes
+  asio::steady_timer hold_;   // rate limit: reading resumes at hold_reads_until
+  std::array<std::uint8_t, 16384> rbuf_{};
+  std::size_t rlen_ = 0;
+  Incoming in_;
+  std::deque<Frame> queue_;    // replies, events, errors: every one is delivered
+  std::deque<Frame> control_;  // pong / close frames (already framed)
+  Frame status_;               // the newest unsent status (protocol.md: replaces an older one)
+  Frame close_frame_;          // written once the queue is empty
+  std::vector<Frame> batch_;   // the frames being written
+  std::vector<std::array<std::uint8_t, 10>> heads_;  // their headers
+  std::vector<asio::const_buffer> buffers_;
   std::size_t queued_bytes_ = 0;
-  std::size_t message_bytes_ = 0;  // of the frame being read
   Clock::time_point since_;
+  Clock::time_point last_read_;
   Clock::time_point write_since_;
   bool loopback_ = false;
   bool open_ = false;
   bool attached_ = false;
+  bool reading_ = false;
   bool writing_ = false;
-  bool closing_ = false;
-  bool close_pending_ = false;
+  bool closing_ = false;    // a close frame is queued or sent: nothing more is queued
+  bool close_sent_ = false;
+  bool ping_sent_ = false;
   bool aborted_ = false;
-  bool oversize_ = false;
-  websocket::close_code close_code_ = websocket::close_code::normal;
 };
 
 }  // namespace safestate::gateway

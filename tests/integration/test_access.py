@@ -401,3 +401,35 @@ def test_kill_9_of_the_gateway_during_a_burst_loses_no_event(cell):
     for a, b in zip(chain, chain[1:]):
         assert a["to"] == b["from"], f"a transition is missing between {a} and {b}"
     assert get_json(cell.port, "/api/status")["gateway_restarts"] == 1
+
+
+def test_websocket_framing_ping_fragments_and_protocol_errors(cell):
+    """The gateway frames RFC 6455 itself after the handshake: pings are answered,
+    fragmented messages are put together, a frame a client must not send closes with 1002."""
+    async def main():
+        c = await pendant(cell, "observer")
+        pong = await c.ws.ping(b"alive?")
+        await asyncio.wait_for(pong, 5)
+        mark = c.mark()
+        await c.ws.send(['{"type":"command",', '"seq":77,', '"cmd":"reset"}'])  # three frames, one message
+        r = await c.wait_for(lambda m: m["type"] == "reply" and m["seq"] == 77, since=mark, what="the reply")
+        assert r["result"] == "NOT_CONTROL_OWNER"
+        await c.close()
+
+        s = socket.create_connection(("127.0.0.1", cell.port), timeout=5)
+        s.sendall(b"GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                  b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n")
+        head = b""
+        while b"\r\n\r\n" not in head:
+            head += s.recv(1)
+        assert b" 101 " in head.split(b"\r\n")[0], head
+        s.sendall(b"\x81\x05hello")  # unmasked: clients must mask (RFC 6455 5.1)
+        data = b""
+        while True:
+            chunk = s.recv(4096)
+            if not chunk:
+                break
+            data += chunk
+        s.close()
+        assert b"\x88\x02\x03\xea" in data, data  # close 1002, protocol error
+    run(main())
