@@ -1,16 +1,21 @@
 // Sessions and fan-out (protocol.md "Access and admission", "Fairness").
 //
 // Decisions where protocol.md is silent:
-//  - Frames are read in pieces of at most 4 KiB + 1: a frame over 4 KiB, of whatever
-//    size, gets one error TOO_LARGE once it has ended; its bytes are thrown away as they
-//    come. Beyond 1 MiB of one frame the error is sent at once and the connection closed.
+//  - Beast performs the opening handshake; then the session frames RFC 6455 itself:
+//    every complete message already received is handled in the same turn of the event
+//    loop, and the queued frames go out in one gathered write (up to 256 frames / 64 KiB).
+//    Pings are answered with pongs, fragmented messages joined, a client's close echoed;
+//    an unmasked or malformed frame closes with 1002.
+//  - A message over 4 KiB, of whatever size, gets one error TOO_LARGE once it has ended;
+//    its bytes are thrown away as they come. Beyond 1 MiB the error is sent at once and
+//    the connection closed.
 //  - Outgoing: replies, events and errors queue in order and are all delivered; status
-//    has a slot of its own, the newest replacing one not yet written, and goes first
-//    when due, so that a burst of events never delays it. A client whose write has made
-//    no progress for 5 s (it does not read) is disconnected; so is one with over 32 MiB
-//    queued (it reads, but far slower than the cell talks).
+//    has a slot of its own, the newest replacing one not yet written, and goes first in
+//    the next write, so that a burst of events never delays it. A client whose write has
+//    made no progress for 5 s (it does not read) is disconnected; so is one with over
+//    32 MiB queued (it reads, but far slower than the cell talks).
 //  - A connection that has not said hello within 5 s gets error NOT_HELLO and is closed.
-//  - Keep-alive: a ping after 15 s of silence, closed after 30 s without an answer, so a
+//  - Keep-alive: a ping after 15 s of silence, closed after 30 s without any byte, so a
 //    pendant whose network vanished frees the pendant role.
 #include "sessions.hpp"
 
