@@ -310,8 +310,8 @@ def reading_ws(w):
                f"misses the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms) by {max(0.0, rt['p50'] - 1.0):.2f} ms at p50 and "
                f"{max(0.0, rt['p99'] - 2.0):.2f} ms at p99. The design's own share is about 0.6 ms at p50 (half a "
                "cycle's wait, the cycle, the wake-up 120 µs after the boundary); the rest is not yet explained: the "
-               "Python client and the gateway share two cores with other load on this VM (load average about 4 "
-               "during the run), and two runs differed by 0.5 ms at p50), so a quiet-host measurement is still owed")
+               "Python client and the gateway share two cores with other sessions' work on this VM, and runs on it "
+               "differed by 0.5 ms at p50, so a quiet-host measurement is still owed")
     return (f"- A command's round trip through the gateway is {rt['p50']:.2f} ms at p50 and {rt['p99']:.2f} ms at "
                f"p99, which {verdict}. While a reply is due the gateway sleeps until just after the core's next cycle "
                "boundary (the loop publishes its next deadline in the segment with a plain store: no system call added "
