@@ -339,9 +339,7 @@ void WsSession::frame_done() {
         queued_bytes_ = 0;
         status_.reset();
         close_frame_ = framed(kClose, in_.control.substr(0, 2));  // echo the code (RFC 6455 5.5.1)
-        if (!writing_) {
-          do_write();
-        }
+        schedule_write();
       }
       return;
     default: break;
@@ -373,9 +371,7 @@ void WsSession::queue_control(std::uint8_t opcode, std::string payload) {
     return;
   }
   control_.push_back(framed(opcode, payload));
-  if (!writing_) {
-    do_write();
-  }
+  schedule_write();
 }
 
 void WsSession::send(const Frame& frame, bool droppable) {
@@ -398,9 +394,22 @@ void WsSession::send(const Frame& frame, bool droppable) {
       return;
     }
   }
-  if (!writing_) {
-    do_write();
+  schedule_write();
+}
+
+// The write starts once the current handler is done, so that every frame queued by it
+// (a poll's replies and events, a burst's answers) goes out in one gathered write.
+void WsSession::schedule_write() {
+  if (writing_ || write_posted_) {
+    return;
   }
+  write_posted_ = true;
+  asio::post(ws_.get_executor(), [self = shared_from_this()] {
+    self->write_posted_ = false;
+    if (!self->writing_) {
+      self->do_write();
+    }
+  });
 }
 
 void WsSession::close_with(std::uint16_t code) {
@@ -414,9 +423,7 @@ void WsSession::close_with(std::uint16_t code) {
     return;
   }
   close_frame_ = framed(kClose, std::string{static_cast<char>(code >> 8U), static_cast<char>(code & 0xFFU)});
-  if (!writing_) {
-    do_write();
-  }
+  schedule_write();
 }
 
 // One gathered write: control frames, then the status when due, then the queue in

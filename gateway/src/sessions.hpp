@@ -103,6 +103,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   void frame_done();
   void message_done();
   void queue_control(std::uint8_t opcode, std::string payload);
+  void schedule_write();
   void do_write();
   void on_write(beast::error_code ec, std::size_t bytes);
   void close_with(std::uint16_t code);
@@ -133,6 +134,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   bool attached_ = false;
   bool reading_ = false;
   bool writing_ = false;
+  bool write_posted_ = false;
   bool closing_ = false;    // a close frame is queued or sent: nothing more is queued
   bool close_sent_ = false;
   bool ping_sent_ = false;
