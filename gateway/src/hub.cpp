@@ -168,8 +168,14 @@ void Hub::drain_events() {
     return;
   }
   const std::uint64_t tail = ring.tail.load(std::memory_order_relaxed) + taken;
+  const auto commit_start = Clock::now();
   if (began && (!log_.set_ring_progress(segment_.header().instance, tail) || !log_.commit())) {
     log_error("event log: commit failed: " + log_.last_error());
+  }
+  const auto commit_ms = std::chrono::duration<double, std::milli>(Clock::now() - commit_start).count();
+  if (commit_ms > 50.0) {
+    // The commit (fsync) runs on the one I/O thread: a slow disk delays every client.
+    log_error("event log: a commit took " + std::to_string(static_cast<int>(commit_ms)) + " ms");
   }
   ring.advance(taken);  // only now may the core reuse these slots
   for (const Frame& f : frames) {

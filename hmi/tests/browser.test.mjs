@@ -169,7 +169,9 @@ after(async () => {
 // ------------------------------------------------------------------ the walk-through
 test('the page loads and shows ESTOP_RESET_NEEDED with what to do', async () => {
   await page.goto(`http://127.0.0.1:${cell.port}/`);
-  const b = await bannerUntil('ESTOP_RESET_NEEDED', (x) => x.state === 'ESTOP_RESET_NEEDED');
+  // The first state may come from GET /api/status before the WebSocket is open (tone
+  // 'offline' until then): judge the tone once the page is connected.
+  const b = await bannerUntil('ESTOP_RESET_NEEDED, connected', (x) => x.state === 'ESTOP_RESET_NEEDED' && x.tone !== 'offline');
   assert.equal(b.tone, 'amber', 'amber while a reset is needed');
   assert.match(b.next, /Release all E-stops, then press Reset/);
   await until('the 3D view of the arm', () => drawn());
