@@ -190,6 +190,13 @@ class Poller {
         return;
       }
       hub_.poll();
+      // The event log's commit (an fsync) comes after the replies' writes, which the
+      // sessions have posted: a reply never waits for the disk.
+      asio::post(timer_.get_executor(), [this] {
+        if (!stopped_) {
+          hub_.poll_events();
+        }
+      });
       const auto now = Clock::now();
       arm(hub_.awaiting_core() ? after_boundary(now) : now + kPollPeriod);
     });

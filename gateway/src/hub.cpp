@@ -68,12 +68,13 @@ void Hub::poll() {
     core_heartbeat_changed_ = now;
   }
   drain_replies();
-  drain_events();
   if (now - last_sweep_ > std::chrono::seconds(1)) {
     sweep_pending(now);
     last_sweep_ = now;
   }
 }
+
+void Hub::poll_events() { drain_events(); }
 
 void Hub::flush() {
   flushing_ = true;

@@ -99,9 +99,10 @@ class Hub {
   void on_too_large(Client& c, std::size_t bytes);
   void on_hello_timeout(Client& c);
 
-  // Every poll: gateway heartbeat, replies to their clients, events to the log and
-  // then to every client.
+  // Every poll: gateway heartbeat, replies to their clients; then (poll_events, run
+  // after the replies' writes have started) events to the log and to every client.
   void poll();
+  void poll_events();
   // Commands sent to the core and not yet answered (the poll loop then wakes at the
   // core's next cycle boundary instead of its idle period).
   [[nodiscard]] bool awaiting_core() const noexcept { return !pending_.empty(); }
