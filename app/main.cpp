@@ -10,6 +10,7 @@
 #include "safestate/core/transitions.hpp"
 #include "safestate/ecat/ecat_sim.hpp"
 #include "checker.hpp"
+#include "safestate/gateway/admission.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/scenario/scenario.hpp"
@@ -59,9 +60,23 @@ int main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "run the core on the simulated cell in a real-time loop, with the gateway");
   run->set_config("--config", "", "settings file (INI/TOML: port=8080, bind=..., db=..., cycle-us=...)");
   run->add_option("--port", run_opt.port, "HTTP/WebSocket port")->check(CLI::Range(1, 65535));
-  run->add_option("--bind", run_opt.bind, "address to listen on (beyond loopback a token is required)");
+  run->add_option("--bind", run_opt.bind, "address to listen on (beyond loopback both tokens are required)");
   run->add_option("--db", run_opt.db, "SQLite event database (survives restarts)");
-  run->add_option("--token", run_opt.token, "token a pendant must present");
+  std::string run_pendant_file;
+  std::string run_remote_file;
+  std::vector<std::string> run_origins;
+  std::vector<std::string> run_hosts;
+  std::size_t run_max_clients = 64;
+  std::size_t run_max_http = 32;
+  run->add_option("--pendant-token-file", run_pendant_file,
+                  "file holding the pendant token (else env SAFESTATE_PENDANT_TOKEN; never on the command line)");
+  run->add_option("--remote-token-file", run_remote_file,
+                  "file holding the remote token (else env SAFESTATE_REMOTE_TOKEN)");
+  run->add_option("--allow-origin", run_origins, "a further web origin allowed to connect (e.g. https://hmi.plant)");
+  run->add_option("--allow-host", run_hosts, "a further Host name the server answers to");
+  run->add_option("--max-clients", run_max_clients, "WebSocket clients at most (one slot kept for the pendant)")
+      ->check(CLI::Range(2, 100000));
+  run->add_option("--max-http", run_max_http, "HTTP connections at most")->check(CLI::Range(1, 100000));
   run->add_option("--cycle-us", run_opt.rt.cycle_us, "scan cycle in microseconds (250..4000)");
   run->add_option("--watchdog-ms", run_opt.rt.watchdog_ms, "fieldbus watchdog: a longer stall locks out")
       ->check(CLI::Range(1, 10000));
@@ -107,7 +122,15 @@ int main(int argc, char** argv) {
   gateway->add_option("--bind", gw_opt.bind, "address to listen on");
   gateway->add_option("--port", gw_opt.port, "HTTP/WebSocket port")->check(CLI::Range(1, 65535));
   gateway->add_option("--db", gw_opt.db_path, "SQLite event database")->required();
-  gateway->add_option("--token", gw_opt.token, "token a pendant must present");
+  std::string gw_pendant_file;
+  std::string gw_remote_file;
+  gateway->add_option("--pendant-token-file", gw_pendant_file, "file holding the pendant token (else env SAFESTATE_PENDANT_TOKEN)");
+  gateway->add_option("--remote-token-file", gw_remote_file, "file holding the remote token (else env SAFESTATE_REMOTE_TOKEN)");
+  gateway->add_option("--allow-origin", gw_opt.allow_origins, "a further web origin allowed to connect");
+  gateway->add_option("--allow-host", gw_opt.allow_hosts, "a further Host name the server answers to");
+  gateway->add_option("--max-clients", gw_opt.max_clients, "WebSocket clients at most (one slot kept for the pendant)")
+      ->check(CLI::Range(2, 100000));
+  gateway->add_option("--max-http", gw_opt.max_http, "HTTP connections at most")->check(CLI::Range(1, 100000));
   gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
   safestate::ecat::EcatSimOptions ecat_opt;
   auto* ecat_sim = app.add_subcommand(
@@ -142,6 +165,12 @@ int main(int argc, char** argv) {
     return safestate::ecat::ecat_sim_main(ecat_opt);
   }
   if (gateway->parsed()) {
+    std::string error;
+    if (!safestate::gateway::load_token("SAFESTATE_PENDANT_TOKEN", gw_pendant_file, gw_opt.pendant_token, error) ||
+        !safestate::gateway::load_token("SAFESTATE_REMOTE_TOKEN", gw_remote_file, gw_opt.remote_token, error)) {
+      std::fprintf(stderr, "safestate gateway: %s\n", error.c_str());
+      return 2;
+    }
     return safestate::gateway::gateway_main(gw_opt);
   }
   if (ecat_bench->parsed()) {
@@ -151,6 +180,33 @@ int main(int argc, char** argv) {
     return safestate::runtime::rtbench_main(rtb_opt);
   }
   if (run->parsed()) {
+    std::string error;
+    if (!safestate::gateway::load_token("SAFESTATE_PENDANT_TOKEN", run_pendant_file, run_opt.pendant_token, error) ||
+        !safestate::gateway::load_token("SAFESTATE_REMOTE_TOKEN", run_remote_file, run_opt.remote_token, error)) {
+      std::fprintf(stderr, "safestate run: %s\n", error.c_str());
+      return 2;
+    }
+    safestate::gateway::GatewayOptions g;
+    g.bind = run_opt.bind;
+    g.pendant_token = run_opt.pendant_token;
+    g.remote_token = run_opt.remote_token;
+    bool loopback = true;
+    if (!safestate::gateway::bind_is_loopback(run_opt.bind, loopback, error)) {
+      std::fprintf(stderr, "safestate run: %s\n", error.c_str());
+      return 2;
+    }
+    if (const std::string why = safestate::gateway::startup_refusal(g, loopback); !why.empty()) {
+      std::fprintf(stderr, "safestate run: %s\n", why.c_str());
+      return 2;
+    }
+    for (const auto& o : run_origins) {
+      run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--allow-origin", o});
+    }
+    for (const auto& h : run_hosts) {
+      run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--allow-host", h});
+    }
+    run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--max-clients", std::to_string(run_max_clients),
+                                                              "--max-http", std::to_string(run_max_http)});
     return safestate::runtime::run_main(run_opt);
   }
   if (demo->parsed()) {

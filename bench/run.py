@@ -211,7 +211,9 @@ def render(r):
           f"| Full scan cycle < 10 µs at p99.9 | {full_p999 / 1000:.2f} µs | {verdict(full_p999 < 10000)} |",
           f"| RT lateness p99.9 within 1.5× cyclictest's | {lp:.1f} µs vs {cp:.1f} µs ({lp / max(cp, 1e-9):.2f}×) | {verdict(lp <= 1.5 * cp)} |",
           f"| Zero overruns in {RT_SECONDS} s | {rtr['loop']['overruns']} | {verdict(rtr['loop']['overruns'] == 0)} |",
-          f"| Command round trip p99 < 5 ms | {w['round_trip_ms']['p99']:.2f} ms | {verdict(w['round_trip_ms']['p99'] < 5.0)} |",
+          f"| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | {w['round_trip_ms']['p50']:.2f} ms, "
+          f"{w['round_trip_ms']['p99']:.2f} ms | "
+          f"{verdict(w['round_trip_ms']['p50'] <= 1.0 and w['round_trip_ms']['p99'] <= 2.0)} |",
           f"| Zero heap allocations per cycle | {a['allocations']} in {a['cycles']:,} cycles | {verdict(a['allocations'] == 0)} |",
           f"| core/ `.text` ≤ 32 KiB on a Cortex-M4 | {text_core / 1024:.1f} KiB | {verdict(text_core <= 32 * 1024)} |",
           "", "## Scan cycle, cycle by cycle (ns)", "",
@@ -330,13 +332,57 @@ def reading(r, ratio, ratio_w, sup_p999, full_p999, lp, cp):
                f"{ov_cyc}: the tails and the overruns are the hypervisor's stalls (maxima of milliseconds), which no "
                "user-space loop can hide. On this machine the loop stays within the operating system's floor; zero "
                "overruns needs a quiet host (PREEMPT_RT, isolated CPUs), which the figures here cannot show.")
-    out.append(f"- A command's round trip through the gateway is {w['round_trip_ms']['p99']:.2f} ms at p99, "
-               "dominated by the gateway polling the reply ring every 2 ms, not by the core (one cycle).")
+    out.append(reading_ws(w))
     return out
+
+
+def reading_ws(w):
+    rt = w["round_trip_ms"]
+    met = rt["p50"] <= 1.0 and rt["p99"] <= 2.0
+    verdict = ("meets the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms)" if met else
+               f"misses the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms) by {max(0.0, rt['p50'] - 1.0):.2f} ms at p50 and "
+               f"{max(0.0, rt['p99'] - 2.0):.2f} ms at p99. The design's own share is about 0.6 ms at p50 (half a "
+               "cycle's wait, the cycle, the wake-up 120 µs after the boundary); the rest is not yet explained: the "
+               "Python client and the gateway share two cores with other sessions' work on this VM, and runs on it "
+               "differed by 0.5 ms at p50, so a quiet-host measurement is still owed")
+    return (f"- A command's round trip through the gateway is {rt['p50']:.2f} ms at p50 and {rt['p99']:.2f} ms at "
+               f"p99, which {verdict}. While a reply is due the gateway sleeps until just after the core's next cycle "
+               "boundary (the loop publishes its next deadline in the segment with a plain store: no system call added "
+               "to the real-time thread) instead of polling every 2 ms, so a round trip is the wait for the next cycle "
+               "(half a cycle on average), one cycle's execution, and the two WebSocket hops.")
+
+
+def ws_only():
+    """Measures the WebSocket round trip alone and rewrites, in the document, the rows and
+    the sentence that come from it (the rest keeps the figures of the last full run)."""
+    w = ws()
+    res = os.path.join(OUT, "results.json")
+    if os.path.exists(res):
+        r = json.load(open(res))
+        r["ws"] = w
+        json.dump(r, open(res, "w"), indent=1)
+    text = open(DOC).read()
+    rt, st = w["round_trip_ms"], w["status_ms"]
+    ok = rt["p50"] <= 1.0 and rt["p99"] <= 2.0
+    text = re.sub(r"^\| Command round trip .*$",
+                  f"| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | {rt['p50']:.2f} ms, {rt['p99']:.2f} ms | "
+                  f"{'met' if ok else '**not met**'} |", text, flags=re.M)
+    text = re.sub(r"^\| command round trip \|.*$",
+                  f"| command round trip | {rt['n']} | {rt['p50']:.2f} | {rt['p99']:.2f} | {rt['max']:.2f} |", text, flags=re.M)
+    text = re.sub(r"^\| input change → status \|.*$",
+                  f"| input change → status | {st['n']} | {st['p50']:.2f} | {st['p99']:.2f} | {st['max']:.2f} |", text,
+                  flags=re.M)
+    sentence = reading_ws(w)
+    text = re.sub(r"^- A command's round trip through the gateway is .*$", sentence, text, flags=re.M)
+    open(DOC, "w").write(text)
+    print(f"bench: WebSocket rows of {os.path.relpath(DOC, ROOT)} rewritten: p50 {rt['p50']:.2f} ms, p99 {rt['p99']:.2f} ms")
 
 
 def main():
     os.makedirs(OUT, exist_ok=True)
+    if sys.argv[1:] == ["--ws"]:  # only the WebSocket part: measure it and patch its rows in place
+        ws_only()
+        return
     if sys.argv[1:] == ["--render"]:  # rewrite the document from the last run's figures
         r = json.load(open(os.path.join(OUT, "results.json")))
         with open(DOC, "w") as f:

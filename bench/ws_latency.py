@@ -11,6 +11,7 @@ import argparse
 import asyncio
 import json
 import os
+import random
 import signal
 import socket
 import statistics
@@ -50,10 +51,16 @@ async def measure(port, n_cmd, n_status):
         await next_of("welcome")
         rtt = []
         for seq in range(1, n_cmd + 1):
+            # Paced at random (4-6 ms apart): the gateway takes at most 250 records per
+            # second from one client, and a random phase against the 1 ms cycle measures
+            # what a client sees, not one lucky phase.
+            await asyncio.sleep(random.uniform(0.004, 0.006))
             t0 = time.perf_counter()
             # `set_mode` is always answered (MODE_BY_SELECTOR_ONLY) and changes nothing.
             await ws.send(json.dumps({"type": "command", "seq": seq, "cmd": "set_mode", "mode": "T1"}))
-            await next_of("reply", lambda m, s=seq: m.get("seq") == s)
+            r = await next_of("reply", lambda m, s=seq: m.get("seq") == s)
+            if r["result"] != "MODE_BY_SELECTOR_ONLY":
+                raise SystemExit(f"reply {r}: not answered by the core, the measurement would be wrong")
             rtt.append((time.perf_counter() - t0) * 1000.0)
         lat = []
         mode = "AUTO"

@@ -15,7 +15,8 @@ constexpr const char* kSchema =
     "time TEXT NOT NULL, "
     "kind TEXT NOT NULL, "
     "data TEXT NOT NULL, "
-    "blackbox TEXT)";
+    "blackbox TEXT);"
+    "CREATE TABLE IF NOT EXISTS ring_progress(instance INTEGER PRIMARY KEY, tail INTEGER NOT NULL)";
 
 // A string as a JSON string literal (our own ASCII time and kind names).
 std::string quoted(const unsigned char* s) {
@@ -46,8 +47,15 @@ std::unique_ptr<EventLog> EventLog::open(const std::string& path, std::string& e
   }
   if (sqlite3_prepare_v2(db, "INSERT INTO events(t, time, kind, data, blackbox) VALUES(?, ?, ?, ?, ?)", -1,
                          &log->insert_, nullptr) != SQLITE_OK ||
-      sqlite3_prepare_v2(db, "SELECT id, t, time, kind, data, blackbox FROM events WHERE id > ? ORDER BY id LIMIT ?",
-                         -1, &log->select_, nullptr) != SQLITE_OK) {
+      sqlite3_prepare_v2(db,
+                         "SELECT id, t, time, kind, data, blackbox IS NOT NULL FROM events WHERE id > ? ORDER BY id "
+                         "LIMIT ?",
+                         -1, &log->select_, nullptr) != SQLITE_OK ||
+      sqlite3_prepare_v2(db, "SELECT blackbox FROM events WHERE id = ?", -1, &log->blackbox_, nullptr) != SQLITE_OK ||
+      sqlite3_prepare_v2(db, "SELECT tail FROM ring_progress WHERE instance = ?", -1, &log->progress_get_, nullptr) !=
+          SQLITE_OK ||
+      sqlite3_prepare_v2(db, "INSERT OR REPLACE INTO ring_progress(instance, tail) VALUES(?, ?)", -1,
+                         &log->progress_set_, nullptr) != SQLITE_OK) {
     error = "cannot prepare event log statements: " + log->last_error();
     return nullptr;
   }
@@ -60,6 +68,9 @@ EventLog::~EventLog() {
   }
   sqlite3_finalize(insert_);
   sqlite3_finalize(select_);
+  sqlite3_finalize(blackbox_);
+  sqlite3_finalize(progress_get_);
+  sqlite3_finalize(progress_set_);
   sqlite3_close(db_);
 }
 
@@ -105,7 +116,10 @@ std::int64_t EventLog::insert(std::uint64_t t, const std::string& time, const st
   return sqlite3_last_insert_rowid(db_);
 }
 
-bool EventLog::query_json(std::int64_t after, std::int64_t limit, std::string& out, std::string& error) {
+bool EventLog::query_json(std::int64_t after, std::int64_t limit, std::string& out, std::int64_t& last,
+                          std::int64_t& rows, std::string& error) {
+  last = after;
+  rows = 0;
   sqlite3_reset(select_);
   sqlite3_bind_int64(select_, 1, after);
   sqlite3_bind_int64(select_, 2, limit);
@@ -117,12 +131,15 @@ bool EventLog::query_json(std::int64_t after, std::int64_t limit, std::string& o
       out += ',';
     }
     first = false;
-    out += "{\"id\":" + std::to_string(sqlite3_column_int64(select_, 0));
+    last = sqlite3_column_int64(select_, 0);
+    ++rows;
+    out += "{\"id\":" + std::to_string(last);
     out += ",\"t\":" + std::to_string(sqlite3_column_int64(select_, 1));
     out += ",\"time\":" + quoted(sqlite3_column_text(select_, 2));
     out += ",\"kind\":" + quoted(sqlite3_column_text(select_, 3));
     out += ",\"data\":" + raw_or_null(sqlite3_column_text(select_, 4));
-    out += ",\"blackbox\":" + raw_or_null(sqlite3_column_text(select_, 5));
+    out += ",\"blackbox\":";
+    out += (sqlite3_column_int(select_, 5) != 0) ? "\"/api/events/" + std::to_string(last) + "/blackbox\"" : "null";
     out += '}';
   }
   sqlite3_reset(select_);
@@ -132,6 +149,42 @@ bool EventLog::query_json(std::int64_t after, std::int64_t limit, std::string& o
   }
   out += ']';
   return true;
+}
+
+bool EventLog::query_blackbox(std::int64_t id, std::string& out, bool& found, std::string& error) {
+  sqlite3_reset(blackbox_);
+  sqlite3_bind_int64(blackbox_, 1, id);
+  const int rc = sqlite3_step(blackbox_);
+  found = rc == SQLITE_ROW && sqlite3_column_type(blackbox_, 0) != SQLITE_NULL;
+  if (found) {
+    out = raw_or_null(sqlite3_column_text(blackbox_, 0));
+  }
+  sqlite3_reset(blackbox_);
+  if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+    error = last_error();
+    return false;
+  }
+  return true;
+}
+
+std::uint64_t EventLog::ring_progress(std::uint64_t instance) {
+  sqlite3_reset(progress_get_);
+  sqlite3_bind_int64(progress_get_, 1, static_cast<sqlite3_int64>(instance));
+  std::uint64_t tail = 0;
+  if (sqlite3_step(progress_get_) == SQLITE_ROW) {
+    tail = static_cast<std::uint64_t>(sqlite3_column_int64(progress_get_, 0));
+  }
+  sqlite3_reset(progress_get_);
+  return tail;
+}
+
+bool EventLog::set_ring_progress(std::uint64_t instance, std::uint64_t tail) {
+  sqlite3_reset(progress_set_);
+  sqlite3_bind_int64(progress_set_, 1, static_cast<sqlite3_int64>(instance));
+  sqlite3_bind_int64(progress_set_, 2, static_cast<sqlite3_int64>(tail));
+  const int rc = sqlite3_step(progress_set_);
+  sqlite3_reset(progress_set_);
+  return rc == SQLITE_DONE;
 }
 
 }  // namespace safestate::gateway

@@ -1,28 +1,20 @@
-// Decisions where protocol.md is silent (see also protocol.cpp and views.cpp):
-//  - hello: the token is checked first, then the role. A pendant needs the token when
-//    the server has one; when the server listens beyond loopback every hello needs it
-//    (and without a configured token nobody can say hello: BAD_TOKEN). A refused hello
-//    (BAD_TOKEN, ROLE_TAKEN) leaves the connection open and as it was (a connection
-//    that had not said hello still has not), so the client may retry, e.g. as an
-//    observer. A second hello on the same
-//    connection changes its role (a pendant that becomes an observer frees the pendant
-//    role). After `welcome` the client gets one status message at once.
-//  - A command before hello gets NOT_HELLO. A `sim` message needs no hello: it changes
-//    the simulated world, not the robot's control, and is limited to loopback peers.
-//    From a non-loopback peer, or when the cell is not simulated, it gets
-//    NOT_SIMULATED. With more than kMaxPendingPerClient commands in flight a client
-//    gets reply QUEUE_FULL from the gateway (also for sim).
-//  - Refused frames (error messages) are counted per client; kMaxBadFrames in a row
-//    close the connection after the last error is sent. Any accepted message resets the
-//    count.
+// The hub's side towards the core: the gateway heartbeat, replies back to the clients
+// that sent the commands, events into the event log and then to every client, the
+// status broadcast, and whether the core still lives. Client messages: messages.cpp;
+// HTTP answers: http_endpoints.cpp.
+//
+// Decisions where protocol.md is silent:
+//  - Events are taken from the core's ring without removing them (peek), written to the
+//    log in one transaction together with how far the ring has been logged, and only
+//    after the commit is the ring's tail advanced and the event pushed to the clients
+//    (protocol.md "Nothing lost"). A gateway that restarts skips what its predecessor
+//    committed (the ring_progress row of this segment instance): nothing lost, nothing
+//    twice.
+//  - Events are pushed only to clients that said hello; `id` is the SQLite rowid (null
+//    if the insert failed). The black box is stored, not pushed: /api/events/ID/blackbox.
 //  - A pendant that disconnects is not sent a jog_stop: the core's jog keep-alive
 //    timeout (SPEC rule 7, jog_timeout_ms) stops the jog and raises JOG_LINK_LOST,
 //    which also covers a gateway that dies.
-//  - Events are pushed only to clients that said hello; `id` is the SQLite rowid (null
-//    if the insert failed). The black box is stored, not pushed: /api/events has it.
-//  - /api/events: after >= 0 (default 0), limit 1..1000 (default 100); anything else,
-//    or a malformed value, is 400 {"error", "parameter", "detail"}. Other parameters
-//    are ignored.
 #include "safestate/gateway/hub.hpp"
 
 #include <signal.h>
@@ -44,40 +36,13 @@ namespace safestate::gateway {
 namespace {
 
 constexpr std::chrono::seconds kPendingTimeout{30};
-constexpr std::size_t kRecentMax = 4096;
-constexpr std::size_t kBacklogMax = 2 * bridge::kEventSlots;
-
-bool same_token(const std::string& a, const std::string& b) noexcept {
-  if (a.size() != b.size()) {
-    return false;
-  }
-  unsigned diff = 0;  // no early exit: the time does not tell how much matched
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(b[i]));
-  }
-  return diff == 0U;
-}
-
-HttpAnswer json_answer(unsigned status, const Json& j) { return HttpAnswer{status, "application/json", dump(j)}; }
-
-HttpAnswer bad_parameter(const char* name, const std::string& detail) {
-  Json j;
-  j["error"] = "bad parameter";
-  j["parameter"] = name;
-  j["detail"] = detail;
-  return json_answer(400, j);
-}
-
-bool parse_int64(std::string_view s, std::int64_t& out) {
-  const char* end = s.data() + s.size();
-  const auto [p, ec] = std::from_chars(s.data(), end, out);
-  return !s.empty() && ec == std::errc{} && p == end;
-}
+// Events logged per poll at most: one transaction stays short.
+constexpr std::uint64_t kEventsPerPoll = 1024;
 
 }  // namespace
 
 Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, bool loopback_bind)
-    : options_(options), segment_(segment), log_(log), loopback_bind_(loopback_bind) {
+    : options_(options), segment_(segment), log_(log), loopback_bind_(loopback_bind), access_(options, loopback_bind) {
   // A restarted gateway must not take a reply meant for its predecessor as its own.
   std::random_device rd;
   next_seq_ = static_cast<std::uint32_t>(rd());
@@ -87,136 +52,9 @@ Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log,
   last_error_log_ = now - std::chrono::hours(1);
   robot_ = dump(robot_json());
   parent_at_start_ = ::getppid();
-}
-
-// ------------------------------------------------------------------ clients
-void Hub::attach(Client& c) {
-  c.id = ++next_client_id_;
-  clients_[c.id] = &c;
-}
-
-void Hub::detach(Client& c) {
-  clients_.erase(c.id);
-  if (pendant_ == c.id) {
-    pendant_ = 0;
-  }
-}
-
-void Hub::send(Client& c, const Json& message) { c.send(std::make_shared<const std::string>(dump(message)), false); }
-
-void Hub::refuse(Client& c, ErrorCode code, const std::string& detail) {
-  send(c, make_error(code, detail));
-  if (++c.bad_frames >= kMaxBadFrames) {
-    c.close_after_flush();
-  }
-}
-
-void Hub::on_text(Client& c, std::string_view text) {
-  ClientMessage msg = parse_client_message(text);
-  if (auto* e = std::get_if<ProtocolError>(&msg)) {
-    refuse(c, e->code, e->detail);
-  } else if (auto* h = std::get_if<HelloMsg>(&msg)) {
-    on_hello(c, *h);
-  } else if (auto* m = std::get_if<CommandMsg>(&msg)) {
-    on_command(c, *m);
-  } else if (auto* s = std::get_if<SimMsg>(&msg)) {
-    on_sim(c, *s);
-  }
-}
-
-void Hub::on_binary(Client& c) { refuse(c, ErrorCode::BAD_MESSAGE, "binary frames are not accepted: send JSON text"); }
-
-void Hub::on_too_large(Client& c, std::size_t bytes) {
-  refuse(c, ErrorCode::TOO_LARGE,
-         "frame of " + std::to_string(bytes) + " bytes; the limit is " + std::to_string(kMaxFrameBytes));
-}
-
-void Hub::on_hello(Client& c, const HelloMsg& h) {
-  const bool need_token = !loopback_bind_ || (h.role == Role::pendant && !options_.token.empty());
-  if (need_token && (options_.token.empty() || !h.has_token || !same_token(h.token, options_.token))) {
-    refuse(c, ErrorCode::BAD_TOKEN,
-           options_.token.empty() ? "this server listens beyond loopback and has no token: nobody may connect"
-                                  : std::string("a ") + to_string(h.role) + " needs the server's token");
-    return;
-  }
-  if (h.role == Role::pendant && pendant_ != 0 && pendant_ != c.id) {
-    refuse(c, ErrorCode::ROLE_TAKEN, "another pendant is connected (single point of control)");
-    return;
-  }
-  if (pendant_ == c.id && h.role != Role::pendant) {
-    pendant_ = 0;
-  }
-  c.hello = true;
-  c.role = h.role;
-  c.name = h.client;
-  c.bad_frames = 0;
-  if (h.role == Role::pendant) {
-    pendant_ = c.id;
-  }
-  send(c, make_welcome(h.role, options_.version));
-  read_status();
-  send(c, status_json(status_, extras(), true));
-}
-
-void Hub::on_command(Client& c, const CommandMsg& m) {
-  if (!c.hello) {
-    refuse(c, ErrorCode::NOT_HELLO, "send hello before commands");
-    return;
-  }
-  c.bad_frames = 0;
-  bridge::CommandRecord rec{};
-  rec.kind = bridge::RecordKind::command;
-  rec.command = m.command;
-  rec.command.source = static_cast<std::uint8_t>(source_of(c.role));
-  submit(c, rec, m.seq, false, m.name);
-}
-
-void Hub::on_sim(Client& c, const SimMsg& m) {
-  if (!c.loopback_peer()) {
-    refuse(c, ErrorCode::NOT_SIMULATED, "sim messages are accepted only from a loopback client");
-    return;
-  }
-  if (segment_.header().simulated.load(std::memory_order_relaxed) == 0U) {
-    refuse(c, ErrorCode::NOT_SIMULATED, "the cell is not simulated");
-    return;
-  }
-  c.bad_frames = 0;
-  submit(c, m.record, m.seq, true, {});
-}
-
-std::uint32_t Hub::next_seq() {
-  do {
-    ++next_seq_;
-  } while (next_seq_ == 0U || pending_.count(next_seq_) != 0U);  // 0 is the reset button's
-  return next_seq_;
-}
-
-void Hub::local_reply(Client& c, const Json& client_seq, core::Result r) {
-  ++commands_by_result_[static_cast<std::size_t>(r)];
-  send(c, make_reply(client_seq, core::to_string(r)));
-}
-
-void Hub::submit(Client& c, bridge::CommandRecord record, const Json& client_seq, bool sim, const std::string& name) {
-  if (c.pending >= kMaxPendingPerClient) {
-    local_reply(c, client_seq, core::Result::QUEUE_FULL);
-    return;
-  }
-  record.seq = next_seq();
-  record.command.seq = record.seq;
-  if (!segment_.commands().push(record)) {
-    local_reply(c, client_seq, core::Result::QUEUE_FULL);
-    return;
-  }
-  ++c.pending;
-  pending_[record.seq] = Pending{c.id, client_seq, sim, Clock::now()};
-  if (!sim) {
-    recent_[record.seq] = Recent{client_seq, name};
-    recent_order_.push_back(record.seq);
-    while (recent_order_.size() > kRecentMax) {
-      recent_.erase(recent_order_.front());
-      recent_order_.pop_front();
-    }
-  }
+  // What a predecessor already committed stays committed: start after it.
+  auto& h = segment_.header();
+  segment_.events().advance_to(log_.ring_progress(h.instance));
 }
 
 // ------------------------------------------------------------------ from the core
@@ -230,17 +68,26 @@ void Hub::poll() {
     core_heartbeat_changed_ = now;
   }
   drain_replies();
-  drain_events();
   if (now - last_sweep_ > std::chrono::seconds(1)) {
     sweep_pending(now);
     last_sweep_ = now;
   }
 }
 
+void Hub::poll_events() { drain_events(); }
+
 void Hub::flush() {
   flushing_ = true;
   drain_replies();
-  drain_events();
+  std::size_t left = segment_.events().size();
+  while (left > 0U) {
+    drain_events();
+    const std::size_t now_left = segment_.events().size();
+    if (now_left >= left) {
+      break;  // the log refuses: nothing more to gain
+    }
+    left = now_left;
+  }
   flushing_ = false;
 }
 
@@ -293,40 +140,51 @@ bool Hub::blackbox_ready(const bridge::EventRecord& e) {
 }
 
 void Hub::drain_events() {
+  auto& ring = segment_.events();
+  std::vector<Frame> frames;
+  std::uint64_t taken = 0;
   bridge::EventRecord e{};
-  while (backlog_.size() < kBacklogMax && segment_.events().pop(e)) {
-    backlog_.push_back(e);
-  }
-  if (backlog_.empty()) {
-    return;
-  }
-  const std::string time = iso8601_utc(std::chrono::system_clock::now());
+  std::string time;
   bool began = false;
-  while (!backlog_.empty()) {
-    const bridge::EventRecord& front = backlog_.front();
+  while (taken < kEventsPerPoll && ring.peek(taken, e)) {
     std::string blackbox;
-    if (needs_blackbox(front)) {
-      if (!blackbox_ready(front)) {
+    if (needs_blackbox(e)) {
+      if (!blackbox_ready(e)) {
         break;
       }
-      blackbox = dump(blackbox_json(segment_.blackbox(), front.t));
+      blackbox = dump(blackbox_json(segment_.blackbox(), e.t));
     }
     blackbox_wait_since_.reset();
     if (!began) {
+      time = iso8601_utc(std::chrono::system_clock::now());
       began = log_.begin();
       if (!began) {
         log_error("event log: cannot begin a transaction: " + log_.last_error());
       }
     }
-    store_and_push(front, time, blackbox);
-    backlog_.pop_front();
+    frames.push_back(store(e, time, blackbox));
+    ++taken;
   }
-  if (began && !log_.commit()) {
+  if (taken == 0U) {
+    return;
+  }
+  const std::uint64_t tail = ring.tail.load(std::memory_order_relaxed) + taken;
+  const auto commit_start = Clock::now();
+  if (began && (!log_.set_ring_progress(segment_.header().instance, tail) || !log_.commit())) {
     log_error("event log: commit failed: " + log_.last_error());
+  }
+  const auto commit_ms = std::chrono::duration<double, std::milli>(Clock::now() - commit_start).count();
+  if (commit_ms > 50.0) {
+    // The commit (fsync) runs on the one I/O thread: a slow disk delays every client.
+    log_error("event log: a commit took " + std::to_string(static_cast<int>(commit_ms)) + " ms");
+  }
+  ring.advance(taken);  // only now may the core reuse these slots
+  for (const Frame& f : frames) {
+    broadcast(f, false);
   }
 }
 
-void Hub::store_and_push(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox) {
+Frame Hub::store(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox) {
   Json seq = nullptr;
   std::string name;
   if (e.kind == bridge::EventKind::command && e.reply.seq != 0U) {
@@ -344,7 +202,7 @@ void Hub::store_and_push(const bridge::EventRecord& e, const std::string& time, 
   } else {
     ++events_stored_;
   }
-  broadcast(std::make_shared<const std::string>(dump(event_message(id, e.t, time, kind, data))), false);
+  return std::make_shared<const std::string>(dump(event_message(id, e.t, time, kind, data)));
 }
 
 void Hub::broadcast(const Frame& frame, bool droppable) {
@@ -406,6 +264,7 @@ StatusExtras Hub::extras() const {
   x.core_pid = h.core_pid.load(std::memory_order_relaxed);
   x.shutting_down = h.shutting_down.load(std::memory_order_relaxed) != 0U;
   x.gateway_pid = h.gateway_pid.load(std::memory_order_relaxed);
+  x.gateway_restarts = h.gateway_restarts.load(std::memory_order_relaxed);
   return x;
 }
 
@@ -437,97 +296,6 @@ bool Hub::core_gone() const {
     return paren != std::string::npos && paren + 2 < line.size() && line[paren + 2] == 'Z';
   }
   return false;
-}
-
-// ------------------------------------------------------------------ HTTP
-HttpAnswer Hub::http_get(std::string_view target) {
-  const std::size_t q = target.find('?');
-  const std::string_view path = target.substr(0, q);
-  const std::string_view query = (q == std::string_view::npos) ? std::string_view{} : target.substr(q + 1);
-  if (path == "/api/status") {
-    read_status();
-    return json_answer(200, status_json(status_, extras(), false));
-  }
-  if (path == "/api/alarms") {
-    return json_answer(200, alarms_json(read_status()));
-  }
-  if (path == "/api/events") {
-    return events_answer(query);
-  }
-  if (path == "/api/robot") {
-    return HttpAnswer{200, "application/json", robot_};
-  }
-  if (path == "/metrics") {
-    return metrics_answer();
-  }
-  if (path == "/ws") {
-    Json j;
-    j["error"] = "/ws is a WebSocket endpoint: send an Upgrade request";
-    return json_answer(426, j);
-  }
-  if (path.substr(0, 5) == "/api/" || path == "/api") {
-    Json j;
-    j["error"] = "not found";
-    return json_answer(404, j);
-  }
-  return static_answer(path);
-}
-
-HttpAnswer Hub::events_answer(std::string_view query) {
-  std::int64_t after = 0;
-  std::int64_t limit = 100;
-  while (!query.empty()) {
-    const std::size_t amp = query.find('&');
-    const std::string_view pair = query.substr(0, amp);
-    query = (amp == std::string_view::npos) ? std::string_view{} : query.substr(amp + 1);
-    const std::size_t eq = pair.find('=');
-    const std::string_view key = pair.substr(0, eq);
-    std::string value;
-    const bool decoded =
-        percent_decode((eq == std::string_view::npos) ? std::string_view{} : pair.substr(eq + 1), value, true);
-    if (key == "after" && (!decoded || !parse_int64(value, after) || after < 0)) {
-      return bad_parameter("after", "after must be an event id, an integer >= 0");
-    }
-    if (key == "limit" && (!decoded || !parse_int64(value, limit) || limit < 1 || limit > 1000)) {
-      return bad_parameter("limit", "limit must be an integer from 1 to 1000");
-    }
-  }
-  HttpAnswer a;
-  std::string error;
-  if (!log_.query_json(after, limit, a.body, error)) {
-    Json j;
-    j["error"] = "event log: " + error;
-    return json_answer(500, j);
-  }
-  return a;
-}
-
-HttpAnswer Hub::metrics_answer() {
-  MetricsExtras x;
-  x.ws_clients = clients_.size();
-  x.core_heartbeat = segment_.header().core_heartbeat.load(std::memory_order_relaxed);
-  x.events_stored = events_stored_;
-  x.commands_by_result = commands_by_result_;
-  return HttpAnswer{200, "text/plain; version=0.0.4; charset=utf-8", metrics_text(segment_.metrics(), x)};
-}
-
-HttpAnswer Hub::static_answer(std::string_view path) {
-  if (path == "/" && !hmi_built(options_.static_dir)) {
-    return HttpAnswer{200, "text/html; charset=utf-8", builtin_index_html(options_.version)};
-  }
-  std::string file;
-  switch (resolve_static(options_.static_dir, path, file)) {
-    case StaticLookup::found: break;
-    case StaticLookup::bad_path: return HttpAnswer{400, "text/plain; charset=utf-8", "bad path\n"};
-    case StaticLookup::not_found: return HttpAnswer{404, "text/plain; charset=utf-8", "not found\n"};
-  }
-  std::ifstream in(file, std::ios::binary);
-  if (!in) {
-    return HttpAnswer{404, "text/plain; charset=utf-8", "not found\n"};
-  }
-  std::ostringstream body;
-  body << in.rdbuf();
-  return HttpAnswer{200, mime_type(file), body.str()};
 }
 
 }  // namespace safestate::gateway

@@ -239,6 +239,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["core_pid"] = x.core_pid;
   j["gateway_pid"] = x.gateway_pid;
   j["shutting_down"] = x.shutting_down;
+  j["gateway_restarts"] = x.gateway_restarts;
   return j;
 }
 

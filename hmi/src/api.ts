@@ -65,7 +65,7 @@ export interface HmiEvent {
   time: string;
   kind: EventKind;
   data: Record<string, unknown>;
-  blackbox?: { first: number; last: number; missing: number; cycles: unknown[] } | null;
+  blackbox?: string | null; // the URL of its black box (/api/events/ID/blackbox), or null
 }
 
 export interface DhRow {
@@ -92,8 +92,14 @@ export type ServerMessage =
   | ({ type: 'event' } & HmiEvent)
   | { type: 'error'; code: string; detail?: string; seq?: number };
 
+/** Beyond loopback /api/* and /metrics need `Authorization: Bearer <token>` (protocol.md). */
+export function authHeaders(): Record<string, string> {
+  const token = sessionStorage.getItem('safestate.token');
+  return token ? { Authorization: `Bearer ${token}` } : {};
+}
+
 async function getJson<T>(path: string): Promise<T> {
-  const r = await fetch(path, { cache: 'no-store' });
+  const r = await fetch(path, { cache: 'no-store', headers: authHeaders() });
   if (!r.ok) {
     throw new Error(`GET ${path}: HTTP ${r.status}`);
   }
@@ -107,7 +113,7 @@ export const fetchEvents = (after: number, limit: number): Promise<HmiEvent[]> =
   getJson<HmiEvent[]>(`/api/events?after=${after}&limit=${limit}`);
 
 export async function fetchMetricsText(): Promise<string> {
-  const r = await fetch('/metrics', { cache: 'no-store' });
+  const r = await fetch('/metrics', { cache: 'no-store', headers: authHeaders() });
   if (!r.ok) {
     throw new Error(`GET /metrics: HTTP ${r.status}`);
   }

@@ -36,6 +36,24 @@ export interface LinkHandlers {
 }
 
 const REPLY_TIMEOUT_MS = 3000;
+export const TOKEN_KEY = 'safestate.token';
+
+/** Why a WebSocket closed, in words (RFC 6455 close codes; a refused upgrade is 1006). */
+export function closeWords(code: number, opened: boolean): string {
+  if (!opened) return 'The controller refused the connection or cannot be reached (wrong address, not allowed from this page, or full)';
+  switch (code) {
+    case 1000:
+      return 'The connection was closed';
+    case 1001:
+      return 'The controller is shutting down or restarting its gateway';
+    case 1008:
+      return 'The controller closed the connection (no hello in time, or too many refused messages)';
+    case 1009:
+      return 'The controller closed the connection: a message was too large';
+    default:
+      return 'The connection to the controller dropped (network or gateway lost)';
+  }
+}
 
 export class Link {
   private ws: WebSocket | null = null;
@@ -50,8 +68,10 @@ export class Link {
   private token: string | null;
 
   constructor(private readonly h: LinkHandlers) {
-    const url = new URL(location.href);
-    this.token = url.searchParams.get('token') ?? sessionStorage.getItem('safestate.token');
+    // The token lives in this tab's sessionStorage and goes only into the hello (and the
+    // Authorization header of /api requests): never into a URL, where it would stay in
+    // the history, the server logs and the Referer of every link.
+    this.token = sessionStorage.getItem(TOKEN_KEY);
     window.setInterval(() => this.expire(), 500);
   }
 
@@ -61,7 +81,9 @@ export class Link {
     const ws = new WebSocket(`${proto}//${location.host}/ws`);
     this.ws = ws;
     this.setState('connecting', 'Connecting to the controller…');
+    let opened = false;
     ws.onopen = () => {
+      opened = true;
       this.retryMs = 500;
       this.hello();
     };
@@ -71,8 +93,7 @@ export class Link {
       this.ws = null;
       this.role = null;
       this.failAll('NO_REPLY', 'the connection closed before the controller answered');
-      const why = ev.code === 1008 ? ' (closed by the gateway)' : '';
-      this.setState('closed', `Connection lost${why}: retrying in ${(this.retryMs / 1000).toFixed(1)} s`);
+      this.setState('closed', `${closeWords(ev.code, opened)}: retrying in ${(this.retryMs / 1000).toFixed(1)} s`);
       this.retryTimer = window.setTimeout(() => this.connect(), this.retryMs);
       this.retryMs = Math.min(this.retryMs * 2, 5000);
     };
@@ -86,7 +107,7 @@ export class Link {
 
   setToken(token: string): void {
     this.token = token;
-    sessionStorage.setItem('safestate.token', token);
+    sessionStorage.setItem(TOKEN_KEY, token);
     this.wantRole = 'pendant';
     this.hello();
   }
@@ -190,6 +211,8 @@ export class Link {
       this.wantRole = 'observer';
       this.hello();
     } else if (code === 'BAD_TOKEN' && this.wantRole === 'pendant') {
+      // Read-only meanwhile (where the server lets observers in without a token); the
+      // login screen asks for the pendant token (main.ts).
       this.wantRole = 'observer';
       this.hello();
     } else if (code === 'NOT_SIMULATED' || code === 'BAD_MESSAGE' || code === 'TOO_LARGE') {

@@ -198,7 +198,7 @@ export class History {
 
   private row(e: HmiEvent): Row {
     const d = describeEvent(e);
-    const bb = e.blackbox ? h('span', { class: 'bb', title: `black box: cycles ${e.blackbox.first}–${e.blackbox.last}` }, 'BB') : null;
+    const bb = e.blackbox ? h('span', { class: 'bb', title: `black box stored: ${e.blackbox}` }, 'BB') : null;
     const count = h('span', { class: 'run-count' }, '');
     const t = h('span', { class: 'event-time', title: `cycle ${e.t}` }, time(e));
     const el = h(

@@ -56,6 +56,9 @@ const link = new Link({
     linkNote = note;
     exposed().link = { state: st, role: r };
     if (st === 'closed') jog.stop('connection lost');
+    if (st === 'open' && r === 'pendant') {
+      $('token-error').hidden = true;
+    }
     if (st === 'open') {
       void alarms.refresh();
       void history.latest();
@@ -150,17 +153,32 @@ function onProtocolError(code: string, detail: string): void {
   }
   if (code === 'BAD_TOKEN') {
     const dlg = $('token-dialog') as HTMLDialogElement;
+    const err = $('token-error');
+    if (tokenTried) {
+      err.textContent = 'That token was refused: check it and try again.';
+      err.hidden = false;
+    }
     if (!dlg.open) dlg.showModal();
+    return;
+  }
+  if (code === 'NOT_HELLO') {
+    showResult('failed', 'Connection closed', 'The controller closed the connection: the screen did not say hello in time. Reconnecting.', code, 'hello');
     return;
   }
   if (code === 'NOT_SIMULATED' || code === 'BAD_MESSAGE' || code === 'TOO_LARGE') return; // answered a sim (outcome)
   showResult('failed', 'Gateway error', `${ERROR_WORDS[code] ?? ''} ${detail}`.trim(), code, '');
 }
 
+let tokenTried = false;
 ($('token-form') as HTMLFormElement).addEventListener('submit', (e) => {
   const submitter = (e as SubmitEvent).submitter as HTMLButtonElement | null;
-  const token = ($('token-input') as HTMLInputElement).value;
-  if (submitter?.value === 'ok' && token) link.setToken(token);
+  const input = $('token-input') as HTMLInputElement;
+  const token = input.value;
+  input.value = '';
+  if (submitter?.value === 'ok' && token) {
+    tokenTried = true;
+    link.setToken(token);
+  }
 });
 
 // ------------------------------------------------------------------ view

@@ -169,7 +169,9 @@ after(async () => {
 // ------------------------------------------------------------------ the walk-through
 test('the page loads and shows ESTOP_RESET_NEEDED with what to do', async () => {
   await page.goto(`http://127.0.0.1:${cell.port}/`);
-  const b = await bannerUntil('ESTOP_RESET_NEEDED', (x) => x.state === 'ESTOP_RESET_NEEDED');
+  // The first state may come from GET /api/status before the WebSocket is open (tone
+  // 'offline' until then): judge the tone once the page is connected.
+  const b = await bannerUntil('ESTOP_RESET_NEEDED, connected', (x) => x.state === 'ESTOP_RESET_NEEDED' && x.tone !== 'offline');
   assert.equal(b.tone, 'amber', 'amber while a reset is needed');
   assert.match(b.next, /Release all E-stops, then press Reset/);
   await until('the 3D view of the arm', () => drawn());
@@ -333,4 +335,55 @@ test('safestate run stops on SIGINT with exit 0', async () => {
   cell.proc.kill('SIGINT');
   const r = await Promise.race([cell.exit, sleep(15000).then(() => ({ code: 'timeout' }))]);
   assert.equal(r.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(cell.logPath, 'utf8').slice(-2000)}`);
+});
+
+// ------------------------------------------------------------------ login (protocol.md "Access and admission")
+test('with a pendant token the page asks for it in a login screen, never in the URL, and says when the link drops', async () => {
+  const port = await freePort();
+  const logPath = path.join(tmp, 'run-token.log');
+  const log = fs.openSync(logPath, 'w');
+  const token = 'hmi-login-token-7';
+  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, 'events-token.db'), '--static', DIST, ...RUN_ARGS], {
+    cwd: ROOT,
+    stdio: ['ignore', log, log],
+    env: { ...process.env, SAFESTATE_PENDANT_TOKEN: token },
+  });
+  const exit = new Promise((r) => proc.on('exit', (code, signal) => r({ code, signal })));
+  const browser = await chromium.launchPersistentContext(fs.mkdtempSync(path.join(tmp, 'chromium-login-')), {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 800 },
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+  });
+  try {
+    await until('GET /api/status after BOOT', async () => (await getJson(port, '/api/status')).state !== 'BOOT', 20000);
+    const p = browser.pages()[0] ?? (await browser.newPage());
+    await p.goto(`http://127.0.0.1:${port}/`);
+    await until('the login screen', () => p.evaluate(() => document.getElementById('token-dialog').open));
+    const why = await p.evaluate(() => document.getElementById('token-why').textContent);
+    assert.match(why, /asks for the pendant token/);
+    await until('read-only meanwhile', () => p.evaluate(() => document.getElementById('conn').dataset.role === 'observer'));
+
+    await p.fill('#token-input', 'not-the-token');
+    await p.click('#token-ok');
+    await until('the wrong token said in words', () =>
+      p.evaluate(() => !document.getElementById('token-error').hidden && /refused/.test(document.getElementById('token-error').textContent)),
+    );
+    await p.fill('#token-input', token);
+    await p.click('#token-ok');
+    await until('control as the pendant', () => p.evaluate(() => document.getElementById('conn').dataset.role === 'pendant'));
+    assert.ok(!p.url().includes(token), `the token is in the URL: ${p.url()}`);
+    const stored = await p.evaluate(() => sessionStorage.getItem('safestate.token'));
+    assert.equal(stored, token);
+
+    proc.kill('SIGINT'); // the controller goes away: the page says so in words
+    await until('the dropped connection in words', () =>
+      p.evaluate(() => document.getElementById('conn').dataset.link === 'closed' && /controller|connection/i.test(document.getElementById('conn-note').textContent)),
+    15000);
+  } finally {
+    await browser.close().catch(() => {});
+    if (proc.exitCode === null) proc.kill('SIGINT');
+    const done = await Promise.race([exit, sleep(10000).then(() => null)]);
+    if (!done) proc.kill('SIGKILL');
+  }
 });

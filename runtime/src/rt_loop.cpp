@@ -340,6 +340,7 @@ void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
       m.overruns.fetch_add(1, std::memory_order_relaxed);
       next = end + period - ((end - next) % period);
     }
+    seg_.header().next_cycle_ns.store(next, std::memory_order_release);
   }
 }
 

@@ -7,6 +7,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -68,21 +69,42 @@ void forward_sim(SimForward& fwd, const std::string& path, const std::atomic<boo
   if (fd >= 0) {
     close(fd);
   }
+// This process's environment with the tokens set (or removed when there are none), so
+// that the gateway child gets them without a command line.
+std::vector<std::string> child_environment(const RunOptions& opt) {
+  std::vector<std::string> env;
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string v(*e);
+    if (v.rfind("SAFESTATE_PENDANT_TOKEN=", 0) != 0 && v.rfind("SAFESTATE_REMOTE_TOKEN=", 0) != 0) {
+      env.push_back(v);
+    }
+  }
+  if (!opt.pendant_token.empty()) {
+    env.push_back("SAFESTATE_PENDANT_TOKEN=" + opt.pendant_token);
+  }
+  if (!opt.remote_token.empty()) {
+    env.push_back("SAFESTATE_REMOTE_TOKEN=" + opt.remote_token);
+  }
+  return env;
+}
+
+std::vector<char*> pointers(std::vector<std::string>& v) {
+  std::vector<char*> p;
+  for (std::string& a : v) {
+    p.push_back(a.data());
+  }
+  p.push_back(nullptr);
+  return p;
 }
 
 pid_t spawn_gateway(const RunOptions& opt, const std::string& shm) {
   const std::string exe = self_exe();
   std::vector<std::string> args = {exe,       "gateway", "--shm",    shm,         "--bind", opt.bind,
                                    "--port",  std::to_string(opt.port), "--db", opt.db, "--static", opt.static_dir};
-  if (!opt.token.empty()) {
-    args.emplace_back("--token");
-    args.push_back(opt.token);
-  }
-  std::vector<char*> argv;
-  for (std::string& a : args) {
-    argv.push_back(a.data());
-  }
-  argv.push_back(nullptr);
+  args.insert(args.end(), opt.gateway_args.begin(), opt.gateway_args.end());
+  std::vector<char*> argv = pointers(args);
+  std::vector<std::string> env_strings = child_environment(opt);
+  std::vector<char*> envp = pointers(env_strings);
   posix_spawnattr_t attr;
   posix_spawnattr_init(&attr);
   sigset_t none;
@@ -93,7 +115,7 @@ pid_t spawn_gateway(const RunOptions& opt, const std::string& shm) {
   posix_spawnattr_setpgroup(&attr, 0);
   posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETPGROUP);
   pid_t pid = -1;
-  const int rc = posix_spawn(&pid, exe.c_str(), nullptr, &attr, argv.data(), environ);
+  const int rc = posix_spawn(&pid, exe.c_str(), nullptr, &attr, argv.data(), envp.data());
   posix_spawnattr_destroy(&attr);
   if (rc != 0) {
     std::fprintf(stderr, "safestate run: cannot start the gateway: %s\n", std::strerror(rc));
@@ -182,7 +204,8 @@ pid_t spawn_adapter(const RunOptions& opt) {
   posix_spawnattr_setpgroup(&attr, 0);
   posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETPGROUP);
   pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, "node", nullptr, &attr, argv.data(), environ);
+  std::vector<std::string> env = child_environment(opt);
+  const int rc = posix_spawnp(&pid, "node", nullptr, &attr, argv.data(), pointers(env).data());
   posix_spawnattr_destroy(&attr);
   if (rc != 0) {
     std::fprintf(stderr, "safestate run: cannot start the OPC UA adapter (node: %s); continuing without OPC UA\n",
@@ -241,6 +264,29 @@ void supervise_adapter(const RunOptions& opt, Adapter& a) {
     }
   }
 }
+double mono_s() {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) / 1.0e9;
+}
+
+// A gateway that keeps dying is restarted after 0.5 s, then 1, 2, 4 ... at most 30 s;
+// one that ran for a minute starts the series again (protocol.md "One controller").
+class Restarts {
+ public:
+  void started(double now) { started_at_ = now; }
+  double exited(double now) {
+    delay_ = (now - started_at_ >= 60.0) ? 0.5 : std::min(30.0, (delay_ <= 0.0) ? 0.5 : delay_ * 2.0);
+    due_at_ = now + delay_;
+    return delay_;
+  }
+  [[nodiscard]] bool due(double now) const { return now >= due_at_; }
+
+ private:
+  double started_at_ = 0.0;
+  double delay_ = 0.0;
+  double due_at_ = 0.0;
+};
 
 }  // namespace
 
@@ -325,8 +371,8 @@ int run_main(const RunOptions& opt) {
   std::fflush(stdout);
 
   bool bus_loss_reported = false;
-  timespec last_restart{};
-  clock_gettime(CLOCK_MONOTONIC, &last_restart);
+  Restarts restarts;
+  restarts.started(mono_s());
   for (;;) {
     timespec wait{0, 100000000};
     const int sig = sigtimedwait(&signals, nullptr, &wait);
@@ -344,15 +390,17 @@ int run_main(const RunOptions& opt) {
     }
     int status = 0;
     if (gateway > 0 && waitpid(gateway, &status, WNOHANG) == gateway) {
-      std::fprintf(stderr, "safestate run: the gateway exited (%s %d); the core keeps cycling; restarting it\n",
-                   WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
-      timespec now{};
-      clock_gettime(CLOCK_MONOTONIC, &now);
-      if (now.tv_sec - last_restart.tv_sec < 1) {
-        usleep(500000);  // do not spin on a gateway that cannot start
-      }
-      clock_gettime(CLOCK_MONOTONIC, &last_restart);
+      gateway = -1;
+      const double delay = restarts.exited(mono_s());
+      std::fprintf(stderr,
+                   "safestate run: the gateway exited (%s %d); the core keeps cycling; restarting it in %.1f s\n",
+                   WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status),
+                   delay);
+    }
+    if (gateway <= 0 && restarts.due(mono_s())) {
       gateway = spawn_gateway(opt, shm);
+      restarts.started(mono_s());
+      seg->header().gateway_restarts.fetch_add(1U, std::memory_order_relaxed);
     }
   }
   std::printf("\nsafestate run: stopping (Cat 1) ...\n");

@@ -53,11 +53,11 @@ def free_port():
         return s.getsockname()[1]
 
 
-def http_get(port, path, timeout=5.0):
+def http_get(port, path, timeout=5.0, headers=None):
     """(status, content-type, body text) of GET path; never raises on an HTTP error."""
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
     try:
-        conn.request("GET", path)
+        conn.request("GET", path, headers=headers or {})
         r = conn.getresponse()
         return r.status, r.getheader("Content-Type", ""), r.read().decode("utf-8", "replace")
     finally:
@@ -71,9 +71,10 @@ def get_json(port, path):
     return json.loads(body)
 
 
-def try_status(port):
+def try_status(port, token=None):
     try:
-        status, _, body = http_get(port, "/api/status", timeout=1.0)
+        headers = {"Authorization": f"Bearer {token}"} if token else None
+        status, _, body = http_get(port, "/api/status", timeout=1.0, headers=headers)
         return json.loads(body) if status == 200 else None
     except (OSError, http.client.HTTPException, ValueError):
         return None
@@ -99,7 +100,7 @@ def opcua_args(args):
 class SafeState:
     """One `safestate run` on the simulated cell, with its gateway."""
 
-    def __init__(self, tmp_path, db=None, args=()):
+    def __init__(self, tmp_path, db=None, args=(), env=None):
         self.port = free_port()
         self.db = str(db or (tmp_path / "events.db"))
         self.log_path = tmp_path / f"run-{self.port}.log"
@@ -109,12 +110,14 @@ class SafeState:
         self.proc = subprocess.Popen(
             [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS,
              *opcua_args(args), *args],
-            stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT))
+            stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT),
+            env={**os.environ, **(env or {})})
+        token = (env or {}).get("SAFESTATE_PENDANT_TOKEN")
         try:
-            wait_until(lambda: self.proc.poll() is not None or try_status(self.port),
+            wait_until(lambda: self.proc.poll() is not None or try_status(self.port, token),
                        STARTUP_TIMEOUT, "GET /api/status to answer")
             assert self.proc.poll() is None, f"safestate run exited: {self.output()}"
-            wait_until(lambda: (s := try_status(self.port)) and s["state"] != "BOOT", STARTUP_TIMEOUT,
+            wait_until(lambda: (s := try_status(self.port, token)) and s["state"] != "BOOT", STARTUP_TIMEOUT,
                        "the end of BOOT")
         except BaseException:
             self.stop()
@@ -429,7 +432,8 @@ def test_second_pendant_gets_role_taken(cell):
 
 
 def test_tokens(tmp_path):
-    """A pendant needs the server's token; beyond loopback every role needs it."""
+    """A token per role, from the environment (never argv); beyond loopback every role
+    needs one (an observer either), and the tokens appear on no command line."""
     async def hello(url, role, token=None):
         c = await Client.connect(url)
         m = await c.hello(role, token=token)
@@ -439,22 +443,43 @@ def test_tokens(tmp_path):
     async def on_loopback(s):
         assert await hello(s.ws_url, "pendant") == "BAD_TOKEN"
         assert await hello(s.ws_url, "pendant", "wrong") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "pendant", "r3mote") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "pendant", "s3cret-and-more") == "BAD_TOKEN"
         assert await hello(s.ws_url, "observer") == "welcome"
-        assert await hello(s.ws_url, "remote") == "welcome"
+        assert await hello(s.ws_url, "remote") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "remote", "s3cret") == "BAD_TOKEN"
+        assert await hello(s.ws_url, "remote", "r3mote") == "welcome"
         assert await hello(s.ws_url, "pendant", "s3cret") == "welcome"
 
     async def beyond_loopback(s):
-        for role in ("observer", "remote", "pendant"):
+        for role, token in (("observer", "s3cret"), ("observer", "r3mote"), ("remote", "r3mote"),
+                            ("pendant", "s3cret")):
             assert await hello(s.ws_url, role) == "BAD_TOKEN", role
-            assert await hello(s.ws_url, role, "s3cret") == "welcome", role
+            assert await hello(s.ws_url, role, token) == "welcome", role
 
-    for args, check in ((("--token", "s3cret"), on_loopback),
-                        (("--token", "s3cret", "--bind", "0.0.0.0"), beyond_loopback)):
-        s = SafeState(tmp_path, args=args)
+    env = {"SAFESTATE_PENDANT_TOKEN": "s3cret", "SAFESTATE_REMOTE_TOKEN": "r3mote"}
+    for args, check in (((), on_loopback), (("--bind", "0.0.0.0"), beyond_loopback)):
+        s = SafeState(tmp_path, args=args, env=env)
         try:
             run(check(s))
+            gw = get_json_auth(s.port, "/api/status", "s3cret")["gateway_pid"]
+            for pid in (s.proc.pid, gw):
+                argv = Path(f"/proc/{pid}/cmdline").read_bytes()
+                assert b"s3cret" not in argv and b"r3mote" not in argv, argv
         finally:
             assert s.stop() == 0, s.output()
+
+
+def get_json_auth(port, path, token):
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=5)
+    try:
+        conn.request("GET", path, headers={"Authorization": f"Bearer {token}"})
+        r = conn.getresponse()
+        body = r.read()
+        assert r.status == 200, (path, r.status, body)
+        return json.loads(body)
+    finally:
+        conn.close()
 
 
 def test_t1_jog_moves_the_arm_and_jog_stop_stops_it(cell):
@@ -573,8 +598,9 @@ def test_sim_faults_and_estop_with_black_box_and_alarms(cell):
             return next((e for e in events if e["kind"] == "transition"
                          and e["data"]["to"] == "ESTOP_ACTIVE"), None)
         ev = wait_until(stop_event, 5, "the ESTOP_ACTIVE transition in /api/events")
-        bb = ev["blackbox"]
-        assert bb is not None and len(bb["cycles"]) == 50, bb and len(bb["cycles"])
+        assert ev["blackbox"] == f"/api/events/{ev['id']}/blackbox", ev["blackbox"]
+        bb = get_json(cell.port, ev["blackbox"])
+        assert len(bb["cycles"]) == 50, len(bb["cycles"])
         assert bb["last"] == ev["t"] and bb["missing"] < 50
         present = [c for c in bb["cycles"] if not c.get("missing")]
         assert present[-1]["contacts"]["estop.a"] == 0 and present[0]["contacts"]["estop.b"] == 1
@@ -583,6 +609,8 @@ def test_sim_faults_and_estop_with_black_box_and_alarms(cell):
         assert drive["blackbox"] is not None
         quiet = next(e for e in get_json(cell.port, "/api/events?limit=1000") if e["kind"] == "command")
         assert quiet["blackbox"] is None
+        status, _, _ = http_get(cell.port, f"/api/events/{quiet['id']}/blackbox")
+        assert status == 404
     run(main())
 
 
@@ -658,7 +686,7 @@ def test_api_events_paging_and_bad_parameters(cell):
     assert get_json(cell.port, f"/api/events?after={ids[-1] + 1000}") == []
     results = [e["data"]["result"] for e in events if e["kind"] == "command"]
     assert "WRONG_STATE" in results and "OK" in results
-    for query, name in (("limit=0", "limit"), ("limit=1001", "limit"), ("limit=ten", "limit"),
+    for query, name in (("limit=0", "limit"), ("limit=-5", "limit"), ("limit=ten", "limit"),
                         ("after=-1", "after"), ("after=x", "after")):
         status, ctype, body = http_get(cell.port, f"/api/events?{query}")
         assert status == 400, (query, status, body)

@@ -34,6 +34,32 @@ TEST(Ring, FifoAndFullWithoutWaiting) {
   EXPECT_FALSE(r.pop(v));
 }
 
+TEST(Ring, PeekKeepsTheSlotUntilAdvance) {
+  // The gateway makes an event durable before it frees its slot (protocol.md "Nothing lost").
+  static Ring<int, 4> r;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_TRUE(r.push(i));
+  }
+  int v = -1;
+  ASSERT_TRUE(r.peek(0, v));
+  EXPECT_EQ(v, 0);
+  ASSERT_TRUE(r.peek(3, v));
+  EXPECT_EQ(v, 3);
+  EXPECT_FALSE(r.peek(4, v));
+  EXPECT_FALSE(r.push(4)) << "peeked records still hold their slots";
+  r.advance(2);
+  EXPECT_EQ(r.size(), 2U);
+  ASSERT_TRUE(r.push(4));
+  r.advance_to(1);  // behind the tail: ignored
+  r.advance_to(99);  // beyond the head: ignored
+  ASSERT_TRUE(r.peek(0, v));
+  EXPECT_EQ(v, 2);
+  r.advance_to(4);  // a predecessor had committed up to 4
+  ASSERT_TRUE(r.pop(v));
+  EXPECT_EQ(v, 4);
+  EXPECT_FALSE(r.pop(v));
+}
+
 TEST(Ring, TwoThreadsTransferEveryRecordInOrder) {
   static Ring<std::uint64_t, 64> r;
   constexpr std::uint64_t kN = 200000;
@@ -124,6 +150,35 @@ TEST(Segment, AttachRefusesAMissingOrForeignSegment) {
   EXPECT_FALSE(Segment::attach(name, err));
   EXPECT_NE(err.find("size"), std::string::npos) << err;
   shm_unlink(name.c_str());
+}
+
+TEST(Segment, ASecondCreatorIsRefusedAndToldWhoHoldsIt) {
+  const std::string name = unique_name("guard");
+  std::string err;
+  auto first = Segment::create(name, err);
+  ASSERT_TRUE(first) << err;
+  first->commands().push(CommandRecord{});
+  auto second = Segment::create(name, err);
+  EXPECT_FALSE(second);
+  EXPECT_NE(err.find("process " + std::to_string(getpid())), std::string::npos) << err;
+  EXPECT_EQ(first->commands().size(), 1U) << "the live segment was left alone";
+  auto gw = Segment::attach(name, err);
+  ASSERT_TRUE(gw) << err;
+  EXPECT_EQ(gw->header().instance, first->header().instance);
+  EXPECT_NE(first->header().instance, 0U);
+}
+
+TEST(Segment, AStaleSegmentIsReplaced) {
+  const std::string name = unique_name("stale");
+  {
+    const int fd = shm_open(name.c_str(), O_CREAT | O_RDWR, 0600);  // left by a crash: nobody locks it
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(ftruncate(fd, static_cast<off_t>(layout().size)), 0);
+    close(fd);
+  }
+  std::string err;
+  auto s = Segment::create(name, err);
+  EXPECT_TRUE(s) << err;
 }
 
 TEST(Segment, OwnerUnlinksOnDestruction) {

@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 1U;
+inline constexpr std::uint32_t kLayoutVersion = 2U;  // 2: instance, gateway_restarts
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -178,13 +178,32 @@ struct Ring {
     return true;
   }
   bool pop(T& out) noexcept {
-    const std::uint64_t t = tail.load(std::memory_order_relaxed);
-    if (t == head.load(std::memory_order_acquire)) {
+    if (!peek(0U, out)) {
       return false;
     }
-    out = slot[t & (N - 1U)];
-    tail.store(t + 1U, std::memory_order_release);
+    advance(1U);
     return true;
+  }
+  // Consumer: the record `i` places behind the tail, without taking it. The producer
+  // cannot overwrite it until advance() has moved the tail past it, so a consumer can
+  // make a record durable first and only then release its slot (nothing lost when the
+  // consumer dies in between).
+  bool peek(std::uint64_t i, T& out) const noexcept {
+    const std::uint64_t t = tail.load(std::memory_order_relaxed);
+    if (head.load(std::memory_order_acquire) - t <= i) {
+      return false;
+    }
+    out = slot[(t + i) & (N - 1U)];
+    return true;
+  }
+  void advance(std::uint64_t n) noexcept { tail.store(tail.load(std::memory_order_relaxed) + n, std::memory_order_release); }
+  // Consumer, at start-up: skip what a predecessor already made durable.
+  void advance_to(std::uint64_t t) noexcept {
+    const std::uint64_t cur = tail.load(std::memory_order_relaxed);
+    const std::uint64_t h = head.load(std::memory_order_acquire);
+    if (t > cur && t <= h) {
+      tail.store(t, std::memory_order_release);
+    }
   }
   [[nodiscard]] std::size_t size() const noexcept {
     return static_cast<std::size_t>(head.load(std::memory_order_acquire) - tail.load(std::memory_order_acquire));
@@ -255,6 +274,16 @@ struct Header {
   std::atomic<std::uint32_t> gateway_pid{0};
   std::atomic<std::uint32_t> simulated{0};
   std::atomic<std::uint32_t> shutting_down{0};
+  // Random at creation: tells one run's segment from the next one's (the gateway keeps
+  // how far it has logged the event ring per instance, so a restart neither loses nor
+  // repeats an event).
+  std::uint64_t instance = 0;
+  std::atomic<std::uint32_t> gateway_restarts{0};  // written by `safestate run`
+  std::uint32_t pad = 0;
+  // CLOCK_MONOTONIC ns of the core's next cycle start, stored by the loop each cycle (a
+  // plain store: no system call). The gateway sleeps until just after it while replies
+  // are due, instead of polling (protocol.md latency; docs/performance.md).
+  std::atomic<std::uint64_t> next_cycle_ns{0};
 };
 
 using CommandRing = Ring<CommandRecord, kCommandSlots>;

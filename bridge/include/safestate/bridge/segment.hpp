@@ -11,7 +11,10 @@ namespace safestate::bridge {
 
 class Segment {
  public:
-  // Core side: creates (replacing a stale one of the same name) and initialises.
+  // Core side: creates (replacing a stale one of the same name) and initialises, and
+  // holds an exclusive lock on it for its whole life. A segment of the same name still
+  // locked by a live process is never replaced: `error` names that process instead
+  // (one controller per segment, protocol.md "Access and admission").
   static std::unique_ptr<Segment> create(const std::string& name, std::string& error);
   // Gateway side: attaches to an existing, initialised segment.
   static std::unique_ptr<Segment> attach(const std::string& name, std::string& error);
@@ -29,8 +32,8 @@ class Segment {
   [[nodiscard]] const std::string& name() const noexcept { return name_; }
 
  private:
-  Segment(std::string name, unsigned char* base, std::size_t size, bool owner) noexcept
-      : name_(std::move(name)), base_(base), size_(size), owner_(owner) {}
+  Segment(std::string name, unsigned char* base, std::size_t size, bool owner, int lock_fd) noexcept
+      : name_(std::move(name)), base_(base), size_(size), owner_(owner), lock_fd_(lock_fd) {}
   template <typename T>
   T& at(std::uint64_t offset) const noexcept {
     return *reinterpret_cast<T*>(base_ + offset);
@@ -40,6 +43,7 @@ class Segment {
   unsigned char* base_;
   std::size_t size_;
   bool owner_;
+  int lock_fd_;  // the creator's open descriptor holding flock(LOCK_EX); -1 when attached
 };
 
 // Default segment name for a gateway port, so that several instances can coexist.

@@ -29,8 +29,18 @@ class EventLog {
   std::int64_t insert(std::uint64_t t, const std::string& time, const std::string& kind, const std::string& data,
                       const std::string& blackbox);
   // Events with id > after, oldest first, at most `limit`, as a JSON array text of
-  // {id, t, time, kind, data, blackbox}. False and `error` on a database error.
-  bool query_json(std::int64_t after, std::int64_t limit, std::string& out, std::string& error);
+  // {id, t, time, kind, data, blackbox}, `blackbox` being null or the URL of the
+  // event's black box; `last` is the last id and `rows` how many. False and `error` on
+  // a database error.
+  bool query_json(std::int64_t after, std::int64_t limit, std::string& out, std::int64_t& last, std::int64_t& rows,
+                  std::string& error);
+  // The black box of event `id` (JSON text); found false when it has none.
+  bool query_blackbox(std::int64_t id, std::string& out, bool& found, std::string& error);
+  // How far the event ring of segment `instance` has been logged (its tail), 0 when
+  // unknown; set inside the transaction that logs the events, so that both are durable
+  // together: a gateway killed at any moment neither loses nor repeats an event.
+  std::uint64_t ring_progress(std::uint64_t instance);
+  bool set_ring_progress(std::uint64_t instance, std::uint64_t tail);
   [[nodiscard]] std::string last_error() const;
 
  private:
@@ -40,6 +50,9 @@ class EventLog {
   sqlite3* db_ = nullptr;
   sqlite3_stmt* insert_ = nullptr;
   sqlite3_stmt* select_ = nullptr;
+  sqlite3_stmt* blackbox_ = nullptr;
+  sqlite3_stmt* progress_get_ = nullptr;
+  sqlite3_stmt* progress_set_ = nullptr;
   bool in_transaction_ = false;
 };
 

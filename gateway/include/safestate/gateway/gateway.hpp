@@ -5,16 +5,23 @@
 // hangs or dies the core keeps cycling and stays safe, and the runtime restarts it.
 #pragma once
 
+#include <cstddef>
 #include <string>
+#include <vector>
 
 namespace safestate::gateway {
 
 struct GatewayOptions {
   std::string shm_name;            // the bridge segment, e.g. "/safestate-8080"
-  std::string bind = "127.0.0.1";  // listen address; anything but loopback needs a token
+  std::string bind = "127.0.0.1";  // listen address; beyond loopback both tokens are required
   unsigned port = 8080;
-  std::string db_path;     // SQLite event log (created when missing)
-  std::string token;       // required from a pendant when set (always beyond loopback)
+  std::string db_path;        // SQLite event log (created when missing)
+  std::string pendant_token;  // from SAFESTATE_PENDANT_TOKEN or a file, never argv
+  std::string remote_token;   // from SAFESTATE_REMOTE_TOKEN or a file, never argv
+  std::vector<std::string> allow_origins;  // besides the server's own, e.g. "https://hmi.plant"
+  std::vector<std::string> allow_hosts;    // Host names besides the bound address and localhost
+  std::size_t max_clients = 64;            // WebSocket clients, one slot kept for the pendant
+  std::size_t max_http = 32;               // HTTP connections at once
   std::string static_dir;  // the built HMI; a small built-in page when it has no index.html
   std::string version;     // shown as "safestate <version>" in `welcome`
 };

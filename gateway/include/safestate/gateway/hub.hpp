@@ -10,12 +10,16 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
+#include "safestate/gateway/admission.hpp"
 #include "safestate/gateway/event_log.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/gateway/protocol.hpp"
@@ -29,8 +33,16 @@ using Frame = std::shared_ptr<const std::string>;
 // A client may have this many commands in flight; more get QUEUE_FULL from the gateway
 // (one client cannot fill the core's ring for everybody else).
 inline constexpr std::size_t kMaxPendingPerClient = 64;
+// ... and put at most this many records per second on the ring, sustained (a token
+// bucket of kMaxPendingPerClient): more get QUEUE_FULL from the gateway. Far above what
+// a pendant (jog keep-alive at 25 Hz) or a PLC needs; it keeps one client from flooding
+// the core's command stream and every other client with command events (protocol.md
+// "Fairness").
+inline constexpr double kMaxRecordsPerSecond = 250.0;
 // Consecutive refused frames after which a client is disconnected.
 inline constexpr unsigned kMaxBadFrames = 32;
+// Commands remembered for their command events (client seq and name).
+inline constexpr std::size_t kRecentMax = 4096;
 // A stopping transition waits at most this long for its black-box cycles to be written.
 inline constexpr std::chrono::milliseconds kBlackBoxWait{200};
 
@@ -56,12 +68,24 @@ class Client {
   std::string name;
   std::size_t pending = 0;
   unsigned bad_frames = 0;
+  // Refused commands (what the role may not send) in the current one-second window;
+  // beyond kMaxRefusedPerSecond the transport stops reading the client until then.
+  Clock::time_point refused_window{};
+  unsigned refused = 0;
+  Clock::time_point hold_reads_until{};
+  double bucket = static_cast<double>(kMaxPendingPerClient);  // records it may still submit now
+  Clock::time_point bucket_at{};
 };
+
+// Commands the gateway refuses itself (an observer's), per client and second, before
+// its socket is left unread for the rest of the second (protocol.md "Fairness").
+inline constexpr unsigned kMaxRefusedPerSecond = 200;
 
 struct HttpAnswer {
   unsigned status = 200;
   std::string content_type = "application/json";
   std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;
 };
 
 class Hub {
@@ -73,10 +97,18 @@ class Hub {
   void on_text(Client& c, std::string_view text);
   void on_binary(Client& c);
   void on_too_large(Client& c, std::size_t bytes);
+  void on_hello_timeout(Client& c);
 
-  // Every poll (2 ms): gateway heartbeat, replies to their clients, events to the log
-  // and to every client.
+  // Every poll: gateway heartbeat, replies to their clients; then (poll_events, run
+  // after the replies' writes have started) events to the log and to every client.
   void poll();
+  void poll_events();
+  // Commands sent to the core and not yet answered (the poll loop then wakes at the
+  // core's next cycle boundary instead of its idle period).
+  [[nodiscard]] bool awaiting_core() const noexcept { return !pending_.empty(); }
+  [[nodiscard]] const Access& access() const noexcept { return access_; }
+  // Called after a record has been put on the core's ring (the poller wakes early).
+  void on_submit(std::function<void()> fn) { on_submit_ = std::move(fn); }
   // The status message to every client that said hello (50 Hz).
   void broadcast_status();
   // At exit: every reply and event still in the rings, without waiting for black-box
@@ -109,15 +141,19 @@ class Hub {
   void on_sim(Client& c, const SimMsg& m);
   void submit(Client& c, bridge::CommandRecord record, const Json& client_seq, bool sim, const std::string& name);
   void local_reply(Client& c, const Json& client_seq, core::Result r);
+  void refuse_command(Client& c, const Json& client_seq);
+  bool take_token(Client& c);
+  [[nodiscard]] std::size_t hello_others() const;
   std::uint32_t next_seq();
   void drain_replies();
   void drain_events();
   bool blackbox_ready(const bridge::EventRecord& e);
-  void store_and_push(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox);
+  Frame store(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox);
   void sweep_pending(Clock::time_point now);
   const bridge::Status& read_status();
   StatusExtras extras() const;
   HttpAnswer events_answer(std::string_view query);
+  HttpAnswer blackbox_answer(std::string_view rest);
   HttpAnswer metrics_answer();
   HttpAnswer static_answer(std::string_view path);
   void log_error(const std::string& what);
@@ -126,6 +162,7 @@ class Hub {
   bridge::Segment& segment_;
   EventLog& log_;
   bool loopback_bind_;
+  Access access_;
 
   std::unordered_map<std::uint64_t, Client*> clients_;
   std::uint64_t next_client_id_ = 0;
@@ -136,7 +173,6 @@ class Hub {
   std::unordered_map<std::uint32_t, Recent> recent_;  // for the command events
   std::deque<std::uint32_t> recent_order_;
 
-  std::deque<bridge::EventRecord> backlog_;
   std::optional<Clock::time_point> blackbox_wait_since_;
 
   bridge::Status status_{};
@@ -150,6 +186,7 @@ class Hub {
   std::string robot_;  // GET /api/robot never changes
   int parent_at_start_ = 0;
   bool flushing_ = false;
+  std::function<void()> on_submit_;
 };
 
 }  // namespace safestate::gateway

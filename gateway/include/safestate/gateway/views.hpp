@@ -23,6 +23,7 @@ struct StatusExtras {
   std::uint32_t core_pid = 0;
   std::uint32_t gateway_pid = 0;
   bool shutting_down = false;  // header().shutting_down: the core is stopping for good
+  std::uint32_t gateway_restarts = 0;  // header().gateway_restarts, counted by `safestate run`
 };
 
 // The `status` message (with_type) or GET /api/status (without).

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "safestate/bridge/segment.hpp"
 #include "safestate/sim/cell.hpp"
@@ -100,7 +101,11 @@ struct RunOptions {
   unsigned port = 8080;
   std::string bind = "127.0.0.1";
   std::string db = "safestate-events.db";
-  std::string token;
+  // Given to the gateway child through its environment (SAFESTATE_PENDANT_TOKEN,
+  // SAFESTATE_REMOTE_TOKEN), never its argv: other local users can read a command line.
+  std::string pendant_token;
+  std::string remote_token;
+  std::vector<std::string> gateway_args;  // further gateway options (no secrets)
   std::string static_dir = "hmi/dist";
   std::string shm;  // default: /safestate-<port>
   // The OPC 40010-1 adapter (adapters/opcua, Node.js), a supervised `remote` client.

@@ -1,0 +1,338 @@
+// HTTP endpoints (protocol.md "Endpoints", "Access and admission").
+//
+// Decisions where protocol.md is silent:
+//  - Checked in this order: URL length (414), Host (421), Origin (403), then for /api/*
+//    and /metrics beyond loopback the bearer token (401 with WWW-Authenticate), then
+//    the method (GET only, 405). A 414/431 closes the connection.
+//  - An upgrade anywhere but /ws is 404; /ws with every slot taken by clients that
+//    said hello is 503.
+//  - /api/events: after >= 0 (default 0), limit >= 1 (default 100, above 500 clamped to
+//    500); a malformed value is 400 {"error", "parameter", "detail"}. The body is the
+//    page (a JSON array, oldest first); when the page is full, a `Link: <...>;
+//    rel="next"` header says where to continue (RFC 8288), and `X-Next-After` carries
+//    the id to pass as `after`. Each row's `blackbox` is null or the URL of its black
+//    box, /api/events/ID/blackbox.
+//  - Static paths with a `..` segment (also percent-encoded) or leaving the static
+//    folder are 400; unknown files 404; `/` without a built HMI is a small built-in
+//    page. `/ws` without Upgrade is 426. Request head: 8 KiB; 10 s to send it.
+#include "http_endpoints.hpp"
+
+#include <charconv>
+#include <fstream>
+#include <sstream>
+
+#include "safestate/gateway/static_files.hpp"
+
+namespace safestate::gateway {
+
+namespace {
+
+using namespace std::chrono_literals;
+constexpr std::int64_t kMaxPage = 500;
+
+HttpAnswer text_answer(unsigned status, const char* body) { return HttpAnswer{status, "text/plain; charset=utf-8", body, {}}; }
+HttpAnswer json_answer(unsigned status, const Json& j) { return HttpAnswer{status, "application/json", dump(j), {}}; }
+
+HttpAnswer bad_parameter(const char* name, const std::string& detail) {
+  Json j;
+  j["error"] = "bad parameter";
+  j["parameter"] = name;
+  j["detail"] = detail;
+  return json_answer(400, j);
+}
+
+bool parse_int64(std::string_view s, std::int64_t& out) {
+  const char* end = s.data() + s.size();
+  const auto [p, ec] = std::from_chars(s.data(), end, out);
+  return !s.empty() && ec == std::errc{} && p == end;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------ registry
+void HttpSessions::prune() {
+  std::erase_if(list_, [](const std::weak_ptr<HttpSession>& w) {
+    const auto s = w.lock();
+    return !s || !s->live();
+  });
+}
+
+bool HttpSessions::admit() {
+  prune();
+  if (list_.size() < max_) {
+    return true;
+  }
+  std::shared_ptr<HttpSession> oldest;
+  for (const auto& w : list_) {
+    const auto s = w.lock();
+    if (s && s->reading() && (!oldest || s->since() < oldest->since())) {
+      oldest = s;
+    }
+  }
+  if (!oldest) {
+    return false;
+  }
+  oldest->evict();
+  prune();
+  return true;
+}
+
+// ------------------------------------------------------------------ session
+void HttpSession::evict() {
+  done_ = true;
+  beast::error_code ec;
+  stream_.socket().close(ec);
+}
+
+void HttpSession::finish() {
+  done_ = true;
+  beast::error_code ec;
+  stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+}
+
+void HttpSession::do_read() {
+  parser_.emplace();
+  parser_->header_limit(kHeadLimit);
+  parser_->body_limit(kHeadLimit);
+  reading_ = true;
+  since_ = Clock::now();
+  stream_.expires_after(10s);
+  http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
+}
+
+void HttpSession::on_read(beast::error_code ec, std::size_t /*bytes*/) {
+  reading_ = false;
+  if (ec == http::error::header_limit || ec == http::error::body_limit) {
+    on_too_big(ec);
+    return;
+  }
+  if (ec == http::error::end_of_stream) {
+    finish();
+    return;
+  }
+  if (ec) {
+    done_ = true;
+    return;
+  }
+  dispatch();
+}
+
+void HttpSession::on_too_big(beast::error_code ec) {
+  if (ec == http::error::body_limit) {
+    answer(text_answer(413, "request body too large\n"), true);
+  } else if (parser_->get().target().empty() || parser_->get().target().size() > kUrlLimit) {
+    // No target yet: the request line alone did not fit, so it is the URL that is long.
+    answer(text_answer(414, "URL too long: at most 2 KiB\n"), true);
+  } else {
+    answer(text_answer(431, "request head too large: at most 8 KiB\n"), true);
+  }
+}
+
+void HttpSession::dispatch() {
+  const auto& req = parser_->get();
+  const std::string_view target(req.target().data(), req.target().size());
+  if (target.size() > kUrlLimit) {
+    answer(text_answer(414, "URL too long: at most 2 KiB\n"), true);
+    return;
+  }
+  const auto host = req.find(http::field::host);
+  const bool has_host = host != req.end();
+  if (!ep_.access.host_ok(has_host ? std::string_view(host->value().data(), host->value().size()) : "", has_host)) {
+    answer(text_answer(421, "this server does not answer to that Host name (add it with --allow-host)\n"), true);
+    return;
+  }
+  const auto origin = req.find(http::field::origin);
+  const bool has_origin = origin != req.end();
+  if (!ep_.access.origin_ok(has_origin ? std::string_view(origin->value().data(), origin->value().size()) : "",
+                            has_origin)) {
+    answer(text_answer(403, "cross-origin request refused (add the origin with --allow-origin)\n"), true);
+    return;
+  }
+  const std::string_view path = target.substr(0, target.find('?'));
+  if (ep_.access.needs_bearer(path)) {
+    const auto auth = req.find(http::field::authorization);
+    if (auth == req.end() || !ep_.access.bearer_ok(std::string_view(auth->value().data(), auth->value().size()))) {
+      HttpAnswer a = text_answer(401, "this server listens beyond loopback: send Authorization: Bearer <token>\n");
+      a.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"safestate\"");
+      answer(std::move(a));
+      return;
+    }
+  }
+  if (websocket::is_upgrade(req)) {
+    if (path == "/ws" && ep_.ws.admit()) {
+      done_ = true;
+      stream_.expires_never();
+      auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
+      ep_.ws.add(ws);
+      ws->run(parser_->release());
+      return;
+    }
+    answer(path == "/ws" ? text_answer(503, "too many clients\n") : text_answer(404, "not found\n"), true);
+    return;
+  }
+  if (req.method() != http::verb::get) {
+    HttpAnswer a = text_answer(405, "only GET\n");
+    a.headers.emplace_back("Allow", "GET");
+    answer(std::move(a));
+    return;
+  }
+  answer(ep_.hub.http_get(target));
+}
+
+void HttpSession::answer(HttpAnswer a, bool close) {
+  const unsigned version = parser_->is_header_done() ? parser_->get().version() : 11U;
+  res_ = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(a.status), version);
+  res_->set(http::field::server, ep_.server);
+  res_->set(http::field::content_type, a.content_type);
+  res_->set(http::field::cache_control, "no-store");
+  for (const auto& [name, value] : a.headers) {
+    res_->set(name, value);
+  }
+  res_->keep_alive(!close && parser_->is_header_done() && parser_->get().keep_alive());
+  res_->body() = std::move(a.body);
+  res_->prepare_payload();
+  stream_.expires_after(30s);
+  http::async_write(stream_, *res_, beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), res_->need_eof()));
+}
+
+void HttpSession::on_write(bool close, beast::error_code ec, std::size_t /*bytes*/) {
+  if (ec) {
+    done_ = true;
+    return;
+  }
+  if (close) {
+    finish();
+    return;
+  }
+  res_.reset();
+  do_read();
+}
+
+// ------------------------------------------------------------------ the answers
+HttpAnswer Hub::http_get(std::string_view target) {
+  const std::size_t q = target.find('?');
+  const std::string_view path = target.substr(0, q);
+  const std::string_view query = (q == std::string_view::npos) ? std::string_view{} : target.substr(q + 1);
+  if (path == "/api/status") {
+    read_status();
+    return json_answer(200, status_json(status_, extras(), false));
+  }
+  if (path == "/api/alarms") {
+    return json_answer(200, alarms_json(read_status()));
+  }
+  if (path == "/api/events") {
+    return events_answer(query);
+  }
+  if (path.rfind("/api/events/", 0) == 0) {
+    return blackbox_answer(path.substr(12));
+  }
+  if (path == "/api/robot") {
+    return HttpAnswer{200, "application/json", robot_, {}};
+  }
+  if (path == "/metrics") {
+    return metrics_answer();
+  }
+  if (path == "/ws") {
+    Json j;
+    j["error"] = "/ws is a WebSocket endpoint: send an Upgrade request";
+    return json_answer(426, j);
+  }
+  if (path.substr(0, 5) == "/api/" || path == "/api") {
+    Json j;
+    j["error"] = "not found";
+    return json_answer(404, j);
+  }
+  return static_answer(path);
+}
+
+HttpAnswer Hub::events_answer(std::string_view query) {
+  std::int64_t after = 0;
+  std::int64_t limit = 100;
+  while (!query.empty()) {
+    const std::size_t amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    query = (amp == std::string_view::npos) ? std::string_view{} : query.substr(amp + 1);
+    const std::size_t eq = pair.find('=');
+    const std::string_view key = pair.substr(0, eq);
+    std::string value;
+    const bool decoded =
+        percent_decode((eq == std::string_view::npos) ? std::string_view{} : pair.substr(eq + 1), value, true);
+    if (key == "after" && (!decoded || !parse_int64(value, after) || after < 0)) {
+      return bad_parameter("after", "after must be an event id, an integer >= 0");
+    }
+    if (key == "limit" && (!decoded || !parse_int64(value, limit) || limit < 1)) {
+      return bad_parameter("limit", "limit must be an integer >= 1 (at most 500 are returned)");
+    }
+  }
+  limit = std::min(limit, kMaxPage);
+  HttpAnswer a;
+  std::string error;
+  std::int64_t last = 0;
+  std::int64_t rows = 0;
+  if (!log_.query_json(after, limit, a.body, last, rows, error)) {
+    Json j;
+    j["error"] = "event log: " + error;
+    return json_answer(500, j);
+  }
+  if (rows == limit) {
+    a.headers.emplace_back("Link", "</api/events?after=" + std::to_string(last) + "&limit=" + std::to_string(limit) +
+                                       ">; rel=\"next\"");
+    a.headers.emplace_back("X-Next-After", std::to_string(last));
+  }
+  return a;
+}
+
+HttpAnswer Hub::blackbox_answer(std::string_view rest) {
+  constexpr std::string_view kSuffix = "/blackbox";
+  std::int64_t id = 0;
+  if (rest.size() <= kSuffix.size() || rest.substr(rest.size() - kSuffix.size()) != kSuffix ||
+      !parse_int64(rest.substr(0, rest.size() - kSuffix.size()), id) || id < 1) {
+    Json j;
+    j["error"] = "not found: the black box of event ID is /api/events/ID/blackbox";
+    return json_answer(404, j);
+  }
+  HttpAnswer a;
+  std::string error;
+  bool found = false;
+  if (!log_.query_blackbox(id, a.body, found, error)) {
+    Json j;
+    j["error"] = "event log: " + error;
+    return json_answer(500, j);
+  }
+  if (!found) {
+    Json j;
+    j["error"] = "event " + std::to_string(id) + " has no black box";
+    return json_answer(404, j);
+  }
+  return a;
+}
+
+HttpAnswer Hub::metrics_answer() {
+  MetricsExtras x;
+  x.ws_clients = clients_.size();
+  x.core_heartbeat = segment_.header().core_heartbeat.load(std::memory_order_relaxed);
+  x.events_stored = events_stored_;
+  x.commands_by_result = commands_by_result_;
+  return HttpAnswer{200, "text/plain; version=0.0.4; charset=utf-8", metrics_text(segment_.metrics(), x), {}};
+}
+
+HttpAnswer Hub::static_answer(std::string_view path) {
+  if (path == "/" && !hmi_built(options_.static_dir)) {
+    return HttpAnswer{200, "text/html; charset=utf-8", builtin_index_html(options_.version), {}};
+  }
+  std::string file;
+  switch (resolve_static(options_.static_dir, path, file)) {
+    case StaticLookup::found: break;
+    case StaticLookup::bad_path: return text_answer(400, "bad path\n");
+    case StaticLookup::not_found: return text_answer(404, "not found\n");
+  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) {
+    return text_answer(404, "not found\n");
+  }
+  std::ostringstream body;
+  body << in.rdbuf();
+  return HttpAnswer{200, mime_type(file), body.str(), {}};
+}
+
+}  // namespace safestate::gateway

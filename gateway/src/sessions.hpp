@@ -1,0 +1,144 @@
+// Sessions and fan-out: one WebSocket connection each, its outgoing queue, and the
+// registry that admits new connections (protocol.md "Access and admission").
+// Private to gateway/src; every call comes from the one io_context thread.
+#pragma once
+
+#include <utility>
+
+#include <boost/asio.hpp>
+#include <boost/beast.hpp>
+
+#include <array>
+#include <deque>
+#include <string>
+#include <memory>
+#include <vector>
+
+#include "safestate/gateway/hub.hpp"
+
+namespace safestate::gateway {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+
+// A client that said nothing useful is closed after this (protocol.md).
+inline constexpr std::chrono::seconds kHelloDeadline{5};
+// A client whose write has made no progress for this long does not read: disconnected.
+inline constexpr std::chrono::seconds kStallLimit{5};
+// Safety net on memory for a client that reads, but slower than it is sent to.
+inline constexpr std::size_t kMaxQueuedBytes = 32U * 1024U * 1024U;
+// An oversize frame is read and thrown away up to this size, then the connection closes.
+inline constexpr std::size_t kDiscardLimit = 1024U * 1024U;
+
+bool is_loopback(asio::ip::address a);
+
+class WsSession;
+
+// The WebSocket connections that live, and who gets a slot. At most max_clients; when
+// full, the oldest connection that has not said hello gives its slot to the newcomer
+// (it may still be a pendant about to say hello). The hub keeps one of the slots for
+// the pendant: at most max_clients - 1 clients may say hello as anything else, so the
+// pendant always finds a slot.
+class Sessions {
+ public:
+  explicit Sessions(std::size_t max_clients) : max_(max_clients) {}
+  [[nodiscard]] bool admit();
+  void add(const std::shared_ptr<WsSession>& s);
+  void shutdown();
+
+ private:
+  void prune();
+  std::size_t max_;
+  std::vector<std::weak_ptr<WsSession>> list_;
+};
+
+// One WebSocket connection. Beast performs the opening handshake; after it the session
+// frames RFC 6455 itself on the TCP socket: every complete message already received is
+// handled in one go (a pipelining client is not read one message per turn of the event
+// loop, behind every other client's writes), and queued frames go out in one gathered
+// write (one system call for many frames: protocol.md "Fairness", batched writes).
+class WsSession : public Client, public std::enable_shared_from_this<WsSession> {
+ public:
+  WsSession(tcp::socket&& socket, Hub& hub);
+  ~WsSession() override;
+
+  void run(http::request<http::string_body> req);
+  void send(const Frame& frame, bool droppable) override;
+  void close_after_flush() override;
+  [[nodiscard]] bool loopback_peer() const override { return loopback_; }
+
+  void shutdown();
+  // Gives its slot away (Sessions::admit): it had not said hello.
+  void evict();
+  [[nodiscard]] bool live() const noexcept { return !aborted_; }
+  [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
+
+ private:
+  // Incoming frame parser state (RFC 6455 section 5.2).
+  struct Incoming {
+    bool in_frame = false;       // header parsed, payload being consumed
+    std::uint8_t opcode = 0;     // of the current frame
+    bool fin = false;
+    std::array<std::uint8_t, 4> mask{};
+    std::uint64_t remaining = 0;  // payload bytes of the current frame still to come
+    std::uint64_t offset = 0;     // payload bytes of the current frame consumed (mask index)
+    std::uint8_t message_opcode = 0;  // 1 text, 2 binary; 0 = no message in progress
+    std::size_t message_bytes = 0;
+    bool oversize = false;
+    std::string message;  // at most kMaxFrameBytes
+    std::string control;  // a control frame's payload (<= 125)
+  };
+
+  void on_accept(beast::error_code ec);
+  void arm_tick();
+  void on_tick(beast::error_code ec);
+  void do_read();
+  void on_read(beast::error_code ec, std::size_t bytes);
+  // Consumes what is in rbuf_; false when the connection must end (protocol error).
+  bool parse();
+  int parse_header(std::size_t& pos);
+  void frame_done();
+  void message_done();
+  void queue_control(std::uint8_t opcode, std::string payload);
+  void schedule_write();
+  void do_write();
+  void on_write(beast::error_code ec, std::size_t bytes);
+  void close_with(std::uint16_t code);
+  void abort();
+  void leave();
+
+  websocket::stream<beast::tcp_stream> ws_;  // the handshake only
+  Hub& hub_;
+  http::request<http::string_body> req_;
+  asio::steady_timer tick_;   // every second: hello deadline, keep-alive, stalled writes
+  asio::steady_timer hold_;   // rate limit: reading resumes at hold_reads_until
+  std::array<std::uint8_t, 16384> rbuf_{};
+  std::size_t rlen_ = 0;
+  Incoming in_;
+  std::deque<Frame> queue_;    // replies, events, errors: every one is delivered
+  std::deque<Frame> control_;  // pong / close frames (already framed)
+  Frame status_;               // the newest unsent status (protocol.md: replaces an older one)
+  Frame close_frame_;          // written once the queue is empty
+  std::vector<Frame> batch_;   // the frames being written
+  std::vector<std::array<std::uint8_t, 10>> heads_;  // their headers
+  std::vector<asio::const_buffer> buffers_;
+  std::size_t queued_bytes_ = 0;
+  Clock::time_point since_;
+  Clock::time_point last_read_;
+  Clock::time_point write_since_;
+  bool loopback_ = false;
+  bool open_ = false;
+  bool attached_ = false;
+  bool reading_ = false;
+  bool writing_ = false;
+  bool write_posted_ = false;
+  bool closing_ = false;    // a close frame is queued or sent: nothing more is queued
+  bool close_sent_ = false;
+  bool ping_sent_ = false;
+  bool aborted_ = false;
+};
+
+}  // namespace safestate::gateway
