@@ -64,7 +64,25 @@ namespace SafeState.Client
             return new EventPager(this, after, pageSize);
         }
 
+        /// <summary>The black box of a stop event (the cycles before it), as the gateway
+        /// serves it at the event's BlackBoxUrl; null when the event has none.</summary>
+        public async Task<object> GetBlackBoxAsync(EventMessage e)
+        {
+            if (e == null) throw new ArgumentNullException("e");
+            if (e.BlackBoxUrl == null) return null;
+            if (!e.BlackBoxUrl.StartsWith("/api/events/", StringComparison.Ordinal))
+                throw new MessageException("blackbox: not an /api/events/ address: " + e.BlackBoxUrl);
+            return await GetJson(e.BlackBoxUrl.Substring(1)).ConfigureAwait(false);
+        }
+
         private async Task<List<object>> GetArray(string path)
+        {
+            var items = await GetJson(path).ConfigureAwait(false) as List<object>;
+            if (items == null) throw new MessageException("GET /" + path + ": expected a JSON array");
+            return items;
+        }
+
+        private async Task<object> GetJson(string path)
         {
             using (HttpResponseMessage r = await http.GetAsync(new Uri(baseUri, path)).ConfigureAwait(false))
             {
@@ -78,17 +96,14 @@ namespace SafeState.Client
                 {
                     throw new MessageException("GET /" + path + ": not JSON (" + type + ")");
                 }
-                List<object> items;
                 try
                 {
-                    items = Json.Parse(body) as List<object>;
+                    return Json.Parse(body);
                 }
                 catch (JsonException e)
                 {
                     throw new MessageException("GET /" + path + ": " + e.Message);
                 }
-                if (items == null) throw new MessageException("GET /" + path + ": expected a JSON array");
-                return items;
             }
         }
 

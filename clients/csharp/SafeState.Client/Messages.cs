@@ -273,8 +273,9 @@ namespace SafeState.Client
         public string Time { get; private set; }
         public EventKind Kind { get; private set; }
         public JsonObject Data { get; private set; }
-        /// <summary>/api/events only: the stop's black box, or null.</summary>
-        public JsonObject BlackBox { get; private set; }
+        /// <summary>/api/events only: where the stop's black box is served
+        /// (/api/events/ID/blackbox), or null; HistoryClient.GetBlackBoxAsync reads it.</summary>
+        public string BlackBoxUrl { get; private set; }
 
         // Typed views of Data; null when the kind has no such field.
         public string From { get { return Data["from"] as string; } }
@@ -300,10 +301,12 @@ namespace SafeState.Client
             e.Data = f.Obj("data");
             if (fromHistory)
             {
+                // protocol.md "History": a stop's black box is served on its own; the row
+                // carries its address (/api/events/ID/blackbox) or null.
                 object bb = f.Object["blackbox"];
                 f.Allow("blackbox");
-                if (bb != null && !(bb is JsonObject)) throw f.Bad("blackbox", "an object or null");
-                e.BlackBox = bb as JsonObject;
+                if (bb != null && !(bb is string)) throw f.Bad("blackbox", "a URL string or null");
+                e.BlackBoxUrl = bb as string;
             }
             return e;
         }

@@ -69,17 +69,21 @@ namespace SafeState.Tests
             }
         }
 
-        /// <summary>A cell whose pendant needs `token`. The lead's convention (issue 12) gives
-        /// `safestate run` the token in SAFESTATE_PENDANT_TOKEN; a gateway from before it takes
-        /// `--token`. Whichever this build understands is used, so the test works with both.</summary>
+        /// <summary>A cell whose pendant needs `token`, given to `safestate run` in
+        /// SAFESTATE_PENDANT_TOKEN (never on its command line).</summary>
         public static Cell WithPendantToken(string token)
         {
-            var viaEnv = new Cell("", new Dictionary<string, string> { { "SAFESTATE_PENDANT_TOKEN", token } });
-            if (viaEnv.PendantNeedsToken()) return viaEnv;
-            viaEnv.Dispose();
-            var viaOption = new Cell("--token " + token, null);
-            Assert.IsTrue(viaOption.PendantNeedsToken(), "neither SAFESTATE_PENDANT_TOKEN nor --token made the pendant need a token");
-            return viaOption;
+            var cell = new Cell("", new Dictionary<string, string> { { "SAFESTATE_PENDANT_TOKEN", token } });
+            try
+            {
+                Assert.IsTrue(cell.PendantNeedsToken(), "SAFESTATE_PENDANT_TOKEN did not make the pendant need a token");
+            }
+            catch
+            {
+                cell.Dispose();
+                throw;
+            }
+            return cell;
         }
 
         private bool PendantNeedsToken()

@@ -312,6 +312,13 @@ namespace SafeState.Tests
                 Assert.AreEqual(AlarmName.ESTOP_PRESSED, a.Known);
                 Assert.AreEqual(Alarms.Info(AlarmName.ESTOP_PRESSED).Number, a.Number);
                 Assert.AreEqual(Severity.info, a.Severity);
+                // The E-stop (a stop) has a black box, served apart from the page.
+                EventMessage stop = null;
+                Wait.Until(() => (stop = Wait.Result(h.GetEventsAsync(0, 500), 10, "events")
+                                      .LastOrDefault(e => e.BlackBoxUrl != null)) != null, 5, "an event with a black box");
+                StringAssert.StartsWith("/api/events/" + stop.Id + "/blackbox", stop.BlackBoxUrl);
+                object box = Wait.Result(h.GetBlackBoxAsync(stop), 10, "the black box");
+                Assert.IsTrue(box is List<object> || box is JsonObject, "a black box is JSON data: " + box);
             }
         }
 
