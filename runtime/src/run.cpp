@@ -69,6 +69,8 @@ void forward_sim(SimForward& fwd, const std::string& path, const std::atomic<boo
   if (fd >= 0) {
     close(fd);
   }
+}
+
 // This process's environment with the tokens set (or removed when there are none), so
 // that the gateway child gets them without a command line.
 std::vector<std::string> child_environment(const RunOptions& opt) {
