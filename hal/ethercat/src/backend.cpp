@@ -41,7 +41,7 @@ std::string hex(std::uint32_t v) {
   return b;
 }
 
-bool bit(const std::uint8_t* p, std::uint16_t i) noexcept { return ((p[i / 8U] >> (i % 8U)) & 1U) != 0U; }
+bool bit(const std::uint8_t* p, std::uint16_t i) noexcept { return ((static_cast<unsigned>(p[i / 8U]) >> (i % 8U)) & 1U) != 0U; }
 void set_bit(std::uint8_t* p, std::uint16_t i, bool v) noexcept {
   const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
   p[i / 8U] = static_cast<std::uint8_t>(v ? (p[i / 8U] | m) : (p[i / 8U] & ~m));

@@ -62,7 +62,7 @@ void set_bit(std::uint8_t* b, std::size_t i, bool v) noexcept {
   const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
   b[i / 8U] = static_cast<std::uint8_t>(v ? (b[i / 8U] | m) : (b[i / 8U] & ~m));
 }
-bool get_bit(const std::uint8_t* b, std::size_t i) noexcept { return ((b[i / 8U] >> (i % 8U)) & 1U) != 0U; }
+bool get_bit(const std::uint8_t* b, std::size_t i) noexcept { return ((static_cast<unsigned>(b[i / 8U]) >> (i % 8U)) & 1U) != 0U; }
 void put16(std::uint8_t* p, std::uint16_t v) noexcept {
   p[0] = static_cast<std::uint8_t>(v & 0xFFU);
   p[1] = static_cast<std::uint8_t>(v >> 8U);

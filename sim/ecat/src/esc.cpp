@@ -11,6 +11,11 @@ namespace safestate::ecat {
 
 namespace {
 
+// Bit `i % 8` of a byte of a bit-addressed (FMMU) range.
+constexpr bool bit_at(std::uint8_t byte, std::uint64_t i) noexcept {
+  return ((static_cast<unsigned>(byte) >> (i % 8U)) & 1U) != 0U;
+}
+
 struct Range {
   std::uint16_t first;
   std::uint16_t last;
@@ -218,7 +223,7 @@ bool Esc::logical_write(std::uint32_t logical, std::span<const std::uint8_t> dat
         break;
       }
       const std::uint64_t d = b - dg_first;
-      const bool v = ((data[d / 8U] >> (d % 8U)) & 1U) != 0U;
+      const bool v = bit_at(data[d / 8U], d);
       auto& m = mem_[pbit / 8U];
       const auto bit = static_cast<std::uint8_t>(1U << (pbit % 8U));
       m = static_cast<std::uint8_t>(v ? (m | bit) : (m & ~bit));
@@ -253,7 +258,7 @@ bool Esc::logical_read(std::uint32_t logical, std::span<std::uint8_t> data) cons
       if (pbit / 8U >= kEscMemory) {
         break;
       }
-      const bool v = ((mem_[pbit / 8U] >> (pbit % 8U)) & 1U) != 0U;
+      const bool v = bit_at(mem_[pbit / 8U], pbit);
       const std::uint64_t d = b - dg_first;
       auto& out = data[d / 8U];
       const auto bit = static_cast<std::uint8_t>(1U << (d % 8U));

@@ -116,7 +116,8 @@ std::uint8_t config_crc(const std::vector<std::uint16_t>& w) {
   for (std::size_t i = 0; i < 14U; ++i) {
     crc ^= static_cast<std::uint8_t>((i % 2U == 0U) ? (w[i / 2U] & 0xFFU) : (w[i / 2U] >> 8U));
     for (int k = 0; k < 8; ++k) {
-      crc = static_cast<std::uint8_t>(((crc & 0x80U) != 0U) ? ((crc << 1U) ^ 0x07U) : (crc << 1U));
+      const unsigned c = crc;
+      crc = static_cast<std::uint8_t>(((c & 0x80U) != 0U) ? ((c << 1U) ^ 0x07U) : (c << 1U));
     }
   }
   return crc;
