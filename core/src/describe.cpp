@@ -80,6 +80,8 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::FIELDBUS_LOST:
       if (axis != 0U) {
         t.s("Fieldbus lost: drive ").u(axis).s(" does not answer");
+      } else if (d.code != 0U) {
+        t.s("Fieldbus lost at subdevice ").u(d.code);  // bus position; the gateway adds its name
       } else {
         t.s("Fieldbus lost");
       }
@@ -88,6 +90,8 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::BOOT_FAILED:
       if (axis != 0U) {
         t.s("Start-up failed: drive ").u(axis).s(" did not answer");
+      } else if ((d.signal == Signal::fieldbus) && (d.code != 0U)) {
+        t.s("Start-up failed: fieldbus not as configured at subdevice ").u(d.code);  // the gateway adds its name
       } else if (d.signal == Signal::fieldbus) {
         t.s("Start-up failed: fieldbus not up");
       } else {

@@ -221,14 +221,14 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
         answered = false;
       }
     }
-    if (!fb.fieldbus_ok) {
-      c.boot_detail = detail_of(Signal::fieldbus);
+    if (!fb.fieldbus_ok || fb.fieldbus_boot_failed) {
+      c.boot_detail = detail_of(Signal::fieldbus, Channel::none, 0U, fb.fieldbus_subdevice);
     }
     const bool self_test = self_test_ok_ && fb.self_test_ok;
-    if (self_test && answered) {
+    if (self_test && answered && !fb.fieldbus_boot_failed) {
       boot_pending_ = false;
       c.boot_passed = true;
-    } else if (!self_test || (now_ > timing_.boot_timeout)) {
+    } else if (!self_test || fb.fieldbus_boot_failed || (now_ > timing_.boot_timeout)) {
       c.boot_failed = true;
       if (!self_test) {
         c.boot_detail = detail_of(Signal::internal);
@@ -305,7 +305,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::ENABLE_DISCREPANCY, detail_of(Signal::enable, in.enable_fault_channel));
         }
         if (!boot_pending_ && !fb.fieldbus_ok) {
-          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus));
+          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus, Channel::none, 0U, fb.fieldbus_subdevice));
         }
         if (!boot_pending_ && c.drive_offline) {
           hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::drive, Channel::none, c.offline_axis));

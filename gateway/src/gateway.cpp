@@ -307,6 +307,7 @@ int gateway_main(const GatewayOptions& options) {
     return 1;
   }
   auto& header = segment->header();
+  set_fieldbus(header.bus);
   const auto pid = static_cast<std::uint32_t>(::getpid());
   header.gateway_pid.store(pid, std::memory_order_relaxed);
 

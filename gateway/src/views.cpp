@@ -13,6 +13,7 @@
 //    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
 #include "safestate/gateway/views.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -39,15 +40,34 @@ Json name_or_null(const char* dash_for_none) {
   return dash_for_none;
 }
 
+// The fieldbus as `safestate run` published it (set once at attach, before any view).
+bridge::BusInfo g_bus{};
+
+// The core names a fieldbus subdevice by its bus position; the configuration's name is
+// added here, and for BOOT_FAILED the reason the bus did not come up.
+std::string alarm_words(core::AlarmId id, const core::AlarmDetail& d) {
+  std::array<char, 160> buf{};
+  std::string s = core::describe(id, d, buf.data(), buf.size());
+  const bool bus_alarm = id == core::AlarmId::FIELDBUS_LOST || id == core::AlarmId::BOOT_FAILED;
+  if (!bus_alarm || d.signal != core::Signal::fieldbus) {
+    return s;
+  }
+  if (id == core::AlarmId::BOOT_FAILED && g_bus.boot_error[0] != '\0') {
+    return "Start-up failed: " + std::string(g_bus.boot_error.data());  // names position and name itself
+  }
+  if (d.code >= 1U && d.code <= g_bus.count) {
+    s += " (" + std::string(g_bus.name[d.code - 1U].data()) + ")";
+  }
+  return s;
+}
+
 Json words_or_null(const core::Cause& c) {
+  if (c.kind == core::CauseKind::alarm) {
+    return alarm_words(c.alarm, c.detail);
+  }
   std::array<char, 160> buf{};
   const char* s = core::describe(c, buf.data(), buf.size());
   return (s[0] == '\0') ? Json(nullptr) : Json(s);
-}
-
-std::string alarm_words(core::AlarmId id, const core::AlarmDetail& d) {
-  std::array<char, 160> buf{};
-  return core::describe(id, d, buf.data(), buf.size());
 }
 
 Json alarm_names(core::AlarmMask mask) {
@@ -191,6 +211,15 @@ const char* owner_of(core::Mode mode, bool remote_connected, bool pendant_connec
     return "remote";
   }
   return pendant_connected ? "pendant" : nullptr;
+}
+
+void set_fieldbus(const bridge::BusInfo& bus) noexcept {
+  g_bus = bus;
+  g_bus.count = std::min<std::uint32_t>(g_bus.count, static_cast<std::uint32_t>(bridge::kBusNames));
+  for (auto& n : g_bus.name) {
+    n.back() = '\0';  // written by another process: never trusted to be terminated
+  }
+  g_bus.boot_error.back() = '\0';
 }
 
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type) {

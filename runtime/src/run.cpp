@@ -11,7 +11,6 @@
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
-#include <algorithm>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -266,6 +265,18 @@ void supervise_adapter(const RunOptions& opt, Adapter& a) {
     }
   }
 }
+
+// The subdevices' names and the boot error, for the gateway's alarm texts (written before
+// the gateway is spawned, never again: no reader sees them change).
+void publish_bus(const hal::ethercat::Backend& bus, const hal::ethercat::BusConfig& bc, bridge::BusInfo& info) {
+  const std::size_t n = std::min(bc.subdevices.size(), bridge::kBusNames);
+  for (std::size_t i = 0; i < n; ++i) {
+    bridge::copy_text(info.name[i], bc.subdevices[i].name.c_str());
+  }
+  bridge::copy_text(info.boot_error, bus.boot_error().c_str());
+  info.count = static_cast<std::uint32_t>(n);
+}
+
 double mono_s() {
   timespec now{};
   clock_gettime(CLOCK_MONOTONIC, &now);
@@ -335,6 +346,7 @@ int run_main(const RunOptions& opt) {
     if (!bus->booted()) {
       std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
     }
+    publish_bus(*bus, bc, seg->header().bus);
     rt.simulated = !opt.ecat_sim_control.empty();
   } else if (opt.fieldbus != "sim") {
     std::fprintf(stderr, "safestate run: --fieldbus must be sim or ethercat\n");

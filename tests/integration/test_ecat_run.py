@@ -32,7 +32,7 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=()):
+    def __init__(self, sim_args=(), sim_late_s=0.0):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
         self.control = os.path.join(self.tmp.name, "ctl.sock")
@@ -43,12 +43,18 @@ class Cell:
             sh("ip", "-n", self.ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs")
             for dev in ("ecm", "ecs", "lo"):
                 sh("ip", "-n", self.ns, "link", "set", dev, "up")
-            self.sim = self.spawn("sim", BIN, "ecat-sim", "--ifname", "ecs", "--control", self.control, *sim_args)
-            self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
+            start_sim = lambda: self.spawn("sim", BIN, "ecat-sim", "--ifname", "ecs", "--control", self.control,
+                                           *sim_args)
+            if not sim_late_s:
+                self.sim = start_sim()
+                self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
             self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm",
                                   "--ecat-sim-control", self.control, "--port",
                                   str(self.port), "--db", os.path.join(self.tmp.name, "ev.db"), "--static",
                                   self.tmp.name)
+            if sim_late_s:  # the segment powers up after the controller
+                time.sleep(sim_late_s)
+                self.sim = start_sim()
             self.wait(lambda: self.status() is not None, "safestate run serving /api/status", 30)
         except BaseException:
             self.close()
@@ -74,9 +80,16 @@ class Cell:
         raise AssertionError("timed out waiting for " + what)
 
     def status(self):
+        return self.api("status")
+
+    def alarm(self, name):
+        """The active alarm `name` as GET /api/alarms shows it (number, text, since ...)."""
+        return next((a for a in self.api("alarms") or [] if a.get("name") == name), None)
+
+    def api(self, what):
         r = subprocess.run(["ip", "netns", "exec", self.ns, sys.executable, "-c",
                             "import urllib.request,sys;"
-                            f"print(urllib.request.urlopen('http://127.0.0.1:{self.port}/api/status',timeout=2).read().decode())"],
+                            f"print(urllib.request.urlopen('http://127.0.0.1:{self.port}/api/{what}',timeout=2).read().decode())"],
                            capture_output=True, text=True, timeout=10)
         return json.loads(r.stdout) if r.returncode == 0 and r.stdout.strip() else None
 
@@ -186,6 +199,20 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     assert "FIELDBUS_LOST" in s["alarms"]
     named = "FIELDBUS_LOST: subdevice 8 (drive axis 6)" if how == "unplug" else "FIELDBUS_LOST: the bus as a whole"
     cell.wait(lambda: named in cell.log("run"), "the log naming what was lost: " + named, 5)
+    # The alarm itself names the subdevice, as every client sees it (HMI, OPC UA, C#).
+    text = cell.alarm("FIELDBUS_LOST")["detail"]
+    assert text == ("Fieldbus lost at subdevice 8 (drive axis 6)" if how == "unplug" else "Fieldbus lost"), text
+    assert s["cause"] == text, s
+
+
+def test_a_segment_that_powers_up_after_the_controller_is_scanned_again():
+    c = Cell(sim_late_s=1.5)
+    try:
+        s = c.wait_state("ESTOP_RESET_NEEDED", 20)
+        assert s["alarms"] == [], s
+        assert "EtherCAT scan 1: scan: timeout" in c.log("run")  # the first scan found nobody
+    finally:
+        c.close()
 
 
 def test_wrong_product_id_is_boot_failed():
@@ -193,6 +220,11 @@ def test_wrong_product_id_is_boot_failed():
     try:
         s = c.wait_state("ERROR_LOCKOUT", 20)
         assert "BOOT_FAILED" in s["alarms"]
+        a = c.alarm("BOOT_FAILED")
+        assert a["detail"].startswith("Start-up failed: subdevice 3 (drive axis 1) has the wrong identity: "), a
+        assert "product 0x00001234" in a["detail"], a
+        # A wrong identity is known at the scan: BOOT fails in its first cycles, not at its timeout.
+        assert a["since"] < 100, a
         assert "subdevice 3 (drive axis 1) has the wrong identity" in c.log("run")
         assert "product 0x00001234" in c.log("run")
     finally:

@@ -14,6 +14,7 @@
 
 #include "plant.hpp"
 #include "safestate/core/cia402.hpp"
+#include "safestate/core/describe.hpp"
 #include "safestate/core/supervisor.hpp"
 
 // Readable gtest failure messages: names, not bytes.

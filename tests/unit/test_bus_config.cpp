@@ -35,6 +35,12 @@ TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
   EXPECT_EQ(c.subdevices[0].in_bit[0], 0);   // estop.a
   EXPECT_EQ(c.subdevices[0].in_bit[11], 11); // contactor feedback
   EXPECT_NEAR(c.subdevices[2].counts_per_rad, safestate::ecat::kCountsPerRad, 1e-9);
+  EXPECT_EQ(c.scan_timeout_ms, 5000U);  // not in the file: the default
+
+  Json j = default_json();
+  j["scan_timeout_ms"] = 0;  // one scan only
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.scan_timeout_ms, 0U);
 }
 
 TEST(BusConfig, EveryMistakeIsNamed) {
@@ -73,6 +79,11 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j = default_json();
   j["frame_timeout_us"] = 5;
   EXPECT_NE(refused(j).find("frame_timeout_us"), std::string::npos);
+  j.erase("frame_timeout_us");
+  j["scan_timeout_ms"] = 120001;
+  EXPECT_NE(refused(j).find("scan_timeout_ms"), std::string::npos);
+  j["scan_timeout_ms"] = "5 s";
+  EXPECT_NE(refused(j).find("scan_timeout_ms"), std::string::npos);
 
   EXPECT_EQ(refused(Json::array()), "not a JSON object");
 }

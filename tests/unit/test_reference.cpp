@@ -18,6 +18,7 @@ struct Harness {
   std::mt19937 rng;
   // Feedback-monitoring faults (SPEC §7) draw from their own stream, and only in the
   // histories that ask for them, so the other histories keep their coverage.
+  Cycle bus_boot_failed_at = 0;
   std::mt19937 feedback_rng;
   bool feedback_faults = false;
   bool rare_feedback(int per_100k) {
@@ -70,6 +71,11 @@ struct Harness {
     if (rare(10)) { const auto i = rng() % 6U; plant.drive_fault[i] = !plant.drive_fault[i]; log << t << ":drivefault " << i << "\n"; }
     if (rare(1)) { plant.fieldbus = !plant.fieldbus; log << t << ":fieldbus " << plant.fieldbus << "\n"; }
     if (fieldbus_down_until > 0U) { plant.fieldbus = t >= fieldbus_down_until; }
+    if (bus_boot_failed_at > 0U && t == bus_boot_failed_at) {  // the bus scan found a wrong subdevice
+      fb.fieldbus_boot_failed = true;
+      fb.fieldbus_subdevice = 3;
+      log << t << ":bus boot failed\n";
+    }
     if (rare(5)) { plant.contactor_stuck_open = !plant.contactor_stuck_open; }
     if (rare_feedback(3)) { plant.contactor_welded = !plant.contactor_welded; log << t << ":welded " << plant.contactor_welded << "\n"; }
     if (rare_feedback(10)) { const auto i = feedback_rng() % 6U; plant.brake_welded_released[i] = !plant.brake_welded_released[i]; log << t << ":brake released " << i << "\n"; }
@@ -228,6 +234,9 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
     Harness h(static_cast<std::uint32_t>(seed));
     if (seed % 8 == 0) {
       h.fieldbus_down_until = 3500;  // the bus never comes up in time: BOOT_FAILED
+    }
+    if (seed % 8 == 4) {
+      h.bus_boot_failed_at = static_cast<Cycle>(seed);  // the bus is not as configured: BOOT_FAILED at once
     }
     h.feedback_faults = seed % 5 == 3;
     const std::string diff = h.run(kCycles);

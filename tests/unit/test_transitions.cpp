@@ -103,6 +103,31 @@ TEST(Boot, ADriveThatNeverAnswersNamesItsAxis) {
   EXPECT_EQ(b.out.cause.detail.axis, 4U);
 }
 
+// @req TR-BOOT-FAILED AL-CAUSE
+TEST(Boot, ABusNotAsConfiguredFailsAtOnceNamingTheSubdevice) {
+  // The fieldbus scan found a wrong identity at bus position 3: no timeout to wait for.
+  Bench b;
+  b.plant.fieldbus = false;
+  b.fb.fieldbus_boot_failed = true;  // not refilled by the plant
+  b.fb.fieldbus_subdevice = 3;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::BOOT_FAILED);
+  EXPECT_EQ(b.out.cause.detail.signal, Signal::fieldbus);
+  EXPECT_EQ(b.out.cause.detail.code, 3U);
+  char buf[96];
+  EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Start-up failed: fieldbus not as configured at subdevice 3");
+}
+
+// @req TR-BOOT-FAILED
+TEST(Boot, ABusNotAsConfiguredIsNeverPassedEvenWithEveryDriveAnswering) {
+  Bench b;
+  b.fb.fieldbus_boot_failed = true;  // the drives answer, the bus still is not the one configured
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_TRUE(b.alarm(AlarmId::BOOT_FAILED));
+}
+
 // @req TR-BOOT-FAILED
 TEST(Boot, SelfTestRejectsAnImpossibleTimingAndLocksOut) {
   // An integrator that bypasses validate(): the supervisor's own start-up check fails.
@@ -201,6 +226,20 @@ TEST(Rule1, ADriveDroppingOffTheBusLocksOut) {
   EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
   EXPECT_TRUE(b.alarm(AlarmId::FIELDBUS_LOST));
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::FIELDBUS_LOST).axis, 3U);
+}
+
+// @req TR-C1 AL-CAUSE
+TEST(Rule1, FieldbusLostNamesTheSubdeviceAtFault) {
+  Bench b;
+  b.to_idle();
+  b.plant.fieldbus = false;
+  b.fb.fieldbus_subdevice = 8;  // e.g. the last drive on the line left OP
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::FIELDBUS_LOST);
+  EXPECT_EQ(b.out.cause.detail.code, 8U);
+  char buf[96];
+  EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost at subdevice 8");
 }
 
 // @req TR-C1

@@ -120,7 +120,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   for (const core::DriveFeedback& d : fb.drive) offline = offline || !d.online;
   if (!boot_pending_ && (!fb.fieldbus_ok || offline)) { raise(AlarmId::FIELDBUS_LOST); r1 = true; }
   if (!fb.integrity_ok) { raise(AlarmId::INTEGRITY_FAULT); r1 = true; }
-  if (boot_pending_ && (now_ > t_.boot_timeout || !fb.self_test_ok)) { raise(AlarmId::BOOT_FAILED); r1 = true; }
+  if (boot_pending_ && (now_ > t_.boot_timeout || !fb.self_test_ok || fb.fieldbus_boot_failed)) { raise(AlarmId::BOOT_FAILED); r1 = true; }
   if (contactor_welded_) { raise(AlarmId::CONTACTOR_WELDED); r1 = true; }
   if (r1) {
     done = true;
@@ -437,7 +437,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
       const c402::DriveState ds = c402::decode(d.statusword);
       answered = answered && d.online && ds != c402::DriveState::Unknown && ds != c402::DriveState::NotReadyToSwitchOn;
     }
-    if (answered && fb.self_test_ok) boot_pending_ = false;
+    if (answered && fb.self_test_ok && !fb.fieldbus_boot_failed) boot_pending_ = false;
   }
   // Contactor commanded open with its feedback closed, brakes commanded engaged with a
   // feedback released: more than 100 / 300 cycles in a row is a fault (SPEC §7).

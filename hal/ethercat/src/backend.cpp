@@ -1,8 +1,11 @@
 // The `ethercat` backend. The cycle does one exchange (one LRW with the AL status checks in
 // the same frame) in read(): the outputs written in the previous cycle go out, the inputs
 // come back; nothing else blocks, nothing allocates.
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <thread>
 
 #include "safestate/hal/ethercat.hpp"
 
@@ -62,6 +65,8 @@ void put32(std::uint8_t* p, std::int32_t v) noexcept {
   }
 }
 
+constexpr int kScanPauseMs = 200;
+
 }  // namespace
 
 Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max)
@@ -95,7 +100,20 @@ void Backend::boot(const std::string& ifname) {
   }
   master_ = new Master{m, {}};
   std::array<SsEcatSub, 16> found{};
-  const int n = ss_ecat_scan(m, found.data(), found.size());
+  // A scan that times out or finds fewer subdevices than configured is tried again for a
+  // while: a lost frame, or drives still powering up after the controller. A wrong
+  // identity is not: that bus will not become right by waiting.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(cfg_.scan_timeout_ms);
+  int n = -1;
+  for (int attempt = 1;; ++attempt) {
+    n = ss_ecat_scan(m, found.data(), found.size());
+    if (n >= static_cast<int>(cfg_.subdevices.size()) || std::chrono::steady_clock::now() >= until) {
+      break;
+    }
+    std::fprintf(stderr, "safestate: EtherCAT scan %d: %s; scanning again\n", attempt,
+                 n < 0 ? ss_ecat_error(m) : (std::to_string(n) + " subdevices found").c_str());
+    std::this_thread::sleep_for(std::chrono::milliseconds(kScanPauseMs));
+  }
   if (n < 0) {
     boot_error_ = std::string("EtherCAT scan: ") + ss_ecat_error(m);
     return;
@@ -146,7 +164,11 @@ void Backend::lose(std::uint8_t position, const char* why) noexcept {
 
 void Backend::read(ProcessImageIn& in) noexcept {
   if (!booted()) {
+    // The bus was scanned once at start and is not as configured: BOOT fails now, naming
+    // the subdevice (waiting for the boot timeout would not change the bus).
     in.fieldbus_ok = false;
+    in.fieldbus_boot_failed = true;
+    in.fieldbus_subdevice = health_.subdevice;
     for (auto& d : in.drive) {
       d.online = false;
     }
@@ -177,6 +199,7 @@ void Backend::read(ProcessImageIn& in) noexcept {
 
 void Backend::decode(ProcessImageIn& in) const noexcept {
   in.fieldbus_ok = health_.ok;
+  in.fieldbus_subdevice = health_.subdevice;
   for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
     const Subdevice& s = cfg_.subdevices[i];
     const std::uint8_t* p = in_buf_.data() + in_off_[i];

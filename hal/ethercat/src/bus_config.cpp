@@ -192,6 +192,14 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     }
     out.frame_timeout_us = static_cast<std::uint32_t>(v);
   }
+  if (j.contains("scan_timeout_ms")) {
+    std::uint64_t v = 0;
+    if (!uint_in(j, "scan_timeout_ms", "bus", 0, 120000, v, c)) {
+      err = c.err;
+      return false;
+    }
+    out.scan_timeout_ms = static_cast<std::uint32_t>(v);
+  }
   const auto subs = j.find("subdevices");
   if (subs == j.end() || !subs->is_array() || subs->empty() || subs->size() > 16U) {
     err = "subdevices: expected a list of 1..16 subdevices in bus order";

@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 2U;  // 2: instance, gateway_restarts
+inline constexpr std::uint32_t kLayoutVersion = 3U;  // 2: instance, gateway_restarts; 3: bus
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -258,6 +258,28 @@ inline constexpr std::size_t kCommandSlots = 256;
 inline constexpr std::size_t kReplySlots = 1024;
 inline constexpr std::size_t kEventSlots = 4096;
 
+// The fieldbus subdevices, named by bus position; written once by `safestate run` before
+// the gateway starts, read by the gateway to name the subdevice of FIELDBUS_LOST and
+// BOOT_FAILED, whose core detail carries only the position.
+inline constexpr std::size_t kBusNames = 16;
+inline constexpr std::size_t kBusNameChars = 48;
+inline constexpr std::size_t kBusErrorChars = 256;
+struct BusInfo {
+  std::uint32_t count = 0;  // 0: no fieldbus (the simulated cell)
+  std::uint32_t pad = 0;
+  std::array<std::array<char, kBusNameChars>, kBusNames> name{};
+  std::array<char, kBusErrorChars> boot_error{};  // why the bus did not come up, or empty
+};
+// Copies `s` into `dst`, truncated, always NUL-terminated.
+template <std::size_t N>
+void copy_text(std::array<char, N>& dst, const char* s) noexcept {
+  std::size_t i = 0;
+  for (; s != nullptr && s[i] != '\0' && i + 1U < N; ++i) {
+    dst[i] = s[i];
+  }
+  dst[i] = '\0';
+}
+
 struct Header {
   std::uint32_t magic = kMagic;
   std::uint32_t version = kLayoutVersion;
@@ -284,6 +306,7 @@ struct Header {
   // plain store: no system call). The gateway sleeps until just after it while replies
   // are due, instead of polling (protocol.md latency; docs/performance.md).
   std::atomic<std::uint64_t> next_cycle_ns{0};
+  BusInfo bus{};
 };
 
 using CommandRing = Ring<CommandRecord, kCommandSlots>;

@@ -25,6 +25,12 @@ struct Feedback {
   bool contactor_closed = false;                 // main contactor auxiliary contact
   std::array<bool, kAxes> brake_released{};      // brake feedback: true = released
   bool fieldbus_ok = true;                       // cyclic data valid this cycle
+  // Bus position (1-based) of the first fieldbus subdevice at fault, 0 = the bus as a
+  // whole (or not known): named in FIELDBUS_LOST and BOOT_FAILED (ISO 13849-1 diagnostics).
+  std::uint8_t fieldbus_subdevice = 0;
+  // The fieldbus cannot come up as configured (a wrong, missing or unexpected subdevice,
+  // no interface): BOOT fails at once rather than at its timeout, waiting would not help.
+  bool fieldbus_boot_failed = false;
   bool integrity_ok = true;                      // external integrity checks (HAL, memory)
   bool self_test_ok = true;                      // the platform's start-up self-test (RAM, watchdog)
   // From the motion layer, computed from measured joint positions (forward kinematics):

@@ -26,6 +26,10 @@ struct StatusExtras {
   std::uint32_t gateway_restarts = 0;  // header().gateway_restarts, counted by `safestate run`
 };
 
+// The fieldbus subdevice names and boot error `safestate run` put in the segment: alarm
+// texts of FIELDBUS_LOST and BOOT_FAILED name the subdevice. Called once, at attach.
+void set_fieldbus(const bridge::BusInfo& bus) noexcept;
+
 // The `status` message (with_type) or GET /api/status (without).
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type);
 // Who may command (protocol.md "Roles"): the pendant in T1/T2; in AUTO a connected

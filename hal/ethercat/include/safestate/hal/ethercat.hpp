@@ -43,6 +43,9 @@ struct Subdevice {
 struct BusConfig {
   std::vector<Subdevice> subdevices;  // in bus order
   std::uint32_t frame_timeout_us = 900;
+  // How long the start-up scan is repeated while it times out or finds fewer subdevices
+  // than configured (drives still powering up); 0 = one scan.
+  std::uint32_t scan_timeout_ms = 5000;
 };
 
 // Parses and validates a configuration (JSON text). On error returns false and names
