@@ -184,21 +184,19 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     return false;
   }
   out = BusConfig{};
-  if (j.contains("frame_timeout_us")) {
-    std::uint64_t v = 0;
-    if (!uint_in(j, "frame_timeout_us", "bus", 100, 100000, v, c)) {
-      err = c.err;
+  // Optional bus-wide settings: absent keeps the default.
+  const auto setting = [&](const char* key, std::uint64_t lo, std::uint64_t hi, std::uint32_t& field) {
+    std::uint64_t v = field;
+    if (j.contains(key) && !uint_in(j, key, "bus", lo, hi, v, c)) {
       return false;
     }
-    out.frame_timeout_us = static_cast<std::uint32_t>(v);
-  }
-  if (j.contains("scan_timeout_ms")) {
-    std::uint64_t v = 0;
-    if (!uint_in(j, "scan_timeout_ms", "bus", 0, 120000, v, c)) {
-      err = c.err;
-      return false;
-    }
-    out.scan_timeout_ms = static_cast<std::uint32_t>(v);
+    field = static_cast<std::uint32_t>(v);
+    return true;
+  };
+  if (!setting("frame_timeout_us", 100, 100000, out.frame_timeout_us) ||
+      !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms)) {
+    err = c.err;
+    return false;
   }
   const auto subs = j.find("subdevices");
   if (subs == j.end() || !subs->is_array() || subs->empty() || subs->size() > 16U) {
