@@ -147,19 +147,41 @@ double ms(std::uint64_t ns) { return static_cast<double>(ns) / 1.0e6; }
 // costs the plant its OPC UA view, never the core or the gateway anything.
 constexpr int kAdapterConfigError = 2;  // adapters/opcua/src/main.ts: EXIT_CONFIG
 
+double mono_s() {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) / 1.0e9;
+}
+
+// A child that keeps dying is restarted after `first` s, then twice as long each time up
+// to `most` s; one that lived `healthy` s starts the series again. The gateway: 0.5 s ..
+// 30 s, healthy after a minute (protocol.md "One controller"); the OPC UA adapter: 1 s ..
+// 30 s, healthy after 10 s.
+class Restarts {
+ public:
+  Restarts(double first, double most, double healthy) : first_(first), most_(most), healthy_(healthy) {}
+  void started(double now) { started_at_ = now; }
+  double exited(double now) {
+    delay_ = (now - started_at_ >= healthy_) ? first_ : std::min(most_, (delay_ <= 0.0) ? first_ : delay_ * 2.0);
+    due_at_ = now + delay_;
+    return delay_;
+  }
+  [[nodiscard]] bool due(double now) const { return now >= due_at_; }
+
+ private:
+  double first_;
+  double most_;
+  double healthy_;
+  double started_at_ = 0.0;
+  double delay_ = 0.0;
+  double due_at_ = 0.0;
+};
+
 struct Adapter {
   pid_t pid = -1;
   bool enabled = false;
-  int backoff_s = 1;
-  timespec started{};
-  timespec next_start{};
+  Restarts restarts{1.0, 30.0, 10.0};
 };
-
-double seconds_since(const timespec& t) {
-  timespec now{};
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  return static_cast<double>(now.tv_sec - t.tv_sec) + static_cast<double>(now.tv_nsec - t.tv_nsec) / 1e9;
-}
 
 std::string opcua_main(const RunOptions& opt) {
 #ifdef SAFESTATE_OPCUA_MAIN
@@ -230,7 +252,7 @@ Adapter start_adapter(const RunOptions& opt) {
   }
   a.pid = spawn_adapter(opt);
   a.enabled = a.pid > 0;
-  clock_gettime(CLOCK_MONOTONIC, &a.started);
+  a.restarts.started(mono_s());
   return a;
 }
 
@@ -248,21 +270,15 @@ void supervise_adapter(const RunOptions& opt, Adapter& a) {
       a.enabled = false;
       return;
     }
-    a.backoff_s = (seconds_since(a.started) > 10.0) ? 1 : std::min(a.backoff_s * 2, 30);
-    std::fprintf(stderr, "safestate run: the OPC UA adapter exited (%s %d); restarting it in %d s\n",
+    const double delay = a.restarts.exited(mono_s());
+    std::fprintf(stderr, "safestate run: the OPC UA adapter exited (%s %d); restarting it in %.1f s\n",
                  WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status),
-                 a.backoff_s);
-    clock_gettime(CLOCK_MONOTONIC, &a.next_start);
-    a.next_start.tv_sec += a.backoff_s;
+                 delay);
   }
-  if (a.pid < 0) {
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    if (now.tv_sec >= a.next_start.tv_sec) {
-      a.pid = spawn_adapter(opt);
-      a.enabled = a.pid > 0;
-      a.started = now;
-    }
+  if (a.pid < 0 && a.restarts.due(mono_s())) {
+    a.pid = spawn_adapter(opt);
+    a.enabled = a.pid > 0;
+    a.restarts.started(mono_s());
   }
 }
 
@@ -276,30 +292,6 @@ void publish_bus(const hal::ethercat::Backend& bus, const hal::ethercat::BusConf
   bridge::copy_text(info.boot_error, bus.boot_error().c_str());
   info.count = static_cast<std::uint32_t>(n);
 }
-
-double mono_s() {
-  timespec now{};
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  return static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) / 1.0e9;
-}
-
-// A gateway that keeps dying is restarted after 0.5 s, then 1, 2, 4 ... at most 30 s;
-// one that ran for a minute starts the series again (protocol.md "One controller").
-class Restarts {
- public:
-  void started(double now) { started_at_ = now; }
-  double exited(double now) {
-    delay_ = (now - started_at_ >= 60.0) ? 0.5 : std::min(30.0, (delay_ <= 0.0) ? 0.5 : delay_ * 2.0);
-    due_at_ = now + delay_;
-    return delay_;
-  }
-  [[nodiscard]] bool due(double now) const { return now >= due_at_; }
-
- private:
-  double started_at_ = 0.0;
-  double delay_ = 0.0;
-  double due_at_ = 0.0;
-};
 
 }  // namespace
 
@@ -385,7 +377,7 @@ int run_main(const RunOptions& opt) {
   std::fflush(stdout);
 
   bool bus_loss_reported = false;
-  Restarts restarts;
+  Restarts restarts{0.5, 30.0, 60.0};
   restarts.started(mono_s());
   for (;;) {
     timespec wait{0, 100000000};
