@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "safestate/hal/ethercat.hpp"
+#include "safestate/hal/pdo_bytes.hpp"
 
 extern "C" {
 struct SsEcatMaster;
@@ -44,26 +45,12 @@ std::string hex(std::uint32_t v) {
   return b;
 }
 
-bool bit(const std::uint8_t* p, std::uint16_t i) noexcept { return ((static_cast<unsigned>(p[i / 8U]) >> (i % 8U)) & 1U) != 0U; }
-void set_bit(std::uint8_t* p, std::uint16_t i, bool v) noexcept {
-  const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
-  p[i / 8U] = static_cast<std::uint8_t>(v ? (p[i / 8U] | m) : (p[i / 8U] & ~m));
-}
-std::uint16_t get16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>(p[0] | (p[1] << 8U)); }
-std::int32_t get32(const std::uint8_t* p) noexcept {
-  return static_cast<std::int32_t>(static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8U) |
-                                   (static_cast<std::uint32_t>(p[2]) << 16U) | (static_cast<std::uint32_t>(p[3]) << 24U));
-}
-void put16(std::uint8_t* p, std::uint16_t v) noexcept {
-  p[0] = static_cast<std::uint8_t>(v & 0xFFU);
-  p[1] = static_cast<std::uint8_t>(v >> 8U);
-}
-void put32(std::uint8_t* p, std::int32_t v) noexcept {
-  const auto u = static_cast<std::uint32_t>(v);
-  for (std::size_t k = 0; k < 4U; ++k) {
-    p[k] = static_cast<std::uint8_t>((u >> (8U * k)) & 0xFFU);
-  }
-}
+using pdo::get16;
+using pdo::get32;
+using pdo::get_bit;
+using pdo::put16;
+using pdo::put32;
+using pdo::set_bit;
 
 constexpr int kScanPauseMs = 200;
 
@@ -206,7 +193,7 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
     if (s.role == Role::safety_inputs) {
       bool v[kInputBits];
       for (std::size_t b = 0; b < kInputBits; ++b) {
-        v[b] = bit(p, s.in_bit[b]);
+        v[b] = get_bit(p, s.in_bit[b]);
       }
       in.safety = core::RawInputs{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10]};
       in.contactor_closed = v[11];
