@@ -20,6 +20,7 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   feedback_.brake_released = in.brake_released;
   feedback_.fieldbus_ok = in.fieldbus_ok;
   feedback_.fieldbus_subdevice = in.fieldbus_subdevice;
+  feedback_.fieldbus_silent = in.fieldbus_silent;
   feedback_.fieldbus_boot_failed = in.fieldbus_boot_failed;
   feedback_.integrity_ok = in.integrity_ok;
   feedback_.self_test_ok = in.self_test_ok;

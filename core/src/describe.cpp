@@ -80,6 +80,8 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::FIELDBUS_LOST:
       if (axis != 0U) {
         t.s("Fieldbus lost: drive ").u(axis).s(" does not answer");
+      } else if ((d.code & kFieldbusSilentFrom) != 0U) {
+        t.s("Fieldbus lost: no answer from subdevice ").u(d.code & 0xFFU).s(" on");  // the gateway adds names
       } else if (d.code != 0U) {
         t.s("Fieldbus lost at subdevice ").u(d.code);  // bus position; the gateway adds its name
       } else {

@@ -66,6 +66,13 @@ Cause alarm_cause(std::uint8_t rule, AlarmId a, const AlarmDetail& d, Mode m) no
   return c;
 }
 
+// FIELDBUS_LOST's detail code: the bus position of the subdevice at fault, plus
+// kFieldbusSilentFrom when no frame comes back (silent from that subdevice on).
+std::uint16_t fieldbus_code(const Feedback& fb) noexcept {
+  const bool silent = fb.fieldbus_silent && (fb.fieldbus_subdevice != 0U);
+  return static_cast<std::uint16_t>(fb.fieldbus_subdevice | (silent ? kFieldbusSilentFrom : 0U));
+}
+
 AlarmDetail detail_of(Signal s, Channel ch = Channel::none, std::uint8_t axis = 0U, std::uint16_t code = 0U) noexcept {
   AlarmDetail d{};
   d.signal = s;
@@ -305,7 +312,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::ENABLE_DISCREPANCY, detail_of(Signal::enable, in.enable_fault_channel));
         }
         if (!boot_pending_ && !fb.fieldbus_ok) {
-          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus, Channel::none, 0U, fb.fieldbus_subdevice));
+          hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus, Channel::none, 0U, fieldbus_code(fb)));
         }
         if (!boot_pending_ && c.drive_offline) {
           hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::drive, Channel::none, c.offline_axis));

@@ -55,8 +55,12 @@ std::string alarm_words(core::AlarmId id, const core::AlarmDetail& d) {
   if (id == core::AlarmId::BOOT_FAILED && g_bus.boot_error[0] != '\0') {
     return "Start-up failed: " + std::string(g_bus.boot_error.data());  // names position and name itself
   }
-  if (d.code >= 1U && d.code <= g_bus.count) {
-    s += " (" + std::string(g_bus.name[d.code - 1U].data()) + ")";
+  // "subdevice N" in the core's words becomes "subdevice N (its configured name)".
+  const unsigned pos = d.code & 0xFFU;
+  const std::string key = "subdevice " + std::to_string(pos);
+  const std::size_t at = s.find(key);
+  if (pos >= 1U && pos <= g_bus.count && at != std::string::npos) {
+    s.insert(at + key.size(), " (" + std::string(g_bus.name[pos - 1U].data()) + ")");
   }
   return s;
 }

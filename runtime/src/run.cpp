@@ -334,7 +334,8 @@ int run_main(const RunOptions& opt) {
       return 2;
     }
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
-    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us);
+    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us,
+                                                   std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
     if (!bus->booted()) {
       std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
     }
@@ -387,10 +388,13 @@ int run_main(const RunOptions& opt) {
     }
     supervise_adapter(opt, adapter);
     // The core says FIELDBUS_LOST; this names whom it concerns (read off the RT path).
-    if (bus && !bus_loss_reported && bus->lost().second != nullptr) {
-      const auto [pos, why] = bus->lost();
-      const std::string whom =
-          pos != 0U ? "subdevice " + std::to_string(pos) + " (" + bus->subdevice_name(pos) + ")" : "the bus as a whole";
+    if (bus && !bus_loss_reported && bus->lost().why != nullptr) {
+      const auto loss = bus->lost();
+      const auto pos = loss.position;
+      const char* why = loss.why;
+      const std::string whom = pos == 0U ? "the bus as a whole"
+                               : "subdevice " + std::to_string(pos) + " (" + bus->subdevice_name(pos) + ")" +
+                                     (loss.silent ? " and every one after it" : "");
       std::fprintf(stderr, "safestate run: FIELDBUS_LOST: %s: %s\n", whom.c_str(), why);
       bus_loss_reported = true;
     }

@@ -242,6 +242,20 @@ TEST(Rule1, FieldbusLostNamesTheSubdeviceAtFault) {
   EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost at subdevice 8");
 }
 
+// @req TR-C1 AL-CAUSE
+TEST(Rule1, ASilentFieldbusNamesWhereTheSilenceBegins) {
+  Bench b;
+  b.to_idle();
+  b.plant.fieldbus = false;
+  b.fb.fieldbus_subdevice = 1;  // no frame comes back: nothing answers from the first on
+  b.fb.fieldbus_silent = true;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.detail.code, 1U | kFieldbusSilentFrom);
+  char buf[96];
+  EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost: no answer from subdevice 1 on");
+}
+
 // @req TR-C1
 TEST(Rule1, IntegrityFaultLocksOut) {
   Bench b;

@@ -54,10 +54,16 @@ using pdo::set_bit;
 
 constexpr int kScanPauseMs = 200;
 
+std::uint64_t mono_ns() noexcept {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
+}
+
 }  // namespace
 
-Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max)
-    : cfg_(cfg), lost_frames_max_(lost_frames_max) {
+Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max,
+                 std::uint64_t watchdog_ns)
+    : cfg_(cfg), lost_frames_max_(lost_frames_max), watchdog_ns_(watchdog_ns) {
   std::size_t in = 0;
   std::size_t out = 0;
   for (const Subdevice& s : cfg_.subdevices) {
@@ -70,7 +76,7 @@ Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t 
   out_buf_.assign(out, 0);
   boot(ifname);
   if (!boot_error_.empty()) {
-    health_ = Health{false, health_.subdevice, "boot failed"};
+    health_ = Health{false, health_.subdevice, false, "boot failed"};
   }
 }
 
@@ -141,10 +147,11 @@ void Backend::boot(const std::string& ifname) {
   }
 }
 
-void Backend::lose(std::uint8_t position, const char* why) noexcept {
+void Backend::lose(std::uint8_t position, const char* why, bool silent) noexcept {
   if (health_.ok) {
-    health_ = Health{false, position, why};
+    health_ = Health{false, position, silent, why};
     lost_position_.store(position, std::memory_order_relaxed);
+    lost_silent_.store(silent, std::memory_order_relaxed);
     lost_why_.store(why, std::memory_order_release);
   }
 }
@@ -164,13 +171,17 @@ void Backend::read(ProcessImageIn& in) noexcept {
   SsEcatCycle& c = master_->cycle;
   const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c);
   ++exchanges_;
+  const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
   if (rc != 0) {
     // A lost frame is tolerated up to the fieldbus watchdog, on the last good inputs.
-    if (++lost_in_row_ > lost_frames_max_) {
-      lose(0, "frames lost for longer than the fieldbus watchdog");
+    const bool too_long = watchdog_ns_ > 0U && last_good_ns_ > 0U && now - last_good_ns_ > watchdog_ns_;
+    if (++lost_in_row_ > lost_frames_max_ || too_long) {
+      // On a line nothing answers from the first subdevice on (a cut cable, a dead segment).
+      lose(1, "no frame came back for longer than the fieldbus watchdog", true);
     }
   } else {
     lost_in_row_ = 0;
+    last_good_ns_ = now;
     for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
       if (i >= c.count || c.al_state[i] != 8U) {
         lose(static_cast<std::uint8_t>(i + 1U), "subdevice left OP");
@@ -187,6 +198,7 @@ void Backend::read(ProcessImageIn& in) noexcept {
 void Backend::decode(ProcessImageIn& in) const noexcept {
   in.fieldbus_ok = health_.ok;
   in.fieldbus_subdevice = health_.subdevice;
+  in.fieldbus_silent = health_.silent;
   for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
     const Subdevice& s = cfg_.subdevices[i];
     const std::uint8_t* p = in_buf_.data() + in_off_[i];
@@ -205,7 +217,8 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       d.statusword = get16(p + s.statusword);
       d.position_rad = static_cast<float>(get32(p + s.position_actual) / s.counts_per_rad);
       d.velocity_rad_s = static_cast<float>(get32(p + s.velocity_actual) / s.counts_per_rad);
-      d.online = health_.ok || (health_.subdevice != 0U && health_.subdevice != i + 1U);
+      const std::size_t pos = i + 1U;  // a silent bus takes every subdevice from its position on
+      d.online = health_.ok || (health_.subdevice != 0U && (health_.silent ? pos < health_.subdevice : pos != health_.subdevice));
     }
   }
 }

@@ -131,6 +131,10 @@ using AlarmMask = std::uint32_t;
   return AlarmMask{1U} << static_cast<unsigned>(id);
 }
 
+// FIELDBUS_LOST / BOOT_FAILED with signal fieldbus: `code` is the bus position (1-based) of
+// the subdevice at fault; this bit added: no frame comes back from that subdevice on.
+inline constexpr std::uint16_t kFieldbusSilentFrom = 0x100U;
+
 // What an alarm (or a stop) is about: which input and channel, which axis, which step.
 struct AlarmDetail {
   Signal signal = Signal::none;

@@ -28,6 +28,9 @@ struct Feedback {
   // Bus position (1-based) of the first fieldbus subdevice at fault, 0 = the bus as a
   // whole (or not known): named in FIELDBUS_LOST and BOOT_FAILED (ISO 13849-1 diagnostics).
   std::uint8_t fieldbus_subdevice = 0;
+  // No frame comes back at all: every subdevice from fieldbus_subdevice on is silent
+  // (on a line, the break is at or before it).
+  bool fieldbus_silent = false;
   // The fieldbus cannot come up as configured (a wrong, missing or unexpected subdevice,
   // no interface): BOOT fails at once rather than at its timeout, waiting would not help.
   bool fieldbus_boot_failed = false;

@@ -19,6 +19,7 @@ struct ProcessImageIn {
   std::array<bool, kAxes> brake_released{};          // brake feedback contacts
   bool fieldbus_ok = true;                           // cyclic data valid this cycle
   std::uint8_t fieldbus_subdevice = 0;               // 1-based position of the first at fault, 0 = bus
+  bool fieldbus_silent = false;                      // no frame back: silent from that subdevice on
   bool fieldbus_boot_failed = false;                 // the bus cannot come up as configured
   bool integrity_ok = true;                          // the backend's own integrity checks
   bool self_test_ok = true;                          // the platform's start-up self-test

@@ -58,6 +58,7 @@ const char* default_bus_config() noexcept;
 struct Health {
   bool ok = true;
   std::uint8_t subdevice = 0;  // 1-based position of the first subdevice at fault, 0 = none
+  bool silent = false;         // no frame comes back: silent from `subdevice` on
   const char* why = "";  // a literal: set in the real-time path
 };
 
@@ -66,7 +67,11 @@ class Backend final : public hal::Backend {
   // Opens the interface, scans, checks every identity against `cfg`, maps, goes to OP.
   // Never throws; on failure the backend reports the fieldbus down (BOOT then fails) and
   // boot_error() names the subdevice.
-  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max);
+  // The fieldbus watchdog: more than `lost_frames_max` exchanges in a row without a frame
+  // back, or (when `watchdog_ns` > 0) that long on the monotonic clock since the last good
+  // one, is FIELDBUS_LOST. The time bound matters because a lost frame waits for the whole
+  // frame timeout, which can be many cycles.
+  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max, std::uint64_t watchdog_ns = 0);
   ~Backend() override;
   Backend(const Backend&) = delete;
   Backend& operator=(const Backend&) = delete;
@@ -80,11 +85,17 @@ class Backend final : public hal::Backend {
   // Latched: the first loss of the bus and whom it concerns.
   [[nodiscard]] const Health& health() const noexcept { return health_; }
   [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
-  // The same, for another thread (the supervisor's log): position (1-based, 0 = the bus as
-  // a whole) and reason once the bus is lost, else {0, nullptr}.
-  [[nodiscard]] std::pair<std::uint8_t, const char*> lost() const noexcept {
-    const char* why = lost_why_.load(std::memory_order_acquire);  // published after the position
-    return {lost_position_.load(std::memory_order_relaxed), why};
+  // The same, for another thread (the supervisor's log): once the bus is lost, the
+  // position (1-based, 0 = the bus as a whole), whether it is silent from there on, and
+  // the reason; else why == nullptr.
+  struct Loss {
+    std::uint8_t position = 0;
+    bool silent = false;
+    const char* why = nullptr;
+  };
+  [[nodiscard]] Loss lost() const noexcept {
+    const char* why = lost_why_.load(std::memory_order_acquire);  // published after the rest
+    return {lost_position_.load(std::memory_order_relaxed), lost_silent_.load(std::memory_order_relaxed), why};
   }
   [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
     static const std::string none = "the bus";
@@ -94,7 +105,7 @@ class Backend final : public hal::Backend {
  private:
   void boot(const std::string& ifname);
   void decode(ProcessImageIn& in) const noexcept;
-  void lose(std::uint8_t position, const char* why) noexcept;
+  void lose(std::uint8_t position, const char* why, bool silent = false) noexcept;
 
   BusConfig cfg_;
   struct Master;
@@ -106,9 +117,12 @@ class Backend final : public hal::Backend {
   std::vector<std::size_t> in_off_;
   std::vector<std::size_t> out_off_;
   std::atomic<std::uint8_t> lost_position_{0};
+  std::atomic<bool> lost_silent_{false};
   std::atomic<const char*> lost_why_{nullptr};
   std::uint32_t lost_frames_max_;
   std::uint32_t lost_in_row_ = 0;
+  std::uint64_t watchdog_ns_;
+  std::uint64_t last_good_ns_ = 0;
   std::uint64_t exchanges_ = 0;
 };
 
