@@ -21,16 +21,11 @@ import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
-import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
+import {
+  ARTIFACTS, BIN, CHROMIUM, DIST, RUN_ARGS, banner as pageBanner, bannerUntil as pageBannerUntil, sleep, until,
+} from './page.mjs';
 
-const HMI = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
-const ROOT = path.resolve(HMI, '..');
-const BIN = process.env.SAFESTATE_BIN || path.join(ROOT, 'build', 'bin', 'safestate');
-const DIST = path.join(HMI, 'dist');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-const RUN_ARGS = (process.env.SAFESTATE_RUN_ARGS ?? '--watchdog-ms 1000').split(/\s+/).filter(Boolean);
-const ARTIFACTS = process.env.SAFESTATE_HMI_ARTIFACTS || path.join(ROOT, 'build', 'hmi-artifacts');
 const SKIP = process.getuid?.() === 0 ? false : 'needs root: a network namespace, a veth pair and raw sockets';
 
 const ns = `sshmi-${crypto.randomBytes(4).toString('hex')}`;
@@ -45,23 +40,6 @@ let page;
 const pageErrors = [];
 
 // ------------------------------------------------------------------ helpers
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function until(what, fn, timeoutMs = 10000, everyMs = 50) {
-  const end = Date.now() + timeoutMs;
-  let last;
-  for (;;) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (e) {
-      last = e;
-    }
-    if (Date.now() > end) throw new Error(`timeout (${timeoutMs} ms) waiting for ${what}; last: ${last}`);
-    await sleep(everyMs);
-  }
-}
-
 function ip(...args) {
   const r = spawnSync('ip', args, { encoding: 'utf8' });
   if (r.status !== 0) throw new Error(`ip ${args.join(' ')}: ${r.stderr}`);
@@ -99,21 +77,8 @@ async function shot(name) {
   await page.screenshot({ path: path.join(ARTIFACTS, `ecat-${name}.png`) });
 }
 
-const banner = () =>
-  page.evaluate(() => ({
-    state: document.getElementById('b-state').textContent,
-    sub: document.getElementById('b-sub').textContent,
-    mode: document.getElementById('b-mode').textContent,
-    tone: document.getElementById('banner').dataset.tone,
-    cause: document.getElementById('b-cause').textContent,
-  }));
-
-async function bannerUntil(what, pred, timeoutMs = 10000) {
-  return until(`banner ${what}`, async () => {
-    const b = await banner();
-    return pred(b) ? b : JSON.stringify(b) && false;
-  }, timeoutMs);
-}
+const banner = () => pageBanner(page);
+const bannerUntil = (what, pred, timeoutMs) => pageBannerUntil(page, what, pred, timeoutMs);
 
 const runLog = () => fs.readFileSync(procs[1].logPath, 'utf8').slice(-3000);
 
