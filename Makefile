@@ -145,20 +145,26 @@ clean:
 
 # The cell over real EtherCAT frames: `safestate ecat-sim` (EMULATED subdevices) in a
 # network namespace of its own on one end of a veth pair; `safestate run --fieldbus
-# ethercat` in this namespace on the other end, so the HMI stays on 127.0.0.1:8080.
-# Needs root (namespaces, raw sockets). The namespace and the pair go away on Ctrl-C.
+# ethercat` in this namespace on the other end, so the HMI stays on 127.0.0.1:8080
+# (ECAT_PORT). Needs root (namespaces, raw sockets). The namespace and the pair go away on
+# Ctrl-C. The HMI's simulated-cell panel drives the emulator through its control socket.
 ECAT_NS ?= safestate-ecat
 ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
+ECAT_PORT ?= 8080
 .PHONY: run-ethercat
 run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
+	@[ "$$(id -u)" = 0 ] || { echo "run-ethercat: needs root (a network namespace, a veth pair and raw sockets): sudo make run-ethercat" >&2; exit 1; }
 	@$(DEPS) ecat
 	@ip netns del $(ECAT_NS) 2>/dev/null || true
 	ip netns add $(ECAT_NS)
 	ip link add ss-ecm type veth peer name ss-ecs netns $(ECAT_NS)
 	ip link set ss-ecm up
 	ip -n $(ECAT_NS) link set ss-ecs up
-	@trap 'kill $$SIM 2>/dev/null; ip link del ss-ecm 2>/dev/null; ip netns del $(ECAT_NS) 2>/dev/null' EXIT INT TERM; \
+	@trap 'kill $$SIM 2>/dev/null; wait $$SIM 2>/dev/null; ip link del ss-ecm 2>/dev/null; ip netns del $(ECAT_NS) 2>/dev/null; echo "run-ethercat: namespace $(ECAT_NS) and veth pair removed"' EXIT; \
+	  trap 'exit 130' INT TERM; \
+	  rm -f $(ECAT_CONTROL); \
 	  ip netns exec $(ECAT_NS) $(BIN)/safestate ecat-sim --ifname ss-ecs --control $(ECAT_CONTROL) & SIM=$$!; \
-	  sleep 0.5; \
-	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 --port 8080 \
-	    --db safestate-events.db --static hmi/dist
+	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
+	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
+	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
+	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist

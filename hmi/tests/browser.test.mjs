@@ -17,16 +17,11 @@ import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
-import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
+import {
+  ARTIFACTS, BIN, CHROMIUM, DIST, ROOT, RUN_ARGS, banner as pageBanner, bannerUntil as pageBannerUntil, sleep, until,
+} from './page.mjs';
 
-const HMI = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
-const ROOT = path.resolve(HMI, '..');
-const BIN = process.env.SAFESTATE_BIN || path.join(ROOT, 'build', 'bin', 'safestate');
-const DIST = path.join(HMI, 'dist');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-const RUN_ARGS = (process.env.SAFESTATE_RUN_ARGS ?? '--watchdog-ms 1000').split(/\s+/).filter(Boolean);
-const ARTIFACTS = process.env.SAFESTATE_HMI_ARTIFACTS || path.join(ROOT, 'build', 'hmi-artifacts');
 const ESTOP_BANNER_MS = 200;
 
 let tmp;
@@ -66,45 +61,14 @@ function getJson(port, p) {
   });
 }
 
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function until(what, fn, timeoutMs = 10000, everyMs = 50) {
-  const end = Date.now() + timeoutMs;
-  let last;
-  for (;;) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (e) {
-      last = e;
-    }
-    if (Date.now() > end) throw new Error(`timeout (${timeoutMs} ms) waiting for ${what}; last: ${last}`);
-    await sleep(everyMs);
-  }
-}
-
 async function shot(name) {
   const file = path.join(ARTIFACTS, `${name}.png`);
   await page.screenshot({ path: file });
   return file;
 }
 
-const banner = () =>
-  page.evaluate(() => ({
-    state: document.getElementById('b-state').textContent,
-    sub: document.getElementById('b-sub').textContent,
-    mode: document.getElementById('b-mode').textContent,
-    tone: document.getElementById('banner').dataset.tone,
-    cause: document.getElementById('b-cause').textContent,
-    next: document.getElementById('b-next').textContent,
-  }));
-
-async function bannerUntil(what, pred, timeoutMs = 10000) {
-  return until(`banner ${what}`, async () => {
-    const b = await banner();
-    return pred(b) ? b : JSON.stringify(b) && false;
-  }, timeoutMs);
-}
+const banner = () => pageBanner(page);
+const bannerUntil = (what, pred, timeoutMs) => pageBannerUntil(page, what, pred, timeoutMs);
 
 const drawn = () => page.evaluate(() => JSON.parse(document.getElementById('arm').dataset.joints || 'null'));
 

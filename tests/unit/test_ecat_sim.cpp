@@ -262,6 +262,48 @@ TEST(EcatProcessData, InputsFollowThePlantAndEstopOnOneChannel) {
   EXPECT_EQ(r[0].data[0] & 0x03, 0x01);  // estop.a closed, estop.b open
 }
 
+// One exchange writing the outputs with the contactor bit as given, at time t (ns).
+void exchange_contactor(EmulatedCell& cell, bool contactor, std::uint64_t t) {
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[0] = contactor ? 0x01 : 0x00;
+  cell.set_time(t);
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, t);
+}
+
+TEST(EcatReaction, FromTheExchangeCarryingTheContactToTheFirstClearedContactorBit) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  exchange_contactor(cell, true, 1'000'000);
+  exchange_contactor(cell, true, 2'000'000);
+  cell.set_time(2'400'000);
+  ASSERT_EQ(control_line(cell, "in estop.b=0"), "OK");
+  EXPECT_NE(control_line(cell, "status").find("\"reaction\":null"), std::string::npos);
+  exchange_contactor(cell, true, 3'000'000);   // carries estop.b=0 out to the master
+  EXPECT_NE(control_line(cell, "status").find("\"reaction\":null"), std::string::npos);
+  exchange_contactor(cell, true, 4'000'000);   // a master two cycles late
+  exchange_contactor(cell, false, 5'000'000);  // first frame with the contactor bit cleared
+  const EmulatedCell::Reaction r = cell.reaction();
+  ASSERT_TRUE(r.cleared);
+  EXPECT_EQ(r.cleared_cycle - r.input_cycle, 2U);
+  EXPECT_EQ(r.cleared_ns - r.input_ns, 2'000'000U);
+  EXPECT_EQ(r.cleared_ns - r.change_ns, 2'600'000U);
+  const std::string st = control_line(cell, "status");
+  EXPECT_NE(st.find("\"reaction\":{\"cleared_exchange\":4,\"cycles\":2,\"from_change_us\":2600,"
+                    "\"input_exchange\":2,\"us\":2000}"), std::string::npos) << st;
+  // The second channel, pressed once the contactor is open, keeps the first one's figure.
+  cell.set_time(5'500'000);
+  ASSERT_EQ(control_line(cell, "in estop.a=0"), "OK");
+  exchange_contactor(cell, false, 6'000'000);
+  EXPECT_EQ(cell.reaction().cleared_cycle, 4U);  // exchanges count from 0
+  // Closing the contactor again forgets it; a change while open starts nothing.
+  exchange_contactor(cell, true, 7'000'000);
+  EXPECT_FALSE(cell.reaction().armed);
+  exchange_contactor(cell, false, 8'000'000);
+  EXPECT_FALSE(cell.reaction().cleared);  // no contact changed: servo off is no reaction
+  ASSERT_EQ(control_line(cell, "in estop.a=1 estop.b=1"), "OK");
+  EXPECT_FALSE(cell.reaction().armed);
+}
+
 TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
   EmulatedCell cell(1000);
   bring_to_op(cell.segment());

@@ -173,14 +173,35 @@ void EmulatedCell::step() noexcept {
   }
   const bool was_closed = out_.contactor;
   unpack_outputs(dout.data(), rx, out_);
-  if (was_closed && !out_.contactor && reaction_.cleared_cycle == 0U) {
-    reaction_.cleared_cycle = cycles_;
-    reaction_.cleared_ns = now_ns_;
-  }
+  time_reaction(was_closed);
   plant_.write(out_);
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();
+}
+
+void EmulatedCell::mark_input_change() noexcept {
+  if (out_.contactor) {
+    reaction_ = Reaction{true, false, false, now_ns_, cycles_, 0, 0, 0};
+  }
+}
+
+// Called in an exchange, with the outputs it brought already unpacked and before the
+// inputs it takes back are latched.
+void EmulatedCell::time_reaction(bool was_closed) noexcept {
+  if (!was_closed && out_.contactor) {
+    reaction_ = Reaction{};  // armed again: a new measurement may start
+    return;
+  }
+  if (reaction_.armed && !reaction_.carried && cycles_ == reaction_.input_cycle) {
+    reaction_.carried = true;
+    reaction_.input_ns = now_ns_;
+  }
+  if (reaction_.armed && was_closed && !out_.contactor && !reaction_.cleared) {
+    reaction_.cleared = true;
+    reaction_.cleared_cycle = cycles_;
+    reaction_.cleared_ns = now_ns_;
+  }
 }
 
 void EmulatedCell::poll(std::uint64_t now_ns) noexcept {

@@ -130,8 +130,15 @@ std::string status(EmulatedCell& cell) {
   j["joints"] = q;
   j["contactor_closed"] = in.contactor_closed;
   const EmulatedCell::Reaction& r = cell.reaction();
-  if (r.cleared_cycle != 0U) {
-    j["reaction"] = {{"cycles", r.cleared_cycle - r.input_cycle}, {"us", (r.cleared_ns - r.input_ns) / 1000U}};
+  if (r.cleared) {
+    // us: from the exchange that carried the changed contact to the master to the one that
+    // brought the contactor bit back cleared; from_change_us adds the wait for that first
+    // exchange (up to one cycle after the contact changed).
+    j["reaction"] = {{"cycles", r.cleared_cycle - r.input_cycle},
+                     {"us", (r.cleared_ns - r.input_ns) / 1000U},
+                     {"from_change_us", (r.cleared_ns - r.change_ns) / 1000U},
+                     {"input_exchange", r.input_cycle},
+                     {"cleared_exchange", r.cleared_cycle}};
   } else {
     j["reaction"] = nullptr;
   }

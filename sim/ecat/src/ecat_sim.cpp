@@ -102,6 +102,7 @@ void serve_client(EmulatedCell& cell, Client& c) {
   }
   c.buf.append(b, static_cast<std::size_t>(n));
   for (std::size_t nl = c.buf.find('\n'); nl != std::string::npos; nl = c.buf.find('\n')) {
+    cell.set_time(now_ns());  // the reaction on the wire is timed from the contact's change
     const std::string reply = control_line(cell, c.buf.substr(0, nl)) + "\n";
     c.buf.erase(0, nl + 1U);
     if (send(c.fd, reply.data(), reply.size(), MSG_NOSIGNAL) < 0) {

@@ -16,6 +16,49 @@ constexpr bool bit_at(std::uint8_t byte, std::uint64_t i) noexcept {
   return ((static_cast<unsigned>(byte) >> (i % 8U)) & 1U) != 0U;
 }
 
+void put_bit(std::uint8_t& byte, std::uint64_t i, bool v) noexcept {
+  const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
+  byte = static_cast<std::uint8_t>(v ? (byte | m) : (byte & ~m));
+}
+
+constexpr std::uint8_t kFmmuRead = 1U;   // FMMU type register (+11): bit 0 read, bit 1 write
+constexpr std::uint8_t kFmmuWrite = 2U;
+
+// ETG.1000.4 6.6: every active FMMU of the direction maps a bit range of the logical
+// address space onto a bit range of the ESC's memory. f(memory bit, datagram bit) for
+// each bit of the datagram [logical, logical + bytes) that one of them maps; true when
+// there was at least one.
+template <class F>
+bool for_each_mapped_bit(const std::uint8_t* mem, std::uint32_t logical, std::size_t bytes, std::uint8_t dir,
+                         F&& f) noexcept {
+  bool hit = false;
+  const std::uint64_t dg_first = static_cast<std::uint64_t>(logical) * 8U;
+  const std::uint64_t dg_last = dg_first + bytes * 8U - 1U;
+  for (std::size_t i = 0; i < kFmmus && bytes != 0U; ++i) {
+    const std::uint8_t* fm = &mem[reg::fmmu + i * 16U];
+    const std::uint32_t lstart = static_cast<std::uint32_t>(fm[0] | (fm[1] << 8U) | (fm[2] << 16U)) |
+                                 (static_cast<std::uint32_t>(fm[3]) << 24U);
+    const auto len = static_cast<std::uint16_t>(fm[4] | (fm[5] << 8U));
+    const auto phys = static_cast<std::uint16_t>(fm[8] | (fm[9] << 8U));
+    if ((fm[12] & 1U) == 0U || (fm[11] & dir) == 0U || len == 0U) {
+      continue;
+    }
+    const std::uint64_t first = static_cast<std::uint64_t>(lstart) * 8U + (fm[6] & 7U);
+    const std::uint64_t last = (static_cast<std::uint64_t>(lstart) + len - 1U) * 8U + (fm[7] & 7U);
+    const std::uint64_t lo = std::max(first, dg_first);
+    const std::uint64_t hi = std::min(last, dg_last);
+    for (std::uint64_t b = lo; b <= hi && lo <= hi; ++b) {
+      const std::uint64_t pbit = static_cast<std::uint64_t>(phys) * 8U + (fm[10] & 7U) + (b - first);
+      if (pbit / 8U >= kEscMemory) {
+        break;
+      }
+      f(pbit, b - dg_first);
+      hit = true;
+    }
+  }
+  return hit;
+}
+
 struct Range {
   std::uint16_t first;
   std::uint16_t last;
@@ -201,35 +244,10 @@ void Esc::on_eeprom_control() noexcept {
 }
 
 bool Esc::logical_write(std::uint32_t logical, std::span<const std::uint8_t> data, std::uint64_t now_ns) noexcept {
-  bool hit = false;
-  const std::uint64_t dg_first = static_cast<std::uint64_t>(logical) * 8U;
-  const std::uint64_t dg_last = dg_first + data.size() * 8U - 1U;
-  for (std::size_t i = 0; i < kFmmus && !data.empty(); ++i) {
-    const std::uint8_t* f = &mem_[reg::fmmu + i * 16U];
-    const std::uint32_t lstart = static_cast<std::uint32_t>(f[0] | (f[1] << 8U) | (f[2] << 16U)) |
-                                 (static_cast<std::uint32_t>(f[3]) << 24U);
-    const auto len = static_cast<std::uint16_t>(f[4] | (f[5] << 8U));
-    const auto phys = static_cast<std::uint16_t>(f[8] | (f[9] << 8U));
-    if ((f[12] & 1U) == 0U || (f[11] & 2U) == 0U || len == 0U) {
-      continue;
-    }
-    const std::uint64_t first = static_cast<std::uint64_t>(lstart) * 8U + (f[6] & 7U);
-    const std::uint64_t last = (static_cast<std::uint64_t>(lstart) + len - 1U) * 8U + (f[7] & 7U);
-    const std::uint64_t lo = std::max(first, dg_first);
-    const std::uint64_t hi = std::min(last, dg_last);
-    for (std::uint64_t b = lo; b <= hi && lo <= hi; ++b) {
-      const std::uint64_t pbit = static_cast<std::uint64_t>(phys) * 8U + (f[10] & 7U) + (b - first);
-      if (pbit / 8U >= kEscMemory) {
-        break;
-      }
-      const std::uint64_t d = b - dg_first;
-      const bool v = bit_at(data[d / 8U], d);
-      auto& m = mem_[pbit / 8U];
-      const auto bit = static_cast<std::uint8_t>(1U << (pbit % 8U));
-      m = static_cast<std::uint8_t>(v ? (m | bit) : (m & ~bit));
-      hit = true;
-    }
-  }
+  const bool hit = for_each_mapped_bit(mem_.data(), logical, data.size(), kFmmuWrite,
+                                       [&](std::uint64_t pbit, std::uint64_t d) {
+                                         put_bit(mem_[pbit / 8U], pbit, bit_at(data[d / 8U], d));
+                                       });
   if (hit) {
     last_output_ns_ = now_ns;
   }
@@ -237,36 +255,9 @@ bool Esc::logical_write(std::uint32_t logical, std::span<const std::uint8_t> dat
 }
 
 bool Esc::logical_read(std::uint32_t logical, std::span<std::uint8_t> data) const noexcept {
-  bool hit = false;
-  const std::uint64_t dg_first = static_cast<std::uint64_t>(logical) * 8U;
-  const std::uint64_t dg_last = dg_first + data.size() * 8U - 1U;
-  for (std::size_t i = 0; i < kFmmus && !data.empty(); ++i) {
-    const std::uint8_t* f = &mem_[reg::fmmu + i * 16U];
-    const std::uint32_t lstart = static_cast<std::uint32_t>(f[0] | (f[1] << 8U) | (f[2] << 16U)) |
-                                 (static_cast<std::uint32_t>(f[3]) << 24U);
-    const auto len = static_cast<std::uint16_t>(f[4] | (f[5] << 8U));
-    const auto phys = static_cast<std::uint16_t>(f[8] | (f[9] << 8U));
-    if ((f[12] & 1U) == 0U || (f[11] & 1U) == 0U || len == 0U) {
-      continue;
-    }
-    const std::uint64_t first = static_cast<std::uint64_t>(lstart) * 8U + (f[6] & 7U);
-    const std::uint64_t last = (static_cast<std::uint64_t>(lstart) + len - 1U) * 8U + (f[7] & 7U);
-    const std::uint64_t lo = std::max(first, dg_first);
-    const std::uint64_t hi = std::min(last, dg_last);
-    for (std::uint64_t b = lo; b <= hi && lo <= hi; ++b) {
-      const std::uint64_t pbit = static_cast<std::uint64_t>(phys) * 8U + (f[10] & 7U) + (b - first);
-      if (pbit / 8U >= kEscMemory) {
-        break;
-      }
-      const bool v = bit_at(mem_[pbit / 8U], pbit);
-      const std::uint64_t d = b - dg_first;
-      auto& out = data[d / 8U];
-      const auto bit = static_cast<std::uint8_t>(1U << (d % 8U));
-      out = static_cast<std::uint8_t>(v ? (out | bit) : (out & ~bit));
-      hit = true;
-    }
-  }
-  return hit;
+  return for_each_mapped_bit(mem_.data(), logical, data.size(), kFmmuRead, [&](std::uint64_t pbit, std::uint64_t d) {
+    put_bit(data[d / 8U], d, bit_at(mem_[pbit / 8U], pbit));
+  });
 }
 
 std::span<const std::uint8_t> Esc::outputs() const noexcept {

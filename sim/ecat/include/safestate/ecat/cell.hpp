@@ -71,18 +71,28 @@ class EmulatedCell {
   [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return out_; }
   [[nodiscard]] const hal::ProcessImageIn& last_inputs() const noexcept { return in_; }
   [[nodiscard]] std::uint64_t cycles() const noexcept { return cycles_; }
-  // Safety reaction on the wire: from the plant cycle in which an input contact changed
-  // (as the master will read it) to the first exchange whose outputs clear the contactor.
+  // Safety reaction on the wire (issue 13 item 7): an input contact that changes while the
+  // contactor output is closed starts a measurement; the exchange that carries the changed
+  // inputs to the master and the first exchange whose outputs clear the contactor end it.
+  // A change while the contactor is open starts nothing (so the second channel of an
+  // E-stop, pressed after the first opened it, keeps the first channel's figure), and
+  // closing the contactor again forgets the last figure. Exchange numbers are plant cycles.
   struct Reaction {
-    std::uint64_t input_cycle = 0;
+    bool armed = false;               // an input changed while the contactor was closed
+    bool carried = false;             // the exchange carrying it has passed
+    bool cleared = false;             // the contactor bit came back cleared
+    std::uint64_t change_ns = 0;      // when the contact changed (the control channel)
+    std::uint64_t input_cycle = 0;    // exchange that carries the changed inputs out
     std::uint64_t input_ns = 0;
-    std::uint64_t cleared_cycle = 0;  // 0 = not since the last input change
+    std::uint64_t cleared_cycle = 0;  // first exchange with the contactor bit cleared
     std::uint64_t cleared_ns = 0;
   };
-  void mark_input_change() noexcept { reaction_ = Reaction{cycles_, now_ns_, 0, 0}; }
+  void mark_input_change() noexcept;
   [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
 
  private:
+  void time_reaction(bool was_closed) noexcept;
+
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
   Segment segment_;
