@@ -4,6 +4,7 @@
 #include <cstring>
 #include <string>
 
+#include "safestate/hal/pdo_bytes.hpp"
 #include "safestate/motion/robot.hpp"
 
 namespace safestate::ecat {
@@ -58,28 +59,11 @@ SubdeviceDesc drive(std::size_t axis) {
   return d;
 }
 
-void set_bit(std::uint8_t* b, std::size_t i, bool v) noexcept {
-  const auto m = static_cast<std::uint8_t>(1U << (i % 8U));
-  b[i / 8U] = static_cast<std::uint8_t>(v ? (b[i / 8U] | m) : (b[i / 8U] & ~m));
-}
-bool get_bit(const std::uint8_t* b, std::size_t i) noexcept { return ((static_cast<unsigned>(b[i / 8U]) >> (i % 8U)) & 1U) != 0U; }
-void put16(std::uint8_t* p, std::uint16_t v) noexcept {
-  p[0] = static_cast<std::uint8_t>(v & 0xFFU);
-  p[1] = static_cast<std::uint8_t>(v >> 8U);
-}
-void put32(std::uint8_t* p, std::int32_t v) noexcept {
-  const auto u = static_cast<std::uint32_t>(v);
-  for (std::size_t k = 0; k < 4U; ++k) {
-    p[k] = static_cast<std::uint8_t>((u >> (8U * k)) & 0xFFU);
-  }
-}
-std::int32_t get32(const std::uint8_t* p) noexcept {
-  std::uint32_t u = 0;
-  for (std::size_t k = 0; k < 4U; ++k) {
-    u |= static_cast<std::uint32_t>(p[k]) << (8U * k);
-  }
-  return static_cast<std::int32_t>(u);
-}
+using hal::pdo::get32;
+using hal::pdo::get_bit;
+using hal::pdo::put16;
+using hal::pdo::put32;
+using hal::pdo::set_bit;
 std::int32_t to_counts(float rad) noexcept {
   return static_cast<std::int32_t>(std::lround(static_cast<double>(rad) * kCountsPerRad));
 }
