@@ -427,6 +427,11 @@ int run_main(const RunOptions& opt) {
   std::printf("safestate run: stopped in state %s after %llu cycles; overruns %llu, max lateness %.3f ms, max cycle %.3f ms\n",
               core::to_string(cell.out().state), static_cast<unsigned long long>(m.cycles.load()),
               static_cast<unsigned long long>(m.overruns.load()), ms(m.lateness_max_ns.load()), ms(m.exec_max_ns.load()));
+  if (bus) {
+    std::printf("safestate run: EtherCAT: %llu exchanges, %llu late or stray frames dropped\n",
+                static_cast<unsigned long long>(bus->exchanges()),
+                static_cast<unsigned long long>(hal::ethercat::Backend::stray_frames()));
+  }
   return 0;
 }
 

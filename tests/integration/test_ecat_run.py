@@ -7,6 +7,7 @@ Run as root:  SAFESTATE_BIN=build/bin/safestate .venv/bin/python -m pytest tests
 """
 
 import json
+import signal
 import os
 import socket
 import subprocess
@@ -32,7 +33,7 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=(), sim_late_s=0.0):
+    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=()):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
         self.control = os.path.join(self.tmp.name, "ctl.sock")
@@ -51,7 +52,7 @@ class Cell:
             self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm",
                                   "--ecat-sim-control", self.control, "--port",
                                   str(self.port), "--db", os.path.join(self.tmp.name, "ev.db"), "--static",
-                                  self.tmp.name)
+                                  self.tmp.name, *run_args)
             if sim_late_s:  # the segment powers up after the controller
                 time.sleep(sim_late_s)
                 self.sim = start_sim()
@@ -210,6 +211,29 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     assert text == ("Fieldbus lost at subdevice 8 (drive axis 6)" if how == "unplug" else
                     "Fieldbus lost: no answer from subdevice 1 (DI safety contacts) on"), text
     assert s["cause"] == text, s
+
+
+def test_late_frames_do_not_end_the_bus():
+    """The emulator stalls 40 ms, longer than the 20 ms frame timeout: the answers to the
+    frames sent meanwhile come back after their PDUs timed out. The frame thread drops them
+    and the bus goes on (ethercrab's own frame task ended on such a frame, and every later
+    exchange timed out: a permanent FIELDBUS_LOST). The watchdog is 1 s here so that only a
+    bus that never comes back can trip it."""
+    c = Cell(run_args=["--watchdog-ms", "1000"])
+    try:
+        c.wait_state("ESTOP_RESET_NEEDED")
+        for _ in range(5):
+            c.sim.send_signal(signal.SIGSTOP)
+            time.sleep(0.04)
+            c.sim.send_signal(signal.SIGCONT)
+            time.sleep(0.2)
+        before = c.wire()["frames"]
+        time.sleep(2.0)  # twice the watchdog
+        s = c.status()
+        assert s["state"] == "ESTOP_RESET_NEEDED" and s["alarms"] == [], (s, c.log("run"))
+        assert c.wire()["frames"] > before + 500, "the master stopped exchanging frames"
+    finally:
+        c.close()
 
 
 def test_a_segment_that_powers_up_after_the_controller_is_scanned_again():

@@ -28,6 +28,7 @@ int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
                      std::size_t in_len, SsEcatCycle* cycle);
+std::uint64_t ss_ecat_stray_frames();
 }
 
 namespace safestate::hal::ethercat {
@@ -146,6 +147,8 @@ void Backend::boot(const std::string& ifname) {
     boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
   }
 }
+
+std::uint64_t Backend::stray_frames() noexcept { return ss_ecat_stray_frames(); }
 
 void Backend::lose(std::uint8_t position, const char* why, bool silent) noexcept {
   if (health_.ok) {

@@ -4,9 +4,11 @@
 //! Open and scan allocate and may take seconds (they run in BOOT); the cyclic exchange does
 //! not allocate and blocks only for the frame round trip, bounded by the PDU timeout.
 
+mod txrx;
+
 use core::ffi::{c_char, CStr};
 use ethercrab::{
-    std::{ethercat_now, tx_rx_task},
+    std::ethercat_now,
     subdevice_group::{Op, SafeOp},
     MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
 };
@@ -136,7 +138,7 @@ pub unsafe extern "C" fn ss_ecat_open(
         write_err(err, errlen, "PDU storage already in use");
         return core::ptr::null_mut();
     };
-    let task = match tx_rx_task(&name, tx, rx) {
+    let task = match txrx::TxRx::new(&name, tx, rx) {
         Ok(t) => t,
         Err(e) => {
             write_err(err, errlen, &format!("cannot open {}: {} (needs CAP_NET_RAW)", name, e));
@@ -147,7 +149,7 @@ pub unsafe extern "C" fn ss_ecat_open(
         realtime(tx_rx_priority);
         // async-io's block_on drives the socket reactor on this (real-time) thread itself,
         // instead of waking it from async-io's ordinary background thread.
-        let _ = async_io::block_on(task);
+        async_io::block_on(task);
     });
     if spawned.is_err() {
         write_err(err, errlen, "cannot start the frame thread");
@@ -295,4 +297,11 @@ pub unsafe extern "C" fn ss_ecat_exchange(
             -1
         }
     }
+}
+
+/// Frames received that matched no PDU in flight (late after their timeout, or corrupted):
+/// counted and dropped by the frame thread, which carries on.
+#[no_mangle]
+pub extern "C" fn ss_ecat_stray_frames() -> u64 {
+    txrx::STRAY_FRAMES.load(std::sync::atomic::Ordering::Relaxed)
 }

@@ -85,6 +85,9 @@ class Backend final : public hal::Backend {
   // Latched: the first loss of the bus and whom it concerns.
   [[nodiscard]] const Health& health() const noexcept { return health_; }
   [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
+  // Frames that came back matching no frame in flight (late after the frame timeout, or
+  // corrupted): dropped by the master's frame thread, which carries on.
+  [[nodiscard]] static std::uint64_t stray_frames() noexcept;
   // The same, for another thread (the supervisor's log): once the bus is lost, the
   // position (1-based, 0 = the bus as a whole), whether it is silent from there on, and
   // the reason; else why == nullptr.
