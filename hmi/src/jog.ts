@@ -209,9 +209,15 @@ export class JogPanel {
     hold.btn.classList.remove('held', 'refused');
     this.onHold(null);
     if (this.link.connected) {
-      // After a refused jog there is nothing to stop: jog_stop is still sent, to be safe,
-      // and its answer goes to the history only.
-      this.link.command('jog_stop', {}, hold.refused ? 'none' : 'refusals');
+      // jog_stop is refused only outside MANUAL_JOGGING (SPEC §4, §5): the jog had already
+      // ended (a refused jog, an E-stop, a stop, a mode change, the keep-alive). So its
+      // answer goes to the history only, never shown as a refusal of the operator's; one
+      // the controller did not take at all is said here (the keep-alive stops the jog).
+      this.link.command('jog_stop', {}, 'none', (o: Outcome) => {
+        if (o.result === 'QUEUE_FULL' || o.result === 'NOT_HELLO' || o.result === 'BAD_MESSAGE') {
+          setText(this.note, `Jog stop not taken (${o.result}): the controller stops the jog by its keep-alive timeout.`);
+        }
+      });
       setText(this.note, `Jog stopped (${why}).`);
     } else {
       setText(this.note, 'Connection lost: the controller stops the jog by its keep-alive timeout.');

@@ -217,6 +217,10 @@ test('hold + on axis 1: the emulated drive moves; the E-stop of the panel stops 
   assert.ok(a - before1 > 0.1, `axis 1 stays where the jog took it (${before1} -> ${a})`);
   const alarms = await page.evaluate(() => window.safestateHmi.status.alarms);
   assert.ok(alarms.includes('ESTOP_PRESSED'), `alarms ${alarms}`);
+  // The jog button was released after the E-stop had ended the jog: its jog_stop is
+  // answered ESTOP_ACTIVE, which is no refusal of the operator's to show.
+  const shown = await page.evaluate(() => ({ ...document.getElementById('cmd-result').dataset }));
+  assert.ok(!(shown.cmd === 'jog_stop' && shown.tone === 'refused'), `jog_stop shown as refused: ${JSON.stringify(shown)}`);
   console.log(`ecat hmi: axis 1 ${before1.toFixed(3)} -> ${a.toFixed(3)} rad (moving ${r.q0.toFixed(4)} -> ` +
     `${r.q1.toFixed(4)} in 20 ms at the E-stop); reaction on the wire ${JSON.stringify(w.reaction)}`);
 });
