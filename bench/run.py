@@ -401,8 +401,7 @@ def render(r):
           f"| cyclictest | {cy['cycles']:,} | {cy['lateness_us']['p50']} | {cy['lateness_us']['p99']} | "
           f"{cy['lateness_us']['p999']} | {cy['lateness_us']['max']} | {cy['overruns']} |",
           "", f"Longest cycle of the loop (execution, not lateness): {lo['exec_max_us']:.1f} µs. An overrun is a"
-          " cycle whose deadline passed before it could start (lateness ≥ one period).", "",
-          ""]
+          " cycle whose deadline passed before it could start (lateness ≥ one period).", ""]
     L += ws_section(w) if "runs" in w else [reading_ws(w)]
     if "ecat" in r:
         e = r["ecat"]

@@ -22,6 +22,9 @@
 //     segment for N cycles (default 2,000: two seconds of one CPU). The data the gateway's
 //     wake-up after the boundary is chosen from (gateway/src/gateway.cpp, kFirstLook).
 //
+// Environment WS_RTT_RAW=FILE (rtt with --shm): each pendant command's wait for the
+// boundary and time after it (us), one pair a line, for a closer look.
+//
 // A measurement, not a test: nothing is asserted except that the replies are the ones the
 // series is about (a wrong reply ends the run with an error: the figure would be wrong).
 #include <algorithm>

@@ -37,8 +37,8 @@ constexpr auto kStatusPeriod = 20ms;
 constexpr auto kLivenessPeriod = 250ms;
 constexpr auto kAttachTimeout = 5s;
 // While replies are due, the first look after the core's cycle boundary. The core wakes
-// late and runs its cycle, then publishes it: on the bench machine 18 us after the boundary
-// at p50, 22 us at p90, 35 us at p99 (`ws_rtt cycle-done`, docs/performance.md); this
+// late and runs its cycle, then publishes it: on the bench machine 12-21 us after the
+// boundary at p50 and 35-49 us at p99 (`ws_rtt cycle-done`, docs/performance.md); this
 // process's own timer wakes 20-50 us late on top of the time asked for, so a first look
 // at 25 us finds the cycle published nearly always, about 100 us sooner than the 120 us
 // this replaced.
