@@ -5,7 +5,7 @@
   2. scan cycle percentiles over 10^6 cycles     (bench_cycle times: supervisor, reference, full)
   3. instructions per cycle                      (valgrind --tool=callgrind on bench_cycle)
   4. real-time loop lateness vs cyclictest       (safestate rtbench, cyclictest; same interval)
-  5. WebSocket round trip and status latency     (bench/ws_latency.py)
+  5. WebSocket round trip and status latency     (bench/ws_rtt, C++; bench/ws_latency.py, Python)
   6. heap allocations per cycle                  (bench_cycle allocs)
   7. Cortex-M4 .text/.bss of core/ and motion/   (tools/scripts/embedded.sh)
   8. EtherCAT exchange round trip and the safety reaction on the wire
@@ -229,10 +229,150 @@ def patch_ecat(e):
           f"reaction max {rc['max']} cycle(s) in {e['reaction']['presses']} presses")
 
 
+WS_RUNS = int(os.environ.get("WS_RUNS", "3"))
+WS_IDLE_S = 10
+
+
+def free_port():
+    import socket  # noqa: PLC0415
+    with socket.socket() as so:
+        so.bind(("127.0.0.1", 0))
+        return so.getsockname()[1]
+
+
+def gateway_cpu_s(pid):
+    """CPU time (user + system, s) the process has used so far, from /proc."""
+    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def ws_run(k):
+    """One run on a fresh `safestate run --no-opcua` (the OPC UA adapter's start-up would run
+    during the measurement): the gateway's CPU at idle, when the core publishes its cycles,
+    the C++ client's round trips (pendant and observer), then the Python client's."""
+    import tempfile  # noqa: PLC0415
+    import time  # noqa: PLC0415
+    import urllib.request  # noqa: PLC0415
+    port = free_port()
+    with tempfile.TemporaryDirectory() as d:  # the event log on the same disk as in use
+        proc = subprocess.Popen([os.path.join(BIN, "safestate"), "run", "--no-opcua", "--port", str(port),
+                                 "--db", os.path.join(d, "ev.db")], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            status = None
+            for _ in range(200):
+                try:
+                    status = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=1))
+                    break
+                except OSError:
+                    time.sleep(0.05)
+            gw = status["gateway_pid"]
+            time.sleep(1.0)  # start-up over
+            c0, t0 = gateway_cpu_s(gw), time.monotonic()
+            time.sleep(WS_IDLE_S)
+            idle = (gateway_cpu_s(gw) - c0) / (time.monotonic() - t0)
+            shm = f"/safestate-{port}"
+            cyc = json.loads(run([os.path.join(BIN, "ws_rtt"), "cycle-done", "--shm", shm, "--cycles", "2000"]))
+            c0, t0 = gateway_cpu_s(gw), time.monotonic()
+            cpp = json.loads(run([os.path.join(BIN, "ws_rtt"), "rtt", "--port", str(port), "--shm", shm,
+                                  "--commands", "2000"]))
+            busy = (gateway_cpu_s(gw) - c0) / (time.monotonic() - t0)
+            f = os.path.join(OUT, f"ws_py.{k}.json")
+            run([PY, os.path.join(ROOT, "bench", "ws_latency.py"), "--port", str(port), "--json", f])
+            py = json.load(open(f))
+        finally:
+            proc.send_signal(2)
+            proc.wait(timeout=15)
+    return {"cpp": cpp, "python": py, "cycle_done": cyc["published_after_boundary_us"],
+            "gateway_cpu": {"idle": idle, "bench": busy, "idle_s": WS_IDLE_S}}
+
+
 def ws():
-    f = os.path.join(OUT, "ws.json")
-    run([PY, os.path.join(ROOT, "bench", "ws_latency.py"), "--bin", os.path.join(BIN, "safestate"), "--json", f])
-    return json.load(open(f))
+    return {"runs": [ws_run(k) for k in range(WS_RUNS)]}
+
+
+def ws_goal(w):
+    """(met, worst p50, worst p99) over the runs, from the C++ client's pendant series."""
+    p50 = max(r["cpp"]["pendant_ms"]["p50"] for r in w["runs"])
+    p99 = max(r["cpp"]["pendant_ms"]["p99"] for r in w["runs"])
+    return p50 <= 1.0 and p99 <= 2.0, p50, p99
+
+
+def ws_goal_row(w):
+    if "runs" not in w:  # a results.json from before the C++ client
+        return "| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | (run `bench/run.py --ws`) | |"
+    met, p50, p99 = ws_goal(w)
+    return (f"| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | {p50:.2f} ms, {p99:.2f} ms "
+            f"(worst of {len(w['runs'])} runs) | {verdict(met)} |")
+
+
+def ws_section(w):
+    """The WebSocket section of the document, from its own figures only."""
+    runs = w["runs"]
+    L = ["## Protocol latency on loopback (ms)", "",
+         f"{len(runs)} runs, each on a fresh `safestate run --no-opcua` (the OPC UA adapter is left out: its",
+         "start-up would run during the measurement), the event log on disk as in use. In each run:",
+         "",
+         "- `ws_rtt cycle-done` (bench/ws_rtt.cpp) reads the segment for 2,000 cycles: when, after its cycle",
+         "  boundary, the core has run its cycle and published it (lateness + execution);",
+         "- `ws_rtt rtt`, a C++ client (Boost.Beast, synchronous): 2,000 `set_mode` commands as the **pendant**,",
+         "  each answered by the core (MODE_BY_SELECTOR_ONLY, checked), paced at random 4-6 ms apart so the phase",
+         "  against the 1 ms cycle is random (the client reads the core's next boundary from the segment when it",
+         "  sends: that splits each round trip into the wait for the boundary and what follows it); then 2,000 as",
+         "  an **observer**, answered NOT_CONTROL_OWNER by the gateway itself: the two WebSocket hops, the JSON",
+         "  and the client, without the core. 20 commands of each series warm up first and are not counted;",
+         "- `bench/ws_latency.py`, the Python client (`websockets`), on the same server: the same pendant",
+         "  commands, and a `sim` input change until the first `status` message showing it (this includes the",
+         "  gateway's 50 Hz status push);",
+         f"- the gateway's CPU time (/proc/PID/stat, user + system) over {runs[0]['gateway_cpu']['idle_s']} s with no client, "
+         "and during the C++ client's run.", "",
+         "| run | client | series | n | p50 | p90 | p99 | max |", "|---|---|---|---|---|---|---|---|"]
+    for k, r in enumerate(runs, 1):
+        for key, name in [("pendant_ms", "pendant, through the core"), ("observer_ms", "observer, gateway only")]:
+            x = r["cpp"][key]
+            L.append(f"| {k} | C++ | {name} | {x['n']} | {x['p50']:.2f} | {x['p90']:.2f} | {x['p99']:.2f} | {x['max']:.2f} |")
+        for key, name in [("round_trip_ms", "pendant, through the core"), ("status_ms", "input change → status")]:
+            x = r["python"][key]
+            L.append(f"| {k} | Python | {name} | {x['n']} | {x['p50']:.2f} | | {x['p99']:.2f} | {x['max']:.2f} |")
+    L += ["", "Where a pendant's round trip goes (µs; C++ client):", "",
+          "| run | wait for the next cycle boundary, p50 | core publishes its cycle after the boundary, p50 / p99 | "
+          "boundary → reply at the client, p50 | commands that missed the first boundary | "
+          "gateway CPU idle | gateway CPU during the C++ run |",
+          "|---|---|---|---|---|---|---|"]
+    for k, r in enumerate(runs, 1):
+        c, cd, cpu = r["cpp"], r["cycle_done"], r["gateway_cpu"]
+        L.append(f"| {k} | {c['pendant_to_boundary_us']['p50']:.0f} | {cd['p50']:.0f} / {cd['p99']:.0f} | "
+                 f"{c['pendant_after_boundary_us']['p50']:.0f} | {c['pendant_missed_boundary']} of {c['pendant_ms']['n']} | "
+                 f"{100 * cpu['idle']:.1f} % | {100 * cpu['bench']:.1f} % |")
+    return L
+
+
+def reading_ws(w):
+    if "runs" not in w:
+        return "- The WebSocket round trip has not been measured with the C++ client yet (`bench/run.py --ws`)."
+    runs = w["runs"]
+    met, p50, p99 = ws_goal(w)
+    rng = lambda f: f"{min(f(r) for r in runs):.2f}-{max(f(r) for r in runs):.2f}"
+    obs = rng(lambda r: r["cpp"]["observer_ms"]["p50"])
+    wait = rng(lambda r: r["cpp"]["pendant_to_boundary_us"]["p50"] / 1000)
+    after = rng(lambda r: r["cpp"]["pendant_after_boundary_us"]["p50"] / 1000)
+    pyp50 = rng(lambda r: r["python"]["round_trip_ms"]["p50"])
+    pycost = rng(lambda r: r["python"]["round_trip_ms"]["p50"] - r["cpp"]["pendant_ms"]["p50"])
+    verdict_s = ("meets the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms) in every run" if met else
+                 f"misses the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms) by {max(0.0, p50 - 1.0):.2f} ms at p50 and "
+                 f"{max(0.0, p99 - 2.0):.2f} ms at p99 in the worst run")
+    return (f"- A pendant's command round trip, C++ client, is {rng(lambda r: r['cpp']['pendant_ms']['p50'])} ms at p50 and "
+            f"{rng(lambda r: r['cpp']['pendant_ms']['p99'])} ms at p99 over {len(runs)} runs, which {verdict_s}. It is the wait "
+            f"for the core's next cycle boundary (uniform over the cycle: {wait} ms at p50; scan-cycle semantics, the core "
+            f"takes commands once per cycle) plus {after} ms at p50 from that boundary to the reply in the client's hands: "
+            "the core's lateness and cycle, the gateway's wake-up (a first look 25 µs after the boundary, then every 25 µs "
+            "until the core has published the cycle; the loop publishes its next boundary with a plain store, no system "
+            "call added to the real-time thread) and the reply's hop. The gateway and client alone (observer, answered "
+            f"by the gateway) take {obs} ms at p50. A command sent less than about 0.1 ms before a boundary misses it "
+            "(the hop to the gateway) and waits one more cycle: the p99. The event log's commit (an fsync) is made "
+            "0.4 ms after the replies: made right after them, it delayed the clients' reading by about 0.2 ms at p50 on "
+            f"this VM (measured when this was changed). The Python client (`websockets`) sees {pyp50} ms at p50, "
+            f"{pycost} ms more than the C++ client on the same server: its own cost on this machine, not SafeState's. Idle, the gateway wakes every 2 ms (its poll), 50 times a second for "
+            "status and 4 times for liveness.")
 
 
 def slowest():
@@ -295,9 +435,7 @@ def render(r):
           f"| Full scan cycle < 10 µs at p99.9 | {full_p999 / 1000:.2f} µs | {verdict(full_p999 < 10000)} |",
           f"| RT lateness p99.9 within 1.5× cyclictest's | {lp:.1f} µs vs {cp:.1f} µs ({lp / max(cp, 1e-9):.2f}×) | {verdict(lp <= 1.5 * cp)} |",
           f"| Zero overruns in {RT_SECONDS} s | {rtr['loop']['overruns']} | {verdict(rtr['loop']['overruns'] == 0)} |",
-          f"| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | {w['round_trip_ms']['p50']:.2f} ms, "
-          f"{w['round_trip_ms']['p99']:.2f} ms | "
-          f"{verdict(w['round_trip_ms']['p50'] <= 1.0 and w['round_trip_ms']['p99'] <= 2.0)} |",
+          ws_goal_row(w),
           *([ecat_goal_row(r["ecat"])] if "reaction" in r.get("ecat", {}) else []),
           f"| Zero heap allocations per cycle | {a['allocations']} in {a['cycles']:,} cycles | {verdict(a['allocations'] == 0)} |",
           f"| core/ `.text` ≤ 32 KiB on a Cortex-M4 | {text_core / 1024:.1f} KiB | {verdict(text_core <= 32 * 1024)} |",
@@ -348,15 +486,8 @@ def render(r):
           f"| cyclictest | {cy['cycles']:,} | {cy['lateness_us']['p50']} | {cy['lateness_us']['p99']} | "
           f"{cy['lateness_us']['p999']} | {cy['lateness_us']['max']} | {cy['overruns']} |",
           "", f"Longest cycle of the loop (execution, not lateness): {lo['exec_max_us']:.1f} µs. An overrun is a"
-          " cycle whose deadline passed before it could start (lateness ≥ one period).", "",
-          "## Protocol latency on loopback (ms)", "",
-          "`bench/ws_latency.py` against `safestate run`: a WebSocket `command` through gateway, shared memory",
-          "and a core cycle back to its `reply`; and a `sim` input change until the first `status` message",
-          "showing it (this includes the gateway's 50 Hz status push).", "",
-          "| | n | p50 | p99 | max |", "|---|---|---|---|---|"]
-    for k, name in [("round_trip_ms", "command round trip"), ("status_ms", "input change → status")]:
-        s = w[k]
-        L.append(f"| {name} | {s['n']} | {s['p50']:.2f} | {s['p99']:.2f} | {s['max']:.2f} |")
+          " cycle whose deadline passed before it could start (lateness ≥ one period).", ""]
+    L += ws_section(w) if "runs" in w else [reading_ws(w)]
     if "reaction" in r.get("ecat", {}):
         L += ecat_section(r["ecat"])
     L += ["", "## Footprint", "",
@@ -412,46 +543,26 @@ def reading(r, ratio, ratio_w, sup_p999, full_p999, lp, cp):
     return out
 
 
-def reading_ws(w):
-    rt = w["round_trip_ms"]
-    met = rt["p50"] <= 1.0 and rt["p99"] <= 2.0
-    verdict = ("meets the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms)" if met else
-               f"misses the goal (p50 ≤ 1.0 ms, p99 ≤ 2.0 ms) by {max(0.0, rt['p50'] - 1.0):.2f} ms at p50 and "
-               f"{max(0.0, rt['p99'] - 2.0):.2f} ms at p99. The design's own share is about 0.6 ms at p50 (half a "
-               "cycle's wait, the cycle, the wake-up 120 µs after the boundary); the rest is not yet explained: the "
-               "Python client and the gateway share two cores with other sessions' work on this VM, and runs on it "
-               "differed by 0.5 ms at p50, so a quiet-host measurement is still owed")
-    return (f"- A command's round trip through the gateway is {rt['p50']:.2f} ms at p50 and {rt['p99']:.2f} ms at "
-               f"p99, which {verdict}. While a reply is due the gateway sleeps until just after the core's next cycle "
-               "boundary (the loop publishes its next deadline in the segment with a plain store: no system call added "
-               "to the real-time thread) instead of polling every 2 ms, so a round trip is the wait for the next cycle "
-               "(half a cycle on average), one cycle's execution, and the two WebSocket hops.")
-
-
-def ws_only():
-    """Measures the WebSocket round trip alone and rewrites, in the document, the rows and
-    the sentence that come from it (the rest keeps the figures of the last full run)."""
-    w = ws()
+def ws_only(w=None):
+    """Measures the WebSocket round trip alone and rewrites, in the document, its goal row, its
+    section and its sentence under Reading (the rest keeps the figures of the last full run).
+    With w (`--ws-render`: build/bench/ws.json), rewrites them without measuring again."""
+    w = w or ws()
     res = os.path.join(OUT, "results.json")
     if os.path.exists(res):
         r = json.load(open(res))
         r["ws"] = w
         json.dump(r, open(res, "w"), indent=1)
+    json.dump(w, open(os.path.join(OUT, "ws.json"), "w"), indent=1)
     text = open(DOC).read()
-    rt, st = w["round_trip_ms"], w["status_ms"]
-    ok = rt["p50"] <= 1.0 and rt["p99"] <= 2.0
-    text = re.sub(r"^\| Command round trip .*$",
-                  f"| Command round trip p50 ≤ 1 ms, p99 ≤ 2 ms (issue 12) | {rt['p50']:.2f} ms, {rt['p99']:.2f} ms | "
-                  f"{'met' if ok else '**not met**'} |", text, flags=re.M)
-    text = re.sub(r"^\| command round trip \|.*$",
-                  f"| command round trip | {rt['n']} | {rt['p50']:.2f} | {rt['p99']:.2f} | {rt['max']:.2f} |", text, flags=re.M)
-    text = re.sub(r"^\| input change → status \|.*$",
-                  f"| input change → status | {st['n']} | {st['p50']:.2f} | {st['p99']:.2f} | {st['max']:.2f} |", text,
-                  flags=re.M)
-    sentence = reading_ws(w)
-    text = re.sub(r"^- A command's round trip through the gateway is .*$", sentence, text, flags=re.M)
+    text = re.sub(r"^\| Command round trip .*$", lambda m: ws_goal_row(w), text, flags=re.M)
+    text = re.sub(r"^## Protocol latency on loopback \(ms\)\n.*?(?=^## )", lambda m: "\n".join(ws_section(w)) + "\n\n",
+                  text, flags=re.M | re.S)
+    text = re.sub(r"^- (A command's|A pendant's command) round trip.*$", lambda m: reading_ws(w), text, flags=re.M)
     open(DOC, "w").write(text)
-    print(f"bench: WebSocket rows of {os.path.relpath(DOC, ROOT)} rewritten: p50 {rt['p50']:.2f} ms, p99 {rt['p99']:.2f} ms")
+    met, p50, p99 = ws_goal(w)
+    print(f"bench: WebSocket section of {os.path.relpath(DOC, ROOT)} rewritten: worst run p50 {p50:.2f} ms, "
+          f"p99 {p99:.2f} ms: goal {'met' if met else 'not met'}")
 
 
 def main():
@@ -461,6 +572,9 @@ def main():
         return
     if sys.argv[1:] == ["--ecat"]:  # only the EtherCAT part: measure it and patch its rows in place
         ecat_only()
+        return
+    if sys.argv[1:] == ["--ws-render"]:
+        ws_only(json.load(open(os.path.join(OUT, "ws.json"))))
         return
     if sys.argv[1:] == ["--render"]:  # rewrite the document from the last run's figures
         r = json.load(open(os.path.join(OUT, "results.json")))

@@ -4,14 +4,17 @@
 // messages.cpp; the core side and the event feed: hub.cpp; the event log: event_log.cpp.
 //
 // Waking: while commands wait for the core's reply, the poll runs just after the core's
-// next cycle boundary (published in the segment by the real-time loop, a plain store)
-// instead of every 2 ms, so a reply goes out within about one cycle; idle, every 2 ms.
+// next cycle boundary (published in the segment by the real-time loop, a plain store),
+// looking again at short intervals until the core has published that cycle, instead of
+// every 2 ms, so a reply goes out within about one cycle; idle, every 2 ms. The event log's
+// commit waits until the replies are out (kEventsAfterReplies).
 #include "safestate/gateway/gateway.hpp"
 
 #include <signal.h>
 #include <sys/prctl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <functional>
@@ -33,9 +36,24 @@ constexpr auto kPollPeriod = 2ms;
 constexpr auto kStatusPeriod = 20ms;
 constexpr auto kLivenessPeriod = 250ms;
 constexpr auto kAttachTimeout = 5s;
-// After the core's cycle boundary: its cycle (tens of us) has run and replied.
-constexpr auto kAfterBoundary = 120us;
-constexpr auto kRetry = 100us;  // the reply was not there yet
+// While replies are due, the first look after the core's cycle boundary. The core wakes
+// late and runs its cycle, then publishes it: on the bench machine 12-21 us after the
+// boundary at p50 and 35-49 us at p99 (`ws_rtt cycle-done`, docs/performance.md); this
+// process's own timer wakes 20-50 us late on top of the time asked for, so a first look
+// at 25 us finds the cycle published nearly always, about 100 us sooner than the 120 us
+// this replaced.
+constexpr auto kFirstLook = 25us;
+// The cycle has not been published yet (the core is late or still running): look again
+// this often, for at most kRetryWindow after the boundary. Beyond it the core is stalled
+// or not cycling and costs no more than the idle poll.
+constexpr auto kRetry = 25us;
+constexpr auto kRetryWindow = 500us;
+// The event log's commit (SQLite, synchronous=FULL: an fsync) right after the replies'
+// writes delayed the clients' reading of those replies by about 200 us at p50 on the bench
+// machine (the flush competes with them for the two vCPUs), although the replies had been
+// written first; started this long after them, the commit falls in the middle of the
+// cycle, away from the next replies, and the round trip lost those 200 us (docs/performance.md).
+constexpr auto kEventsAfterReplies = 400us;
 
 void say(const std::string& s) { std::fprintf(stderr, "safestate gateway: %s\n", s.c_str()); }
 
@@ -151,14 +169,17 @@ class Ticker {
 
 
 // The hub's poll: every 2 ms when idle; while replies are due, just after each of the
-// core's cycle boundaries. kick() re-arms it early when a command has been sent.
+// core's cycle boundaries, when the core has published that cycle. kick() re-arms it early
+// when a command has been sent.
 class Poller {
  public:
-  Poller(asio::io_context& ioc, Hub& hub, const bridge::Header& header) : timer_(ioc), hub_(hub), header_(header) {}
+  Poller(asio::io_context& ioc, Hub& hub, const bridge::Header& header)
+      : timer_(ioc), events_(ioc), hub_(hub), header_(header) {}
   void start() { arm(Clock::now() + kPollPeriod); }
   void stop() {
     stopped_ = true;
     timer_.cancel();
+    events_.cancel();
   }
   void kick() {
     if (!stopped_ && hub_.awaiting_core()) {
@@ -170,17 +191,19 @@ class Poller {
   }
 
  private:
+  // The next look while replies are due: at most 1 + kRetryWindow / kRetry wakes per cycle,
+  // and only while a reply is due (idle: every kPollPeriod).
   [[nodiscard]] Clock::time_point after_boundary(Clock::time_point now) const {
-    // steady_clock is CLOCK_MONOTONIC on Linux, the clock of the core's deadlines.
+    // steady_clock is CLOCK_MONOTONIC on Linux, the clock of the core's deadlines. The core
+    // stores its next boundary after it has published a cycle: while it still holds a
+    // boundary that has passed, that cycle is yet to be published.
     const auto boundary =
         Clock::time_point(std::chrono::nanoseconds(header_.next_cycle_ns.load(std::memory_order_acquire)));
-    const auto at = boundary + kAfterBoundary;
-    if (at > now && at < now + kPollPeriod) {
-      return at;
+    const auto first = boundary + kFirstLook;
+    if (first > now) {
+      return std::min(first, now + kPollPeriod);
     }
-    // The boundary has passed and the core has not published the next one yet: look
-    // again soon; a core that stalls for long (or does not publish) gets the idle period.
-    return (now - at < kPollPeriod) ? now + kRetry : now + kPollPeriod;
+    return (now - boundary < kRetryWindow) ? now + kRetry : now + kPollPeriod;
   }
   void arm(Clock::time_point at) {
     armed_ = at;
@@ -190,19 +213,31 @@ class Poller {
         return;
       }
       hub_.poll();
-      // The event log's commit (an fsync) comes after the replies' writes, which the
-      // sessions have posted: a reply never waits for the disk.
-      asio::post(timer_.get_executor(), [this] {
-        if (!stopped_) {
-          hub_.poll_events();
-        }
-      });
+      drain_events_later();
       const auto now = Clock::now();
       arm(hub_.awaiting_core() ? after_boundary(now) : now + kPollPeriod);
     });
   }
 
+  // The event log's commit (an fsync) comes kEventsAfterReplies after the replies of the
+  // poll, once coalesced: a reply never waits for the disk, nor does its client.
+  void drain_events_later() {
+    if (events_armed_) {
+      return;
+    }
+    events_armed_ = true;
+    events_.expires_after(kEventsAfterReplies);
+    events_.async_wait([this](beast::error_code ec) {
+      events_armed_ = false;
+      if (!ec && !stopped_) {
+        hub_.poll_events();
+      }
+    });
+  }
+
   asio::steady_timer timer_;
+  asio::steady_timer events_;
+  bool events_armed_ = false;
   Hub& hub_;
   const bridge::Header& header_;
   Clock::time_point armed_{};

@@ -40,6 +40,7 @@ class Observer(asyncio.Protocol):
         self.upgraded = False
         self.welcomed = False
         self.arrivals = []
+        self.cycles = []
         self.closed = False
         self.done = asyncio.get_running_loop().create_future()
         self.transport = None
@@ -92,10 +93,14 @@ class Observer(asyncio.Protocol):
             elif opcode == 0x8:
                 self.finish("closed by the server")
                 return
-            elif buf.startswith(b'{"type":"status"', start):
+            elif buf.startswith(b'{"type":"status","t":', start):
                 if self.go.is_set():
                     now = loop_time()
                     self.arrivals.append(now - self.go.t0)
+                    # The core's cycle the status was read at: when the gateway built it.
+                    digits = start + 21
+                    end = buf.index(b",", digits, start + ln)
+                    self.cycles.append(int(buf[digits:end]))
                     if now - self.go.t0 > WINDOW_S:
                         self.finish(None)
                         return
@@ -116,7 +121,8 @@ class Observer(asyncio.Protocol):
         if self.done.done():
             return
         self.closed = why is not None
-        self.out.append({"arrivals": self.arrivals, "closed": self.closed, "why": why})
+        self.out.append({"arrivals": self.arrivals, "cycles": self.cycles, "closed": self.closed, "why": why,
+                         "lag": self.go.lag})
         self.done.set_result(None)
         if self.transport:
             self.transport.close()
@@ -134,6 +140,7 @@ async def observer(url, ready, go, out):
 async def worker_main(url, n):
     go = asyncio.Event()
     go.t0 = 0.0
+    go.lag = []
     count = 0
 
     def ready():
@@ -152,7 +159,17 @@ async def worker_main(url, n):
     assert line.strip() == "GO", line
     go.t0 = loop.time()
     go.set()
+    go.lag = []
+
+    async def lag():
+        # This worker's own event loop: how late a 10 ms sleep wakes (the worker starved of CPU).
+        while loop.time() - go.t0 < WINDOW_S:
+            t = loop.time()
+            await asyncio.sleep(0.010)
+            go.lag.append((round(t - go.t0, 3), round(loop.time() - t - 0.010, 4)))
+    monitor = asyncio.create_task(lag())
     await asyncio.wait_for(asyncio.gather(*tasks), WINDOW_S + 60)
+    monitor.cancel()
     print(json.dumps(out), flush=True)
 
 
@@ -163,6 +180,23 @@ def cpu_seconds(port):
     gw = get_json(port, "/api/status")["gateway_pid"]
     fields = Path(f"/proc/{gw}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+def diagnose(r, at, gap):
+    """Who the worst gap is on: the cycles (ms) between the statuses around it say how far
+    apart the gateway built them; the worker's own loop lag says whether the client was
+    starved of CPU at that time."""
+    if r is None:
+        return "no observer received anything"
+    a, c = r["arrivals"], r["cycles"]
+    k = next((i for i, x in enumerate(a) if x > at), None)
+    if k is None:
+        return f"worst gap {gap * 1000:.0f} ms at the end of the window"
+    built = (c[k] - c[k - 1]) if k > 0 else None
+    lags = [lag for t, lag in r["lag"] if at - 0.05 <= t <= at + gap]
+    return (f"worst gap {gap * 1000:.0f} ms from {at:.3f} s: the status after it was built "
+            f"{'(first)' if built is None else f'{built} ms after the one before'}; "
+            f"the worker's loop lag around it: max {1000 * max(lags, default=0):.0f} ms")
+
 
 def test_500_observers_keep_their_status_while_a_pendant_bursts(tmp_path):
     from test_gateway import Client, SafeState, booted, run  # noqa: PLC0415
@@ -217,15 +251,16 @@ def test_500_observers_keep_their_status_while_a_pendant_bursts(tmp_path):
             out, _ = w.communicate(timeout=WINDOW_S + 90)
             results += json.loads(out.strip().splitlines()[-1])
         assert len(results) == OBSERVERS
-        worst_rate, worst_gap, worst_at = 1e9, 0.0, 0.0
+        worst_rate, worst_gap, worst_at, worst = 1e9, 0.0, 0.0, None
         for r in results:
             assert not r["closed"], f"an observer that reads was disconnected: {r['why']}"
             a = [0.0] + r["arrivals"]
             rate = (len(a) - 1) / WINDOW_S
             gap, at = max((y - x, x) for x, y in zip(a, a[1:]))
             if gap > worst_gap:
-                worst_at = at
+                worst_at, worst = at, r
             worst_rate, worst_gap = min(worst_rate, rate), max(worst_gap, gap)
+        print(diagnose(worst, worst_at, worst_gap))
         rates = sorted(len(r["arrivals"]) / WINDOW_S for r in results)
         print(f"{OBSERVERS} observers: worst status rate {worst_rate:.1f} Hz, worst gap {worst_gap * 1000:.0f} ms; "
               f"median rate {rates[len(rates) // 2]:.1f} Hz; the worst gap began {worst_at:.2f} s into the window; "
@@ -241,8 +276,10 @@ def test_500_observers_keep_their_status_while_a_pendant_bursts(tmp_path):
 
 
 if __name__ == "__main__" and len(sys.argv) == 4 and sys.argv[1] == "worker":
-    # The load generators yield to the gateway under test: on two shared cores, 500
-    # observers in Python would otherwise take the CPU the gateway needs, and the test
-    # would measure the clients (each still reads its socket continuously).
-    os.nice(int(os.environ.get("SAFESTATE_LOAD_NICE", "10")))
+    # The load generators run at the pendant's (this test's) priority. They used to yield
+    # (nice 10), but then the pendant's bursts starved them: the worst gaps were their own
+    # (their event loop 70-190 ms late while the gateway had built every status on time,
+    # 20-40 ms apart), and the test measured the clients. At nice 0 their loop lags a few
+    # ms and a gap is the gateway's (see diagnose()).
+    os.nice(int(os.environ.get("SAFESTATE_LOAD_NICE", "0")))
     asyncio.run(worker_main(sys.argv[2], int(sys.argv[3])))
