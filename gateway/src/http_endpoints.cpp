@@ -49,34 +49,6 @@ bool parse_int64(std::string_view s, std::int64_t& out) {
 
 }  // namespace
 
-// ------------------------------------------------------------------ registry
-void HttpSessions::prune() {
-  std::erase_if(list_, [](const std::weak_ptr<HttpSession>& w) {
-    const auto s = w.lock();
-    return !s || !s->live();
-  });
-}
-
-bool HttpSessions::admit() {
-  prune();
-  if (list_.size() < max_) {
-    return true;
-  }
-  std::shared_ptr<HttpSession> oldest;
-  for (const auto& w : list_) {
-    const auto s = w.lock();
-    if (s && s->reading() && (!oldest || s->since() < oldest->since())) {
-      oldest = s;
-    }
-  }
-  if (!oldest) {
-    return false;
-  }
-  oldest->evict();
-  prune();
-  return true;
-}
-
 // ------------------------------------------------------------------ session
 void HttpSession::evict() {
   done_ = true;

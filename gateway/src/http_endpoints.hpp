@@ -20,17 +20,7 @@ class HttpSession;
 // At most max_http connections; when full, the oldest one still waiting for (or
 // reading) a request gives its slot to the newcomer, so that idle connections never
 // keep a pendant's upgrade out.
-class HttpSessions {
- public:
-  explicit HttpSessions(std::size_t max_http) : max_(max_http) {}
-  [[nodiscard]] bool admit();
-  void add(const std::shared_ptr<HttpSession>& s) { list_.push_back(s); }
-
- private:
-  void prune();
-  std::size_t max_;
-  std::vector<std::weak_ptr<HttpSession>> list_;
-};
+using HttpSessions = Registry<HttpSession>;
 
 struct Endpoints {
   Hub& hub;
@@ -46,7 +36,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void run() { do_read(); }
   void evict();
   [[nodiscard]] bool live() const noexcept { return !done_; }
-  [[nodiscard]] bool reading() const noexcept { return reading_; }
+  [[nodiscard]] bool evictable() const noexcept { return reading_; }  // HttpSessions::admit
   [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
 
  private:

@@ -38,35 +38,6 @@ bool is_loopback(asio::ip::address a) {
 }
 
 // ------------------------------------------------------------------ registry
-void Sessions::prune() {
-  std::erase_if(list_, [](const std::weak_ptr<WsSession>& w) {
-    const auto s = w.lock();
-    return !s || !s->live();
-  });
-}
-
-bool Sessions::admit() {
-  prune();
-  if (list_.size() < max_) {
-    return true;
-  }
-  std::shared_ptr<WsSession> oldest;
-  for (const auto& w : list_) {
-    const auto s = w.lock();
-    if (s && !s->hello && (!oldest || s->since() < oldest->since())) {
-      oldest = s;
-    }
-  }
-  if (!oldest) {
-    return false;  // every slot is a client that said hello
-  }
-  oldest->evict();
-  prune();
-  return true;
-}
-
-void Sessions::add(const std::shared_ptr<WsSession>& s) { list_.push_back(s); }
-
 void Sessions::shutdown() {
   for (const auto& w : list_) {
     if (auto s = w.lock()) {

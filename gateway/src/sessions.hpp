@@ -37,22 +37,56 @@ bool is_loopback(asio::ip::address a);
 
 class WsSession;
 
-// The WebSocket connections that live, and who gets a slot. At most max_clients; when
-// full, the oldest connection that has not said hello gives its slot to the newcomer
-// (it may still be a pendant about to say hello). The hub keeps one of the slots for
-// the pendant: at most max_clients - 1 clients may say hello as anything else, so the
-// pendant always finds a slot.
-class Sessions {
+// The connections of one kind that live, and who gets a slot: at most `max`; when full,
+// the oldest one whose S::evictable() says it may give its slot away is closed for the
+// newcomer, and when none may, the newcomer is refused. S has live(), since(),
+// evictable() and evict().
+template <typename S>
+class Registry {
  public:
-  explicit Sessions(std::size_t max_clients) : max_(max_clients) {}
-  [[nodiscard]] bool admit();
-  void add(const std::shared_ptr<WsSession>& s);
-  void shutdown();
+  explicit Registry(std::size_t max) : max_(max) {}
+  [[nodiscard]] bool admit() {
+    prune();
+    if (list_.size() < max_) {
+      return true;
+    }
+    std::shared_ptr<S> oldest;
+    for (const auto& w : list_) {
+      const auto s = w.lock();
+      if (s && s->evictable() && (!oldest || s->since() < oldest->since())) {
+        oldest = s;
+      }
+    }
+    if (!oldest) {
+      return false;
+    }
+    oldest->evict();
+    prune();
+    return true;
+  }
+  void add(const std::shared_ptr<S>& s) { list_.push_back(s); }
+
+ protected:
+  std::vector<std::weak_ptr<S>> list_;
 
  private:
-  void prune();
+  void prune() {
+    std::erase_if(list_, [](const std::weak_ptr<S>& w) {
+      const auto s = w.lock();
+      return !s || !s->live();
+    });
+  }
   std::size_t max_;
-  std::vector<std::weak_ptr<WsSession>> list_;
+};
+
+// The WebSocket connections. At most max_clients; when full, the oldest connection that
+// has not said hello gives its slot to the newcomer (it may still be a pendant about to
+// say hello). The hub keeps one of the slots for the pendant: at most max_clients - 1
+// clients may say hello as anything else, so the pendant always finds a slot.
+class Sessions : public Registry<WsSession> {
+ public:
+  using Registry::Registry;
+  void shutdown();
 };
 
 // One WebSocket connection. Beast performs the opening handshake; after it the session
@@ -75,6 +109,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   void evict();
   [[nodiscard]] bool live() const noexcept { return !aborted_; }
   [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
+  [[nodiscard]] bool evictable() const noexcept { return !hello; }  // Sessions::admit
 
  private:
   // Incoming frame parser state (RFC 6455 section 5.2).
