@@ -46,6 +46,10 @@ struct Feedback {
   std::uint8_t following_error_axis = 0;
   bool program_loaded = true;
   bool program_finished = false;  // the running program reached its last waypoint
+  // The loaded program's waypoints and the paths between them keep inside the safe limits
+  // of SPEC §10 less the planning margins (checked by the motion layer when the program or
+  // the limits change): `start` is OUTSIDE_LIMITS otherwise.
+  bool program_within_limits = true;
 };
 
 // What motion the core allows this cycle. The motion layer must not move otherwise.
@@ -74,6 +78,12 @@ struct MotionRequest {
   bool t1_limit = false;     // limit TCP and link origins to the T1 speed
   bool discard = false;      // a stop began: drop every queued motion now
   bool fault_reset = false;  // give faulted drives a CiA 402 fault reset (bit 7 edge)
+  // SPEC §10 reduced mode: bring the TCP to the reduced limit within reduced.ramp_ms and
+  // keep it there while this is set.
+  bool reduced = false;
+  // SPEC §10 recovery (T1, a limit violated): move only in ways that do not make the
+  // violation worse.
+  bool recovery = false;
 };
 
 }  // namespace safestate::core
