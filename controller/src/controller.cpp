@@ -10,7 +10,20 @@ motion::MotionConfig Controller::motion_config(const core::Config& cfg) noexcept
 }
 
 Controller::Controller(const core::Config& cfg, const motion::RobotModel& model) noexcept
-    : supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {}
+    : cycle_us_(cfg.cycle_us), model_(model), supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {}
+
+core::ArmGeometry Controller::arm_geometry(const motion::RobotModel& model) noexcept {
+  core::ArmGeometry g{};
+  for (std::size_t k = 0; k < core::kAxes; ++k) {
+    const motion::DhRow& r = model.dh[k];
+    g.dh[k] = core::DhParam{r.a_mm, r.alpha_rad, r.d_mm, r.theta_offset_rad};
+  }
+  return g;
+}
+
+void Controller::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
+  supervisor_.configure_limits(limits, arm_geometry(model_), cycle_us_, validated);
+}
 
 // @req CYC-ORDER CYC-DETERMINISM
 std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command* cmds, std::size_t n,

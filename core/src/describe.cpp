@@ -126,6 +126,18 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::JOG_LINK_LOST: t.s("Jog keep-alive lost"); break;
     case AlarmId::CONTACTOR_WELDED: t.s("Main contactor feedback still closed after open was commanded"); break;
     case AlarmId::BRAKE_NOT_ENGAGED: t.s("Brake ").u(axis).s(" still released after engage was commanded"); break;
+    case AlarmId::JOINT_LIMIT: t.s("Axis ").u(axis).s(" outside its safe range"); break;
+    case AlarmId::ZONE_VIOLATION: t.s("Zone ").u(d.code + 1U).s(" violated"); break;  // the gateway adds its name
+    case AlarmId::ORIENTATION_LIMIT: t.s("Tool orientation outside its permitted cone"); break;
+    case AlarmId::SPEED_LIMIT:
+      if (d.signal == Signal::tcp) {
+        t.s("TCP speed above the safe limit (").u(d.code).s(" mm/s)");
+      } else {
+        t.s("Axis ").u(axis).s(" speed above its safe limit");
+      }
+      break;
+    case AlarmId::CONFIG_NOT_VALIDATED: t.s("Safety configuration not validated"); break;
+    case AlarmId::REDUCED_SPEED: t.s("Reduced speed active"); break;
   }
   return t.c_str();
 }
@@ -175,8 +187,11 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
   } else if (dual) {
     // Both channels at once: channel a is named, the first of the pair to be checked.
     t.s(to_string(d.signal)).s((d.channel == Channel::b) ? ".b" : ".a");
-  } else if (((d.signal == Signal::drive) || (d.signal == Signal::brake)) && (d.axis != 0U)) {
+  } else if (((d.signal == Signal::drive) || (d.signal == Signal::brake) || (d.signal == Signal::axis)) &&
+             (d.axis != 0U)) {
     t.s(to_string(d.signal)).s(".").u(d.axis);
+  } else if (d.signal == Signal::zone) {
+    t.s("zone.").u(d.code + 1U);  // limit_detail_name() gives the zone's own name
   } else {
     t.s(to_string(d.signal));
   }

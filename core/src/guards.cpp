@@ -30,6 +30,11 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   if (v.alarms.active(AlarmId::BRAKE_NOT_ENGAGED) && v.brake_not_engaged) {
     return Result::FAULT_PRESENT;  // the brake still does not hold
   }
+  // A position limit still violated is no reason to refuse: SPEC §10 recovery needs the
+  // reset to jog back in T1. A speed still above its limit is.
+  if (v.alarms.active(AlarmId::SPEED_LIMIT) && (v.limits != nullptr) && v.limits->speed.hit) {
+    return Result::FAULT_PRESENT;
+  }
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)
 }
 
@@ -51,14 +56,34 @@ Result guard_servo_on(const GuardView& v) noexcept {
   if ((v.in.mode == Mode::T2) && !v.t2_confirmed) {
     return Result::T2_NOT_CONFIRMED;
   }
+  // @req LIM-VALIDATION LIM-RECOVERY
+  // SPEC §10: T1 stays allowed, to commission at reduced speed and to recover.
+  const bool auto_or_t2 = (v.in.mode == Mode::AUTO) || (v.in.mode == Mode::T2);
+  if (auto_or_t2 && !v.config_validated) {
+    return Result::CONFIG_NOT_VALIDATED;
+  }
+  if (auto_or_t2 && (v.limits != nullptr) && v.limits->outside) {
+    return Result::OUTSIDE_LIMITS;
+  }
   return Result::OK;
 }
+
+namespace {
+// @req LIM-PROGRAM
+// SPEC §10: a program with a waypoint or path outside the safe limits is refused at start.
+Result program_ready(const GuardView& v) noexcept {
+  if (!v.fb.program_loaded) {
+    return Result::NO_PROGRAM;
+  }
+  return v.fb.program_within_limits ? Result::OK : Result::OUTSIDE_LIMITS;
+}
+}  // namespace
 
 Result guard_start_auto(const GuardView& v) noexcept {
   if (v.in.gate_open) {
     return Result::GATE_OPEN;
   }
-  return v.fb.program_loaded ? Result::OK : Result::NO_PROGRAM;
+  return program_ready(v);
 }
 
 Result guard_gate_closed(const GuardView& v) noexcept {
@@ -73,11 +98,19 @@ Result guard_start_manual(const GuardView& v) noexcept {
   if (!v.in.enable_ok) {
     return Result::ENABLING_NOT_HELD;
   }
-  return v.fb.program_loaded ? Result::OK : Result::NO_PROGRAM;
+  return program_ready(v);
 }
 
 Result guard_t2_selected(const GuardView& v) noexcept {
   return (v.in.mode == Mode::T2) ? Result::OK : Result::MODE_INVALID;
+}
+
+// @req LIM-VALIDATION
+Result guard_validate_config(const GuardView& v) noexcept {
+  if (!is_manual(v.in.mode)) {
+    return Result::MODE_INVALID;
+  }
+  return (v.code == v.checksum) ? Result::OK : Result::CHECKSUM_MISMATCH;
 }
 
 }  // namespace safestate::core

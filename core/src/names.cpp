@@ -43,12 +43,15 @@ constexpr std::array<const char*, kResultCount> kResultNames{
     "OK",           "UNKNOWN_COMMAND",       "BAD_ARGUMENT", "NOT_CONTROL_OWNER", "LOCKED_OUT",
     "ESTOP_ACTIVE", "RESET_REQUIRED",        "FAULT_PRESENT", "MODE_INVALID",     "MODE_BY_SELECTOR_ONLY",
     "GATE_OPEN",    "ENABLING_NOT_HELD",     "T2_NOT_CONFIRMED", "JOG_NOT_IN_AUTO", "NO_PROGRAM",
-    "BUSY",         "WRONG_STATE",           "QUEUE_FULL"};
+    "BUSY",         "WRONG_STATE",           "QUEUE_FULL", "CONFIG_NOT_VALIDATED", "CHECKSUM_MISMATCH",
+    "OUTSIDE_LIMITS", "FIELD_INTERRUPTED",   "BRAKE_TEST_REQUIRED"};
 constexpr std::array<const char*, kCommandCount> kCommandNames{
-    "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode"};
+    "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
+    "validate_config"};
 constexpr std::array<const char*, kSourceCount> kSourceNames{"pendant", "remote", "observer", "reset_button"};
-constexpr std::array<const char*, 12> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
-                                                   "drive",     "contactor", "brake", "fieldbus", "command", "internal"};
+constexpr std::array<const char*, 16> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
+                                                   "drive",     "contactor", "brake", "fieldbus", "command", "internal",
+                                                   "axis",      "tcp",       "zone",  "reduced"};
 constexpr std::array<const char*, 5> kChannelNames{"none", "a", "b", "both", "panic"};
 constexpr std::array<const char*, 3> kStepNames{"CONTACTOR", "DRIVES", "BRAKES"};
 constexpr std::array<const char*, 17> kLeafNames{
@@ -59,7 +62,8 @@ constexpr std::array<const char*, 17> kLeafNames{
 constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "discrepancy > limit, fieldbus lost, integrity check failed, boot failed",
     "estop pressed",
-    "drive fault, T1 speed of TCP or link origin > limit, stop time exceeded",
+    "drive fault, T1 speed of TCP or link origin > limit, stop time exceeded, brake not engaged, "
+    "a safe limit violated (joint, zone, orientation, speed)",
     "gate open while mode=AUTO",
     "enable leaves centre while mode is T1/T2",
     "mode changes (including to NONE)",
@@ -70,12 +74,14 @@ constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "an arming step timed out",
     "program finished",
     "standstill reached (Cat 1: and brakes engaged)",
-    "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode"};
-constexpr std::array<const char*, 8> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
+    "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
+    "validate_config"};
+constexpr std::array<const char*, 9> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
                                                   "arm from step CONTACTOR", "start program from first waypoint",
                                                   "resume program, re-planned from measured position",
                                                   "discard program", "restart jog keep-alive",
-                                                  "T2 confirmed until the mode changes"};
+                                                  "T2 confirmed until the mode changes",
+                                                  "configuration validated (written to the event log)"};
 constexpr std::array<const char*, kAlarmCount> kAlarmNames = [] {
   std::array<const char*, kAlarmCount> n{};
   for (std::size_t i = 0; i < kAlarmCount; ++i) {

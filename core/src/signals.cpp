@@ -111,6 +111,7 @@ void SignalLayer::update(const RawInputs& raw, Cycle now, const Timing& t) noexc
   gate_.update(raw.gate_a, raw.gate_b, t.discrepancy);
   enable_.update(raw.enable_a, raw.enable_b, raw.enable_panic, manual_entered, t.discrepancy);
   reset_.update(raw.reset_button, now, t.reset_hold_max);
+  reduced_.update(raw.reduced_a, raw.reduced_b, t.discrepancy);
 
   out_.estop_pressed = !estop_.active();
   out_.estop_cause = estop_.cause();
@@ -133,6 +134,8 @@ void SignalLayer::update(const RawInputs& raw, Cycle now, const Timing& t) noexc
   out_.reset_released = reset_.released_edge();
   out_.reset_press_start = reset_.press_start();
   out_.reset_stuck = reset_.stuck();
+  out_.reduced_requested = !reduced_.active();
+  out_.reduced_discrepancy = reduced_.discrepancy();
 }
 
 }  // namespace safestate::core

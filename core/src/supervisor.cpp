@@ -2,6 +2,7 @@
 
 #include <array>
 #include <span>
+#include <utility>
 
 #include "safestate/core/cia402.hpp"
 
@@ -109,6 +110,7 @@ struct SystemStateManager::CycleCtx {
   bool contactor_welded = false;   // rule 1: open commanded, feedback closed > 100 ms
   std::uint8_t brake_axis = 0;     // rule 3: first axis whose brake did not engage in 300 ms
   std::uint8_t fastest_moving_axis = 0;
+  LimitReport limits{};  // SPEC §10 monitors' verdict this cycle
 };
 
 SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(timing) {
@@ -123,10 +125,17 @@ SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(
   self_test_ok_ = ok;
 }
 
-GuardView SystemStateManager::view(const CycleCtx& c) const noexcept {
-  return GuardView{c.in,           c.fb,           alarms_,         timing_,
-                   t2_confirmed_,  boot_pending_,  reset_pending_,  c.at_standstill,
-                   c.brake_axis != 0U};
+void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
+                                          bool validated) noexcept {
+  limits_.configure(limits, arm, cycle_us);
+  config_validated_ = validated;
+}
+
+GuardView SystemStateManager::view(const CycleCtx& c, std::uint32_t code) const noexcept {
+  return GuardView{c.in,           c.fb,           alarms_,           timing_,
+                   t2_confirmed_,  boot_pending_,  reset_pending_,    c.at_standstill,
+                   c.brake_axis != 0U, &c.limits,  config_validated_, limits_.limits().checksum,
+                   code};
 }
 
 void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
@@ -155,15 +164,20 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   if (in.mode_changed) {
     t2_confirmed_ = false;  // "T2 confirmed until the mode next changes"
   }
+  limits_.evaluate(fb, in_mask(kPowered, leaf_), in.reduced_requested, 0U, c.limits);
 
   // @req AL-LIFETIME
   // Alarms that are active while their condition lasts.
-  const std::array<AlarmId, 3> cond{AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID,
-                                    AlarmId::RESET_BUTTON_STUCK};
-  const std::array<bool, 3> holds{in.estop_pressed, in.mode_invalid, in.reset_stuck};
-  const std::array<AlarmDetail, 3> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
-                                        detail_of(Signal::reset_button)};
-  for (std::size_t i = 0; i < 3U; ++i) {
+  constexpr std::size_t kCond = 5U;
+  const std::array<AlarmId, kCond> cond{AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID,
+                                        AlarmId::RESET_BUTTON_STUCK, AlarmId::CONFIG_NOT_VALIDATED,
+                                        AlarmId::REDUCED_SPEED};
+  const std::array<bool, kCond> holds{in.estop_pressed, in.mode_invalid, in.reset_stuck, !config_validated_,
+                                      limits_.reduced().active()};
+  const std::array<AlarmDetail, kCond> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
+                                            detail_of(Signal::reset_button), detail_of(Signal::internal),
+                                            detail_of(Signal::reduced, Channel::none, 0U, limits_.reduced().sources())};
+  for (std::size_t i = 0; i < kCond; ++i) {
     if (holds[i]) {
       alarms_.raise(cond[i], what[i], now_);
     } else {
@@ -352,6 +366,15 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         }
         if (c.brake_axis != 0U) {
           hit(AlarmId::BRAKE_NOT_ENGAGED, detail_of(Signal::brake, Channel::none, c.brake_axis));
+        }
+        // @req LIM-RULE3
+        for (const auto& [id, f] : {std::pair{AlarmId::JOINT_LIMIT, &c.limits.joint},
+                                    std::pair{AlarmId::ZONE_VIOLATION, &c.limits.zone},
+                                    std::pair{AlarmId::ORIENTATION_LIMIT, &c.limits.orientation},
+                                    std::pair{AlarmId::SPEED_LIMIT, &c.limits.speed}}) {
+          if (f->hit) {
+            hit(id, f->detail);
+          }
         }
         break;
       }
@@ -595,7 +618,7 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
     return policy.no_row;
   }
   if (row->guard.fn != nullptr) {
-    const Result g = row->guard.fn(view(c));
+    const Result g = row->guard.fn(view(c, cmd.code));
     if (g != Result::OK) {
       // @req RES-NO-CHANGE
       return g;  // a refused command changes nothing
@@ -655,6 +678,9 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
       break;
     case Effect::set_t2_confirmed:
       t2_confirmed_ = true;
+      break;
+    case Effect::set_validated:
+      config_validated_ = true;
       break;
     case Effect::begin_arming:
       armed_mode_ = c.in.mode;
@@ -812,6 +838,17 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.alarms = alarms_.mask();
   o.alarms_raised = alarms_.raised();
   o.alarms_cleared = alarms_.cleared();
+  o.motion.reduced = limits_.reduced().active();
+  o.motion.recovery = c.limits.recovering;
+  SafetyStatus& st = o.safety;
+  st.checksum = limits_.limits().checksum;
+  st.validated = config_validated_;
+  st.reduced = limits_.reduced().active();
+  st.reduced_by = limits_.reduced().sources();
+  st.recovery = c.limits.recovering;
+  st.outside = c.limits.outside;
+  st.speed_limit_mm_s = c.limits.speed_limit_mm_s;
+  st.tcp_speed_mm_s = c.limits.tcp_speed_mm_s;
 }
 
 bool SystemStateManager::outputs_consistent(const CycleCtx& c) const noexcept {

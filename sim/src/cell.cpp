@@ -118,6 +118,10 @@ void Cell::step() noexcept {
   ++s.now;
 }
 
+void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
+  impl_->controller.configure_limits(limits, validated);
+}
+
 const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
 const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->in.safety; }

@@ -22,6 +22,14 @@ class Controller {
     motion_.load_program(points, count);
   }
 
+  // SPEC §10, before the first cycle: the safe limits the supervisor monitors (on its own
+  // kinematics of `model`) and the motion layer plans within, and whether the event log
+  // holds a confirmation of their checksum.
+  void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;
+
+  // The robot's DH table in the core's own form.
+  static core::ArmGeometry arm_geometry(const motion::RobotModel& model) noexcept;
+
   // Runs one cycle; takes at most max_commands_per_cycle of `cmds` and returns how many.
   std::size_t step(const hal::ProcessImageIn& in, const core::Command* cmds, std::size_t n,
                    hal::ProcessImageOut& out) noexcept;
@@ -34,6 +42,8 @@ class Controller {
  private:
   static motion::MotionConfig motion_config(const core::Config& cfg) noexcept;
 
+  std::uint32_t cycle_us_;
+  motion::RobotModel model_;
   core::Supervisor supervisor_;
   motion::MotionController motion_;
   core::Feedback feedback_{};

@@ -32,8 +32,15 @@ enum class AlarmId : std::uint8_t {
   // that the bit of every older alarm keeps its place (bridge, event log, HMI).
   CONTACTOR_WELDED,
   BRAKE_NOT_ENGAGED,
+  // SPEC §10 safe limits, appended likewise.
+  JOINT_LIMIT,
+  ZONE_VIOLATION,
+  ORIENTATION_LIMIT,
+  SPEED_LIMIT,
+  CONFIG_NOT_VALIDATED,
+  REDUCED_SPEED,
 };
-inline constexpr std::size_t kAlarmCount = 19;
+inline constexpr std::size_t kAlarmCount = 25;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -116,6 +123,24 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
   {AlarmId::BRAKE_NOT_ENGAGED, "BRAKE_NOT_ENGAGED", 206, Severity::fault, Latch::reset,
    "A holding brake was commanded engaged but its feedback still said released 300 ms later; power was cut.",
    "Secure the named axis against falling, check its brake and brake feedback, then reset."},
+  {AlarmId::JOINT_LIMIT, "JOINT_LIMIT", 207, Severity::fault, Latch::reset,
+   "The named joint left the range of the safety configuration; power was cut.",
+   "Reset, then in T1 jog the named axis back into its range (only motion back toward it is allowed)."},
+  {AlarmId::ZONE_VIOLATION, "ZONE_VIOLATION", 208, Severity::fault, Latch::reset,
+   "The tool sphere or a link of the arm left a keep-in zone or entered a keep-out zone; power was cut.",
+   "Reset, then in T1 jog the arm out of the named zone (only motion that does not go deeper is allowed)."},
+  {AlarmId::ORIENTATION_LIMIT, "ORIENTATION_LIMIT", 209, Severity::fault, Latch::reset,
+   "The tool axis left the permitted orientation cone of the safety configuration; power was cut.",
+   "Reset, then in T1 turn the tool back toward the permitted orientation."},
+  {AlarmId::SPEED_LIMIT, "SPEED_LIMIT", 210, Severity::fault, Latch::reset,
+   "A joint or the TCP moved faster than the safety configuration allows (normal or reduced); power was cut.",
+   "Check the named axis' drive and the program's speeds against the safety configuration, then reset."},
+  {AlarmId::CONFIG_NOT_VALIDATED, "CONFIG_NOT_VALIDATED", 304, Severity::warning, Latch::condition,
+   "The active safety configuration's checksum has not been confirmed by an operator: AUTO and T2 are refused.",
+   "Check the configuration, then in T1 or T2 with the servos off confirm its checksum on the pendant."},
+  {AlarmId::REDUCED_SPEED, "REDUCED_SPEED", 305, Severity::info, Latch::condition,
+   "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
+   "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."},
 }};
 // clang-format on
 

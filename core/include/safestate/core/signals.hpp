@@ -131,6 +131,9 @@ struct RawInputs {
   bool mode_t1 = false;
   bool mode_t2 = false;
   bool reset_button = false;
+  // SPEC §10 reduced-speed request, NC (1 = normal speed).
+  bool reduced_a = true;
+  bool reduced_b = true;
 };
 
 // The validated logical inputs the state machine decides on.
@@ -156,6 +159,10 @@ struct SafetyInputs {
   bool reset_released = false;   // falling edge of a press no longer than the limit
   Cycle reset_press_start = 0;
   bool reset_stuck = false;
+  // SPEC §10: reduced speed asked for (safe on either channel). A discrepancy keeps it
+  // asked for and is no lockout: reduced is the safe side.
+  bool reduced_requested = false;
+  bool reduced_discrepancy = false;
 };
 
 // All inputs of §2 together; owns the per-input validators.
@@ -170,6 +177,7 @@ class SignalLayer {
   EnablingDevice enable_;
   ModeSelector mode_;
   ResetButton reset_;
+  DualChannel reduced_;
   SafetyInputs out_;
 };
 

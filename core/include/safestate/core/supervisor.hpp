@@ -10,6 +10,8 @@
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
+#include "safestate/core/monitors.hpp"
+#include "safestate/core/safety_limits.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/states.hpp"
 #include "safestate/core/transitions.hpp"
@@ -30,6 +32,18 @@ struct TransitionEvent {
   StopCat stop = StopCat::NONE;
   Trigger trigger = Trigger::boot_passed;
   std::uint8_t row = kNoRow;
+};
+
+// SPEC §10 as status shows it (protocol `safety`).
+struct SafetyStatus {
+  std::uint32_t checksum = 0;
+  bool validated = true;
+  bool reduced = false;
+  std::uint8_t reduced_by = 0;  // kReducedBy* bits
+  bool recovery = false;        // a position limit is violated and being recovered from
+  bool outside = false;         // a position limit is violated now
+  float speed_limit_mm_s = 0.0F;
+  float tcp_speed_mm_s = 0.0F;  // the core's own measure
 };
 
 struct SupervisorOut {
@@ -60,11 +74,20 @@ struct SupervisorOut {
   std::uint8_t reply_count = 0;
   std::array<TransitionEvent, kMaxTransitionsPerCycle> transitions{};
   std::uint8_t transition_count = 0;
+  SafetyStatus safety{};
 };
 
 class SystemStateManager {
  public:
   explicit SystemStateManager(const Timing& timing) noexcept;
+
+  // SPEC §10, before the first cycle: the safe limits to monitor, the arm they are
+  // measured on, and whether the event log already holds a confirmation of this
+  // checksum. Without it no safe limit is monitored (the state machine alone).
+  void configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
+                        bool validated) noexcept;
+  [[nodiscard]] const SafeLimitMonitors& limit_monitors() const noexcept { return limits_; }
+  [[nodiscard]] bool config_validated() const noexcept { return config_validated_; }
 
   // One scan cycle. Takes at most `max_commands_per_cycle` of `cmds` (the caller keeps
   // the rest queued) and returns how many it took.
@@ -97,7 +120,7 @@ class SystemStateManager {
   void reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept;
   void write_outputs(CycleCtx& c) noexcept;
   [[nodiscard]] bool outputs_consistent(const CycleCtx& c) const noexcept;
-  [[nodiscard]] GuardView view(const CycleCtx& c) const noexcept;
+  [[nodiscard]] GuardView view(const CycleCtx& c, std::uint32_t code = 0U) const noexcept;
 
   Timing timing_;
   StateVariant state_{StBoot{}};
@@ -125,6 +148,9 @@ class SystemStateManager {
   bool brakes_release_cmd_ = false;
   Cycle welded_cycles_ = 0;
   std::array<Cycle, kAxes> brake_cycles_{};
+  // SPEC §10 safe limits.
+  SafeLimitMonitors limits_;
+  bool config_validated_ = true;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.
@@ -138,6 +164,10 @@ class Supervisor {
   }
   [[nodiscard]] const SafetyInputs& inputs() const noexcept { return signals_.inputs(); }
   [[nodiscard]] const SystemStateManager& manager() const noexcept { return ssm_; }
+  void configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
+                        bool validated) noexcept {
+    ssm_.configure_limits(limits, arm, cycle_us, validated);
+  }
 
  private:
   Timing timing_;

@@ -15,6 +15,7 @@
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
+#include "safestate/core/monitors.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/states.hpp"
 #include "safestate/core/types.hpp"
@@ -25,7 +26,7 @@ enum class Trigger : std::uint8_t {
   // Conditions, checked every cycle in this priority (SPEC §4 rules 1..7).
   lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded
   estop_pressed,       // 2
-  stop_fault,          // 3: drive fault, T1 speed, stop time exceeded, brake not engaged
+  stop_fault,          // 3: drive fault, T1 speed, stop time, brake not engaged, a safe limit (§10)
   gate_open_in_auto,   // 4, 4b
   enable_left_centre,  // 5, 5b
   mode_changed,        // 6
@@ -49,8 +50,9 @@ enum class Trigger : std::uint8_t {
   jog_stop,
   confirm_t2,
   set_mode,
+  validate_config,
 };
-inline constexpr std::size_t kTriggerCount = 24;
+inline constexpr std::size_t kTriggerCount = 25;
 inline constexpr std::size_t kConditionCount = 7;
 inline constexpr std::size_t kFirstCommandTrigger = static_cast<std::size_t>(Trigger::reset);
 
@@ -75,6 +77,12 @@ struct GuardView {
   bool reset_pending;
   bool at_standstill;
   bool brake_not_engaged;  // a brake feedback contradicts its engaged command (SPEC §7)
+  // SPEC §10: the safe limits' verdict this cycle, whether the configuration is validated,
+  // its checksum and the code a validate_config command carries.
+  const LimitReport* limits;
+  bool config_validated;
+  std::uint32_t checksum;
+  std::uint32_t code;
 };
 
 using GuardFn = Result (*)(const GuardView&) noexcept;
@@ -92,6 +100,7 @@ Result guard_gate_closed(const GuardView& v) noexcept;
 Result guard_enable_held(const GuardView& v) noexcept;
 Result guard_start_manual(const GuardView& v) noexcept;
 Result guard_t2_selected(const GuardView& v) noexcept;
+Result guard_validate_config(const GuardView& v) noexcept;
 
 inline constexpr Guard kNoGuard{nullptr, "-"};
 inline constexpr Guard kBootDone{&guard_boot_done, "start-up self-test finished (BUSY)"};
@@ -100,13 +109,19 @@ inline constexpr Guard kCausesGone{&guard_reset_causes_gone,
 inline constexpr Guard kServoOn{&guard_servo_on,
                                 "no latched alarm (RESET_REQUIRED); mode != NONE (MODE_INVALID); "
                                 "AUTO: gate closed (GATE_OPEN); T1/T2: enable at centre "
-                                "(ENABLING_NOT_HELD); T2: confirmed (T2_NOT_CONFIRMED)"};
-inline constexpr Guard kStartAuto{&guard_start_auto, "gate closed (GATE_OPEN); program loaded (NO_PROGRAM)"};
+                                "(ENABLING_NOT_HELD); T2: confirmed (T2_NOT_CONFIRMED); AUTO/T2: safety "
+                                "configuration validated (CONFIG_NOT_VALIDATED); AUTO/T2: no safe limit "
+                                "violated (OUTSIDE_LIMITS)"};
+inline constexpr Guard kStartAuto{&guard_start_auto, "gate closed (GATE_OPEN); program loaded (NO_PROGRAM); "
+                                                     "program inside the safe limits (OUTSIDE_LIMITS)"};
 inline constexpr Guard kGateClosed{&guard_gate_closed, "gate closed (GATE_OPEN)"};
 inline constexpr Guard kEnableHeld{&guard_enable_held, "enable at centre (ENABLING_NOT_HELD)"};
 inline constexpr Guard kStartManual{&guard_start_manual,
-                                    "enable at centre (ENABLING_NOT_HELD); program loaded (NO_PROGRAM)"};
+                                    "enable at centre (ENABLING_NOT_HELD); program loaded (NO_PROGRAM); "
+                                    "program inside the safe limits (OUTSIDE_LIMITS)"};
 inline constexpr Guard kT2Selected{&guard_t2_selected, "mode is T2 (MODE_INVALID)"};
+inline constexpr Guard kValidate{&guard_validate_config,
+                                 "mode T1 or T2 (MODE_INVALID); CODE is the active checksum (CHECKSUM_MISMATCH)"};
 
 // What a row does to the state's own data besides changing state.
 enum class Effect : std::uint8_t {
@@ -118,6 +133,7 @@ enum class Effect : std::uint8_t {
   abort_program,   // discard the program
   jog_keepalive,   // (re)start the jog keep-alive timer, take axis/direction/speed
   set_t2_confirmed,  // T2 confirmed until the mode next changes
+  set_validated,     // SPEC §10: the safety configuration is validated
 };
 const char* to_string(Effect e) noexcept;
 
@@ -171,9 +187,10 @@ inline constexpr auto kTransitions = [] {
   using enum Effect;
   constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
                                bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED);
-  constexpr AlarmMask kRule3 =
-      bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) | bit(BRAKE_NOT_ENGAGED);
-  return std::array<Transition, 35>{{
+  constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
+                               bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
+                               bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT);
+  return std::array<Transition, 36>{{
   // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
   {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1",          "TR-C1"},
@@ -212,6 +229,7 @@ inline constexpr auto kTransitions = [] {
   {only(MANUAL_RUNNING),        program_finished,   kNoGuard,     MANUAL_IDLE,        CAT2, 0,                     abort_program,    "program",    "TR-FINISHED-MANUAL"},
   {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill", "TR-STANDSTILL"},
   {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2", "TR-CONFIRM-T2"},
+  {only(IDLE),                  validate_config,    kValidate,    SAME,               NONE, 0,                     set_validated,    "validate_config", "TR-VALIDATE"},
   }};
 }();
 // clang-format on

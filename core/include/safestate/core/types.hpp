@@ -64,8 +64,14 @@ enum class Result : std::uint8_t {
   BUSY,
   WRONG_STATE,
   QUEUE_FULL,
+  // SPEC §10-§12 (appended: the numbers of the older results keep their place).
+  CONFIG_NOT_VALIDATED,
+  CHECKSUM_MISMATCH,
+  OUTSIDE_LIMITS,
+  FIELD_INTERRUPTED,
+  BRAKE_TEST_REQUIRED,
 };
-inline constexpr std::size_t kResultCount = 18;
+inline constexpr std::size_t kResultCount = 23;
 
 // SPEC §4 commands, spelled as on the wire and in .scn files.
 enum class CommandId : std::uint8_t {
@@ -80,8 +86,9 @@ enum class CommandId : std::uint8_t {
   jog_stop,
   confirm_t2,
   set_mode,
+  validate_config,  // SPEC §10: the operator confirms the safety configuration's checksum
 };
-inline constexpr std::size_t kCommandCount = 11;
+inline constexpr std::size_t kCommandCount = 12;
 
 // Who sent a command (single point of control, ISO 10218-1 5.3.5).
 enum class Source : std::uint8_t { pendant, remote, observer, reset_button };
@@ -97,6 +104,7 @@ struct Command {
   std::int8_t dir = 0;      // jog: +1 / -1
   std::uint8_t speed = 0;   // jog: percent 1..100
   std::uint8_t mode = 0;    // set_mode: Mode value
+  std::uint32_t code = 0;   // validate_config: the checksum typed by the operator (8 hex digits)
 };
 
 // One answer per command. `cmd`/`source` are the raw values received, so that an
@@ -109,7 +117,12 @@ struct Reply {
 };
 
 // Which physical contact a cause refers to.
-enum class Signal : std::uint8_t { none, estop, gate, enable, mode, reset_button, drive, contactor, brake, fieldbus, command, internal };
+// SPEC §10 adds the safe limits' subjects: a joint (`axis.N`), the TCP (`tcp`), a zone
+// (`code` = its index in the configuration, named by its name) and the reduced input.
+enum class Signal : std::uint8_t {
+  none, estop, gate, enable, mode, reset_button, drive, contactor, brake, fieldbus, command, internal,
+  axis, tcp, zone, reduced,
+};
 enum class Channel : std::uint8_t { none, a, b, both, panic };
 
 // ARMING steps (SPEC §4): contactor, then drives, then brakes.

@@ -74,6 +74,9 @@ class Cell {
   Cell(const Cell& other);
   Cell& operator=(const Cell&) = delete;
 
+  // SPEC §10, before the first step: the safe limits and whether they are validated.
+  void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;
+
   // The physical contacts of SPEC §2; change them between cycles.
   core::RawInputs& inputs() noexcept;
   void inject(const Fault& f) noexcept;

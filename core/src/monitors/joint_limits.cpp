@@ -1,0 +1,26 @@
+// SPEC §10: each joint within [min_deg, max_deg] of the safety configuration, from the
+// measured position -> else JOINT_LIMIT naming the axis.
+#include "safestate/core/monitors.hpp"
+
+namespace safestate::core {
+
+// @req LIM-JOINT
+void JointLimitMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    const JointLimit& l = c.limits.joints[i];
+    const float q = c.q[i];
+    const float below = l.min_rad - q;
+    const float above = q - l.max_rad;
+    const float outside = (below > above) ? below : above;  // NaN q: both NaN, stays NaN
+    const bool trips = track_violation(track_[i], (q == q) ? outside : q, c.powered, kWorseJointRad);
+    r.outside = r.outside || !(outside <= 0.0F);
+    r.recovering = r.recovering || track_[i].recovering;
+    if (trips && !r.joint.hit) {
+      r.joint.hit = true;
+      r.joint.detail.signal = Signal::axis;
+      r.joint.detail.axis = static_cast<std::uint8_t>(i + 1U);
+    }
+  }
+}
+
+}  // namespace safestate::core

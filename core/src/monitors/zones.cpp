@@ -1,0 +1,89 @@
+// SPEC §10 zones: axis-aligned boxes in the base frame. The TCP is a sphere of
+// tool.radius_mm, the link-frame origins 2..6 are points. A keep_in box must contain
+// every sphere and point whole; a keep_out box must touch none -> else ZONE_VIOLATION
+// naming the zone. A `reduced` box only makes reduced mode active while the TCP is in it.
+#include <cmath>
+
+#include "safestate/core/monitors.hpp"
+
+namespace safestate::core {
+
+namespace {
+
+constexpr std::size_t kFirstLinkPoint = 2U;  // origins 2..6 (SPEC §10)
+
+bool inside(const Zone& z, const Vec3& p) noexcept {
+  return (p[0] >= z.min_mm[0]) && (p[0] <= z.max_mm[0]) && (p[1] >= z.min_mm[1]) && (p[1] <= z.max_mm[1]) &&
+         (p[2] >= z.min_mm[2]) && (p[2] <= z.max_mm[2]);
+}
+
+float max_of(float a, float b) noexcept { return (a > b) ? a : b; }
+
+// Keep-in: how far a sphere of radius r about p reaches beyond the box (<= 0 inside).
+float beyond(const Zone& z, const Vec3& p, float r) noexcept {
+  float worst = -1.0e30F;
+  for (std::size_t k = 0; k < 3U; ++k) {
+    worst = max_of(worst, max_of((z.min_mm[k] + r) - p[k], p[k] - (z.max_mm[k] - r)));
+  }
+  return worst;
+}
+
+// Keep-out: how deep a sphere of radius r about p reaches into the box (<= 0: apart).
+float depth(const Zone& z, const Vec3& p, float r) noexcept {
+  if (inside(z, p)) {
+    float to_face = 1.0e30F;
+    for (std::size_t k = 0; k < 3U; ++k) {
+      const float d = (p[k] - z.min_mm[k] < z.max_mm[k] - p[k]) ? (p[k] - z.min_mm[k]) : (z.max_mm[k] - p[k]);
+      to_face = (d < to_face) ? d : to_face;
+    }
+    // A point on the face itself touches: a sphere of radius 0 is "in" by a hair.
+    return r + to_face + ((r > 0.0F) ? 0.0F : 1.0e-3F);
+  }
+  float d2 = 0.0F;
+  for (std::size_t k = 0; k < 3U; ++k) {
+    const float below = z.min_mm[k] - p[k];
+    const float above = p[k] - z.max_mm[k];
+    const float gap = max_of(max_of(below, above), 0.0F);
+    d2 += gap * gap;
+  }
+  return r - std::sqrt(d2);
+}
+
+}  // namespace
+
+float ZoneMonitor::outside_mm(const Zone& z, const ArmPose& p, float radius_mm) noexcept {
+  if (z.kind == ZoneKind::reduced) {
+    return 0.0F;
+  }
+  const bool keep_in = z.kind == ZoneKind::keep_in;
+  float worst = keep_in ? beyond(z, p.tcp, radius_mm) : depth(z, p.tcp, radius_mm);
+  for (std::size_t k = kFirstLinkPoint; k < kArmFrames; ++k) {
+    const Vec3& o = p.origin[k];
+    const float m = keep_in ? beyond(z, o, 0.0F) : depth(z, o, 0.0F);
+    worst = (m > worst || m != m) ? m : worst;  // NaN wins: unknown is unsafe
+  }
+  return worst;
+}
+
+// @req LIM-ZONE
+void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
+  const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Zone& z = c.limits.zones[i];
+    if (z.kind == ZoneKind::reduced) {
+      r.in_reduced_zone = r.in_reduced_zone || inside(z, c.pose.tcp);
+      continue;
+    }
+    const float outside = outside_mm(z, c.pose, c.limits.tool_radius_mm);
+    const bool trips = track_violation(track_[i], outside, c.powered, kWorseZoneMm);
+    r.outside = r.outside || !(outside <= 0.0F);
+    r.recovering = r.recovering || track_[i].recovering;
+    if (trips && !r.zone.hit) {
+      r.zone.hit = true;
+      r.zone.detail.signal = Signal::zone;
+      r.zone.detail.code = static_cast<std::uint16_t>(i);
+    }
+  }
+}
+
+}  // namespace safestate::core
