@@ -577,6 +577,9 @@ Result SystemStateManager::dispatch_command(CycleCtx& c, const Command& cmd) noe
   if ((id == CommandId::set_mode) && ((cmd.mode == 0U) || (cmd.mode > static_cast<std::uint8_t>(Mode::T2)))) {
     return Result::BAD_ARGUMENT;
   }
+  if ((id == CommandId::validate_config) && (cmd.has_code != 1U)) {
+    return Result::BAD_ARGUMENT;  // no code, or not 8 hex digits
+  }
   // @req RES-LOCKED-OUT
   // 2. Lockout.
   if (leaf_ == Leaf::ERROR_LOCKOUT) {

@@ -56,6 +56,8 @@
 #include "safestate/core/cia402.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
+#include "parse_util.hpp"
+#include "safety_keys.hpp"
 
 namespace safestate::scenario {
 
@@ -75,18 +77,21 @@ void apply(const InputStep& step, core::RawInputs& raw) noexcept {
       case Contact::mode_t1: raw.mode_t1 = w.closed; break;
       case Contact::mode_t2: raw.mode_t2 = w.closed; break;
       case Contact::reset_button: raw.reset_button = w.closed; break;
+      case Contact::reduced_a: raw.reduced_a = w.closed; break;
+      case Contact::reduced_b: raw.reduced_b = w.closed; break;
     }
   }
 }
 
 namespace {
 
-// An empty string: no problem. Otherwise what is wrong with the line.
-using Problem = std::string;
-
-using Tokens = std::vector<std::string_view>;
-
-std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+using util::lookup;
+using util::Problem;
+using util::quoted;
+using util::split_pair;
+using util::to_number;
+using util::to_real;
+using util::Tokens;
 
 bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
@@ -111,51 +116,6 @@ Tokens split(std::string_view s) {
 std::string_view strip_comment(std::string_view s) noexcept {
   const std::size_t hash = s.find('#');
   return (hash == std::string_view::npos) ? s : s.substr(0, hash);
-}
-
-// Whole-token decimal numbers: no sign for unsigned types, nothing left over.
-template <typename T>
-bool to_number(std::string_view s, T& out) noexcept {
-  if (s.empty()) {
-    return false;
-  }
-  T v{};
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec != std::errc{} || end != s.data() + s.size()) {
-    return false;
-  }
-  out = v;
-  return true;
-}
-
-bool to_real(std::string_view s, double& out) noexcept {
-  double v = 0.0;
-  if (!to_number(s, v) || !std::isfinite(v)) {
-    return false;
-  }
-  out = v;
-  return true;
-}
-
-// The core's name lookups take C strings: copy the token into a bounded buffer.
-template <typename E>
-bool lookup(std::string_view s, bool (*parse_fn)(const char*, E&) noexcept, E& out) noexcept {
-  std::array<char, 64> buf{};
-  if (s.size() >= buf.size()) {
-    return false;
-  }
-  std::memcpy(buf.data(), s.data(), s.size());
-  return parse_fn(buf.data(), out);
-}
-
-bool split_pair(std::string_view tok, std::string_view& key, std::string_view& value) noexcept {
-  const std::size_t eq = tok.find('=');
-  if (eq == std::string_view::npos || eq == 0) {
-    return false;
-  }
-  key = tok.substr(0, eq);
-  value = tok.substr(eq + 1);
-  return true;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -183,6 +143,9 @@ constexpr std::array<ConfigField, 11> kConfigFields{{
     {"queue_size", "queue_size", &core::Config::queue_size, nullptr},
     {"t1_speed_mm_s", "t1_speed_limit_mm_s", nullptr, &core::Config::t1_speed_limit_mm_s},
 }};
+
+constexpr std::size_t kMaxStopField = 3;  // max_stop_ms: the safety file's stop.max_time_ms unless set here
+static_assert(std::string_view(kConfigFields[kMaxStopField].name) == "max_stop_ms");
 
 Problem set_config(std::string_view key, std::string_view value, core::Config& cfg, std::size_t& index) {
   for (std::size_t i = 0; i < kConfigFields.size(); ++i) {
@@ -316,7 +279,8 @@ Problem parse_in(const Tokens& args, InputStep& out) {
       return "in: expected KEY=VALUE, found " + quoted(tok);
     }
     Problem problem;
-    if (!parse_shorthand(key, value, out, problem) && !parse_raw_contact(key, value, out, problem)) {
+    if (!parse_shorthand(key, value, out, problem) && !parse_raw_contact(key, value, out, problem) &&
+        !safety_keys::parse_input(key, value, out, problem)) {
       return "unknown input " + quoted(key);
     }
     if (!problem.empty()) {
@@ -392,6 +356,8 @@ Problem parse_cmd(const Tokens& args, std::size_t line, CommandStep& out) {
     fill_jog(args, i + 1, c);
   } else if (id == core::CommandId::set_mode) {
     fill_set_mode(args, i + 1, c);
+  } else if (id == core::CommandId::validate_config) {
+    safety_keys::fill_validate_config(args, i + 1, c);
   } else if (i + 1 < args.size()) {
     return "cmd " + out.name + " takes no argument, found " + quoted(args[i + 1]);
   }
@@ -401,14 +367,7 @@ Problem parse_cmd(const Tokens& args, std::size_t line, CommandStep& out) {
 // ---------------------------------------------------------------------------------------
 // fault
 
-bool axis_1_to_6(std::string_view s, std::uint8_t& axis) noexcept {
-  std::uint8_t v = 0;
-  if (!to_number(s, v) || v < 1 || v > core::kAxes) {
-    return false;
-  }
-  axis = v;
-  return true;
-}
+using util::axis_1_to_6;
 
 bool parse_drive_fault(const Tokens& a, sim::Fault& f) noexcept {
   if (a.size() != 3 || a[0] != "drive" || !axis_1_to_6(a[1], f.axis)) {
@@ -730,7 +689,12 @@ bool parse_alarm_key(std::string_view key, std::string_view value, Expectation& 
     ok = to_number(value, e.number);
   } else if (what == "detail") {
     e.key = ExpectKey::alarm_detail;
-    ok = known_signal(value) || value == "CONTACTOR" || value == "DRIVES" || value == "BRAKES";
+    ok = known_signal(value) || value == "CONTACTOR" || value == "DRIVES" || value == "BRAKES" ||
+         safety_keys::known_detail(value);
+    if (!ok && !value.empty()) {
+      ok = true;  // a zone's name: checked once the safety configuration is loaded
+      e.number = safety_keys::kZoneDetail;
+    }
     e.name = std::string(value);
   } else {
     return false;
@@ -798,7 +762,7 @@ bool parse_more_key(std::string_view key, std::string_view value, Expectation& e
 Problem parse_expectation(std::string_view tok, Expectation& e) {
   e.text = std::string(tok);
   Problem speed;
-  if (parse_speed(tok, e, speed)) {
+  if (safety_keys::parse_expect(tok, e, speed) || parse_speed(tok, e, speed)) {
     return speed;
   }
   std::string_view key;
@@ -892,6 +856,12 @@ class Parser {
     // Ranges may be written after later lines: order by first cycle, file order kept.
     std::stable_sort(result_.scenario.steps.begin(), result_.scenario.steps.end(),
                      [](const Step& a, const Step& b) { return a.t < b.t; });
+    std::size_t at = 0;
+    if (ok()) {
+      if (Problem p = safety_keys::check_details(result_.scenario, at); !p.empty()) {
+        fail(at, std::move(p));
+      }
+    }
     return std::move(result_);
   }
 
@@ -932,8 +902,13 @@ class Parser {
       std::string_view key;
       std::string_view value;
       std::size_t index = 0;
+      Problem safety;
       if (!split_pair(tokens[i], key, value)) {
         fail(number, "config: expected NAME=VALUE, found " + quoted(tokens[i]));
+      } else if (safety_keys::set_config(key, value, number, safety_lines_, safety)) {
+        if (!safety.empty()) {
+          fail(number, std::move(safety));
+        }
       } else if (Problem p = set_config(key, value, result_.scenario.config, index); !p.empty()) {
         fail(number, std::move(p));
       } else {
@@ -949,6 +924,13 @@ class Parser {
       return;
     }
     config_checked_ = true;
+    std::size_t safety_at = 0;
+    if (Problem p = safety_keys::finish_config(safety_lines_, config_lines_[kMaxStopField] != 0, result_.scenario,
+                                               safety_at);
+        !p.empty()) {
+      fail(safety_at, std::move(p));
+      return;
+    }
     const core::ConfigError e = core::validate(result_.scenario.config);
     if (e.ok()) {
       return;
@@ -1034,6 +1016,7 @@ class Parser {
   bool config_checked_ = false;
   std::array<std::size_t, kConfigFields.size()> config_lines_{};  // line that last set each field
   std::size_t last_config_line_ = 0;
+  safety_keys::ConfigLines safety_lines_;
   core::Cycle last_t_ = 0;
   std::size_t last_t_line_ = 0;
 };

@@ -19,6 +19,7 @@
 #include "safestate/core/describe.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
+#include "safety_keys.hpp"
 #include "trace.hpp"
 
 namespace safestate::scenario {
@@ -38,6 +39,7 @@ using LatestByCommand = std::array<LatestCommand, core::kCommandCount>;
 
 struct Observed {
   const core::SupervisorOut& out;
+  const core::SafetyLimits& limits;
   float tcp_speed;
   const LatestCommand& latest;
   const sim::Cell& cell;
@@ -101,7 +103,7 @@ bool holds_more(const Expectation& e, const Observed& o) noexcept {
     case ExpectKey::alarm_detail: {
       const auto id = static_cast<core::AlarmId>(e.value);
       return alarm_active(out, e.value) &&
-             e.name == core::detail_name(o.cell.alarms().detail(id), buf.data(), buf.size());
+             e.name == core::limit_detail_name(o.cell.alarms().detail(id), o.limits, buf.data(), buf.size());
     }
     case ExpectKey::mode_requested: return is(out.mode_requested, e.value);
     case ExpectKey::axis_state: return v.axis_code[axis_index(e)] == e.value;
@@ -114,7 +116,11 @@ bool holds_more(const Expectation& e, const Observed& o) noexcept {
     case ExpectKey::standstill: return out.at_standstill == (e.value != 0U);
     case ExpectKey::t2_confirmed: return out.t2_confirmed == (e.value != 0U);
     case ExpectKey::owner: return out.pendant_owner == (e.value != 0U);
-    default: break;  // replies: counted by the runner over the window
+    default:
+      if (safety_keys::is_safety_key(e.key)) {
+        return safety_keys::holds(e, out, v);
+      }
+      break;  // replies: counted by the runner over the window
   }
   return false;
 }
@@ -208,8 +214,8 @@ std::string found_more(const Expectation& e, const Observed& o) {
       if (!alarm_active(out, e.value)) {
         return alarm + " not active, " + alarm_list(out.alarms);
       }
-      return alarm + ".detail=" +
-             core::detail_name(o.cell.alarms().detail(static_cast<core::AlarmId>(e.value)), buf.data(), buf.size());
+      return alarm + ".detail=" + core::limit_detail_name(o.cell.alarms().detail(static_cast<core::AlarmId>(e.value)),
+                                                          o.limits, buf.data(), buf.size());
     case ExpectKey::mode_requested: return std::string("mode_requested=") + core::to_string(out.mode_requested);
     case ExpectKey::axis_state:
       return axis + ".state=" + motion::to_string(static_cast<motion::AxisState>(v.axis_code[axis_index(e)]));
@@ -228,7 +234,11 @@ std::string found_more(const Expectation& e, const Observed& o) {
     case ExpectKey::standstill: return choice("standstill", out.at_standstill, "yes", "no");
     case ExpectKey::t2_confirmed: return choice("t2_confirmed", out.t2_confirmed, "yes", "no");
     case ExpectKey::owner: return choice("owner", out.pendant_owner, "pendant", "none");
-    default: break;
+    default:
+      if (safety_keys::is_safety_key(e.key)) {
+        return safety_keys::found(e, out, v);
+      }
+      break;
   }
   return "?";
 }
@@ -276,6 +286,7 @@ class Runner {
  public:
   Runner(const Scenario& s, const RunOptions& o)
       : s_(s), opts_(o), cell_(s.config, o.bus), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
+    cell_.configure_limits(safety_limits(s), s.safety_validated);
     open_.reserve(count_ranges(s));
     if (o.trace && o.trace_out != nullptr) {
       tracer_.emplace(s, *o.trace_out);
@@ -413,7 +424,7 @@ class Runner {
     }
     const Step& step = s_.steps[i];
     const auto& expect = std::get<ExpectStep>(step.what);
-    const Observed o{cell_.out(), cell_.view().tcp_speed_mm_s, latest_, cell_, by_cmd_, button_};
+    const Observed o{cell_.out(), safety_limits(s_), cell_.view().tcp_speed_mm_s, latest_, cell_, by_cmd_, button_};
     if (expect.mode == ExpectMode::replies) {
       count_[i] += replies_now_;
       if (t == step.t_end && count_[i] != expect.checks.front().number) {

@@ -104,7 +104,8 @@ struct Command {
   std::int8_t dir = 0;      // jog: +1 / -1
   std::uint8_t speed = 0;   // jog: percent 1..100
   std::uint8_t mode = 0;    // set_mode: Mode value
-  std::uint32_t code = 0;   // validate_config: the checksum typed by the operator (8 hex digits)
+  std::uint8_t has_code = 0;  // validate_config: 1 when `code` holds the 8 hex digits typed
+  std::uint32_t code = 0;     // validate_config: the checksum typed by the operator
 };
 
 // One answer per command. `cmd`/`source` are the raw values received, so that an

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "safestate/core/config.hpp"
+#include "safestate/core/safety_limits.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/types.hpp"
 #include "safestate/sim/cell.hpp"
@@ -40,6 +41,8 @@ enum class Contact : std::uint8_t {
   mode_t1,
   mode_t2,
   reset_button,
+  reduced_a,  // SPEC §10 reduced-speed request, NC
+  reduced_b,
 };
 
 struct ContactWrite {
@@ -94,6 +97,12 @@ enum class ExpectKey : std::uint8_t {
   standstill,        // value 1 = yes
   t2_confirmed,      // value 1 = yes
   owner,             // value 1 = pendant, 0 = none
+  // "Safety configuration, collaborative operation, brake test" (SPEC §10).
+  checksum,          // number: the expected checksum (8 hex digits)
+  validated,         // value 1 = yes
+  reduced,           // value 1 = yes
+  recovery,          // value 1 = yes
+  joint,             // axis, cmp, limit (degrees, measured position)
 };
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
@@ -149,6 +158,11 @@ struct Scenario {
   std::vector<Step> steps;   // by t (T1 for a range); file order within the same t
   std::size_t expect_lines = 0;
   core::Cycle cycles = 0;    // cycles to run: largest T (or T2) + 1; 0 without any @ line
+  // SPEC §10: the safety configuration of `config safety=FILE` (nullopt: the built-in one)
+  // and whether the event log at start holds a confirmation of its checksum
+  // (`config validated=CHECKSUM`; the built-in configuration counts as validated).
+  std::optional<core::SafetyLimits> safety;
+  bool safety_validated = true;
 };
 
 struct ParseError {
@@ -167,6 +181,9 @@ struct ParseResult {
 
 // Parses a whole .scn text. `file_name` is only used in messages.
 [[nodiscard]] ParseResult parse(std::string_view text, std::string file_name);
+
+// The limits a run monitors: the scenario's safety configuration or the built-in one.
+[[nodiscard]] const core::SafetyLimits& safety_limits(const Scenario& s);
 
 // Writes the contacts of an `in` line into the raw process image.
 void apply(const InputStep& step, core::RawInputs& raw) noexcept;
