@@ -1,6 +1,7 @@
 #include "safestate/motion/motion_controller.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "safestate/core/cia402.hpp"
 
@@ -12,6 +13,20 @@ namespace {
 float clampf(float x, float lo, float hi) noexcept { return (x < lo) ? lo : ((x > hi) ? hi : x); }
 float absf(float x) noexcept { return (x < 0.0F) ? -x : x; }
 bool finite(float x) noexcept { return std::isfinite(x); }
+float minf(float a, float b) noexcept { return (b < a) ? b : a; }
+float maxf(float a, float b) noexcept { return (b > a) ? b : a; }
+
+constexpr float kUnlimited = std::numeric_limits<float>::infinity();
+// Reduced mode: the allowed TCP speed reaches 0.95 x the reduced limit after this share of
+// reduced.ramp_ms, leaving the rest for the drives' following lag and the measurement.
+constexpr float kReducedRampShare = 0.8F;
+// Bounds on the path samples (each one forward kinematics + every zone): a jog's stopping
+// path every cycle; the path to the first waypoint whenever the arm has moved; a program's
+// paths once per load.
+constexpr std::uint32_t kJogSamples = 256;
+constexpr std::uint32_t kLegSamples = 1024;
+constexpr std::uint32_t kProgramSamples = 4096;
+constexpr float kLegRecheckRad = 1.0e-4F;  // measured motion that makes the first leg stale
 }  // namespace
 
 const char* to_string(AxisState s) noexcept {
@@ -163,8 +178,66 @@ Joints ProgramExecutor::advance(float dt, const RobotModel& m, float override) n
 
 // ------------------------------------------------------------------ MotionController
 MotionController::MotionController(const RobotModel& model, const MotionConfig& cfg) noexcept
-    : model_(model), cfg_(cfg) {
+    : model_(model), cfg_(cfg), plan_(model), tcp_allow_(kUnlimited) {
   axis_.fill(AxisState::Disabled);
+  // Without set_limits: the robot's own ranges and speeds and SafetyLimits' defaults, used
+  // for reduced mode only (limits_set_ gates everything else).
+  core::SafetyLimits d{};
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    d.joints[i] = {model.q_min_rad[i], model.q_max_rad[i], model.qd_max_rad_s[i]};
+  }
+  d.tcp_mm = model.tcp_offset_mm;
+  lim_.configure(d, model_, cfg_.limit_margin_rad);
+}
+
+void MotionController::set_limits(const core::SafetyLimits& limits) noexcept {
+  model_.tcp_offset_mm = limits.tcp_mm;  // the tool's TCP: zones, TCP speeds, measure()
+  lim_.configure(limits, model_, cfg_.limit_margin_rad);
+  limits_set_ = true;
+  plan_ = model_;
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    plan_.qd_max_rad_s[i] = lim_.joint_speed(i);
+  }
+  tcp_allow_ = reduced_prev_ ? lim_.reduced_tcp_speed() : lim_.tcp_speed();
+  check_program();
+}
+
+// A program is checked once, here: every waypoint within the joint bounds and the
+// Cartesian limits less their margins, and the straight joint-space path between
+// consecutive waypoints (what ProgramExecutor drives) sampled by LimitPlanner::path_clear:
+// the next sample is as far as the smallest clearance left allows (a point moves at most
+// sum_j |dq_j| lever_j), never closer than 0.5 mm of point travel / 0.001 rad of tool-axis
+// turn. Joints are linear along such a path: the waypoints bound them.
+void MotionController::load_program(const Waypoint* points, std::uint8_t count) noexcept {
+  prog_ = points;
+  prog_count_ = (points == nullptr) ? 0U : count;
+  program_.load(points, count);
+  check_program();
+}
+
+void MotionController::check_program() noexcept {
+  program_ok_ = true;
+  first_leg_dirty_ = true;
+  if (!limits_set_) {
+    return;
+  }
+  Clearance margin{};
+  lim_.margins(margin);
+  for (std::size_t k = 0; k < prog_count_ && program_ok_; ++k) {
+    program_ok_ = lim_.joints_inside(prog_[k].q) && lim_.path_clear(prog_[k].q, prog_[k].q, margin, 2U);
+    if (program_ok_ && k + 1U < prog_count_) {
+      program_ok_ = lim_.path_clear(prog_[k].q, prog_[k + 1U].q, margin, kProgramSamples);
+    }
+  }
+}
+
+bool MotionController::start_within_limits(const Joints& from) const noexcept {
+  if (!limits_set_ || prog_count_ == 0U) {
+    return true;
+  }
+  Clearance thr{};
+  lim_.thresholds(from, thr);
+  return lim_.path_clear(from, prog_[0].q, thr, kLegSamples);
 }
 
 void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb) noexcept {
@@ -198,25 +271,61 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   }
   fb.program_loaded = program_.loaded();
   fb.program_finished = program_.finished();
+  // @req MO-LIMITS-PROGRAM
+  // The path to the first waypoint starts wherever the arm is: re-checked when it has
+  // moved (not while the program runs: the check is for `start`).
+  if (limits_set_ && (prog_count_ > 0U) && !program_.active()) {
+    bool moved = first_leg_dirty_;
+    for (std::size_t i = 0; i < kJoints; ++i) {
+      moved = moved || !(absf(q_meas_[i] - first_leg_from_[i]) <= kLegRecheckRad);
+    }
+    if (moved) {
+      first_leg_from_ = q_meas_;
+      first_leg_ok_ = start_within_limits(q_meas_);
+      first_leg_dirty_ = false;
+    }
+  }
+  fb.program_within_limits = !limits_set_ || (program_ok_ && first_leg_ok_);
 }
 
 void MotionController::follow_program(const core::SupervisorOut& so) noexcept {
   // T1: time-scale the program so that the path stays the same and no point exceeds
   // the reduced speed (ISO 10218-1 5.7.3).
+  if (!program_.active() && !program_.finished()) {
+    v_sp_.fill(0.0F);  // not started (refused outside the limits): hold, never jump to q0
+    return;
+  }
   float scale = 1.0F;
   if (so.motion.t1_limit) {
     scale = t1_scale(model_, q_sp_, program_.velocity(), cfg_.t1_limit_mm_s * cfg_.t1_margin);
   }
-  const Joints q = program_.advance(cfg_.cycle_s * scale, model_, cfg_.speed_override);
+  // SPEC §10: the TCP at 0.95 x its limit (normal, or the reduced ramp), by time-scaling
+  // like T1; the joints' 0.95 x max_speed is in plan_, the model the executor plans with.
+  if (tcp_allow_ < kUnlimited) {
+    scale = minf(scale, tcp_scale(model_, q_sp_, program_.velocity(), tcp_allow_));
+  }
+  const Joints q = program_.advance(cfg_.cycle_s * scale, plan_, cfg_.speed_override);
   for (std::size_t i = 0; i < kJoints; ++i) {
     v_sp_[i] = (q[i] - q_sp_[i]) / cfg_.cycle_s;
   }
   if (so.motion.t1_limit) {
     limit_t1();  // a last, exact check on the step actually taken
   }
+  limit_tcp();
 }
 
+// @req MO-LIMITS-JOG MO-LIMITS-RECOVERY
+// A jog stays active (the supervisor still says MANUAL_JOGGING) but holds short of every
+// safe limit: joints exactly (the speed from which the axis stops at its deceleration
+// inside the bound), Cartesian limits by prediction: the path from the set-point to where
+// every axis would stop braking at full deceleration from this cycle's speed must keep
+// every clearance (limits.hpp); if it does not, the axes brake now. Because braking only
+// ever shortens the stopping path (by a*dt^2/2 a cycle), a path found clear once stays
+// clear, so a jog at 100 % does not overshoot into the margin. Where the set-point is
+// already inside a margin (or past a limit: recovery), "clear" means "not worse than
+// now", so the operator can always jog back out and nowhere deeper.
 void MotionController::jog(const core::JogTarget& j, bool t1) noexcept {
+  const Joints v_prev = v_sp_;
   for (std::size_t i = 0; i < kJoints; ++i) {
     const bool moving_axis = (j.axis >= 1U) && (static_cast<std::size_t>(j.axis - 1U) == i);
     float target = 0.0F;
@@ -224,19 +333,94 @@ void MotionController::jog(const core::JogTarget& j, bool t1) noexcept {
       target = static_cast<float>(j.dir) * (static_cast<float>(j.speed) / 100.0F) * cfg_.jog_speed *
                model_.qd_max_rad_s[i];
     }
+    if (limits_set_) {
+      target = clampf(target, -lim_.joint_speed(i), lim_.joint_speed(i));
+    }
     // Never drive into a joint limit: the speed from which the axis can still stop
     // inside the limit at its acceleration.
     const float a = model_.qdd_max_rad_s2[i];
-    const float room_hi = model_.q_max_rad[i] - cfg_.limit_margin_rad - q_sp_[i];
-    const float room_lo = q_sp_[i] - (model_.q_min_rad[i] + cfg_.limit_margin_rad);
+    const float hi = limits_set_ ? lim_.joint_hi(i) : (model_.q_max_rad[i] - cfg_.limit_margin_rad);
+    const float lo = limits_set_ ? lim_.joint_lo(i) : (model_.q_min_rad[i] + cfg_.limit_margin_rad);
+    const float room_hi = hi - q_sp_[i];
+    const float room_lo = q_sp_[i] - lo;
     const float v_hi = (room_hi > 0.0F) ? std::sqrt(2.0F * a * room_hi) : 0.0F;
     const float v_lo = (room_lo > 0.0F) ? std::sqrt(2.0F * a * room_lo) : 0.0F;
     target = clampf(target, -v_lo, v_hi);
     const float dv = a * cfg_.cycle_s;
     v_sp_[i] = clampf(target, v_sp_[i] - dv, v_sp_[i] + dv);
   }
+  limit_tcp();
   if (t1) {
     limit_t1();
+  }
+  if (limits_set_ && lim_.cartesian() && !stop_path_clear()) {
+    for (std::size_t i = 0; i < kJoints; ++i) {  // brake: the stop the prediction assumed
+      const float dv = model_.qdd_max_rad_s2[i] * cfg_.cycle_s;
+      const float brake = (v_prev[i] > 0.0F) ? maxf(v_prev[i] - dv, 0.0F) : minf(v_prev[i] + dv, 0.0F);
+      const bool slower = (v_sp_[i] * brake >= 0.0F) && (absf(v_sp_[i]) < absf(brake));
+      v_sp_[i] = slower ? v_sp_[i] : brake;
+    }
+    limit_tcp();  // both only ever slow down further: the stopping path only shortens
+    if (t1) {
+      limit_t1();
+    }
+  }
+}
+
+bool MotionController::stop_path_clear() const noexcept {
+  Joints stop{};
+  for (std::size_t i = 0; i < kJoints; ++i) {
+    const float v = v_sp_[i];
+    stop[i] = q_sp_[i] + (v * cfg_.cycle_s) + ((v * absf(v)) / (2.0F * model_.qdd_max_rad_s2[i]));
+  }
+  Clearance thr{};
+  lim_.thresholds(q_sp_, thr);
+  return lim_.path_clear(q_sp_, stop, thr, kJogSamples);
+}
+
+// @req MO-LIMITS-SPEED
+void MotionController::limit_tcp() noexcept {
+  if (tcp_allow_ < kUnlimited) {
+    const float s = tcp_scale(model_, q_sp_, v_sp_, tcp_allow_);
+    for (float& v : v_sp_) {
+      v *= s;
+    }
+  }
+}
+
+// @req MO-LIMITS-REDUCED
+// Reduced mode (SPEC §10): from the onset, the allowed TCP speed falls linearly from the
+// TCP speed of this cycle's set-point to 0.95 x the reduced limit, reaching it after
+// kReducedRampShare x reduced.ramp_ms, and stays there; when reduced mode ends it rises
+// back at the rate (normal - reduced) / ramp_ms (no step up either). Without set_limits
+// there is no normal cap: the allowed speed rises until it is above anything this arm can
+// reach, then the cap is lifted.
+void MotionController::update_tcp_allow(bool reduced) noexcept {
+  const float red = lim_.reduced_tcp_speed();
+  const float normal = limits_set_ ? lim_.tcp_speed() : kUnlimited;
+  const float ramp_s = lim_.reduced_ramp_s();
+  if (reduced && !reduced_prev_) {
+    PointSpeeds ps{};
+    point_speeds(model_, q_sp_, v_sp_, ps);
+    const float now = finite(ps.speed[kTcpPoint]) ? ps.speed[kTcpPoint] : red;
+    tcp_allow_ = minf(tcp_allow_, maxf(now, red));
+    const float t = kReducedRampShare * ramp_s;
+    tcp_ramp_down_ = (t > 0.0F) ? ((tcp_allow_ - red) / t) : kUnlimited;
+  }
+  reduced_prev_ = reduced;
+  if (reduced) {
+    tcp_allow_ = (tcp_ramp_down_ < kUnlimited) ? maxf(red, tcp_allow_ - (tcp_ramp_down_ * cfg_.cycle_s)) : red;
+    return;
+  }
+  if (tcp_allow_ < normal) {
+    // back up at the rate the built-in (or configured) normal limit would take over ramp_ms
+    const float top = limits_set_ ? normal : (kSpeedFactor * core::SafetyLimits{}.tcp_max_speed_mm_s);
+    const float rate = (ramp_s > 0.0F) ? (maxf(top - red, 1.0F) / ramp_s) : kUnlimited;
+    tcp_allow_ = (rate < kUnlimited) ? (tcp_allow_ + (rate * cfg_.cycle_s)) : normal;
+    const float lift = limits_set_ ? normal : 10.0F * top;  // above any TCP speed of this arm
+    if (!(tcp_allow_ < lift)) {
+      tcp_allow_ = normal;
+    }
   }
 }
 
@@ -261,9 +445,15 @@ void MotionController::limit_t1() noexcept {
   }
 }
 
-void MotionController::integrate() noexcept {
+void MotionController::integrate(bool bounded) noexcept {
   for (std::size_t i = 0; i < kJoints; ++i) {
     float q = q_sp_[i] + (v_sp_[i] * cfg_.cycle_s);
+    if (bounded && limits_set_) {
+      // Planned motion never passes a joint's bound; already past it (recovery), never
+      // further out. (Stop ramps are not clamped: a set-point step is no stop.)
+      q = minf(q, maxf(q_sp_[i], lim_.joint_hi(i)));
+      q = maxf(q, minf(q_sp_[i], lim_.joint_lo(i)));
+    }
     q = clampf(q, model_.q_min_rad[i], model_.q_max_rad[i]);
     if (!finite(q)) {
       q = q_meas_[i];
@@ -276,9 +466,17 @@ void MotionController::integrate() noexcept {
 void MotionController::step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
                             std::array<hal::DriveOut, kJoints>& out) noexcept {
   const core::MotionRequest& r = so.motion;
+  update_tcp_allow(r.reduced);
   switch (r.program) {
-    case core::ProgramCmd::Start: program_.start(q_meas_, model_, cfg_.speed_override); break;
-    case core::ProgramCmd::Resume: program_.resume(q_meas_, model_, cfg_.speed_override); break;
+    case core::ProgramCmd::Start:
+      // A second barrier behind the supervisor's OUTSIDE_LIMITS: never start outside.
+      if (program_ok_ && first_leg_ok_) {
+        program_.start(q_meas_, plan_, cfg_.speed_override);
+      } else {
+        program_.abort();
+      }
+      break;
+    case core::ProgramCmd::Resume: program_.resume(q_meas_, plan_, cfg_.speed_override); break;
     case core::ProgramCmd::Abort: program_.abort(); break;
     case core::ProgramCmd::None: break;
   }
@@ -293,21 +491,21 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
       break;
     case core::MotionMode::Jog:
       jog(r.jog, r.t1_limit);
-      integrate();
+      integrate(true);
       break;
     case core::MotionMode::Program:
       follow_program(so);
-      integrate();
+      integrate(true);
       break;
     // @req ST-CAT1
     case core::MotionMode::QuickStop:
       ramp(cfg_.quick_stop_decel);
-      integrate();
+      integrate(false);
       break;
     // @req ST-CAT2
     case core::MotionMode::Ramp2:
       ramp(cfg_.cat2_decel);
-      integrate();
+      integrate(false);
       break;
   }
   drive_control(so, drives, out);

@@ -4,7 +4,7 @@
 Requirements: the ids in tools/trace/requirements.txt, plus one per transition row, read
 from the `id` column of kTransitions. Code: every `@req ID` in a comment of the product's
 sources (a transition row is its own code). Tests: `@req ID` in a comment just above a
-GoogleTest TEST/TEST_F or a pytest `def test_`, or anywhere in a .scn scenario or an
+GoogleTest TEST/TEST_F/TEST_P or a pytest `def test_`, or anywhere in a .scn scenario or an
 integration script (the whole file is then the test).
 
   traceability.py            write docs/traceability.md
@@ -123,7 +123,7 @@ def tags_anywhere(path, name, out):
 def test_tags(problems):
     out = []
     for p in walk(["tests/unit"], (".cpp",)):
-        tags_above(p, "//", r"^TEST(?:_F)?\((\w+),\s*(\w+)\)", lambda m: f"{m.group(1)}.{m.group(2)}", (),
+        tags_above(p, "//", r"^TEST(?:_F|_P)?\((\w+),\s*(\w+)\)", lambda m: f"{m.group(1)}.{m.group(2)}", (),
                    "a TEST", out, problems)
     for p in walk(["tests/integration"], (".py",)):
         tags_above(p, "#", r"^(?:async )?def (test_\w+)", lambda m: f"gateway/{m.group(1)}", ("@",),

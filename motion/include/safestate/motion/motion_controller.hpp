@@ -11,7 +11,9 @@
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/supervisor.hpp"
 #include "safestate/hal/process_image.hpp"
+#include "safestate/core/safety_limits.hpp"
 #include "safestate/motion/kinematics.hpp"
+#include "safestate/motion/limits.hpp"
 #include "safestate/motion/robot.hpp"
 
 namespace safestate::motion {
@@ -91,7 +93,29 @@ class ProgramExecutor {
 class MotionController {
  public:
   MotionController(const RobotModel& model, const MotionConfig& cfg) noexcept;
-  void load_program(const Waypoint* points, std::uint8_t count) noexcept { program_.load(points, count); }
+  // The program (owned by the caller, kept alive while loaded); checked against the safe
+  // limits here, once, not every cycle (Feedback::program_within_limits).
+  void load_program(const Waypoint* points, std::uint8_t count) noexcept;
+
+  // SPEC §10: the safe limits (validated, complete: every joint filled), once at start-up,
+  // before the first cycle. Until then (or never) the controller plans as before: within
+  // the robot's own ranges and speeds only, no TCP cap, no zones; MotionRequest::reduced is
+  // obeyed with the built-in default (250 mm/s, 500 ms). From then on it plans inside the
+  // limits less the margins of limits.hpp, uses limits.tcp_mm as the TCP (zones and TCP
+  // speeds, and the speeds measure() reports), and re-checks the loaded program.
+  void set_limits(const core::SafetyLimits& limits) noexcept;
+  [[nodiscard]] const LimitPlanner& limits() const noexcept { return lim_; }
+
+  // The checks behind Feedback::program_within_limits, for a caller that wants them
+  // directly: the loaded program's waypoints and paths (computed at load / set_limits),
+  // and the straight path from `from` to its first waypoint (computed now; inside the
+  // margin at `from` it must not get worse). Both true without limits or without program.
+  [[nodiscard]] bool program_within_limits() const noexcept { return program_ok_; }
+  [[nodiscard]] bool start_within_limits(const Joints& from) const noexcept;
+
+  // The TCP speed (mm/s) the planner allows this cycle: 0.95 x the normal limit, or the
+  // reduced-mode ramp towards 0.95 x the reduced limit; +inf when nothing caps it.
+  [[nodiscard]] float tcp_allowed_mm_s() const noexcept { return tcp_allow_; }
 
   // Before the supervisor runs: the measured speeds of the TCP and every link origin,
   // from measured joint positions (this cycle's and the last), and the program status.
@@ -114,7 +138,11 @@ class MotionController {
   void jog(const core::JogTarget& j, bool t1) noexcept;
   void ramp(float decel_fraction) noexcept;
   void limit_t1() noexcept;
-  void integrate() noexcept;
+  void limit_tcp() noexcept;
+  void check_program() noexcept;
+  void update_tcp_allow(bool reduced) noexcept;
+  [[nodiscard]] bool stop_path_clear() const noexcept;
+  void integrate(bool bounded) noexcept;
   void drive_control(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
                      std::array<hal::DriveOut, kJoints>& out) noexcept;
   void axis_states(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives) noexcept;
@@ -137,6 +165,19 @@ class MotionController {
   std::array<bool, kJoints> lagging_{};           // measured position outside the window
   std::array<bool, kJoints> quick_stopped_{};     // we commanded the drive's own quick stop
   bool watch_following_ = false;                  // last cycle commanded hold, jog or program
+  // SPEC §10
+  LimitPlanner lim_{};
+  bool limits_set_ = false;
+  RobotModel plan_;                 // model_ with the joint speeds capped at 0.95 x the limits
+  float tcp_allow_;                 // TCP speed allowed this cycle, mm/s (+inf: no cap)
+  float tcp_ramp_down_ = 0.0F;      // mm/s per s, set at the onset of reduced mode
+  bool reduced_prev_ = false;
+  const Waypoint* prog_ = nullptr;  // the loaded program (owned by the caller)
+  std::uint8_t prog_count_ = 0;
+  bool program_ok_ = true;          // waypoints and paths between them
+  bool first_leg_ok_ = true;        // measured position -> first waypoint
+  bool first_leg_dirty_ = true;
+  Joints first_leg_from_{};
 };
 
 }  // namespace safestate::motion
