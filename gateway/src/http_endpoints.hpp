@@ -17,10 +17,20 @@ inline constexpr std::size_t kUrlLimit = 2U * 1024U;   // 414 beyond (protocol.m
 
 class HttpSession;
 
-// At most max_http connections; when full, the oldest one still waiting for (or
-// reading) a request gives its slot to the newcomer, so that idle connections never
-// keep a pendant's upgrade out.
+// At most max_http connections; when full, the oldest one that has waited kSilentLimit
+// for a complete request head with nothing unread in its socket gives its slot to the
+// newcomer (it is answered 503 + Retry-After), so that idle connections never keep a
+// pendant's upgrade out, and a connection whose request is already in its socket buffer
+// (a burst) is never evicted. gateway.cpp's listener makes a newcomer wait (unaccepted,
+// in the kernel's backlog) while no slot is free, and answers 503 once one has waited
+// kSilentLimit without a slot.
 using HttpSessions = Registry<HttpSession>;
+
+// Answers 503 with Retry-After on a connection that gets no session (the HTTP cap), then
+// closes it once the peer has read it (its request, if any, is read and thrown away
+// first, at most kSilentLimit, so that the close is not a reset that loses the answer).
+// `count`, if given, is incremented while the answer is in flight.
+void refuse_busy(tcp::socket socket, std::shared_ptr<std::size_t> count);
 
 struct Endpoints {
   Hub& hub;
@@ -34,9 +44,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   HttpSession(tcp::socket&& socket, Endpoints& ep) : stream_(std::move(socket)), ep_(ep), since_(Clock::now()) {}
 
   void run() { do_read(); }
+  // Gives its slot away (HttpSessions::admit): answered 503 + Retry-After.
   void evict();
   [[nodiscard]] bool live() const noexcept { return !done_; }
-  [[nodiscard]] bool evictable() const noexcept { return reading_; }  // HttpSessions::admit
+  [[nodiscard]] bool occupies() const noexcept { return !done_; }
+  [[nodiscard]] bool evictable(Clock::time_point now) const;
   [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
 
  private:
@@ -55,6 +67,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<http::request_parser<http::string_body>> parser_;
   std::shared_ptr<http::response<http::string_body>> res_;
   bool reading_ = false;
+  bool evicted_ = false;
   bool done_ = false;
 };
 
