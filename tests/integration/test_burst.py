@@ -267,5 +267,98 @@ def test_bursts_of_50_200_500_are_each_admitted_or_refused_in_words(tmp_path):
         assert s.stop() == 0, s.output()
 
 
+# ---------------------------------------------------------------------------- the rules, one by one
+def raw_upgrade(port):
+    """A socket after its WebSocket upgrade request, and the head of the answer."""
+    import socket  # noqa: PLC0415
+    c = socket.create_connection(("127.0.0.1", port), timeout=5)
+    c.sendall((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+               "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+    buf = b""
+    while b"\r\n\r\n" not in buf:
+        chunk = c.recv(4096)
+        assert chunk, f"closed without an answer to the upgrade: {buf!r}"
+        buf += chunk
+    head, rest = buf.split(b"\r\n\r\n", 1)
+    return c, head.decode("latin-1"), rest
+
+
+def close_code(c, rest=b""):
+    """The code of the server's close frame (skipping any text frames before it)."""
+    buf = rest
+    while True:
+        while len(buf) >= 2:
+            ln = buf[1] & 0x7F
+            hl = 4 if ln == 126 else 2
+            if ln == 126 and len(buf) >= 4:
+                ln = int.from_bytes(buf[2:4], "big")
+            if len(buf) < hl + ln:
+                break
+            if buf[0] & 0x0F == 0x8:
+                return int.from_bytes(buf[hl:hl + 2], "big")
+            buf = buf[hl + ln:]
+        chunk = c.recv(4096)
+        assert chunk, "closed without a close frame"
+        buf += chunk
+
+
+def retry_after(head):
+    return re.search(r"(?im)^retry-after:\s*(\d+)\s*$", head)
+
+
+def test_the_lobby_refuses_with_503_then_evicts_only_the_silent_with_1013(tmp_path):
+    from test_gateway import SafeState  # noqa: PLC0415
+    s = SafeState(tmp_path, args=("--max-clients", "2"))  # a lobby of 2 upgraded, no hello yet
+    socks = []
+    try:
+        a, ha, ra = raw_upgrade(s.port)
+        b, hb, _ = raw_upgrade(s.port)
+        socks += [a, b]
+        assert " 101 " in ha and " 101 " in hb, (ha, hb)
+        # Both just upgraded: neither has been silent for 1 s, so neither is evicted.
+        c, hc, _ = raw_upgrade(s.port)
+        socks.append(c)
+        assert hc.startswith("HTTP/1.1 503 ") and retry_after(hc), hc
+        time.sleep(1.2)
+        # Now the oldest has been silent for over 1 s: it gives its slot away, in words.
+        d, hd, _ = raw_upgrade(s.port)
+        socks.append(d)
+        assert " 101 " in hd, hd
+        assert close_code(a, ra) == 1013
+    finally:
+        for x in socks:
+            x.close()
+        assert s.stop() == 0, s.output()
+
+
+def test_beyond_the_http_cap_a_newcomer_waits_and_only_a_silent_connection_is_evicted(tmp_path):
+    import socket  # noqa: PLC0415
+    from test_gateway import SafeState, http_get  # noqa: PLC0415
+    s = SafeState(tmp_path, args=("--max-http", "2"))
+    idle = []
+    try:
+        idle = [socket.create_connection(("127.0.0.1", s.port), timeout=5) for _ in range(2)]
+        time.sleep(0.1)  # both accepted: the cap is full
+        t0 = time.monotonic()
+        status, _, _ = http_get(s.port, "/api/status")  # waits in the backlog, then gets a slot
+        waited = time.monotonic() - t0
+        assert status == 200, status
+        assert 0.8 <= waited <= 3.0, f"got a slot after {waited:.2f} s (the silent one goes after 1 s)"
+        # The evicted idle connection was told why, not just closed.
+        answers = []
+        for x in idle:
+            x.settimeout(0.5)
+            try:
+                answers.append(x.recv(4096).decode("latin-1"))
+            except socket.timeout:
+                answers.append(None)
+        told = [h for h in answers if h]
+        assert told and all(h.startswith("HTTP/1.1 503 ") and retry_after(h) for h in told), answers
+    finally:
+        for x in idle:
+            x.close()
+        assert s.stop() == 0, s.output()
+
+
 if __name__ == "__main__" and len(sys.argv) == 4 and sys.argv[1] == "worker":
     asyncio.run(worker_main(int(sys.argv[2]), int(sys.argv[3])))
