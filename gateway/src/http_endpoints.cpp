@@ -5,7 +5,8 @@
 //    and /metrics beyond loopback the bearer token (401 with WWW-Authenticate), then
 //    the method (GET only, 405). A 414/431 closes the connection.
 //  - An upgrade anywhere but /ws is 404; /ws with every slot of the lobby (upgraded,
-//    no hello yet) taken, none silent for kSilentLimit, is 503 with Retry-After.
+//    no hello yet) taken waits until one is free or silent for kSilentLimit (then
+//    evicted with close 1013), at most kLobbyWait, then 503 with Retry-After.
 //  - /api/events: after >= 0 (default 0), limit >= 1 (default 100, above 500 clamped to
 //    500); a malformed value is 400 {"error", "parameter", "detail"}. The body is the
 //    page (a JSON array, oldest first); when the page is full, a `Link: <...>;
@@ -218,21 +219,12 @@ void HttpSession::dispatch() {
     }
   }
   if (websocket::is_upgrade(req)) {
-    if (path == "/ws" && ep_.ws.admit()) {
-      done_ = true;
-      stream_.expires_never();
-      auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
-      ep_.ws.add(ws);
-      ws->run(parser_->release());
-      return;
-    }
     if (path != "/ws") {
       answer(text_answer(404, "not found\n"), true);
       return;
     }
-    HttpAnswer a = text_answer(503, "too many WebSocket clients connecting at once: try again later\n");
-    a.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
-    answer(std::move(a), true);
+    upgrade_since_ = Clock::now();
+    try_upgrade();
     return;
   }
   if (req.method() != http::verb::get) {
@@ -242,6 +234,33 @@ void HttpSession::dispatch() {
     return;
   }
   answer(ep_.hub.http_get(target));
+}
+
+// A full lobby makes the upgrade wait: its oldest member gives its slot away once it has
+// been silent for kSilentLimit (or leaves it sooner by saying hello), so a newcomer, the
+// pendant among a hundred silent squatters too, waits at most about that long. Past
+// kLobbyWait (a flood that keeps refilling the lobby with newcomers) the answer is 503.
+void HttpSession::try_upgrade() {
+  if (ep_.ws.admit()) {
+    done_ = true;
+    stream_.expires_never();
+    auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
+    ep_.ws.add(ws);
+    ws->run(parser_->release());
+    return;
+  }
+  if (Clock::now() - upgrade_since_ >= kLobbyWait) {
+    HttpAnswer a = text_answer(503, "too many WebSocket clients connecting at once: try again later\n");
+    a.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
+    answer(std::move(a), true);
+    return;
+  }
+  wait_.expires_after(kLobbyPoll);
+  wait_.async_wait([self = shared_from_this()](beast::error_code ec) {
+    if (!ec) {
+      self->try_upgrade();
+    }
+  });
 }
 
 void HttpSession::answer(HttpAnswer a, bool close) {

@@ -14,6 +14,10 @@ namespace safestate::gateway {
 
 inline constexpr std::size_t kHeadLimit = 8U * 1024U;  // 431 beyond (protocol.md)
 inline constexpr std::size_t kUrlLimit = 2U * 1024U;   // 414 beyond (protocol.md)
+// An upgrade that finds the lobby full waits for a slot this long at most (then 503),
+// looking again every kLobbyPoll.
+inline constexpr std::chrono::seconds kLobbyWait{2};
+inline constexpr std::chrono::milliseconds kLobbyPoll{10};
 
 class HttpSession;
 
@@ -41,7 +45,8 @@ struct Endpoints {
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(tcp::socket&& socket, Endpoints& ep) : stream_(std::move(socket)), ep_(ep), since_(Clock::now()) {}
+  HttpSession(tcp::socket&& socket, Endpoints& ep)
+      : stream_(std::move(socket)), ep_(ep), since_(Clock::now()), wait_(stream_.get_executor()) {}
 
   void run() { do_read(); }
   // Gives its slot away (HttpSessions::admit): answered 503 + Retry-After.
@@ -56,6 +61,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void on_read(beast::error_code ec, std::size_t bytes);
   void on_too_big(beast::error_code ec);
   void dispatch();
+  void try_upgrade();
   void answer(HttpAnswer a, bool close = false);
   void on_write(bool close, beast::error_code ec, std::size_t bytes);
   void finish();
@@ -63,6 +69,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   beast::tcp_stream stream_;
   Endpoints& ep_;
   Clock::time_point since_;
+  asio::steady_timer wait_;  // an upgrade waiting for a slot in the lobby
+  Clock::time_point upgrade_since_{};
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   std::shared_ptr<http::response<http::string_body>> res_;

@@ -97,7 +97,8 @@ class Registry {
 
 // The WebSocket connections that have not said hello yet (the lobby): at most
 // max_clients; when full, the oldest one silent for kSilentLimit since its upgrade is
-// closed with 1013 for the newcomer, else the newcomer's upgrade gets 503. Those that
+// closed with 1013 for the newcomer, else the newcomer's upgrade waits for that
+// (HttpSession::try_upgrade, at most kLobbyWait, then 503). Those that
 // said hello are counted by the hub: at most max_clients - 1 as anything but the
 // pendant (one more is closed with 1013), so a pendant always finds a slot.
 class Sessions : public Registry<WsSession> {
