@@ -61,7 +61,8 @@ function refusal(as: AddressSpace, w: WriteValue): StatusCode {
   if (node === null) {
     return StatusCodes.BadNodeIdUnknown;
   }
-  if (w.attributeId === AttributeIds.Value && node.nodeClass === NodeClass.Variable && !(node as UAVariable).isWritable(SessionContext.defaultContext)) {
+  const variable = node.nodeClass === NodeClass.Variable ? (node as UAVariable) : null;
+  if (w.attributeId === AttributeIds.Value && variable !== null && !variable.isWritable(SessionContext.defaultContext)) {
     return StatusCodes.BadNotWritable;
   }
   return StatusCodes.BadUserAccessDenied;
