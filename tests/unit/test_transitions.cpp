@@ -256,6 +256,22 @@ TEST(Rule1, ASilentFieldbusNamesWhereTheSilenceBegins) {
   EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost: no answer from subdevice 1 on");
 }
 
+// @req TR-C1 AL-CAUSE
+TEST(Rule1, ASilentFieldbusWithoutASubdeviceIsPlainFieldbusLost) {
+  // No frame back, but no position known: no "silent from" flag on subdevice 0.
+  Bench b;
+  b.to_idle();
+  b.plant.fieldbus = false;
+  b.fb.fieldbus_subdevice = 0;
+  b.fb.fieldbus_silent = true;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::FIELDBUS_LOST);
+  EXPECT_EQ(b.out.cause.detail.code, 0U);
+  char buf[96];
+  EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost");
+}
+
 // @req TR-C1
 TEST(Rule1, IntegrityFaultLocksOut) {
   Bench b;
@@ -814,6 +830,31 @@ TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) 
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).axis, 1U);
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).signal, Signal::brake);
   EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT) << "the brake still does not hold";
+}
+
+// @req ST-CAT1
+TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeWhileTheBrakeFeedbacksChatter) {
+  // Two brake feedbacks alternate: never all engaged, neither released long enough for
+  // BRAKE_NOT_ENGAGED. The brake phase still ends at brakes_timeout: power is removed.
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_welded_released[0] = true;  // brake 1's feedback stays released when engaging begins
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  int k = 0;
+  for (; k < 400 && b.out.state == State::STOPPING; ++k) {
+    b.plant.brake_welded_released[0] = (k % 2) != 0;
+    b.plant.brake_welded_released[1] = (k % 2) == 0;
+    b.cycle();
+    if (b.out.state == State::STOPPING) {
+      ASSERT_TRUE(b.out.drives_enable) << "the drives hold the axes until the brake time is over, cycle " << k;
+    }
+  }
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_GE(k, static_cast<int>(b.timing().brakes_timeout)) << "not before the brake time";
+  EXPECT_LE(k, static_cast<int>(b.timing().brakes_timeout) + 2);
+  EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
 // @req AL-FEEDBACK TR-C1
