@@ -189,7 +189,6 @@ TEST(Describe, BootFailedWordsFollowSignalAndSubdevice) {
   EXPECT_EQ(words(AlarmId::BOOT_FAILED, Signal::drive, Channel::none, 5, 0), "Start-up failed: drive 5 did not answer");
 }
 
-// @req AL-CAUSE
 TEST(Describe, EstopNamesChannelB) {
   EXPECT_EQ(words(AlarmId::ESTOP_PRESSED, Signal::estop, Channel::b), "E-stop channel B opened");
 }

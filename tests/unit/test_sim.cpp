@@ -380,7 +380,6 @@ struct Direct {
 };
 }  // namespace
 
-// @req CIA-NO-REENABLE
 TEST(MotionDirect, TwoAxesLaggingInOneCycleNameTheFirst) {
   Direct d;
   d.cycle(core::MotionMode::Hold);  // enabled, brakes released, holding: the watch is on
@@ -391,7 +390,6 @@ TEST(MotionDirect, TwoAxesLaggingInOneCycleNameTheFirst) {
   EXPECT_EQ(fb.following_error_axis, 2U) << "the first lagging axis is named, not the last";
 }
 
-// @req CIA-NO-REENABLE ST-CAT1
 TEST(MotionDirect, Cat1QuickStopsOnlyALaggingDriveThatIsEnabledOrAlreadyQuickStopped) {
   namespace cw = core::cia402::cw;
   using DS = core::cia402::DriveState;
