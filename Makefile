@@ -87,7 +87,7 @@ fuzz: deps
 	cmake --preset fuzz
 	cmake --build --preset fuzz
 	@mkdir -p build-fuzz/findings
-	@for t in core scenario protocol; do \
+	@for t in core scenario protocol safety; do \
 	  mkdir -p build-fuzz/corpus/$$t; \
 	  echo "fuzz_$$t: $(FUZZ_SECONDS) s"; \
 	  build-fuzz/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=4096 -timeout=10 -print_final_stats=1 \

@@ -21,6 +21,8 @@ namespace safestate::app {
 int demo_main(const std::string& file);
 int replay_ethercat_main(const std::string& file, bool trace, const std::string& ifname, const std::string& control,
                          const std::string& bus_config);
+int safety_check_main(const std::string& file, bool builtin);
+int safety_canonical_main(const std::string& file, bool with_checksum);
 }
 
 namespace {
@@ -157,7 +159,25 @@ int main(int argc, char** argv) {
   check->add_flag("-v,--verbose", check_opt.verbose, "print progress per depth");
   check->add_flag("--break-invariant", check_opt.break_invariant,
                   "test the checker: demand a wrong state after an E-stop (must find a counterexample)");
+  auto* safety = app.add_subcommand("safety", "the safety configuration (SPEC 10): check a file, print its RFC 8785 form");
+  safety->require_subcommand(1);
+  std::string safety_file;
+  bool safety_default = false;
+  auto* safety_check = safety->add_subcommand(
+      "check", "print the name, checksum and limits of a safety configuration and every error (exit 0 valid, 2 not)");
+  safety_check->add_option("FILE", safety_file, "safety configuration (JSON)");
+  safety_check->add_flag("--default", safety_default, "check the built-in default configuration");
+  bool canonical_checksum = false;
+  auto* safety_canonical = safety->add_subcommand("canonical", "print the RFC 8785 (JCS) form of a JSON file");
+  safety_canonical->add_option("FILE", safety_file, "JSON file")->required();
+  safety_canonical->add_flag("--checksum", canonical_checksum, "also print its SHA-256 and checksum");
   CLI11_PARSE(app, argc, argv);
+  if (safety_check->parsed()) {
+    return safestate::app::safety_check_main(safety_file, safety_default);
+  }
+  if (safety_canonical->parsed()) {
+    return safestate::app::safety_canonical_main(safety_file, canonical_checksum);
+  }
   if (check->parsed()) {
     safestate::check::CheckStats stats;
     return safestate::check::check_main(check_opt, stats);

@@ -1,0 +1,122 @@
+// The safety configuration of SPEC §10-§12 outside the core: the JSON file, its strict
+// parse and consistency checks, its RFC 8785 checksum, and its conversion into the core's
+// fixed-size core::SafetyLimits. Nothing here runs in the scan cycle; the result is handed
+// to the core once, at start-up. docs/safety-configuration.md describes the file.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "safestate/core/safety_limits.hpp"
+
+namespace safestate::safety {
+
+inline constexpr std::string_view kFormat = "safestate-safety/1";
+// A file larger than this is refused before it is parsed (SPEC §10; a configuration
+// of 6 joints and 16 zones is a few kB).
+inline constexpr std::size_t kMaxFileBytes = 1024U * 1024U;
+// Deeper nesting than this is refused while parsing (the file's own depth is 4).
+inline constexpr std::size_t kMaxDepth = 16;
+
+// One problem with the file: the key path (`joints[2].max_deg`, `zones[1].name`, `` for the
+// whole document) and what is wrong with it.
+struct Error {
+  std::string path;
+  std::string message;
+  [[nodiscard]] std::string text() const { return path.empty() ? message : path + ": " + message; }
+};
+
+// SPEC §11 ISO/TS 15066 Annex A body regions that allow transient contact (skull and face
+// do not, and are refused).
+enum class BodyRegion : std::uint8_t {
+  neck, back, chest, abdomen, pelvis, upper_arm, lower_arm, hand, thigh, lower_leg
+};
+const char* to_string(BodyRegion r) noexcept;
+
+struct Ssm {
+  bool enabled = false;
+  double human_speed_mm_s = 1600.0;  // v_h, default ISO 13855
+  double decel_mm_s2 = 0.0;          // a
+  double reaction_ms = 0.0;          // T_r
+  double intrusion_mm = 0.0;         // C
+  double uncertainty_mm = 0.0;       // Z
+};
+
+struct Pfl {
+  bool enabled = false;
+  BodyRegion body_region = BodyRegion::hand;
+  double robot_mass_kg = 0.0;
+};
+
+// SPEC §11, as written in the file (the core's fixed-size form comes with the monitors).
+struct Collaborative {
+  bool enabled = false;
+  std::uint32_t resume_delay_ms = 1000;
+  bool auto_resume = true;
+  double reduced_speed_mm_s = 0.0;
+  std::optional<Ssm> ssm;
+  std::optional<Pfl> pfl;
+};
+
+// SPEC §12 with its defaults (used also when the file has no `brake_test` key).
+struct BrakeTest {
+  double interval_h = 8.0;
+  double grace_h = 1.0;
+  double test_torque_pct = 130.0;
+  std::uint32_t hold_ms = 500;
+  double max_drift_deg = 0.5;
+};
+
+struct Loaded {
+  std::string name;
+  std::string canonical;  // RFC 8785 form of the file, UTF-8
+  std::string checksum;   // first 8 hex digits of SHA-256(canonical), upper case
+  core::SafetyLimits limits{};  // limits.checksum holds the same 32 bits
+  std::optional<Collaborative> collaborative;  // absent when the file has no such key
+  bool brake_test_configured = false;          // false: the file has no `brake_test` key
+  BrakeTest brake_test{};                      // the file's values, or the SPEC §12 defaults
+};
+
+struct Result {
+  std::optional<Loaded> config;  // set exactly when errors is empty
+  std::vector<Error> errors;     // every problem found, in file order
+  [[nodiscard]] bool ok() const { return config.has_value() && errors.empty(); }
+};
+
+// Parses and checks a safety configuration given as text. `errors` lists every problem
+// (unknown, missing, mistyped or out-of-range keys and the consistency checks of §10);
+// when it is empty the configuration is complete and `config` is set. Never throws.
+Result parse_safety(std::string_view text);
+
+// Reads FILE (refused above kMaxFileBytes, before parsing) and parses it. This is the
+// function `safestate run --safety FILE` and the scenario runner call. Never throws.
+Result load_safety_file(const std::string& path);
+
+// The built-in configuration of SPEC §10 (the robot's own ranges and speeds, TCP 2000 mm/s,
+// reduced 250 mm/s with a 500 ms ramp, no zones, no orientation limit, stop 1000 ms) as the
+// JSON text it is made from, and parsed by the same parser.
+std::string_view default_safety_text() noexcept;
+Loaded default_safety();
+
+// A human-readable summary of a loaded configuration (`safestate safety check`).
+std::string summary(const Loaded& config);
+
+// The RFC 8785 form of any JSON text (no schema: duplicate keys, nesting deeper than
+// kMaxDepth and syntax errors are refused into `errors`).
+std::optional<std::string> canonical_json(std::string_view text, std::vector<Error>& errors);
+
+// The checksum of RFC 8785 text: the first 32 bits of its SHA-256 (OpenSSL libcrypto),
+// as 8 upper-case hex digits and as a number.
+std::string sha256_hex(std::string_view bytes);
+std::string checksum_text(std::string_view canonical);
+std::uint32_t checksum_value(std::string_view canonical);
+
+// Every key path the parser accepts, with `[]` for an array index (e.g. `joints[].min_deg`):
+// the unknown-key check uses the same lists, and a test checks the docs name each one.
+std::vector<std::string> known_keys();
+
+}  // namespace safestate::safety
