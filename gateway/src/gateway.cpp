@@ -91,6 +91,7 @@ class Listener : public std::enable_shared_from_this<Listener> {
     beast::error_code ec;
     acceptor_.close(ec);
     retry_.cancel();
+    waiting_.close(ec);
   }
 
  private:
@@ -112,20 +113,53 @@ class Listener : public std::enable_shared_from_this<Listener> {
     }
     beast::error_code nd;
     socket.set_option(tcp::no_delay(true), nd);
-    if (http_.admit()) {
-      auto s = std::make_shared<HttpSession>(std::move(socket), ep_);
-      http_.add(s);
-      s->run();
-    } else {
-      socket.close(nd);  // every HTTP slot is busy answering: protocol.md --max-http
-    }
-    do_accept();
+    waiting_ = std::move(socket);
+    waiting_since_ = Clock::now();
+    try_admit();
   }
 
+  // The newcomer gets an HTTP slot (HttpSessions::admit: a free one, or one given away by
+  // a connection silent for kSilentLimit), or waits for one, accepting nobody else
+  // meanwhile: the others wait in the kernel's backlog, and in a burst a slot frees as
+  // soon as a connection has upgraded or been answered. One that has waited kSilentLimit
+  // is answered 503 + Retry-After, and so is every newcomer after it until a slot frees
+  // (at most kMaxRefusing answers in flight; beyond, newcomers wait again).
+  void try_admit() {
+    if (!acceptor_.is_open()) {
+      return;
+    }
+    if (http_.admit()) {
+      congested_ = false;
+      auto s = std::make_shared<HttpSession>(std::move(waiting_), ep_);
+      http_.add(s);
+      s->run();
+      do_accept();
+      return;
+    }
+    if ((congested_ || Clock::now() - waiting_since_ >= kSilentLimit) && *refusing_ < kMaxRefusing) {
+      congested_ = true;
+      refuse_busy(std::move(waiting_), refusing_);
+      do_accept();
+      return;
+    }
+    retry_.expires_after(kAdmitRetry);
+    retry_.async_wait([self = shared_from_this()](beast::error_code e) {
+      if (!e) {
+        self->try_admit();
+      }
+    });
+  }
+
+  static constexpr std::size_t kMaxRefusing = 64;
+  static constexpr auto kAdmitRetry = 2ms;
   tcp::acceptor acceptor_;
   asio::steady_timer retry_;
   Endpoints& ep_;
   HttpSessions& http_;
+  tcp::socket waiting_{acceptor_.get_executor()};  // accepted, waiting for an HTTP slot
+  Clock::time_point waiting_since_{};
+  bool congested_ = false;
+  std::shared_ptr<std::size_t> refusing_ = std::make_shared<std::size_t>(0);
 };
 
 // A periodic timer without drift: a tick that comes late does not cost the next one (the

@@ -4,8 +4,9 @@
 //  - Checked in this order: URL length (414), Host (421), Origin (403), then for /api/*
 //    and /metrics beyond loopback the bearer token (401 with WWW-Authenticate), then
 //    the method (GET only, 405). A 414/431 closes the connection.
-//  - An upgrade anywhere but /ws is 404; /ws with every slot taken by clients that
-//    said hello is 503.
+//  - An upgrade anywhere but /ws is 404; /ws with every slot of the lobby (upgraded,
+//    no hello yet) taken waits until one is free or silent for kSilentLimit (then
+//    evicted with close 1013), at most kLobbyWait, then 503 with Retry-After.
 //  - /api/events: after >= 0 (default 0), limit >= 1 (default 100, above 500 clamped to
 //    500); a malformed value is 400 {"error", "parameter", "detail"}. The body is the
 //    page (a JSON array, oldest first); when the page is full, a `Link: <...>;
@@ -17,6 +18,7 @@
 //    page. `/ws` without Upgrade is 426. Request head: 8 KiB; 10 s to send it.
 #include "http_endpoints.hpp"
 
+#include <array>
 #include <charconv>
 #include <fstream>
 #include <sstream>
@@ -50,10 +52,89 @@ bool parse_int64(std::string_view s, std::int64_t& out) {
 }  // namespace
 
 // ------------------------------------------------------------------ session
-void HttpSession::evict() {
-  done_ = true;
+// ------------------------------------------------------------------ refused: 503
+namespace {
+std::string busy_answer() {
+  const std::string body = "too many connections at once: try again in " + std::to_string(kRetryAfterSeconds) + " s\n";
+  return "HTTP/1.1 503 Service Unavailable\r\nServer: safestate\r\nContent-Type: text/plain; charset=utf-8\r\n"
+         "Cache-Control: no-store\r\nRetry-After: " +
+         std::to_string(kRetryAfterSeconds) + "\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) +
+         "\r\n\r\n" + body;
+}
+
+class Refusal : public std::enable_shared_from_this<Refusal> {
+ public:
+  Refusal(tcp::socket&& s, std::shared_ptr<std::size_t> count)
+      : socket_(std::move(s)), timer_(socket_.get_executor()), count_(std::move(count)) {
+    if (count_) {
+      ++*count_;
+    }
+  }
+  Refusal(const Refusal&) = delete;
+  Refusal& operator=(const Refusal&) = delete;
+  ~Refusal() {
+    if (count_) {
+      --*count_;
+    }
+  }
+  void run() {
+    static const std::string answer = busy_answer();
+    timer_.expires_after(kSilentLimit);
+    timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+      if (!ec) {
+        beast::error_code e;
+        self->socket_.close(e);  // the peer neither read nor closed: enough
+      }
+    });
+    asio::async_write(socket_, asio::buffer(answer), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) {
+        self->timer_.cancel();
+        return;
+      }
+      beast::error_code e;
+      self->socket_.shutdown(tcp::socket::shutdown_send, e);
+      self->drain();
+    });
+  }
+
+ private:
+  // Reads (and throws away) until the peer closes: closing with unread bytes would send
+  // a reset, which may destroy the answer before the peer has read it.
+  void drain() {
+    socket_.async_read_some(asio::buffer(sink_), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) {
+        self->timer_.cancel();
+        return;
+      }
+      self->drain();
+    });
+  }
+  tcp::socket socket_;
+  asio::steady_timer timer_;
+  std::shared_ptr<std::size_t> count_;
+  std::array<char, 4096> sink_{};
+};
+}  // namespace
+
+void refuse_busy(tcp::socket socket, std::shared_ptr<std::size_t> count) {
+  std::make_shared<Refusal>(std::move(socket), std::move(count))->run();
+}
+
+// ------------------------------------------------------------------ session
+bool HttpSession::evictable(Clock::time_point now) const {
+  if (!reading_ || evicted_ || now - since_ < kSilentLimit || (parser_ && parser_->is_header_done())) {
+    return false;
+  }
   beast::error_code ec;
-  stream_.socket().close(ec);
+  // Bytes waiting unread: its request has come, the gateway has not read it yet.
+  return stream_.socket().available(ec) == 0U && !ec;
+}
+
+void HttpSession::evict() {
+  done_ = true;  // the slot is free now; the socket goes to refuse_busy once the read ends
+  evicted_ = true;
+  beast::error_code ec;
+  stream_.socket().cancel(ec);
 }
 
 void HttpSession::finish() {
@@ -74,6 +155,13 @@ void HttpSession::do_read() {
 
 void HttpSession::on_read(beast::error_code ec, std::size_t /*bytes*/) {
   reading_ = false;
+  if (evicted_) {
+    stream_.expires_never();
+    if (stream_.socket().is_open()) {
+      refuse_busy(stream_.release_socket(), nullptr);
+    }
+    return;
+  }
   if (ec == http::error::header_limit || ec == http::error::body_limit) {
     on_too_big(ec);
     return;
@@ -131,15 +219,12 @@ void HttpSession::dispatch() {
     }
   }
   if (websocket::is_upgrade(req)) {
-    if (path == "/ws" && ep_.ws.admit()) {
-      done_ = true;
-      stream_.expires_never();
-      auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
-      ep_.ws.add(ws);
-      ws->run(parser_->release());
+    if (path != "/ws") {
+      answer(text_answer(404, "not found\n"), true);
       return;
     }
-    answer(path == "/ws" ? text_answer(503, "too many clients\n") : text_answer(404, "not found\n"), true);
+    upgrade_since_ = Clock::now();
+    try_upgrade();
     return;
   }
   if (req.method() != http::verb::get) {
@@ -149,6 +234,33 @@ void HttpSession::dispatch() {
     return;
   }
   answer(ep_.hub.http_get(target));
+}
+
+// A full lobby makes the upgrade wait: its oldest member gives its slot away once it has
+// been silent for kSilentLimit (or leaves it sooner by saying hello), so a newcomer, the
+// pendant among a hundred silent squatters too, waits at most about that long. Past
+// kLobbyWait (a flood that keeps refilling the lobby with newcomers) the answer is 503.
+void HttpSession::try_upgrade() {
+  if (ep_.ws.admit()) {
+    done_ = true;
+    stream_.expires_never();
+    auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
+    ep_.ws.add(ws);
+    ws->run(parser_->release());
+    return;
+  }
+  if (Clock::now() - upgrade_since_ >= kLobbyWait) {
+    HttpAnswer a = text_answer(503, "too many WebSocket clients connecting at once: try again later\n");
+    a.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
+    answer(std::move(a), true);
+    return;
+  }
+  wait_.expires_after(kLobbyPoll);
+  wait_.async_wait([self = shared_from_this()](beast::error_code ec) {
+    if (!ec) {
+      self->try_upgrade();
+    }
+  });
 }
 
 void HttpSession::answer(HttpAnswer a, bool close) {

@@ -8,7 +8,7 @@
 //    changes the role. After `welcome` the client gets one status message at once.
 //  - The pendant's slot: at most max_clients - 1 clients may be hello'd as anything but
 //    the pendant; one more gets ROLE_TAKEN ("the last slot is kept for the pendant") and
-//    is closed.
+//    is closed with 1013 "try again later" (a client with back-off returns later).
 //  - A command before hello gets NOT_HELLO. An observer's command is answered
 //    NOT_CONTROL_OWNER here: it never reaches the core nor the event log. Beyond
 //    kMaxRefusedPerSecond such refusals in a second, the client's socket is not read
@@ -92,7 +92,7 @@ void Hub::on_hello(Client& c, const HelloMsg& h) {
   const bool takes_other_slot = h.role != Role::pendant && (!c.hello || pendant_ == c.id);
   if (takes_other_slot && hello_others() + 1U >= options_.max_clients) {
     send(c, make_error(ErrorCode::ROLE_TAKEN, "the server is full: its last slot is kept for the pendant"));
-    c.close_after_flush();
+    c.close_try_again_later();
     return;
   }
   if (pendant_ == c.id && h.role != Role::pendant) {

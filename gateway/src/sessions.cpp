@@ -154,11 +154,14 @@ void WsSession::on_tick(beast::error_code ec) {
   arm_tick();
 }
 
-void WsSession::evict() { abort(); }  // not logged: a flood of connections must not flood the log
+// Not logged: a flood of connections must not flood the log.
+void WsSession::evict() { close_try_again_later(); }
 
 void WsSession::shutdown() { close_with(1001); }  // going away
 
 void WsSession::close_after_flush() { close_with(1008); }  // policy violation
+
+void WsSession::close_try_again_later() { close_with(1013); }  // try again later (RFC 6455 7.4.1)
 
 // ------------------------------------------------------------------ reading
 void WsSession::do_read() {

@@ -37,23 +37,39 @@ bool is_loopback(asio::ip::address a);
 
 class WsSession;
 
-// The connections of one kind that live, and who gets a slot: at most `max`; when full,
-// the oldest one whose S::evictable() says it may give its slot away is closed for the
-// newcomer, and when none may, the newcomer is refused. S has live(), since(),
-// evictable() and evict().
+// A connection may give its slot to a newcomer only when it has been silent this long:
+// an HTTP connection waiting this long for a complete request head (with nothing unread
+// in its socket), a WebSocket this long after its upgrade without a hello. In a burst, a
+// connection whose request or hello is already on its way is never evicted for a newcomer
+// (gateway/README.md "Admission").
+inline constexpr std::chrono::seconds kSilentLimit{1};
+// What a refused newcomer is told to wait before it tries again (HTTP Retry-After).
+inline constexpr int kRetryAfterSeconds = 1;
+
+// The connections of one kind that live, and who gets a slot: at most `max` that
+// S::occupies(); when full, the oldest one whose S::evictable() says it has been silent
+// for kSilentLimit gives its slot away (evict(): told so in words, never a silent
+// close), and when none may, the newcomer is refused. S has live(), occupies(), since(),
+// evictable(now) and evict().
 template <typename S>
 class Registry {
  public:
   explicit Registry(std::size_t max) : max_(max) {}
   [[nodiscard]] bool admit() {
     prune();
-    if (list_.size() < max_) {
+    std::size_t occupied = 0;
+    for (const auto& w : list_) {
+      const auto s = w.lock();
+      occupied += (s && s->occupies()) ? 1U : 0U;
+    }
+    if (occupied < max_) {
       return true;
     }
+    const auto now = Clock::now();
     std::shared_ptr<S> oldest;
     for (const auto& w : list_) {
       const auto s = w.lock();
-      if (s && s->evictable() && (!oldest || s->since() < oldest->since())) {
+      if (s && s->occupies() && s->evictable(now) && (!oldest || s->since() < oldest->since())) {
         oldest = s;
       }
     }
@@ -79,10 +95,12 @@ class Registry {
   std::size_t max_;
 };
 
-// The WebSocket connections. At most max_clients; when full, the oldest connection that
-// has not said hello gives its slot to the newcomer (it may still be a pendant about to
-// say hello). The hub keeps one of the slots for the pendant: at most max_clients - 1
-// clients may say hello as anything else, so the pendant always finds a slot.
+// The WebSocket connections that have not said hello yet (the lobby): at most
+// max_clients; when full, the oldest one silent for kSilentLimit since its upgrade is
+// closed with 1013 for the newcomer, else the newcomer's upgrade waits for that
+// (HttpSession::try_upgrade, at most kLobbyWait, then 503). Those that
+// said hello are counted by the hub: at most max_clients - 1 as anything but the
+// pendant (one more is closed with 1013), so a pendant always finds a slot.
 class Sessions : public Registry<WsSession> {
  public:
   using Registry::Registry;
@@ -102,14 +120,17 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   void run(http::request<http::string_body> req);
   void send(const Frame& frame, bool droppable) override;
   void close_after_flush() override;
+  void close_try_again_later() override;
   [[nodiscard]] bool loopback_peer() const override { return loopback_; }
 
   void shutdown();
-  // Gives its slot away (Sessions::admit): it had not said hello.
+  // Gives its slot away (Sessions::admit): close 1013, it had not said hello.
   void evict();
   [[nodiscard]] bool live() const noexcept { return !aborted_; }
+  // In the lobby: upgraded, no hello yet, not closing.
+  [[nodiscard]] bool occupies() const noexcept { return !aborted_ && !hello && !closing_; }
   [[nodiscard]] Clock::time_point since() const noexcept { return since_; }
-  [[nodiscard]] bool evictable() const noexcept { return !hello; }  // Sessions::admit
+  [[nodiscard]] bool evictable(Clock::time_point now) const noexcept { return now - since_ >= kSilentLimit; }
 
  private:
   // Incoming frame parser state (RFC 6455 section 5.2).

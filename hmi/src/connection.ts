@@ -3,6 +3,7 @@
 // messages, status and event pushes, and reconnection. A command that cannot be sent, or
 // that gets no reply, is reported like a refusal: nothing is dropped silently.
 import type { HmiEvent, ServerMessage, Status } from './api';
+import { retryDelayMs } from './backoff';
 
 export type LinkState = 'connecting' | 'open' | 'closed';
 export type Role = 'pendant' | 'observer' | null;
@@ -50,6 +51,8 @@ export function closeWords(code: number, opened: boolean): string {
       return 'The controller closed the connection (no hello in time, or too many refused messages)';
     case 1009:
       return 'The controller closed the connection: a message was too large';
+    case 1013:
+      return 'The controller is full or busy (too many clients connecting at once)';
     default:
       return 'The connection to the controller dropped (network or gateway lost)';
   }
@@ -59,7 +62,7 @@ export class Link {
   private ws: WebSocket | null = null;
   private seq = 1;
   private pending = new Map<number, Pending>();
-  private retryMs = 500;
+  private failures = 0; // attempts in a row that ended before a welcome
   private retryTimer = 0;
   state: LinkState = 'closed';
   role: Role = null;
@@ -84,7 +87,6 @@ export class Link {
     let opened = false;
     ws.onopen = () => {
       opened = true;
-      this.retryMs = 500;
       this.hello();
     };
     ws.onmessage = (ev) => this.onMessage(ev.data as string);
@@ -93,9 +95,12 @@ export class Link {
       this.ws = null;
       this.role = null;
       this.failAll('NO_REPLY', 'the connection closed before the controller answered');
-      this.setState('closed', `${closeWords(ev.code, opened)}: retrying in ${(this.retryMs / 1000).toFixed(1)} s`);
-      this.retryTimer = window.setTimeout(() => this.connect(), this.retryMs);
-      this.retryMs = Math.min(this.retryMs * 2, 5000);
+      // Jittered exponential back-off (backoff.ts); it starts again only after a welcome,
+      // so a gateway that upgrades and then refuses (close 1013) is not hammered.
+      this.failures += 1;
+      const delay = retryDelayMs(this.failures);
+      this.setState('closed', `${closeWords(ev.code, opened)}: retrying in ${(delay / 1000).toFixed(1)} s`);
+      this.retryTimer = window.setTimeout(() => this.connect(), delay);
     };
   }
 
@@ -193,6 +198,7 @@ export class Link {
         this.settle(m.seq, m.result);
         break;
       case 'welcome':
+        this.failures = 0;
         this.role = m.role === 'pendant' ? 'pendant' : 'observer';
         this.server = m.server;
         this.setState(

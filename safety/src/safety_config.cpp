@@ -95,11 +95,14 @@ std::string num(double x) { return jcs::number_to_string(x).value_or("?"); }
 // A string from the file, quoted and cut short for an error message.
 std::string shown(const std::string& s) {
   std::string out = "\"";
-  for (std::size_t i = 0; i < s.size() && i < 40; ++i) {
+  std::size_t cut = std::min<std::size_t>(s.size(), 40);
+  // never cut a UTF-8 sequence in two
+  while (cut > 0 && cut < s.size() && (static_cast<unsigned char>(s[cut]) & 0xC0U) == 0x80U) --cut;
+  for (std::size_t i = 0; i < cut; ++i) {
     const auto c = static_cast<unsigned char>(s[i]);
     out.push_back(c < 0x20U || c == 0x7FU ? '?' : s[i]);
   }
-  if (s.size() > 40) out += "...";
+  if (cut < s.size()) out += "...";
   out.push_back('"');
   return out;
 }
@@ -328,11 +331,15 @@ class Checker {
   }
 };
 
+// No C0 or C1 control characters (DEL, and U+0080..U+009F, UTF-8 C2 80..C2 9F, included):
+// the name is printed on terminals and in logs.
 bool printable_name(const std::string& s) {
-  return std::none_of(s.begin(), s.end(), [](char c) {
-    const auto u = static_cast<unsigned char>(c);
-    return u < 0x20U || u == 0x7FU;
-  });
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const auto u = static_cast<unsigned char>(s[i]);
+    if (u < 0x20U || u == 0x7FU) return false;
+    if (u == 0xC2U && i + 1 < s.size() && static_cast<unsigned char>(s[i + 1]) <= 0x9FU) return false;
+  }
+  return true;
 }
 
 bool zone_name_chars(const std::string& s) {

@@ -1,7 +1,8 @@
 """`safestate run --fieldbus ethercat` end to end: the core on our ethercrab master, over
 a veth pair in a network namespace this test creates and removes, against `safestate
 ecat-sim` on the other end. Boot, arming, an E-stop on one channel seen on the wire, and
-every way of losing the bus, and a wrong identity.
+every way of losing the bus (a short working counter alone too), and a wrong identity
+(product code or revision).
 
 Run as root:  SAFESTATE_BIN=build/bin/safestate .venv/bin/python -m pytest tests/integration/test_ecat_run.py
 """
@@ -158,7 +159,7 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
     w = cell.wire()
-    assert w["contactor"] is True and w["contactor_closed"] is True
+    assert w["contactor"] is True and w["contactor_closed"] is True, (w, cell.status(), cell.log("run"), cell.log("sim"))
     assert all(cw == 0x000F for cw in w["controlword"])  # Enable operation on every drive
     assert cell.control_line("in estop.b=0") == "OK"
     cell.wait(lambda: cell.wire()["contactor"] is False, "contactor bit cleared on the wire", 5)
@@ -213,6 +214,24 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     assert s["cause"] == text, s
 
 
+def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
+    """Drive 6 (subdevice 8) stays in OP and answers every other datagram but stops
+    processing process data: only the working counter of the cyclic exchange tells. The
+    master locks out at once, for the bus as a whole, before the drive's own process-data
+    watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    assert cell.control_line("fault no-pd 9") == "ERROR no-pd needs a subdevice position 1..8"
+    assert cell.control_line("fault no-pd 8") == "OK"
+    s = cell.wait_state("ERROR_LOCKOUT", 10)
+    assert "FIELDBUS_LOST" in s["alarms"], s
+    named = "FIELDBUS_LOST: the bus as a whole: working counter differs from the expected one"
+    cell.wait(lambda: named in cell.log("run"), "the log naming the bus: " + named, 5)
+    assert "subdevice left OP" not in cell.log("run")
+    text = cell.alarm("FIELDBUS_LOST")["detail"]
+    assert text == "Fieldbus lost", text  # no subdevice to name: the bus as a whole
+    assert s["cause"] == text, s
+
+
 def test_late_frames_do_not_end_the_bus():
     """The emulator stalls 40 ms, longer than the 20 ms frame timeout: the answers to the
     frames sent meanwhile come back after their PDUs timed out. The frame thread drops them
@@ -258,6 +277,23 @@ def test_wrong_product_id_is_boot_failed():
         assert a["since"] < 100, a
         assert "subdevice 3 (drive axis 1) has the wrong identity" in c.log("run")
         assert "product 0x00001234" in c.log("run")
+    finally:
+        c.close()
+
+
+def test_wrong_revision_is_boot_failed():
+    """The DI terminal's configuration names revision 0x00010000; the emulated one says 0x00020000."""
+    c = Cell(sim_args=["--revision", "1=0x00020000"])
+    try:
+        s = c.wait_state("ERROR_LOCKOUT", 20)
+        assert "BOOT_FAILED" in s["alarms"], s
+        a = c.alarm("BOOT_FAILED")
+        assert a["detail"].startswith("Start-up failed: subdevice 1 (DI safety contacts) has the wrong identity: "), a
+        assert "revision 0x00020000" in a["detail"], a
+        assert a["since"] < 100, a  # known at the scan
+        assert ("subdevice 1 (DI safety contacts) has the wrong identity: vendor 0x00005AFE product 0x00D10018 "
+                "revision 0x00020000, expected vendor 0x00005AFE product 0x00D10018 revision 0x00010000"
+                in c.log("run")), c.log("run")
     finally:
         c.close()
 

@@ -259,6 +259,200 @@ def test_every_value_is_read_only_and_anonymous_may_not_call(opc):
     run(main())
 
 
+async def hierarchy_variables(c):
+    """NodeIds of every Variable reachable from Root over hierarchical references: the
+    nodesets' type definitions and their children, the Server object's diagnostics, this
+    session's and its subscriptions' diagnostics, SafeState's nodes."""
+    root = ua.NodeId(ua.ObjectIds.RootFolder)
+    seen, frontier, variables = {root.to_string()}, [root], []
+
+    def take(refs):
+        for ref in refs:
+            nid = ua.NodeId(ref.NodeId.Identifier, ref.NodeId.NamespaceIndex, ref.NodeId.NodeIdType)
+            if nid.to_string() in seen:
+                continue
+            seen.add(nid.to_string())
+            frontier.append(nid)
+            if ref.NodeClass == ua.NodeClass.Variable:
+                variables.append(nid)
+
+    while frontier:
+        batch, frontier[:] = frontier[:1000], frontier[1000:]
+        params = ua.BrowseParameters()
+        params.RequestedMaxReferencesPerNode = 0
+        params.NodesToBrowse = []
+        for nid in batch:
+            d = ua.BrowseDescription()
+            d.NodeId, d.BrowseDirection = nid, ua.BrowseDirection.Forward
+            d.ReferenceTypeId, d.IncludeSubtypes = ua.NodeId(ua.ObjectIds.HierarchicalReferences), True
+            d.NodeClassMask, d.ResultMask = 0, 63
+            params.NodesToBrowse.append(d)
+        for r in await c.uaclient.browse(params):
+            take(r.References)
+            cp = r.ContinuationPoint
+            while cp:
+                nxt = ua.BrowseNextParameters()
+                nxt.ContinuationPoints = [cp]
+                [more] = await c.uaclient.browse_next(nxt)
+                take(more.References)
+                cp = more.ContinuationPoint
+    return variables
+
+
+async def read_attribute(c, nodes, attribute):
+    """DataValues of one attribute of many nodes; None for a value asyncua cannot decode (it
+    fails on some empty matrices of the nodesets), found by halving the failing batch."""
+    if not nodes:
+        return []
+    params = ua.ReadParameters()
+    params.NodesToRead = []
+    for nid in nodes:
+        r = ua.ReadValueId()
+        r.NodeId, r.AttributeId = nid, attribute
+        params.NodesToRead.append(r)
+    try:
+        return await c.uaclient.read(params)
+    except (ua.UaStatusCodeError, asyncio.TimeoutError, ConnectionError):
+        raise
+    except Exception:  # a decoding error of asyncua's (IndexError, NotEnoughData, ...)
+        if len(nodes) == 1:
+            return [None]
+        half = len(nodes) // 2
+        return await read_attribute(c, nodes[:half], attribute) + await read_attribute(c, nodes[half:], attribute)
+
+
+async def read_many(c, nodes, attribute):
+    out = []
+    for i in range(0, len(nodes), 1000):
+        out += await read_attribute(c, nodes[i:i + 1000], attribute)
+    return out
+
+
+def test_no_anonymous_write_succeeds_anywhere_in_the_address_space(opc):
+    """Every Variable of the address space, written with its own current value by an anonymous
+    session: none accepts (issue 24: ServerDiagnostics/EnabledFlag, type-definition children
+    and session diagnostics did), and none claims CurrentWrite in its UserAccessLevel."""
+    async def main():
+        p = await booted(opc.cell)
+        assert (await p.sim(set={"estop.a": 0, "estop.b": 0}))["result"] == "OK"  # an alarm condition exists
+        await p.state("ESTOP_ACTIVE")
+        async with client(opc.url) as c:
+            n = await Nodes.of(c)
+            await wait_value(await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:names"),
+                             lambda dv: dv.StatusCode.is_good() and "ESTOP_PRESSED" in (dv.Value.Value or []),
+                             what="ESTOP_PRESSED among the alarms")
+            sub = await c.create_subscription(100, object())  # its diagnostics are variables too
+            started = time.monotonic()
+            variables = await hierarchy_variables(c)
+            condition = await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:ESTOP_PRESSED")
+            names = {v.to_string() for v in variables}
+            for must in (ua.NodeId(ua.ObjectIds.Server_ServerDiagnostics_EnabledFlag),
+                         (await condition.get_child(["0:ActiveState", "0:Id"])).nodeid,
+                         (await n.estop_node()).nodeid):
+                assert must.to_string() in names, must
+            sessions = c.get_node(ua.ObjectIds.Server_ServerDiagnostics_SessionsDiagnosticsSummary)
+            assert len(await sessions.get_children()) > 2, "this session's diagnostics are walked"
+            values = await read_many(c, variables, ua.AttributeIds.Value)
+            levels = await read_many(c, variables, ua.AttributeIds.UserAccessLevel)
+            undecodable = sum(dv is None for dv in values)
+            # What asyncua cannot decode is written back as an empty value: still a write.
+            values = [dv if dv is not None else ua.DataValue(ua.Variant()) for dv in values]
+            writable = [nid.to_string() for nid, lv in zip(variables, levels)
+                        if lv is None or (lv.StatusCode.is_good() and lv.Value.Value & ua.AccessLevel.CurrentWrite.mask)]
+            accepted, refusals = [], {}
+            for i in range(0, len(variables), 1000):
+                params = ua.WriteParameters()
+                params.NodesToWrite = []
+                for nid, dv in zip(variables[i:i + 1000], values[i:i + 1000]):
+                    w = ua.WriteValue()
+                    w.NodeId, w.AttributeId, w.Value = nid, ua.AttributeIds.Value, ua.DataValue(dv.Value)
+                    params.NodesToWrite.append(w)
+                for w, code in zip(params.NodesToWrite, await c.uaclient.write(params)):
+                    refusals[code.name] = refusals.get(code.name, 0) + 1
+                    if code.name not in ("BadUserAccessDenied", "BadNotWritable"):
+                        accepted.append((w.NodeId.to_string(), code.name))
+            print(f"{len(variables)} variables written anonymously in {time.monotonic() - started:.1f} s "
+                  f"({undecodable} with a value asyncua cannot decode, written empty): {refusals}")
+            assert len(variables) > 1000, len(variables)
+            assert accepted == [], f"{len(accepted)} anonymous writes not refused: {accepted[:20]}"
+            assert writable == [], f"{len(writable)} variables say an anonymous user may write: {writable[:20]}"
+            flag = c.get_node(ua.ObjectIds.Server_ServerDiagnostics_EnabledFlag)
+            assert (await flag.read_value()) == values[[v.to_string() for v in variables].index(
+                flag.nodeid.to_string())].Value.Value, "EnabledFlag unchanged"
+            await sub.delete()
+        await p.close()
+    run(main())
+
+
+def test_emergency_stop_reads_the_button_in_lockout_too(opc):
+    """EmergencyStop and the E-stop function's Active follow the button (the alarm ESTOP_PRESSED,
+    active exactly while it is pressed, SPEC §7), not the state: in ERROR_LOCKOUT too."""
+    async def main():
+        p = await booted(opc.cell)
+        async with client(opc.url) as c:
+            n = await Nodes.of(c)
+            estop = await n.estop_node()
+            active = await n.get(f"{n.rob}:SafetyStates", f"{n.own}:SafetyState", f"{n.rob}:EmergencyStopFunctions",
+                                 f"{n.own}:EmergencyStopCircuit", f"{n.rob}:Active")
+
+            async def both(value, what):
+                for node in (estop, active):
+                    await wait_value(node, lambda dv: dv.StatusCode.is_good() and dv.Value.Value is value, what=what)
+
+            await both(False, "released after boot")
+            assert (await p.sim(set={"estop.a": 0, "estop.b": 0}))["result"] == "OK"
+            await p.state("ESTOP_ACTIVE")
+            await both(True, "pressed")
+            # Locked out while the button is held (issue 24: the state alone said "no E-stop").
+            assert (await p.sim(fault="fieldbus lost"))["result"] == "OK"
+            s = await p.state("ERROR_LOCKOUT")
+            assert "ESTOP_PRESSED" in s["alarms"], s
+            await both(True, "still pressed in ERROR_LOCKOUT")
+            assert (await p.sim(set={"estop.a": 1, "estop.b": 1}))["result"] == "OK"
+            await p.status(lambda s: "ESTOP_PRESSED" not in s["alarms"], what="released")
+            await both(False, "released in ERROR_LOCKOUT")
+            assert (await p.sim(set={"estop.a": 0, "estop.b": 0}))["result"] == "OK"
+            s = await p.status(lambda s: "ESTOP_PRESSED" in s["alarms"], what="pressed again")
+            assert s["state"] == "ERROR_LOCKOUT", s
+            await both(True, "pressed in ERROR_LOCKOUT")
+        await p.close()
+    run(main())
+
+
+def test_protective_stop_counts_only_an_enabled_guard(opc):
+    """40010-1: if Enabled is FALSE, Active is FALSE, and ProtectiveStop counts enabled functions
+    only. The latched PROTECTIVE_STOP after the key went to T1 is shown by its alarm condition."""
+    async def main():
+        p = await booted(opc.cell)
+        assert await p.command("reset") == "OK"
+        await p.state("IDLE")
+        async with client(opc.url) as c:
+            n = await Nodes.of(c)
+            pstop = await n.safety("ProtectiveStop")
+            gate = [await n.get(f"{n.rob}:SafetyStates", f"{n.own}:SafetyState", f"{n.rob}:ProtectiveStopFunctions",
+                                f"{n.own}:Gate", f"{n.rob}:{v}") for v in ("Enabled", "Active")]
+
+            async def reads(enabled, gate_active, protective_stop, what):
+                for node, value in ((gate[0], enabled), (gate[1], gate_active), (pstop, protective_stop)):
+                    await wait_value(node, lambda dv, v=value: dv.StatusCode.is_good() and dv.Value.Value is v,
+                                     what=f"{what}: {value}")
+
+            await reads(True, False, False, "AUTO, guard closed")
+            assert await p.command("servo_on") == "OK"
+            await p.state("OPERATIONAL", "AUTO_IDLE")
+            assert (await p.sim(set={"gate": "open"}))["result"] == "OK"
+            s = await p.status(lambda s: "PROTECTIVE_STOP" in s["alarms"], what="PROTECTIVE_STOP")
+            await reads(True, True, True, "guard opened in AUTO")
+            assert (await p.sim(set={"mode": "T1"}))["result"] == "OK"
+            s = await p.status(lambda s: s["mode"] == "T1", what="mode T1")
+            assert "PROTECTIVE_STOP" in s["alarms"], "still latched: the key does not reset it"
+            await reads(False, False, False, "key to T1, the stop latched")
+            condition = await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:PROTECTIVE_STOP")
+            assert await (await condition.get_child(["0:ActiveState", "0:Id"])).read_value() is True
+        await p.close()
+    run(main())
+
+
 def test_a_subscription_sees_emergency_stop_within_200_ms_of_a_press(opc):
     async def main():
         p = await booted(opc.cell)
@@ -387,7 +581,27 @@ def test_an_alarm_raises_and_clears_an_ac_event_with_its_number(opc):
                 ["0:ConditionType", "0:AcknowledgeableConditionType", "0:AlarmConditionType",
                  f"{n.own}:SafeStateAlarmType"])
             sub = await c.create_subscription(50, Handler())
+            # The filter result the server answers (asyncua keeps only the item's status).
+            answered = []
+            create = c.uaclient.create_monitored_items
+
+            async def capture(params):
+                results = await create(params)
+                answered.extend(zip(params.ItemsToCreate, results))
+                return results
+            c.uaclient.create_monitored_items = capture
             await sub.subscribe_events(c.nodes.server, alarm_type)
+            c.uaclient.create_monitored_items = create
+            [(request, result)] = answered
+            clauses = request.RequestedParameters.Filter.SelectClauses
+            codes = result.FilterResult.SelectClauseResults
+            # OPC 10000-9 §5.5.2: ConditionId is the clause (ConditionType, empty path, NodeId).
+            condition_id = [i for i, op in enumerate(clauses) if op.AttributeId == ua.AttributeIds.NodeId
+                            and not op.BrowsePath and op.TypeDefinitionId == ua.NodeId(ua.ObjectIds.ConditionType)]
+            assert len(condition_id) == 1, clauses
+            assert len(codes) == len(clauses), codes
+            bad = [(clauses[i].BrowsePath, code.name) for i, code in enumerate(codes) if not code.is_good()]
+            assert bad == [], f"select clauses not Good in the event filter result: {bad}"
             assert (await p.sim(set={"estop.a": 0, "estop.b": 0}))["result"] == "OK"
             await p.state("ESTOP_ACTIVE")
             active = wait_until(lambda: [a for a in get_json(opc.cell.port, "/api/alarms")
@@ -406,12 +620,15 @@ def test_an_alarm_raises_and_clears_an_ac_event_with_its_number(opc):
             assert raised.AlarmNumber == active["number"]
             assert str(active["number"]) in raised.Message.Text and active["text"] in raised.Message.Text
             assert raised.Severity >= 100 and raised.ConditionName == "ESTOP_PRESSED"
+            condition = await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:ESTOP_PRESSED")
+            assert raised.NodeId == condition.nodeid, "the ConditionId clause delivers the condition's NodeId"
+            assert raised.SourceName == "MotionDeviceSystem", raised.SourceName  # the text, no "1:"
+            assert raised.SourceNode == (await n.get()).nodeid
             names = await (await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:names")).read_value()
             assert "ESTOP_PRESSED" in names
             numbers = await (await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:numbers")).read_value()
             assert active["number"] in numbers
             # Acknowledging is a method too: an anonymous client may not.
-            condition = await n.get(f"{n.own}:SafeState", f"{n.own}:Alarms", f"{n.own}:ESTOP_PRESSED")
             ack = await c.nodes.base_event_type.get_child(["0:ConditionType", "0:AcknowledgeableConditionType",
                                                           "0:Acknowledge"])
             req = ua.CallMethodRequest()
@@ -502,6 +719,78 @@ def test_beyond_loopback_refuses_to_start_without_users_and_refuses_anonymous(tm
     finally:
         a.send_signal(signal.SIGTERM)
         a.wait(timeout=10)
+
+
+async def endpoints_of(a, port):
+    """The endpoints of a lone adapter, once it serves (GetEndpoints needs no session)."""
+    url = f"opc.tcp://127.0.0.1:{port}"
+    deadline = time.monotonic() + 30
+    while True:
+        try:
+            return await UaClient(url, timeout=2).connect_and_get_server_endpoints()
+        except (OSError, asyncio.TimeoutError, ua.UaError, ConnectionError):
+            assert a.poll() is None and time.monotonic() < deadline, "adapter did not serve"
+            await asyncio.sleep(0.3)
+
+
+@pytest.fixture(scope="module")
+def lone_adapter(tmp_path_factory):
+    """The adapter on loopback without a gateway (its address space is built all the same)."""
+    tmp = tmp_path_factory.mktemp("lone")
+    port = free_port()
+    a = adapter(tmp, "--port", str(port), "--users-file", str(users_file(tmp / "users")))
+    try:
+        run(endpoints_of(a, port))
+        yield tmp, port
+    finally:
+        a.send_signal(signal.SIGTERM)
+        a.wait(timeout=10)
+
+
+def test_x509_user_tokens_are_not_offered_and_an_unknown_certificate_cannot_log_in(lone_adapter):
+    """docs/opcua.md: users are name and password; X509 user identity is not implemented, so
+    the token type is not offered and a login with a self-signed certificate is refused."""
+    tmp, port = lone_adapter
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+    async def main():
+        endpoints = await UaClient(f"opc.tcp://127.0.0.1:{port}", timeout=5).connect_and_get_server_endpoints()
+        offered = {(e.SecurityMode.name, t.TokenType.name) for e in endpoints for t in e.UserIdentityTokens}
+        assert ("SignAndEncrypt", "UserName") in offered, offered
+        assert not [o for o in offered if o[1] == "Certificate"], offered
+        channel = await make_client_certificate(tmp, "channel")  # loopback: accepted for the channel
+        user_key, user_cert, _ = await make_client_certificate(tmp, "x509-user")
+        c = UaClient(f"opc.tcp://127.0.0.1:{port}", timeout=5)
+        c.application_uri = channel[2]
+        await c.set_security(SecurityPolicyBasic256Sha256, str(channel[1]), str(channel[0]),
+                             mode=ua.MessageSecurityMode.SignAndEncrypt)
+        await c.load_client_certificate(str(user_cert))
+        await c.load_private_key(user_key)
+        with pytest.raises(ua.UaStatusCodeError) as e:
+            async with c:
+                pass
+        assert e.value.code in (ua.StatusCodes.BadIdentityTokenInvalid, ua.StatusCodes.BadIdentityTokenRejected), \
+            e.value
+    run(main())
+
+
+def test_the_namespace_versions_served_are_the_ones_the_docs_name(lone_adapter):
+    """docs/opcua.md names the nodeset versions; the server's Namespaces object says which
+    ones are loaded (issue 24: DI 1.05.0 served, 1.04 documented)."""
+    _, port = lone_adapter
+    docs = (ROOT / "docs" / "opcua.md").read_text()
+
+    async def main():
+        async with client(f"opc.tcp://127.0.0.1:{port}") as c:
+            namespaces = await c.nodes.server.get_child(["0:Namespaces"])
+            versions = {}
+            for ns in await namespaces.get_children():
+                uri = (await ns.read_browse_name()).Name
+                versions[uri] = await (await ns.get_child(["0:NamespaceVersion"])).read_value()
+        for name, uri in (("OPC UA", "http://opcfoundation.org/UA/"), ("DI", DI), ("IA", "http://opcfoundation.org/UA/IA/"),
+                          ("Robotics", ROBOTICS)):
+            assert f"{name} {versions[uri]}" in docs.replace("**", ""), (name, versions[uri])
+    run(main())
 
 
 async def make_client_certificate(tmp_path, name):

@@ -142,3 +142,59 @@ TEST(Describe, FeedbackAlarms) {
   EXPECT_EQ(words(AlarmId::CONTACTOR_WELDED, Signal::contactor),
             "Main contactor feedback still closed after open was commanded");
 }
+
+// ---------------------------------------------------------------- MC/DC of describe.cpp
+// Each test below shows one condition of a decision deciding on its own (docs/verification.md,
+// "Coverage (MC/DC)").
+
+// A missing or empty buffer is refused by every writer: nothing is written, "" comes back.
+TEST(Describe, NoBufferOrAnEmptyOneGivesTheEmptyString) {
+  AlarmDetail d{};
+  d.signal = Signal::contactor;
+  char buf[16] = "untouched";
+  EXPECT_STREQ(describe(AlarmId::CONTACTOR_WELDED, d, nullptr, sizeof buf), "");
+  EXPECT_STREQ(describe(AlarmId::CONTACTOR_WELDED, d, buf, 0), "");
+  EXPECT_STREQ(buf, "untouched");
+  Cause c{};
+  c.kind = CauseKind::command;
+  c.command = CommandId::stop;
+  EXPECT_STREQ(describe(c, nullptr, sizeof buf), "");
+  EXPECT_STREQ(describe(c, buf, 0), "");
+  EXPECT_STREQ(buf, "untouched");
+  EXPECT_STREQ(signal_name(d, nullptr, sizeof buf), "");
+  EXPECT_STREQ(signal_name(d, buf, 0), "");
+  EXPECT_STREQ(buf, "untouched");
+  // detail_name with an arming step: the step is not written, and signal_name refuses too.
+  d.has_step = true;
+  d.step = ArmingStep::DRIVES;
+  EXPECT_STREQ(detail_name(d, nullptr, sizeof buf), "");
+  EXPECT_STREQ(detail_name(d, buf, 0), "");
+  EXPECT_STREQ(buf, "untouched");
+}
+
+// Numbers of more than one digit are written whole, most significant digit first.
+TEST(Describe, MultiDigitNumbersAreWrittenInFull) {
+  EXPECT_EQ(words(AlarmId::T1_SPEED_EXCEEDED, Signal::drive, Channel::none, 3, 65535),
+            "T1 speed exceeded at link 3 (65535 mm/s)");
+  EXPECT_EQ(words(AlarmId::FIELDBUS_LOST, Signal::fieldbus, Channel::none, 0, 12), "Fieldbus lost at subdevice 12");
+}
+
+// BOOT_FAILED: a fieldbus cause names the subdevice only when there is one; a cause with a
+// code that is not the fieldbus's is the self-test.
+TEST(Describe, BootFailedWordsFollowSignalAndSubdevice) {
+  EXPECT_EQ(words(AlarmId::BOOT_FAILED, Signal::fieldbus, Channel::none, 0, 3),
+            "Start-up failed: fieldbus not as configured at subdevice 3");
+  EXPECT_EQ(words(AlarmId::BOOT_FAILED, Signal::fieldbus, Channel::none, 0, 0), "Start-up failed: fieldbus not up");
+  EXPECT_EQ(words(AlarmId::BOOT_FAILED, Signal::internal, Channel::none, 0, 3), "Start-up self-test failed");
+  EXPECT_EQ(words(AlarmId::BOOT_FAILED, Signal::drive, Channel::none, 5, 0), "Start-up failed: drive 5 did not answer");
+}
+
+TEST(Describe, EstopNamesChannelB) {
+  EXPECT_EQ(words(AlarmId::ESTOP_PRESSED, Signal::estop, Channel::b), "E-stop channel B opened");
+}
+
+// A drive or brake signal without an axis is named without one (not "drive.0").
+TEST(Names, DriveOrBrakeWithoutAnAxisIsTheBareSignal) {
+  EXPECT_EQ(signal(Signal::drive), "drive");
+  EXPECT_EQ(signal(Signal::brake), "brake");
+}

@@ -368,6 +368,26 @@ TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
   EXPECT_EQ(r[0].wkc, 8);
 }
 
+TEST(EcatWire, ASubdeviceIgnoringProcessDataStaysInOpWithAShortWorkingCounter) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  bring_to_op(seg);
+  ASSERT_EQ(control_line(cell, "fault no-pd 8"), "OK");  // drive 6
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[2 + 5 * kDriveRxBytes] = 0x06;  // drive 6 controlword: Shutdown
+  auto w = exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, 1000);
+  EXPECT_EQ(w[0].wkc, 6);  // DO terminal + five drives: drive 6 did not take its outputs
+  EXPECT_EQ(cell.last_outputs().drive[5].controlword, 0x0000);
+  auto r = exchange(seg, {{Cmd::LRD, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)}}, 1000);
+  EXPECT_EQ(r[0].wkc, 6);  // DI terminal + five drives
+  EXPECT_EQ(al_status(seg, 0x1008) & 0x0F, 8);  // still in OP: only the working counter tells
+  auto b = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
+  EXPECT_EQ(b[0].wkc, 8);  // every other datagram is answered as before
+  ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
+  w = exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, 2000);
+  EXPECT_EQ(w[0].wkc, 7);
+}
+
 TEST(EcatWire, NotEtherCatOrTruncatedIsNotAnswered) {
   Segment seg(default_segment());
   std::vector<std::uint8_t> ip(60, 0);
@@ -394,7 +414,8 @@ TEST(EcatControl, ValidatesEveryLine) {
   EXPECT_EQ(control_line(cell, "fault replug"), "OK");
   EXPECT_EQ(cell.segment().connected(), 8U);
   const core::RawInputs before = cell.inputs();
-  for (const char* bad : {"in gate=ajar", "fault unplug 9", "fault drop 0", "fault corrupt x", "launch",
+  for (const char* bad : {"in gate=ajar", "fault unplug 9", "fault drop 0", "fault corrupt x", "fault no-pd 0",
+                          "fault no-pd 9", "launch",
                           R"({"set":{"gate":[1]}})", "{oops", "fault drive 7 fault"}) {
     const std::string r = control_line(cell, bad);
     EXPECT_EQ(r.rfind("ERROR ", 0), 0U) << bad << " -> " << r;

@@ -329,6 +329,15 @@ TEST(SafetyParse, StrictTypesAndKeys) {
   d["name"] = 7;
   expect_one_error(d, "name", "must be a string (found a number)");
   d = default_json();
+  d["name"] = "cell 7 \xE2\x80\x94 welding";  // an em dash is fine (SPEC's own example)
+  EXPECT_TRUE(errors_of(d).empty());
+  d["name"] = "bell \x07";
+  expect_one_error(d, "name", "without control characters");
+  d["name"] = "csi \xC2\x9B";  // U+009B, a C1 control character
+  expect_one_error(d, "name", "without control characters");
+  d["name"] = "";
+  expect_one_error(d, "name", "must be 1..64 bytes");
+  d = default_json();
   d["tcp_max_speed_mm_s"] = "1500";
   expect_one_error(d, "tcp_max_speed_mm_s", "must be a number (found a string)");
   d = default_json();

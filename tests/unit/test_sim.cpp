@@ -321,6 +321,118 @@ TEST(ProgramExecutor, AWaypointWhereTheArmAlreadyIsTakesNoTimeAndNoVelocity) {
   for (float v : p.velocity()) EXPECT_EQ(v, 0.0F) << "no velocity while dwelling";
 }
 
+// A dwell holds the arm at its waypoint; when it ends, the next segment starts from that
+// waypoint (no jump to the next one), and after the last dwell the program ends there.
+TEST(ProgramExecutor, DwellHoldsTheWaypointThenTheNextSegmentStartsFromIt) {
+  motion::ProgramExecutor p;
+  const motion::Joints home{};
+  const motion::Joints a{0.1F, 0.0F, 0.0F, 0.0F, 0.0F, 0.0F};
+  const motion::Joints b{0.1F, 0.1F, 0.0F, 0.0F, 0.0F, 0.0F};
+  const motion::Waypoint prog[] = {{a, 1.0F, 5}, {b, 1.0F, 3}};
+  p.load(prog, 2);
+  p.start(home, motion::kRobot, 1.0F);
+  motion::Joints q{};
+  int k = 0;
+  for (; k < 20000 && p.index() == 0; ++k) q = p.advance(0.001F, motion::kRobot, 1.0F);
+  ASSERT_EQ(p.index(), 1U) << "the first dwell ended";
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(q[i], a[i]) << "the new segment starts where the arm waits";
+  ASSERT_TRUE(p.active());
+  int dwelt = 0;
+  while (!p.finished() && k++ < 40000) {
+    q = p.advance(0.001F, motion::kRobot, 1.0F);
+    if (p.active() && q == b) {
+      ++dwelt;  // dwelling at b: held exactly there, no velocity
+      for (float v : p.velocity()) EXPECT_EQ(v, 0.0F);
+    }
+  }
+  ASSERT_TRUE(p.finished());
+  EXPECT_FALSE(p.active());
+  EXPECT_EQ(p.index(), 1U) << "the index stays on the last waypoint";
+  EXPECT_GE(dwelt, 2) << "3 ms of dwell at 1 ms steps";
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(q[i], b[i]) << "the program ends at its last waypoint";
+}
+
+// The motion controller driven directly with chosen drive states (the simulated drives walk
+// CiA 402 one state per cycle, which does not give every combination below).
+namespace {
+struct Direct {
+  motion::MotionController ctl{motion::kRobot, motion::MotionConfig{}};
+  std::array<core::DriveFeedback, 6> drives{};
+  std::array<hal::DriveOut, 6> out{};
+  core::SupervisorOut so{};
+  Direct() {
+    for (auto& d : drives) {
+      d.online = true;
+      d.statusword = core::cia402::statusword_of(core::cia402::DriveState::OperationEnabled);
+    }
+    so.drives_enable = true;
+    so.brakes_release = true;
+    so.contactor = true;
+  }
+  void state(std::size_t axis, core::cia402::DriveState s) { drives[axis - 1].statusword = core::cia402::statusword_of(s); }
+  core::Feedback cycle(core::MotionMode m) {
+    core::Feedback fb{};
+    ctl.measure(drives, fb);
+    so.motion.mode = m;
+    ctl.step(so, drives, out);
+    return fb;
+  }
+};
+}  // namespace
+
+TEST(MotionDirect, TwoAxesLaggingInOneCycleNameTheFirst) {
+  Direct d;
+  d.cycle(core::MotionMode::Hold);  // enabled, brakes released, holding: the watch is on
+  d.cycle(core::MotionMode::Hold);
+  d.drives[1].position_rad = 0.2F;  // axis 2 and axis 4 far behind their set-points
+  d.drives[3].position_rad = -0.3F;
+  const core::Feedback fb = d.cycle(core::MotionMode::Hold);
+  EXPECT_EQ(fb.following_error_axis, 2U) << "the first lagging axis is named, not the last";
+}
+
+TEST(MotionDirect, Cat1QuickStopsOnlyALaggingDriveThatIsEnabledOrAlreadyQuickStopped) {
+  namespace cw = core::cia402::cw;
+  using DS = core::cia402::DriveState;
+  Direct d;
+  d.state(3, DS::SwitchOnDisabled);  // axis 3 never reached Operation enabled
+  d.cycle(core::MotionMode::Hold);
+  d.cycle(core::MotionMode::Hold);
+  ASSERT_EQ(d.out[0].controlword, cw::kEnableOperation);
+  ASSERT_EQ(d.out[2].controlword, cw::kShutdown) << "not yet enabled: walked on, not dropped";
+  // Axis 1 (enabled) and axis 2 (fallen to Switched on) lag behind in a Cat 1 stop.
+  d.drives[0].position_rad = 0.3F;
+  d.drives[1].position_rad = 0.3F;
+  d.state(2, DS::SwitchedOn);
+  d.cycle(core::MotionMode::QuickStop);
+  EXPECT_EQ(d.out[0].controlword, cw::kQuickStop) << "an enabled lagging drive gets its own quick stop";
+  EXPECT_EQ(d.out[1].controlword, cw::kDisableVoltage) << "a drive that fell out of Operation enabled is dropped";
+  EXPECT_EQ(d.out[3].controlword, cw::kEnableOperation) << "a following drive stays on the controller's ramp";
+  // The quick-stopped drive now reports Quick stop active: kept in its quick stop, not dropped.
+  d.state(1, DS::QuickStopActive);
+  d.cycle(core::MotionMode::QuickStop);
+  EXPECT_EQ(d.out[0].controlword, cw::kQuickStop);
+  d.cycle(core::MotionMode::Hold);  // the stop reached standstill: brakes phase, still held
+  EXPECT_EQ(d.out[0].controlword, cw::kQuickStop) << "held until power is removed";
+  EXPECT_EQ(d.out[1].controlword, cw::kDisableVoltage) << "never re-enabled by us";
+  d.state(2, DS::SwitchOnDisabled);
+  d.cycle(core::MotionMode::Hold);
+  EXPECT_EQ(d.out[1].controlword, cw::kDisableVoltage) << "a dropped drive is not walked up again";
+}
+
+// A jog target naming no axis (axis 0: the core sends none, it validates 1..6) moves nothing.
+TEST(MotionDirect, AJogTargetWithoutAnAxisMovesNothing) {
+  Direct d;
+  d.so.motion.jog.axis = 0;
+  d.so.motion.jog.dir = 1;
+  d.so.motion.jog.speed = 100;
+  for (int k = 0; k < 50; ++k) d.cycle(core::MotionMode::Jog);
+  for (float v : d.ctl.setpoint_velocity()) EXPECT_EQ(v, 0.0F);
+  d.so.motion.jog.axis = 2;  // the same target with an axis does move that axis
+  for (int k = 0; k < 50; ++k) d.cycle(core::MotionMode::Jog);
+  EXPECT_GT(d.ctl.setpoint_velocity()[1], 0.0F);
+  EXPECT_EQ(d.ctl.setpoint_velocity()[0], 0.0F);
+}
+
 // --- the injections of "More keys, faults and settings" ------------------------------------------
 
 // @req SIM-CELL

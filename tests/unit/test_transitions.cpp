@@ -256,6 +256,21 @@ TEST(Rule1, ASilentFieldbusNamesWhereTheSilenceBegins) {
   EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost: no answer from subdevice 1 on");
 }
 
+TEST(Rule1, ASilentFieldbusWithoutASubdeviceIsPlainFieldbusLost) {
+  // No frame back, but no position known: no "silent from" flag on subdevice 0.
+  Bench b;
+  b.to_idle();
+  b.plant.fieldbus = false;
+  b.fb.fieldbus_subdevice = 0;
+  b.fb.fieldbus_silent = true;
+  b.cycle();
+  EXPECT_EQ(b.out.state, State::ERROR_LOCKOUT);
+  EXPECT_EQ(b.out.cause.alarm, AlarmId::FIELDBUS_LOST);
+  EXPECT_EQ(b.out.cause.detail.code, 0U);
+  char buf[96];
+  EXPECT_STREQ(describe(b.out.cause, buf, sizeof buf), "Fieldbus lost");
+}
+
 // @req TR-C1
 TEST(Rule1, IntegrityFaultLocksOut) {
   Bench b;
@@ -814,6 +829,53 @@ TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeEvenIfTheFeedbackStaysReleased) 
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).axis, 1U);
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).signal, Signal::brake);
   EXPECT_EQ(b.command(CommandId::reset), Result::FAULT_PRESENT) << "the brake still does not hold";
+}
+
+TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeWhileTheBrakeFeedbacksChatter) {
+  // Two brake feedbacks alternate: never all engaged, neither released long enough for
+  // BRAKE_NOT_ENGAGED. The brake phase still ends at brakes_timeout: power is removed.
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_welded_released[0] = true;  // brake 1's feedback stays released when engaging begins
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  int k = 0;
+  for (; k < 400 && b.out.state == State::STOPPING; ++k) {
+    b.plant.brake_welded_released[0] = (k % 2) != 0;
+    b.plant.brake_welded_released[1] = (k % 2) == 0;
+    b.cycle();
+    if (b.out.state == State::STOPPING) {
+      ASSERT_TRUE(b.out.drives_enable) << "the drives hold the axes until the brake time is over, cycle " << k;
+    }
+  }
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_GE(k, static_cast<int>(b.timing().brakes_timeout)) << "not before the brake time";
+  EXPECT_LE(k, static_cast<int>(b.timing().brakes_timeout) + 2);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+}
+
+// DISABLED: a probable defect found by the MC/DC work (issue 25), left to the lead to decide.
+// SPEC §7: "A brake commanded engaged whose feedback still says released 300 ms later is
+// BRAKE_NOT_ENGAGED". The monitor counts only *consecutive* released cycles per brake, and
+// the Cat 1 brake phase ends on its timeout without an alarm, so two brake feedbacks that
+// chatter (never all engaged, each released every other cycle) end the stop silently: no
+// latched alarm, and servo_on is accepted at once. Enable when the core decides it.
+TEST(FeedbackMonitoring, DISABLED_BrakesNeverAllEngagedByTheBrakeTimeRaiseBrakeNotEngaged) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_welded_released[0] = true;
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  for (int k = 0; k < 400 && b.out.state == State::STOPPING; ++k) {
+    b.plant.brake_welded_released[0] = (k % 2) != 0;
+    b.plant.brake_welded_released[1] = (k % 2) == 0;
+    b.cycle();
+  }
+  ASSERT_EQ(b.out.state, State::IDLE);
+  EXPECT_TRUE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED)) << "a brake said released when the brake time ran out";
+  EXPECT_EQ(b.command(CommandId::servo_on), Result::RESET_REQUIRED);
 }
 
 // @req AL-FEEDBACK TR-C1

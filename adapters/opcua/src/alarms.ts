@@ -97,6 +97,9 @@ export class Alarms {
         conditionName: name,
         inputNode: this.model.safeState.getChildByName("state") as UAVariable,
       });
+      // SourceName is the source's name as text ("MotionDeviceSystem"); node-opcua sets the
+      // qualified browse name ("1:MotionDeviceSystem"), which no client expects there.
+      c.setSourceName(this.model.mds.browseName.name ?? "");
       this.conditions.set(name, c);
     }
     return c;

@@ -3,6 +3,7 @@
 // socket, so single point of control (ISO 10218-1 5.3.5) holds unchanged for OPC UA.
 import { EventEmitter } from "events";
 import WebSocket from "ws";
+import { retryDelayMs } from "./backoff";
 
 export interface Status {
   t: number;
@@ -33,7 +34,6 @@ export interface AlarmInfo {
   since?: number;
 }
 
-const RECONNECT_MS = 500;
 const STATUS_SILENCE_MS = 1000; // status comes at 50 Hz: a second of silence is a lost gateway
 const REPLY_TIMEOUT_MS = 3000;
 
@@ -49,6 +49,7 @@ export class GatewayClient extends EventEmitter {
   private live = false;
   private closed = false;
   private silence: NodeJS.Timeout | null = null;
+  private failures = 0; // connections in a row that ended before a welcome (back-off)
   latest: Status | null = null;
 
   constructor(
@@ -159,6 +160,7 @@ export class GatewayClient extends EventEmitter {
         this.emit("event", m);
         break;
       case "welcome":
+        this.failures = 0;
         this.emit("welcome", String(m.server ?? ""));
         break;
       case "error":
@@ -224,7 +226,11 @@ export class GatewayClient extends EventEmitter {
     this.lost("connection closed");
     this.ws = null;
     if (!this.closed) {
-      setTimeout(() => this.connect(), RECONNECT_MS);
+      // Jittered exponential back-off (backoff.ts): refused (503, close 1013) or after a
+      // gateway restart, the adapter does not return in the same millisecond as every
+      // other client; it starts again from 0.5 s after a welcome.
+      this.failures += 1;
+      setTimeout(() => this.connect(), retryDelayMs(this.failures));
     }
   }
 }

@@ -4,9 +4,11 @@
 import * as fs from "fs";
 import * as path from "path";
 import { AccessLevelFlag, BaseNode, MessageSecurityMode, NodeClass, UAObject, UAVariable, OPCUACertificateManager, OPCUAServer, SecurityPolicy, StatusCodes, WellKnownRoles, makeRoles, nodesets } from "node-opcua";
+import { refuseWrites, withoutX509Users } from "./access";
 import { Alarms } from "./alarms";
 import { Config, ConfigError, isLoopback, parseArgs } from "./config";
 import { GatewayClient } from "./gateway_client";
+import { answerDeliveredClauses } from "./events";
 import { addMethods, requireAuthenticatedCalls } from "./methods";
 import { Model } from "./model";
 import { nodeMap } from "./nodemap";
@@ -55,6 +57,12 @@ function makeServer(cfg: Config, users: Users | null): OPCUAServer {
     hostname: cfg.bind === "0.0.0.0" ? undefined : cfg.bind,
     nodeset_filename: [nodesets.standard, nodesets.di, nodesets.ia, nodesets.robotics],
     serverCertificateManager: certificateManager,
+    // X509 user tokens are not offered (access.ts); should one arrive all the same, no user
+    // certificate is trusted: this store has no trusted certificates and accepts none.
+    userCertificateManager: new OPCUACertificateManager({
+      rootFolder: path.join(cfg.pkiDir, "users"),
+      automaticallyAcceptUnknownCertificate: false,
+    }),
     // OPC 10000-2 §6: Basic256Sha256 with Sign&Encrypt; None only on loopback, for reading.
     securityPolicies: loopback ? [SecurityPolicy.None, SecurityPolicy.Basic256Sha256] : [SecurityPolicy.Basic256Sha256],
     securityModes: loopback ? [MessageSecurityMode.None, MessageSecurityMode.SignAndEncrypt] : [MessageSecurityMode.SignAndEncrypt],
@@ -114,6 +122,9 @@ async function serve(cfg: Config): Promise<void> {
   addMethods(model, gateway);
   requireAuthenticatedCalls(as);
   readOnly(model.mds);
+  refuseWrites(server);
+  withoutX509Users(server);
+  answerDeliveredClauses(as);
 
   let alarmKey = "";
   const syncAlarms = async () => {

@@ -145,27 +145,34 @@ export class Model {
       componentOf: folder,
       optionals: ["EmergencyStopFunctions", "ProtectiveStopFunctions"],
     });
-    const estopActive = (st: Status) => st.state === "ESTOP_ACTIVE" || st.state === "ESTOP_RESET_NEEDED";
-    // PROTECTIVE_STOP is raised with the stop and latched until a reset (SPEC §7), so it
-    // covers both "stop in progress" and "latched alarm waiting".
-    const pstop = (st: Status) => st.alarms.includes("PROTECTIVE_STOP");
-    this.bind(this.variable(s, "ParameterSet.EmergencyStop"), (st) => [DataType.Boolean, estopActive(st)]);
-    this.bind(this.variable(s, "ParameterSet.ProtectiveStop"), (st) => [DataType.Boolean, pstop(st)]);
+    // Each safety variable comes from the input it describes, never from the state: the
+    // status carries no raw inputs, but the alarm ESTOP_PRESSED is active exactly while the
+    // E-stop is pressed (SPEC §7, "while the condition lasts"), in every state, ERROR_LOCKOUT
+    // included, where no transition to ESTOP_ACTIVE happens.
+    const estopPressed = (st: Status) => st.alarms.includes("ESTOP_PRESSED");
+    // OPC 40010-1: a protective stop function that is not Enabled is not Active, and
+    // ProtectiveStop is TRUE while one of the *enabled* functions is active. The guard is
+    // enabled in AUTO only (in T1/T2 the enabling device protects instead); it is active while
+    // its stop holds: the alarm PROTECTIVE_STOP (raised with the stop, latched until a reset).
+    // A latched PROTECTIVE_STOP outside AUTO is shown by its alarm condition, not here.
+    const gateEnabled = (st: Status) => st.mode === "AUTO";
+    const gateActive = (st: Status) => gateEnabled(st) && st.alarms.includes("PROTECTIVE_STOP");
+    this.bind(this.variable(s, "ParameterSet.EmergencyStop"), (st) => [DataType.Boolean, estopPressed(st)]);
+    this.bind(this.variable(s, "ParameterSet.ProtectiveStop"), (st) => [DataType.Boolean, gateActive(st)]);
     this.bind(this.variable(s, "ParameterSet.OperationalMode"), (st) => [DataType.Int32, OPERATIONAL_MODE[st.mode] ?? 0]);
     const es = this.type("EmergencyStopFunctionType").instantiate({
       browseName: { name: "EmergencyStopCircuit", namespaceIndex: this.ns.index },
       componentOf: this.child(s, "EmergencyStopFunctions"),
     });
     this.constant(this.variable(es, "Name"), DataType.String, "estop (two channels estop.a, estop.b; ISO 13850)");
-    this.bind(this.variable(es, "Active"), (st) => [DataType.Boolean, estopActive(st)]);
+    this.bind(this.variable(es, "Active"), (st) => [DataType.Boolean, estopPressed(st)]);
     const ps = this.type("ProtectiveStopFunctionType").instantiate({
       browseName: { name: "Gate", namespaceIndex: this.ns.index },
       componentOf: this.child(s, "ProtectiveStopFunctions"),
     });
     this.constant(this.variable(ps, "Name"), DataType.String, "gate (interlocked guard, channels gate.a, gate.b)");
-    // The guard stops the robot in AUTO; in T1/T2 the enabling device protects instead.
-    this.bind(this.variable(ps, "Enabled"), (st) => [DataType.Boolean, st.mode === "AUTO"]);
-    this.bind(this.variable(ps, "Active"), (st) => [DataType.Boolean, pstop(st)]);
+    this.bind(this.variable(ps, "Enabled"), (st) => [DataType.Boolean, gateEnabled(st)]);
+    this.bind(this.variable(ps, "Active"), (st) => [DataType.Boolean, gateActive(st)]);
     return s;
   }
 

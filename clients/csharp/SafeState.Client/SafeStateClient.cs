@@ -582,9 +582,13 @@ namespace SafeState.Client
             if (reconnect) Task.Run(() => ReconnectLoop());
         }
 
+        // Jittered exponential back-off (Backoff): after a gateway restart, or refused in a
+        // burst (503 / close 1013), the clients of a plant do not all return at once.
         private async Task ReconnectLoop()
         {
-            TimeSpan delay = options.FirstReconnectDelay;
+            var random = new Random(Guid.NewGuid().GetHashCode());
+            int failures = 1;  // the link that was lost
+            TimeSpan delay = Backoff.Delay(failures, options.FirstReconnectDelay, options.MaxReconnectDelay, random.NextDouble());
             while (!life.IsCancellationRequested)
             {
                 try
@@ -597,9 +601,10 @@ namespace SafeState.Client
                 catch (Exception e)
                 {
                     if (life.IsCancellationRequested) return;
-                    Report(ClientErrorKind.ReconnectFailed, Describe(e) + "; next attempt in " + delay.TotalMilliseconds + " ms");
+                    failures = Math.Min(failures + 1, 62);
+                    delay = Backoff.Delay(failures, options.FirstReconnectDelay, options.MaxReconnectDelay, random.NextDouble());
+                    Report(ClientErrorKind.ReconnectFailed, Describe(e) + "; next attempt in " + (long)delay.TotalMilliseconds + " ms");
                 }
-                delay = TimeSpan.FromTicks(Math.Min(delay.Ticks * 2, options.MaxReconnectDelay.Ticks));
             }
         }
 

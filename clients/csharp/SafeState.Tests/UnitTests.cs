@@ -243,4 +243,49 @@ namespace SafeState.Tests
             Assert.Throws<ArgumentException>(() => Command.Of(CommandName.jog));
         }
     }
+
+    [TestFixture]
+    public class BackoffTests
+    {
+        private static readonly TimeSpan First = TimeSpan.FromMilliseconds(100);
+        private static readonly TimeSpan Max = TimeSpan.FromSeconds(5);
+
+        [Test]
+        public void CeilingDoublesFromFirstUpToMax()
+        {
+            var ms = Enumerable.Range(1, 9).Select(f => Backoff.Ceiling(f, First, Max).TotalMilliseconds).ToArray();
+            Assert.AreEqual(new double[] { 100, 200, 400, 800, 1600, 3200, 5000, 5000, 5000 }, ms);
+            Assert.AreEqual(Max, Backoff.Ceiling(1000, First, Max), "no overflow after many failures");
+        }
+
+        [Test]
+        public void DelayIsDrawnFromTheUpperHalfOfTheCeiling()
+        {
+            Assert.AreEqual(TimeSpan.FromMilliseconds(200), Backoff.Delay(3, First, Max, 0.0));
+            Assert.AreEqual(TimeSpan.FromMilliseconds(300), Backoff.Delay(3, First, Max, 0.5));
+            Assert.That(Backoff.Delay(3, First, Max, 0.999999), Is.GreaterThan(TimeSpan.FromTicks(3999000)));
+            Assert.That(Backoff.Delay(3, First, Max, 0.999999), Is.LessThanOrEqualTo(TimeSpan.FromMilliseconds(400)));
+        }
+
+        [Test]
+        public void ClientsRefusedTogetherComeBackSpreadOut()
+        {
+            // 500 clients refused in the same instant, each with its own random source: their
+            // second attempts spread over [200, 400] ms, not one millisecond.
+            var rng = new Random(23);
+            var delays = Enumerable.Range(0, 500).Select(_ => Backoff.Delay(3, First, Max, rng.NextDouble()).TotalMilliseconds).ToList();
+            Assert.That(delays.Min(), Is.GreaterThanOrEqualTo(200));
+            Assert.That(delays.Max(), Is.LessThanOrEqualTo(400));
+            Assert.That(delays.Max() - delays.Min(), Is.GreaterThan(150), "jitter spreads the clients");
+            int sameMillisecond = delays.GroupBy(d => (long)d).Max(g => g.Count());
+            Assert.That(sameMillisecond, Is.LessThan(20), "no crowd in one millisecond");
+        }
+
+        [Test]
+        public void OptionsOutOfOrderNeverThrow()
+        {
+            Assert.AreEqual(TimeSpan.Zero, Backoff.Delay(4, TimeSpan.Zero, Max, 0.5));
+            Assert.AreEqual(First, Backoff.Ceiling(5, First, TimeSpan.FromMilliseconds(10)));
+        }
+    }
 }

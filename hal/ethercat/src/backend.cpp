@@ -126,7 +126,7 @@ void Backend::boot(const std::string& ifname) {
       health_.subdevice = static_cast<std::uint8_t>(i + 1U);
       boot_error_ = who + " has the wrong identity: vendor " + hex(got.vendor_id) + " product " + hex(got.product_code) +
                     " revision " + hex(got.revision) + ", expected vendor " + hex(want.vendor_id) + " product " +
-                    hex(want.product_code);
+                    hex(want.product_code) + (want.check_revision ? " revision " + hex(want.revision) : "");
       return;
     }
     if (got.in_bytes != want.in_bytes || got.out_bytes != want.out_bytes) {

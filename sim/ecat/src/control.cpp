@@ -34,6 +34,13 @@ std::string wire_fault(EmulatedCell& cell, std::string_view what, std::string_vi
     cell.segment().cut_before(n);
     return "OK";
   }
+  if (what == "no-pd") {
+    if (!parse_count(arg, 1, static_cast<std::uint32_t>(cell.segment().size()), n)) {
+      return "ERROR no-pd needs a subdevice position 1.." + std::to_string(cell.segment().size());
+    }
+    cell.segment().ignore_process_data(n);
+    return "OK";
+  }
   if (what == "drop" || what == "corrupt") {
     if (!parse_count(arg, 1, 1000000, n)) {
       return "ERROR " + std::string(what) + " needs a frame count 1..1000000";

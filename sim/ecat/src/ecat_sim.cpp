@@ -137,21 +137,32 @@ void serve_frames(EmulatedCell& cell, int raw) {
   }
 }
 
-bool apply_override(std::vector<SubdeviceDesc>& devs, const std::string& spec, std::string& err) {
+// "POS=VALUE" (VALUE decimal or 0x hex, 32 bits): subdevice POS gets `field` = VALUE.
+bool apply_override(std::vector<SubdeviceDesc>& devs, const std::string& spec, const char* option,
+                    std::uint32_t SubdeviceDesc::*field, std::string& err) {
   const std::size_t eq = spec.find('=');
   unsigned long pos = 0;
-  unsigned long code = 0;
-  try {
-    pos = std::stoul(spec.substr(0, eq));
-    code = std::stoul(spec.substr(eq + 1U), nullptr, 0);
-  } catch (...) {
-    pos = 0;  // reported below
+  unsigned long value = 0;
+  bool ok = eq != std::string::npos;
+  if (ok) {
+    try {
+      std::size_t used_pos = 0;
+      std::size_t used_value = 0;
+      const std::string p = spec.substr(0, eq);
+      const std::string v = spec.substr(eq + 1U);
+      pos = std::stoul(p, &used_pos);
+      value = std::stoul(v, &used_value, 0);
+      ok = used_pos == p.size() && used_value == v.size();
+    } catch (...) {
+      ok = false;
+    }
   }
-  if (eq == std::string::npos || pos < 1U || pos > devs.size() || code > 0xFFFFFFFFUL) {
-    err = "--product expects POS=CODE with POS 1.." + std::to_string(devs.size());
+  if (!ok || pos < 1U || pos > devs.size() || value > 0xFFFFFFFFUL) {
+    err = std::string(option) + " expects POS=VALUE with POS 1.." + std::to_string(devs.size()) +
+          " and a 32-bit VALUE, got '" + spec + "'";
     return false;
   }
-  devs[pos - 1U].product_code = static_cast<std::uint32_t>(code);
+  devs[pos - 1U].*field = static_cast<std::uint32_t>(value);
   return true;
 }
 
@@ -176,7 +187,10 @@ void realtime(int priority) {
 int ecat_sim_main(const EcatSimOptions& opt) {
   std::vector<SubdeviceDesc> devs = default_segment();
   std::string err;
-  if (!opt.product_override.empty() && !apply_override(devs, opt.product_override, err)) {
+  if ((!opt.product_override.empty() &&
+       !apply_override(devs, opt.product_override, "--product", &SubdeviceDesc::product_code, err)) ||
+      (!opt.revision_override.empty() &&
+       !apply_override(devs, opt.revision_override, "--revision", &SubdeviceDesc::revision, err))) {
     std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
     return 2;
   }

@@ -194,7 +194,7 @@ void Segment::logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, s
   bool wrote = false;
   if (c == Cmd::LWR || c == Cmd::LRW) {
     for (std::size_t p = 0; p < n; ++p) {
-      if (escs_[p].logical_write(addr, data, now_ns)) {
+      if (p + 1U != no_pd_ && escs_[p].logical_write(addr, data, now_ns)) {
         wkc = static_cast<std::uint16_t>(wkc + ((c == Cmd::LRW) ? 2U : 1U));
         wrote = true;
       }
@@ -208,7 +208,7 @@ void Segment::logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, s
   }
   if (c == Cmd::LRD || c == Cmd::LRW) {
     for (std::size_t p = 0; p < n; ++p) {
-      if (escs_[p].logical_read(addr, data)) {
+      if (p + 1U != no_pd_ && escs_[p].logical_read(addr, data)) {
         ++wkc;
       }
     }

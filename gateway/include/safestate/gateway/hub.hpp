@@ -59,6 +59,8 @@ class Client {
   // Closes once the queued frames are written. Neither call may detach the client
   // synchronously: the hub may be iterating over its clients.
   virtual void close_after_flush() = 0;
+  // The same with close code 1013 "try again later": refused for lack of a slot.
+  virtual void close_try_again_later() = 0;
   [[nodiscard]] virtual bool loopback_peer() const = 0;
 
   // Session state, kept by the hub.

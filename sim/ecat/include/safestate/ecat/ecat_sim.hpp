@@ -17,6 +17,7 @@ struct EcatSimOptions {
   std::uint32_t cycle_us = 1000;
   int priority = 70;  // SCHED_FIFO when permitted; 0 = ordinary scheduling
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
+  std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
 };
 
 // One control line -> "OK" or "ERROR <why>"; `status` -> one JSON object. Exposed for tests.

@@ -40,8 +40,14 @@ class Segment {
   void corrupt_frames(std::uint32_t n) noexcept { corrupt_ += n; }
   // The whole bus silent (a cable cut at the master) until clear_wire_faults().
   void go_silent() noexcept { silent_ = true; }
+  // Subdevice `position` (1-based; 0 = none) stays in OP and answers every other datagram
+  // but no longer processes process data: it neither takes its outputs nor puts its inputs
+  // in the logical datagrams, so their working counter comes back short (its own process-
+  // data watchdog then expires, as on a real ESC whose application hangs).
+  void ignore_process_data(std::size_t position) noexcept { no_pd_ = position; }
   void clear_wire_faults() noexcept {
     silent_ = false;
+    no_pd_ = 0;
     drop_ = 0;
     corrupt_ = 0;
   }
@@ -65,6 +71,7 @@ class Segment {
   std::uint32_t drop_ = 0;
   std::uint32_t corrupt_ = 0;
   bool silent_ = false;
+  std::size_t no_pd_ = 0;
   std::uint64_t frames_ = 0;
   std::vector<std::uint8_t> scratch_;
   std::function<void()> on_pd_;
