@@ -23,6 +23,7 @@ core::ArmGeometry Controller::arm_geometry(const motion::RobotModel& model) noex
 
 void Controller::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
   supervisor_.configure_limits(limits, arm_geometry(model_), cycle_us_, validated);
+  motion_.set_limits(limits);
 }
 
 // @req CYC-ORDER CYC-DETERMINISM

@@ -49,6 +49,12 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"JOG_LINK_LOST", Severity::info, Latch::until_ok},
       {"CONTACTOR_WELDED", Severity::lockout, Latch::power_cycle},
       {"BRAKE_NOT_ENGAGED", Severity::fault, Latch::reset},
+      {"JOINT_LIMIT", Severity::fault, Latch::reset},
+      {"ZONE_VIOLATION", Severity::fault, Latch::reset},
+      {"ORIENTATION_LIMIT", Severity::fault, Latch::reset},
+      {"SPEED_LIMIT", Severity::fault, Latch::reset},
+      {"CONFIG_NOT_VALIDATED", Severity::warning, Latch::condition},
+      {"REDUCED_SPEED", Severity::info, Latch::condition},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

@@ -117,6 +117,7 @@ TEST(Results, LockedOutForEveryCommand) {
     c.dir = 1;
     c.speed = 10;
     c.mode = static_cast<std::uint8_t>(Mode::T1);
+    c.has_code = 1U;
     EXPECT_EQ(b.command(c), Result::LOCKED_OUT) << to_string(static_cast<CommandId>(id));
   }
 }

@@ -257,6 +257,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
     return Result::BAD_ARGUMENT;
   }
   if (id == CommandId::set_mode && (c.mode < 1 || c.mode > 3)) return Result::BAD_ARGUMENT;
+  if (id == CommandId::validate_config && c.has_code != 1U) return Result::BAD_ARGUMENT;
   if (st_ == St::LOCKOUT) return Result::LOCKED_OUT;
   if (src == core::Source::observer) return Result::NOT_CONTROL_OWNER;
   if (src == core::Source::remote && (id == CommandId::reset || in.mode != Mode::AUTO)) return Result::NOT_CONTROL_OWNER;
@@ -312,6 +313,10 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           return Result::OK;
         case CommandId::confirm_t2:
           return confirm();
+        case CommandId::validate_config:
+          // SPEC §10; the harness runs without a safety configuration: checksum 0.
+          if (!manual(in.mode)) return Result::MODE_INVALID;
+          return (c.code == 0U) ? Result::OK : Result::CHECKSUM_MISMATCH;
         default:
           return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
       }

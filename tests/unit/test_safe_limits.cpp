@@ -1,0 +1,191 @@
+// The SPEC §10 monitors of core/src/monitors/ on hand-made cycles, and the core's own
+// kinematics against the motion layer's (two implementations of one robot).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/monitors.hpp"
+#include "safestate/motion/kinematics.hpp"
+#include "safestate/motion/robot.hpp"
+#include "safestate/safety/safety_config.hpp"
+
+using namespace safestate;
+using core::Feedback;
+using core::LimitReport;
+using core::SafeLimitMonitors;
+
+namespace {
+
+core::SafetyLimits builtin() { return safety::default_safety().limits; }
+
+SafeLimitMonitors monitors(const core::SafetyLimits& l) {
+  SafeLimitMonitors m;
+  m.configure(l, controller::Controller::arm_geometry(motion::kRobot), 1000U);
+  return m;
+}
+
+Feedback at(std::array<float, 6> q, std::array<float, 6> qd = {}) {
+  Feedback fb{};
+  for (std::size_t i = 0; i < 6; ++i) {
+    fb.drive[i].position_rad = q[i];
+    fb.drive[i].velocity_rad_s = qd[i];
+  }
+  return fb;
+}
+
+constexpr float kDeg = 3.14159265F / 180.0F;
+
+}  // namespace
+
+TEST(CoreArm, AgreesWithTheMotionLayersKinematicsOnRandomPoses) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-2.5F, 2.5F);
+  const core::ArmGeometry g = controller::Controller::arm_geometry(motion::kRobot);
+  for (int n = 0; n < 200; ++n) {
+    core::JointArray q{};
+    motion::Joints mq{};
+    for (std::size_t i = 0; i < 6; ++i) {
+      q[i] = mq[i] = u(rng);
+    }
+    core::ArmPose pose{};
+    core::arm_forward(g, q, {0.0F, 0.0F, 120.0F}, pose);
+    motion::Frames f{};
+    motion::forward(motion::kRobot, mq, f);
+    for (std::size_t k = 0; k < 3; ++k) {
+      const float tcp = f.origin[6][k] + 120.0F * f.R[k][2];
+      EXPECT_NEAR(pose.tcp[k], tcp, 0.05F);
+      EXPECT_NEAR(pose.origin[4][k], f.origin[4][k], 0.05F);
+      EXPECT_NEAR(pose.tool_z[k], f.R[k][2], 1e-4F);
+    }
+  }
+}
+
+// @req LIM-SPEED
+TEST(SpeedLimit, AJointOrTheTcpAboveItsLimitTripsOnlyWithPower) {
+  core::SafetyLimits l = builtin();
+  l.joints[2].max_speed_rad_s = 1.0F;
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  m.evaluate(at({0, 0, 0, 0, 0, 0}, {0, 0, 1.01F, 0, 0, 0}), false, false, 0, r);
+  EXPECT_FALSE(r.speed.hit) << "no power, no stop";
+  m.evaluate(at({0, 0, 0, 0, 0, 0}, {0, 0, 0.99F, 0, 0, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.speed.hit);
+  m.evaluate(at({0, 0, 0, 0, 0, 0}, {0, 0, -1.01F, 0, 0, 0}), true, false, 0, r);
+  EXPECT_TRUE(r.speed.hit);
+  EXPECT_EQ(r.speed.detail.signal, core::Signal::axis);
+  EXPECT_EQ(r.speed.detail.axis, 3);
+  // TCP: axis 1 at 1 rad/s moves the flange (374 mm out at home, tool0) at about 374 mm/s.
+  l = builtin();
+  l.tcp_max_speed_mm_s = 300.0F;
+  m = monitors(l);
+  m.evaluate(at({0, 0, 0, 0, 0, 0}, {1.0F, 0, 0, 0, 0, 0}), true, false, 0, r);
+  EXPECT_TRUE(r.speed.hit);
+  EXPECT_EQ(r.speed.detail.signal, core::Signal::tcp);
+  EXPECT_NEAR(r.tcp_speed_mm_s, 374.0F, 1.0F);
+  m.evaluate(at({0, 0, 0, 0, 0, 0}, {0.5F, 0, 0, 0, 0, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.speed.hit);
+}
+
+// @req LIM-REDUCED LIM-SPEED
+TEST(SpeedLimit, TheReducedLimitAppliesOnceTheRampTimeIsOver) {
+  core::SafetyLimits l = builtin();  // reduced 250 mm/s, ramp 500 ms
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  const Feedback fb = at({0, 0, 0, 0, 0, 0}, {0.8F, 0, 0, 0, 0, 0});  // about 300 mm/s
+  for (int t = 0; t <= 500; ++t) {
+    m.evaluate(fb, true, true, 0, r);
+    ASSERT_FALSE(r.speed.hit) << "within the ramp, cycle " << t;
+    ASSERT_TRUE(m.reduced().active());
+  }
+  m.evaluate(fb, true, true, 0, r);
+  EXPECT_TRUE(r.speed.hit) << "after the ramp";
+  EXPECT_FLOAT_EQ(r.speed_limit_mm_s, 250.0F);
+  m.evaluate(fb, true, false, 0, r);
+  EXPECT_FALSE(r.speed.hit) << "reduced mode over: the normal limit at once";
+  EXPECT_EQ(m.reduced().sources(), 0);
+}
+
+// @req LIM-ORIENTATION
+TEST(Orientation, TheToolAxisOutsideItsConeTripsAndRecoversOnlyTowardIt) {
+  core::SafetyLimits l = builtin();
+  l.orientation_enabled = true;
+  l.orientation_axis = {1.0F, 0.0F, 0.0F};  // at home the tool points along +x
+  l.orientation_max_deviation_rad = 30.0F * kDeg;
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  m.evaluate(at({0, 0, 0, 0, 20 * kDeg, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.orientation.hit);
+  m.evaluate(at({0, 0, 0, 0, 35 * kDeg, 0}), true, false, 0, r);
+  EXPECT_TRUE(r.orientation.hit);
+  EXPECT_EQ(r.orientation.detail.signal, core::Signal::tcp);
+  // Without power: recovery, no trip; then with power, back toward the cone is allowed,
+  // further out is not.
+  m.evaluate(at({0, 0, 0, 0, 40 * kDeg, 0}), false, false, 0, r);
+  EXPECT_FALSE(r.orientation.hit);
+  EXPECT_TRUE(r.recovering);
+  m.evaluate(at({0, 0, 0, 0, 38 * kDeg, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.orientation.hit);
+  m.evaluate(at({0, 0, 0, 0, 39 * kDeg, 0}), true, false, 0, r);
+  EXPECT_TRUE(r.orientation.hit) << "worse than the best reached since power came on";
+}
+
+// @req LIM-ZONE LIM-RECOVERY
+TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  core::ArmPose home{};
+  core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, home);
+  core::Zone out{};
+  std::snprintf(out.name.data(), out.name.size(), "table");
+  out.kind = core::ZoneKind::keep_out;
+  // A box whose face is 30 mm from the TCP: the 40 mm sphere touches it.
+  out.min_mm = {home.tcp[0] + 30.0F, -100.0F, -100.0F};
+  out.max_mm = {home.tcp[0] + 300.0F, 100.0F, 2000.0F};
+  l.zones[1] = out;
+  core::Zone in{};
+  std::snprintf(in.name.data(), in.name.size(), "cell");
+  in.kind = core::ZoneKind::keep_in;
+  in.min_mm = {-1000.0F, -1000.0F, -10.0F};
+  in.max_mm = {1000.0F, 1000.0F, 2000.0F};
+  l.zones[0] = in;
+  l.zone_count = 2;
+  EXPECT_NEAR(core::ZoneMonitor::outside_mm(out, home, 40.0F), 10.0F, 0.1F);
+  EXPECT_LT(core::ZoneMonitor::outside_mm(in, home, 40.0F), 0.0F);
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  m.evaluate(at({}), true, false, 0, r);
+  ASSERT_TRUE(r.zone.hit);
+  EXPECT_EQ(r.zone.detail.code, 1);
+  std::array<char, 32> buf{};
+  EXPECT_STREQ(core::limit_detail_name(r.zone.detail, l, buf.data(), buf.size()), "table");
+  // The keep-in box cut below the shoulder height: link points leave it.
+  l.zones[1] = in;
+  l.zones[1].max_mm[2] = 400.0F;
+  m = monitors(l);
+  m.evaluate(at({}), true, false, 0, r);
+  ASSERT_TRUE(r.zone.hit);
+  EXPECT_EQ(r.zone.detail.code, 1);
+  // Found without power: recovery, nothing trips.
+  m = monitors(l);
+  m.evaluate(at({}), false, false, 0, r);
+  EXPECT_FALSE(r.zone.hit);
+  EXPECT_TRUE(r.recovering);
+  EXPECT_TRUE(r.outside);
+}
+
+// @req LIM-RECOVERY
+TEST(Recovery, WorseThanTheBestSinceTrackingTripsWithinTolerance) {
+  core::RecoveryTrack t{};
+  EXPECT_FALSE(core::track_violation(t, 5.0F, false, 0.1F));
+  EXPECT_TRUE(t.recovering);
+  EXPECT_FALSE(core::track_violation(t, 4.0F, true, 0.1F));
+  EXPECT_FALSE(core::track_violation(t, 4.05F, true, 0.1F)) << "within the tolerance";
+  EXPECT_TRUE(core::track_violation(t, 4.2F, true, 0.1F));
+  EXPECT_FALSE(core::track_violation(t, 0.0F, true, 0.1F)) << "back inside";
+  EXPECT_FALSE(t.recovering);
+  EXPECT_TRUE(core::track_violation(t, 0.01F, true, 0.1F)) << "out again: a new violation";
+  core::RecoveryTrack n{};
+  EXPECT_TRUE(core::track_violation(n, std::nanf(""), true, 0.1F)) << "unknown is unsafe";
+}
