@@ -67,6 +67,11 @@ namespace SafeState.Client
         BUSY = 15,
         WRONG_STATE = 16,
         QUEUE_FULL = 17,
+        CONFIG_NOT_VALIDATED = 18,
+        CHECKSUM_MISMATCH = 19,
+        OUTSIDE_LIMITS = 20,
+        FIELD_INTERRUPTED = 21,
+        BRAKE_TEST_REQUIRED = 22,
     }
 
     /// <summary>SPEC.md §4 commands, spelled as on the wire and in .scn files.</summary>
@@ -83,6 +88,7 @@ namespace SafeState.Client
         jog_stop = 8,
         confirm_t2 = 9,
         set_mode = 10,
+        validate_config = 11,
     }
 
     /// <summary>Who sent a command (the `from` of a command event).</summary>
@@ -178,6 +184,12 @@ namespace SafeState.Client
         JOG_LINK_LOST = 403,
         CONTACTOR_WELDED = 107,
         BRAKE_NOT_ENGAGED = 206,
+        JOINT_LIMIT = 207,
+        ZONE_VIOLATION = 208,
+        ORIENTATION_LIMIT = 209,
+        SPEED_LIMIT = 210,
+        CONFIG_NOT_VALIDATED = 304,
+        REDUCED_SPEED = 305,
     }
 
     public static partial class Alarms
@@ -242,6 +254,24 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.BRAKE_NOT_ENGAGED, 206, Severity.fault, AlarmLatch.Reset,
                 "A holding brake was commanded engaged but its feedback still said released 300 ms later; power was cut.",
                 "Secure the named axis against falling, check its brake and brake feedback, then reset."),
+            new AlarmInfo(AlarmName.JOINT_LIMIT, 207, Severity.fault, AlarmLatch.Reset,
+                "The named joint left the range of the safety configuration; power was cut.",
+                "Reset, then in T1 jog the named axis back into its range (only motion back toward it is allowed)."),
+            new AlarmInfo(AlarmName.ZONE_VIOLATION, 208, Severity.fault, AlarmLatch.Reset,
+                "The tool sphere or a link of the arm left a keep-in zone or entered a keep-out zone; power was cut.",
+                "Reset, then in T1 jog the arm out of the named zone (only motion that does not go deeper is allowed)."),
+            new AlarmInfo(AlarmName.ORIENTATION_LIMIT, 209, Severity.fault, AlarmLatch.Reset,
+                "The tool axis left the permitted orientation cone of the safety configuration; power was cut.",
+                "Reset, then in T1 turn the tool back toward the permitted orientation."),
+            new AlarmInfo(AlarmName.SPEED_LIMIT, 210, Severity.fault, AlarmLatch.Reset,
+                "A joint or the TCP moved faster than the safety configuration allows (normal or reduced); power was cut.",
+                "Check the named axis' drive and the program's speeds against the safety configuration, then reset."),
+            new AlarmInfo(AlarmName.CONFIG_NOT_VALIDATED, 304, Severity.warning, AlarmLatch.Condition,
+                "The active safety configuration's checksum has not been confirmed by an operator: AUTO and T2 are refused.",
+                "Check the configuration, then in T1 or T2 with the servos off confirm its checksum on the pendant."),
+            new AlarmInfo(AlarmName.REDUCED_SPEED, 305, Severity.info, AlarmLatch.Condition,
+                "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
+                "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."),
         };
     }
 
@@ -300,6 +330,11 @@ namespace SafeState.Client
             "BUSY",
             "WRONG_STATE",
             "QUEUE_FULL",
+            "CONFIG_NOT_VALIDATED",
+            "CHECKSUM_MISMATCH",
+            "OUTSIDE_LIMITS",
+            "FIELD_INTERRUPTED",
+            "BRAKE_TEST_REQUIRED",
         };
         internal static readonly string[] CommandNameNames =
         {
@@ -314,6 +349,7 @@ namespace SafeState.Client
             "jog_stop",
             "confirm_t2",
             "set_mode",
+            "validate_config",
         };
         internal static readonly string[] SourceNames =
         {
@@ -393,6 +429,12 @@ namespace SafeState.Client
             "JOG_LINK_LOST",
             "CONTACTOR_WELDED",
             "BRAKE_NOT_ENGAGED",
+            "JOINT_LIMIT",
+            "ZONE_VIOLATION",
+            "ORIENTATION_LIMIT",
+            "SPEED_LIMIT",
+            "CONFIG_NOT_VALIDATED",
+            "REDUCED_SPEED",
         };
     }
 }
