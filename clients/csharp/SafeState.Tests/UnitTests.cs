@@ -104,8 +104,8 @@ namespace SafeState.Tests
             AssertRoundTrip<SubState>(6);
             AssertRoundTrip<Mode>(4);
             AssertRoundTrip<StopCategory>(3);
-            AssertRoundTrip<Result>(18);
-            AssertRoundTrip<CommandName>(11);
+            AssertRoundTrip<Result>(23);
+            AssertRoundTrip<CommandName>(12);
             AssertRoundTrip<Role>(3);
             AssertRoundTrip<Severity>(4);
             AssertRoundTrip<AxisState>(8);
