@@ -54,6 +54,7 @@ void arm_forward(const ArmGeometry& g, const JointArray& q, const Vec3& tcp_flan
 float point_speed(const ArmPose& pose, const Vec3& point, std::size_t joints, const JointArray& qd) noexcept {
   Vec3 v{0.0F, 0.0F, 0.0F};
   const std::size_t n = (joints < kAxes) ? joints : kAxes;
+  // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: n is 1..6 for the callers' values
   for (std::size_t k = 0; k < n; ++k) {
     // Joint k+1 turns about z of frame k through origin k.
     v = add(v, scale(cross(pose.z[k], sub(point, pose.origin[k])), qd[k]));

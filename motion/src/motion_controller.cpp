@@ -209,8 +209,8 @@ void MotionController::set_limits(const core::SafetyLimits& limits) noexcept {
 // sum_j |dq_j| lever_j), never closer than 0.5 mm of point travel / 0.001 rad of tool-axis
 // turn. Joints are linear along such a path: the waypoints bound them.
 void MotionController::load_program(const Waypoint* points, std::uint8_t count) noexcept {
-  prog_ = points;
   prog_count_ = (points == nullptr) ? 0U : count;
+  prog_ = (prog_count_ == 0U) ? std::span<const Waypoint>{} : std::span<const Waypoint>(points, prog_count_);
   program_.load(points, count);
   check_program();
 }

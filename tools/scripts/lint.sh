@@ -11,7 +11,7 @@ if [[ ! -f $BUILD/compile_commands.json ]]; then
   echo "lint: $BUILD/compile_commands.json is missing: run 'make build' first" >&2
   exit 2
 fi
-FILES=(core/src/*.cpp motion/src/*.cpp)
+FILES=(core/src/*.cpp core/src/monitors/*.cpp motion/src/*.cpp)
 
 echo "lint: clang-tidy on ${#FILES[@]} files of core/ and motion/ (and their headers)"
 # One process per file, two at a time; each prints only its findings.

@@ -11,10 +11,8 @@ void ReducedMode::update(std::uint8_t sources, Cycle ramp) noexcept {
   const bool was = sources_ != 0U;
   sources_ = sources;
   ramp_ = ramp;
-  if (sources_ == 0U) {
-    elapsed_ = 0;
-  } else if (!was) {
-    elapsed_ = 0;  // became active in this cycle
+  if ((sources_ == 0U) || !was) {
+    elapsed_ = 0;  // inactive, or became active in this cycle: the ramp starts now
   } else if (elapsed_ <= ramp_) {
     ++elapsed_;
   }

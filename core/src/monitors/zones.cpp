@@ -68,6 +68,7 @@ float ZoneMonitor::outside_mm(const Zone& z, const ArmPose& p, float radius_mm) 
 // @req LIM-ZONE
 void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;
+  // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
   for (std::size_t i = 0; i < n; ++i) {
     const Zone& z = c.limits.zones[i];
     if (z.kind == ZoneKind::reduced) {

@@ -172,7 +172,7 @@ class MotionController {
   float tcp_allow_;                 // TCP speed allowed this cycle, mm/s (+inf: no cap)
   float tcp_ramp_down_ = 0.0F;      // mm/s per s, set at the onset of reduced mode
   bool reduced_prev_ = false;
-  const Waypoint* prog_ = nullptr;  // the loaded program (owned by the caller)
+  std::span<const Waypoint> prog_{};  // the loaded program (owned by the caller)
   std::uint8_t prog_count_ = 0;
   bool program_ok_ = true;          // waypoints and paths between them
   bool first_leg_ok_ = true;        // measured position -> first waypoint
