@@ -85,9 +85,12 @@ TEST(SeqLock, ReaderNeverSeesATornSnapshot) {
   };
   static SeqLock<Big> lock;
   std::atomic<bool> done{false};
+  std::atomic<std::uint64_t> read_count{0};
+  // The writer keeps writing until the reader has read concurrently a number of times (on a
+  // loaded machine 100,000 writes could end before the reader thread ever ran), bounded.
   std::thread writer([&] {
     Big b{};
-    for (std::uint64_t k = 1; k < 100000; ++k) {
+    for (std::uint64_t k = 1; (k < 100000) || ((read_count.load() < 100U) && (k < 20000000)); ++k) {
       b.v.fill(k);
       lock.write(b);
     }
@@ -101,6 +104,7 @@ TEST(SeqLock, ReaderNeverSeesATornSnapshot) {
         ASSERT_EQ(x, b.v[0]) << "torn read";
       }
       ++reads;
+      read_count.store(reads);
     }
   }
   writer.join();

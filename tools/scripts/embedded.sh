@@ -13,7 +13,7 @@ FLAGS=(-std=c++20 -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -Os
        -Wall -Wextra -Wconversion -Wdouble-promotion -Werror -Icore/include -Imotion/include -Ihal/include
        -Icontroller/include)
 
-for f in core/src/*.cpp; do
+for f in core/src/*.cpp core/src/monitors/*.cpp; do
   "$CXX" "${FLAGS[@]}" -c "$f" -o "$out/core/$(basename "${f%.cpp}").o"
 done
 for lib in motion controller; do
