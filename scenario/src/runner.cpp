@@ -72,16 +72,6 @@ std::size_t axis_index(const Expectation& e) noexcept { return static_cast<std::
 
 float abs_speed(float v) noexcept { return (v < 0.0F) ? -v : v; }
 
-bool compare(double v, Compare cmp, double limit) noexcept {
-  switch (cmp) {
-    case Compare::lt: return v < limit;
-    case Compare::le: return v <= limit;
-    case Compare::gt: return v > limit;
-    case Compare::ge: return v >= limit;
-  }
-  return false;
-}
-
 template <typename E>
 bool is(E actual, std::uint8_t expected) noexcept {
   return static_cast<std::uint8_t>(actual) == expected;
@@ -482,6 +472,16 @@ class Runner {
 };
 
 }  // namespace
+
+bool compare(double v, Compare cmp, double limit) noexcept {
+  switch (cmp) {
+    case Compare::lt: return v < limit;
+    case Compare::le: return v <= limit;
+    case Compare::gt: return v > limit;
+    case Compare::ge: return v >= limit;
+  }
+  return false;
+}
 
 int run(const Scenario& s, const RunOptions& opts, Summary& summary) {
   const core::ConfigError e = core::validate(s.config);

@@ -69,16 +69,6 @@ double joint_deg(const Expectation& e, const sim::CellView& v) noexcept {
   return static_cast<double>(v.joints_rad[static_cast<std::size_t>(e.axis - 1U) % core::kAxes]) * kDeg;
 }
 
-bool compare(double v, Compare cmp, double limit) noexcept {
-  switch (cmp) {
-    case Compare::lt: return v < limit;
-    case Compare::le: return v <= limit;
-    case Compare::gt: return v > limit;
-    case Compare::ge: return v >= limit;
-  }
-  return false;
-}
-
 }  // namespace
 
 bool set_config(std::string_view key, std::string_view value, std::size_t line, ConfigLines& out, Problem& problem) {

@@ -107,6 +107,9 @@ enum class ExpectKey : std::uint8_t {
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
 
+// `v CMP limit` for the comparing expect keys (speeds, joint.N).
+[[nodiscard]] bool compare(double v, Compare cmp, double limit) noexcept;
+
 // `reply=pending` (and `reply.CMD=pending`): no Result has this value.
 inline constexpr std::uint8_t kPendingReply = 0xFF;
 // `reply.reset_button=`: the reset button's replies instead of one command's.
