@@ -33,7 +33,6 @@ namespace {
 using namespace std::chrono_literals;
 
 constexpr auto kPollPeriod = 2ms;
-constexpr auto kStatusPeriod = 20ms;
 constexpr auto kLivenessPeriod = 250ms;
 constexpr auto kAttachTimeout = 5s;
 // While replies are due, the first look after the core's cycle boundary. The core wakes

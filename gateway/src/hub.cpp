@@ -270,7 +270,24 @@ StatusExtras Hub::extras() const {
 
 void Hub::broadcast_status() {
   read_status();
-  broadcast(std::make_shared<const std::string>(dump(status_json(status_, extras(), true))), true);
+  const auto frame = std::make_shared<const std::string>(dump(status_json(status_, extras(), true)));
+  const auto now = Clock::now();
+  std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
+  targets.reserve(clients_.size());
+  for (const auto& [id, c] : clients_) {
+    // The same snapshot again within a period (the hello's status just before this tick)
+    // tells the client nothing; a stalled core's snapshot is still repeated every period,
+    // with the gateway's own fields (core_heartbeat_age_ms) moving on.
+    const bool just_sent = c->status_t == status_.t && now - c->status_at < kStatusPeriod;
+    if (c->hello && !just_sent) {
+      targets.push_back(c);
+    }
+  }
+  for (Client* c : targets) {
+    c->status_t = status_.t;
+    c->status_at = now;
+    c->send(frame, true);
+  }
 }
 
 // The core process is gone when it no longer exists or is a zombie (its parent has not

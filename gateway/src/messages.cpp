@@ -108,6 +108,8 @@ void Hub::on_hello(Client& c, const HelloMsg& h) {
   send(c, make_welcome(h.role, options_.version));
   read_status();
   send(c, status_json(status_, extras(), true));
+  c.status_t = status_.t;
+  c.status_at = Clock::now();
 }
 
 void Hub::refuse_command(Client& c, const Json& client_seq) {

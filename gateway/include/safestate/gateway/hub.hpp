@@ -45,6 +45,9 @@ inline constexpr unsigned kMaxBadFrames = 32;
 inline constexpr std::size_t kRecentMax = 4096;
 // A stopping transition waits at most this long for its black-box cycles to be written.
 inline constexpr std::chrono::milliseconds kBlackBoxWait{200};
+// Status is broadcast every kStatusPeriod; a client that got the same core snapshot less
+// than that ago (its hello's status, just before the tick) is not sent it twice.
+inline constexpr std::chrono::milliseconds kStatusPeriod{20};
 
 // One WebSocket connection as the hub sees it; the transport does the I/O.
 class Client {
@@ -77,6 +80,9 @@ class Client {
   Clock::time_point hold_reads_until{};
   double bucket = static_cast<double>(kMaxPendingPerClient);  // records it may still submit now
   Clock::time_point bucket_at{};
+  // The core cycle of the last status sent and when (see kStatusPeriod).
+  std::uint64_t status_t = 0;
+  Clock::time_point status_at{};
 };
 
 // Commands the gateway refuses itself (an observer's), per client and second, before
