@@ -71,6 +71,8 @@ Timing to_timing(const Config& c) noexcept {
   t.brakes_timeout = ms_to_cycles(c.brakes_timeout_ms, c.cycle_us);
   t.reset_hold_max = ms_to_cycles(c.reset_hold_max_ms, c.cycle_us);
   t.fault_reset_reply = c.fault_reset_reply_cycles;
+  const Cycle confirm = ms_to_cycles(kBrakeConfirmMs, c.cycle_us);
+  t.brake_confirm = (confirm < 1U) ? Cycle{1} : confirm;
   return t;
 }
 

@@ -278,10 +278,21 @@ void SystemStateManager::update_feedback_monitors(CycleCtx& c) noexcept {
   const bool welded_now = !contactor_cmd_ && c.fb.contactor_closed;
   welded_cycles_ = welded_now ? welded_cycles_ + 1U : 0U;
   c.contactor_welded = welded_cycles_ > timing_.contactor_timeout;
+  // A brake counts as engaged only after its feedback said so for brake_confirm cycles
+  // without a break; until then its time runs from the first released reading, so a
+  // feedback that chatters is still released when the brake time is over.
   for (std::size_t i = 0; i < kAxes; ++i) {
     const bool stuck_now = !brakes_release_cmd_ && c.fb.brake_released[i];
-    brake_cycles_[i] = stuck_now ? brake_cycles_[i] + 1U : 0U;
-    if ((brake_cycles_[i] > timing_.brakes_timeout) && (c.brake_axis == 0U)) {
+    const bool engaged_now = !brakes_release_cmd_ && !c.fb.brake_released[i];
+    brake_engaged_run_[i] = engaged_now ? brake_engaged_run_[i] + 1U : 0U;
+    if (brakes_release_cmd_ || (brake_engaged_run_[i] >= timing_.brake_confirm)) {
+      brake_cycles_[i] = 0U;
+    } else if (stuck_now || (brake_cycles_[i] != 0U)) {
+      ++brake_cycles_[i];
+    } else {
+      // engaged reading, not confirmed yet, nothing released since the last confirmation
+    }
+    if (stuck_now && (brake_cycles_[i] > timing_.brakes_timeout) && (c.brake_axis == 0U)) {
       c.brake_axis = static_cast<std::uint8_t>(i + 1U);
     }
   }

@@ -855,13 +855,13 @@ TEST(Operational, Cat1CutsPowerAfterTheBrakeTimeWhileTheBrakeFeedbacksChatter) {
   EXPECT_TRUE(all_outputs_safe(b.out));
 }
 
-// DISABLED: a probable defect found by the MC/DC work (issue 25), left to the lead to decide.
 // SPEC §7: "A brake commanded engaged whose feedback still says released 300 ms later is
-// BRAKE_NOT_ENGAGED". The monitor counts only *consecutive* released cycles per brake, and
-// the Cat 1 brake phase ends on its timeout without an alarm, so two brake feedbacks that
-// chatter (never all engaged, each released every other cycle) end the stop silently: no
-// latched alarm, and servo_on is accepted at once. Enable when the core decides it.
-TEST(FeedbackMonitoring, DISABLED_BrakesNeverAllEngagedByTheBrakeTimeRaiseBrakeNotEngaged) {
+// BRAKE_NOT_ENGAGED". Found by the MC/DC work (issue 25): counting only consecutive released
+// cycles, two chattering feedbacks (never all engaged) ended the stop silently and servo_on
+// was accepted at once. A brake now counts as engaged only after kBrakeConfirmMs of engaged
+// feedback without a break.
+// @req AL-FEEDBACK TR-C3
+TEST(FeedbackMonitoring, BrakesNeverAllEngagedByTheBrakeTimeRaiseBrakeNotEngaged) {
   Bench b;
   b.to_auto_running();
   b.plant.vel.fill(0.0F);
@@ -876,6 +876,47 @@ TEST(FeedbackMonitoring, DISABLED_BrakesNeverAllEngagedByTheBrakeTimeRaiseBrakeN
   ASSERT_EQ(b.out.state, State::IDLE);
   EXPECT_TRUE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED)) << "a brake said released when the brake time ran out";
   EXPECT_EQ(b.command(CommandId::servo_on), Result::RESET_REQUIRED);
+}
+
+// A contact that bounces shorter than the confirmation time while engaging, then holds:
+// the brake engaged in time, no alarm.
+// @req AL-FEEDBACK TR-C3
+TEST(FeedbackMonitoring, BrakeThatBouncesThenHoldsWithinTheBrakeTimeRaisesNothing) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_welded_released[2] = true;
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  const auto confirm = static_cast<int>(b.timing().brake_confirm);
+  const int settle = static_cast<int>(b.timing().brakes_timeout) - confirm - 5;
+  for (int k = 0; k < 400 && b.out.state == State::STOPPING; ++k) {
+    // bounces (released every third cycle) until `settle`, then engaged for good
+    b.plant.brake_welded_released[2] = (k < settle) && (k % 3 == 0);
+    b.cycle();
+  }
+  ASSERT_EQ(b.out.state, State::IDLE);
+  EXPECT_FALSE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED));
+}
+
+// Released and engaged in runs just shorter than the confirmation time: never engaged.
+// @req AL-FEEDBACK TR-C3
+TEST(FeedbackMonitoring, BrakeEngagedInRunsShorterThanTheConfirmationIsNotEngaged) {
+  Bench b;
+  b.to_idle();
+  const auto confirm = static_cast<int>(b.timing().brake_confirm);
+  const auto timeout = static_cast<int>(b.timing().brakes_timeout);
+  int raised_at = -1;
+  for (int k = 0; k < timeout + 3 * confirm && raised_at < 0; ++k) {
+    b.plant.brake_welded_released[4] = (k % confirm) == 0;  // engaged runs of confirm - 1
+    b.cycle();
+    if (b.alarm(AlarmId::BRAKE_NOT_ENGAGED)) {
+      raised_at = k;
+    }
+  }
+  ASSERT_GE(raised_at, timeout) << "not before the brake time";
+  EXPECT_LE(raised_at, timeout + confirm);
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::BRAKE_NOT_ENGAGED).axis, 5U);
 }
 
 // @req AL-FEEDBACK TR-C1

@@ -42,7 +42,14 @@ struct Timing {
   Cycle brakes_timeout = 300;
   Cycle reset_hold_max = 5000;
   Cycle fault_reset_reply = 50;
+  // A brake counts as engaged once its feedback has said so this long without a break
+  // (kBrakeConfirmMs): a chattering contact is never an engaged brake (SPEC §7).
+  Cycle brake_confirm = 10;
 };
+
+// Feedback monitoring (SPEC §7): how long a brake's feedback must say engaged without a
+// break before the brake counts as engaged; shorter than any brake timeout worth setting.
+inline constexpr std::uint32_t kBrakeConfirmMs = 10;
 
 // What is wrong with a Config: the field's name and a sentence; field == nullptr when
 // the config is valid.

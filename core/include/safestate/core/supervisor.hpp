@@ -147,7 +147,10 @@ class SystemStateManager {
   bool contactor_cmd_ = false;
   bool brakes_release_cmd_ = false;
   Cycle welded_cycles_ = 0;
+  // Per brake, while commanded engaged: cycles since it last stopped counting as engaged
+  // (0 once engaged), and how long its feedback has said engaged without a break.
   std::array<Cycle, kAxes> brake_cycles_{};
+  std::array<Cycle, kAxes> brake_engaged_run_{};
   // SPEC §10 safe limits.
   SafeLimitMonitors limits_;
   bool config_validated_ = true;
