@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from wsraw import frame_at, masked  # noqa: E402
 
 WORKERS = int(os.environ.get("SAFESTATE_BURST_WORKERS", "4"))
 MAX_CLIENTS = 64  # the gateway's default --max-clients; one slot is the pendant's
@@ -39,13 +40,6 @@ ANSWER_S = 20.0   # a client without an outcome after this is lost
 
 
 # ---------------------------------------------------------------------------- worker
-def masked(opcode, payload):
-    mask = os.urandom(4)
-    head = bytes([0x80 | opcode, 0x80 | len(payload)]) if len(payload) < 126 else \
-        bytes([0x80 | opcode, 0x80 | 126]) + len(payload).to_bytes(2, "big")
-    return head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
-
-
 class Probe(asyncio.Protocol):
     """One client: a raw RFC 6455 client (the `websockets` library is too slow for 125 at
     once in one process) that records how the gateway answered it."""
@@ -91,21 +85,11 @@ class Probe(asyncio.Protocol):
         self.frames()
 
     def frames(self):
-        buf, pos, n = self.buf, 0, len(self.buf)
-        while n - pos >= 2 and not self.outcome:
-            opcode, ln, hl = buf[pos] & 0x0F, buf[pos + 1] & 0x7F, 2
-            if ln == 126:
-                if n - pos < 4:
-                    break
-                ln, hl = int.from_bytes(buf[pos + 2:pos + 4], "big"), 4
-            elif ln == 127:
-                if n - pos < 10:
-                    break
-                ln, hl = int.from_bytes(buf[pos + 2:pos + 10], "big"), 10
-            if n - pos < hl + ln:
-                break
-            body = bytes(buf[pos + hl:pos + hl + ln])
-            pos += hl + ln
+        buf, pos = self.buf, 0
+        while not self.outcome and (f := frame_at(buf, pos)) is not None:
+            opcode, start, ln = f
+            body = bytes(buf[start:start + ln])
+            pos = start + ln
             if opcode == 0x8:
                 code = int.from_bytes(body[:2], "big") if len(body) >= 2 else None
                 if code == 1013 and self.stage != "welcomed":

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from wsraw import frame_at, masked  # noqa: E402
 
 OBSERVERS = int(os.environ.get("SAFESTATE_LOAD_OBSERVERS", "500"))
 WORKERS = int(os.environ.get("SAFESTATE_LOAD_WORKERS", "5"))
@@ -49,11 +50,7 @@ class Observer(asyncio.Protocol):
         self.transport = transport
 
     def send_text(self, text):
-        payload = text.encode()
-        mask = os.urandom(4)
-        head = bytes([0x81, 0x80 | len(payload)]) if len(payload) < 126 else \
-            bytes([0x81, 0x80 | 126]) + len(payload).to_bytes(2, "big")
-        self.transport.write(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+        self.transport.write(masked(0x1, text.encode()))
 
     def data_received(self, data):
         self.buf += data
@@ -70,26 +67,12 @@ class Observer(asyncio.Protocol):
         self.frames()
 
     def frames(self):
-        buf, pos, n = self.buf, 0, len(self.buf)
+        buf, pos = self.buf, 0
         loop_time = asyncio.get_running_loop().time
-        while n - pos >= 2:
-            opcode, ln = buf[pos] & 0x0F, buf[pos + 1] & 0x7F
-            hl = 2
-            if ln == 126:
-                if n - pos < 4:
-                    break
-                ln, hl = int.from_bytes(buf[pos + 2:pos + 4], "big"), 4
-            elif ln == 127:
-                if n - pos < 10:
-                    break
-                ln, hl = int.from_bytes(buf[pos + 2:pos + 10], "big"), 10
-            if n - pos < hl + ln:
-                break
-            start = pos + hl
+        while (f := frame_at(buf, pos)) is not None:
+            opcode, start, ln = f
             if opcode == 0x9:  # ping: pong with its payload
-                payload = bytes(buf[start:start + ln])
-                mask = os.urandom(4)
-                self.transport.write(bytes([0x8A, 0x80 | ln]) + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+                self.transport.write(masked(0xA, bytes(buf[start:start + ln])))
             elif opcode == 0x8:
                 self.finish("closed by the server")
                 return
