@@ -9,9 +9,11 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "safestate/core/types.hpp"
+#include "safestate/scenario/scenario.hpp"
 
 namespace safestate::scenario::util {
 
@@ -44,6 +46,21 @@ inline bool to_real(std::string_view s, double& out) noexcept {
   }
   out = v;
   return true;
+}
+
+// `<=X`, `>=X`, `<X`, `>X` (`rest` starts at the operator): the comparison into `cmp` and
+// `number` the text after it. False when `rest` starts with none of them.
+inline bool compare_op(std::string_view rest, Compare& cmp, std::string_view& number) noexcept {
+  constexpr std::array<std::pair<std::string_view, Compare>, 4> ops{{
+      {"<=", Compare::le}, {">=", Compare::ge}, {"<", Compare::lt}, {">", Compare::gt}}};
+  for (const auto& [op, c] : ops) {
+    if (rest.substr(0, op.size()) == op) {
+      cmp = c;
+      number = rest.substr(op.size());
+      return true;
+    }
+  }
+  return false;
 }
 
 // The core's name lookups take C strings: copy the token into a bounded buffer.

@@ -562,17 +562,13 @@ bool parse_choice_key(std::string_view key, std::string_view value, Expectation&
 // `NAME<=X`, `<`, `>=`, `>` with a finite number; `rest` is what follows NAME.
 Problem parse_compare(std::string_view tok, std::string_view rest, std::string_view name, ExpectKey key,
                       Expectation& e) {
-  constexpr std::array<std::pair<std::string_view, Compare>, 4> ops{{
-      {"<=", Compare::le}, {">=", Compare::ge}, {"<", Compare::lt}, {">", Compare::gt}}};
-  for (const auto& [op, cmp] : ops) {
-    if (rest.substr(0, op.size()) == op) {
-      e.key = key;
-      e.cmp = cmp;
-      if (!to_real(rest.substr(op.size()), e.limit)) {
-        return "expect " + quoted(tok) + ": the speed limit is not a number";
-      }
-      return {};
+  std::string_view number;
+  if (util::compare_op(rest, e.cmp, number)) {
+    e.key = key;
+    if (!to_real(number, e.limit)) {
+      return "expect " + quoted(tok) + ": the speed limit is not a number";
     }
+    return {};
   }
   return "expect " + quoted(tok) + ": " + std::string(name) + " takes <=, <, >= or > and a number";
 }

@@ -161,18 +161,13 @@ bool parse_expect(std::string_view tok, Expectation& e, Problem& problem) {
     if (op == std::string_view::npos || !util::axis_1_to_6(tok.substr(6, op - 6), e.axis)) {
       return false;
     }
-    constexpr std::array<std::pair<std::string_view, Compare>, 4> ops{{
-        {"<=", Compare::le}, {">=", Compare::ge}, {"<", Compare::lt}, {">", Compare::gt}}};
-    const std::string_view rest = tok.substr(op);
     e.key = ExpectKey::joint;
-    for (const auto& [o, cmp] : ops) {
-      if (rest.substr(0, o.size()) == o) {
-        e.cmp = cmp;
-        if (!util::to_real(rest.substr(o.size()), e.limit)) {
-          problem = "expect " + quoted(tok) + ": the angle is not a number";
-        }
-        return true;
+    std::string_view number;
+    if (util::compare_op(tok.substr(op), e.cmp, number)) {
+      if (!util::to_real(number, e.limit)) {
+        problem = "expect " + quoted(tok) + ": the angle is not a number";
       }
+      return true;
     }
     problem = "expect " + quoted(tok) + ": joint.N takes <=, <, >= or > and a number of degrees";
     return true;
