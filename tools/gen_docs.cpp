@@ -1,7 +1,8 @@
-// Generates docs/transitions.md, docs/alarms.md and docs/states.mmd from the tables in
+// Generates docs/transitions.md, docs/alarms.md, docs/body-regions.md and docs/states.mmd from the tables in
 // core/, and (with `--csharp FILE`) the C# client's enums and alarm table from the same
 // tables. `--check` compares instead of writing and fails naming every stale file, so
 // CI catches documentation or a client that no longer mirrors the code.
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -12,6 +13,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/cia402.hpp"
+#include "safestate/core/collaborative.hpp"
 #include "safestate/core/transitions.hpp"
 #include "safestate/gateway/protocol.hpp"
 #include "safestate/motion/motion_controller.hpp"
@@ -143,6 +145,30 @@ std::string alarms_md() {
   for (const AlarmInfo& a : kAlarms) {
     o << "| `" << a.name << "` | " << a.number << " | " << to_string(a.severity) << " | "
       << latch[static_cast<int>(a.latch)] << " | " << a.text << " | " << a.remedy << " |\n";
+  }
+  return o.str();
+}
+
+// The SPEC §11 body region table (kBodyRegions), with the PFL speed cap for a reference arm.
+std::string body_regions_md() {
+  constexpr float kRobotKg = 25.0F;  // the IRB 120
+  constexpr float kPayloadKg = 1.5F;
+  std::ostringstream o;
+  o << kHeader << "\n# Body regions (power and force limiting)\n\n"
+    << "The rows of `kBodyRegions` in `core/include/safestate/core/collaborative.hpp` (SPEC §11, "
+    << "ISO/TS 15066 Annex A; F_tr = 2 x F_qs). `v_pfl` = F_tr / sqrt(mu k), mu = (1/m_H + 1/m_R)^-1, "
+    << "m_R = robot_mass_kg / 2 + payload_kg, here for a " << kRobotKg << " kg robot with a " << kPayloadKg
+    << " kg payload. F_qs is also the collision detection threshold (rule 8). A configuration naming a "
+    << "region without transient contact is refused.\n\n"
+    << "| region | F_qs (N) | F_tr (N) | k (N/mm) | m_H (kg) | v_pfl (mm/s) |\n|---|---|---|---|---|---|\n";
+  for (const BodyRegionLimits& r : kBodyRegions) {
+    o << "| `" << r.name << "` | " << r.f_qs_n << " | ";
+    if (transient_contact_allowed(r.id)) {
+      const long v_pfl = std::lround(pfl_speed_cap_mm_s(r.id, kRobotKg, kPayloadKg));
+      o << r.f_tr_n << " | " << r.k_n_per_mm << " | " << r.m_h_kg << " | " << v_pfl << " |\n";
+    } else {
+      o << "none | " << r.k_n_per_mm << " | " << r.m_h_kg << " | no transient contact: refused |\n";
+    }
   }
   return o.str();
 }
@@ -341,6 +367,7 @@ int main(int argc, char** argv) {
   ok = emit(dir + "/transitions.md", transitions_md() + diagram + "```\n", check) && ok;
   ok = emit(dir + "/states.mmd", diagram, check) && ok;
   ok = emit(dir + "/alarms.md", alarms_md(), check) && ok;
+  ok = emit(dir + "/body-regions.md", body_regions_md(), check) && ok;
   if (!cs_file.empty()) {
     ok = emit(cs_file, csharp(), check) && ok;
   }

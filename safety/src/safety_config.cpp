@@ -359,9 +359,6 @@ float to_rad(double deg, float lo, float hi) {
   return std::clamp(static_cast<float>(deg * kPi / 180.0), lo, hi);
 }
 
-const std::array<const char*, 10> kRegions = {"neck",   "back",      "chest",     "abdomen", "pelvis",
-                                              "upper_arm", "lower_arm", "hand", "thigh",   "lower_leg"};
-
 void check_collaborative(const json& c, double tcp_max, Checker& ck, Collaborative& out) {
   const std::string p = "collaborative";
   if (!ck.object(c, p, kCollaborative)) return;
@@ -395,22 +392,44 @@ void check_collaborative(const json& c, double tcp_max, Checker& ck, Collaborati
     if (ck.object(f, fp, kPfl)) {
       if (auto v = ck.boolean(f, fp, "enabled")) pfl.enabled = *v;
       if (auto v = ck.string(f, fp, "body_region")) {
-        if (*v == "skull" || *v == "face") {
+        BodyRegion region{};
+        if (!core::parse_body_region(v->c_str(), region)) {
+          std::string list;
+          for (const core::BodyRegionLimits& r : core::kBodyRegions) {
+            if (core::transient_contact_allowed(r.id)) list += (list.empty() ? "" : ", ") + std::string(r.name);
+          }
+          ck.add(fp + ".body_region", "unknown body region " + shown(*v) + " (expected one of: " + list + ")");
+        } else if (!core::transient_contact_allowed(region)) {
           ck.add(fp + ".body_region", *v + " allows no transient contact (ISO/TS 15066 Annex A): refused");
         } else {
-          const auto it = std::find(kRegions.begin(), kRegions.end(), *v);
-          if (it == kRegions.end()) {
-            std::string list;
-            for (const char* r : kRegions) list += (list.empty() ? "" : ", ") + std::string(r);
-            ck.add(fp + ".body_region", "unknown body region " + shown(*v) + " (expected one of: " + list + ")");
-          } else {
-            pfl.body_region = static_cast<BodyRegion>(it - kRegions.begin());
-          }
+          pfl.body_region = region;
         }
       }
       if (auto v = ck.number(f, fp, "robot_mass_kg", 0.0, true, 10000.0)) pfl.robot_mass_kg = *v;
     }
     out.pfl = pfl;
+  }
+}
+
+// The file's §11 section in the core's units (only for a configuration without errors).
+void to_core(const Collaborative& c, float payload_kg, core::CollaborativeLimits& out) {
+  out.enabled = c.enabled;
+  out.resume_delay_ms = c.resume_delay_ms;
+  out.auto_resume = c.auto_resume;
+  out.reduced_speed_mm_s = static_cast<float>(c.reduced_speed_mm_s);
+  if (c.ssm) {
+    out.ssm_enabled = c.ssm->enabled;
+    out.ssm.human_speed_mm_s = static_cast<float>(c.ssm->human_speed_mm_s);
+    out.ssm.decel_mm_s2 = static_cast<float>(c.ssm->decel_mm_s2);
+    out.ssm.reaction_s = static_cast<float>(c.ssm->reaction_ms / 1000.0);
+    out.ssm.intrusion_mm = static_cast<float>(c.ssm->intrusion_mm);
+    out.ssm.uncertainty_mm = static_cast<float>(c.ssm->uncertainty_mm);
+  }
+  if (c.pfl) {
+    out.pfl_enabled = c.pfl->enabled;
+    out.body_region = c.pfl->body_region;
+    out.pfl_speed_mm_s = core::pfl_speed_cap_mm_s(c.pfl->body_region, static_cast<float>(c.pfl->robot_mass_kg), payload_kg);
+    out.f_qs_n = core::body_region(c.pfl->body_region).f_qs_n;
   }
 }
 
@@ -426,10 +445,7 @@ void check_brake_test(const json& b, Checker& ck, BrakeTest& out) {
 
 }  // namespace
 
-const char* to_string(BodyRegion r) noexcept {
-  const auto i = static_cast<std::size_t>(r);
-  return i < kRegions.size() ? kRegions[i] : "?";
-}
+const char* to_string(BodyRegion r) noexcept { return core::body_region(r).name; }
 
 std::vector<std::string> known_keys() {
   std::vector<std::string> out;
@@ -661,6 +677,9 @@ Result parse_safety(std::string_view text) {
   if (!canonical) {
     result.errors.push_back({"", "cannot be put in RFC 8785 form"});
     return result;
+  }
+  if (cfg.collaborative) {
+    to_core(*cfg.collaborative, lim.payload_kg, lim.collaborative);
   }
   cfg.canonical = *canonical;
   cfg.checksum = checksum_text(cfg.canonical);

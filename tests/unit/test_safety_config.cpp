@@ -106,6 +106,17 @@ TEST(SafetyExamples, CellAndCollaborativeLoad) {
   EXPECT_EQ(c.pfl->body_region, BodyRegion::hand);
   EXPECT_TRUE(co.config->brake_test_configured);
   EXPECT_NE(co.config->checksum, cell.config->checksum);
+  // ... and in the core's units (SPEC §11 worked examples: hand, 25 kg, 1.5 kg payload).
+  const core::CollaborativeLimits& k = co.config->limits.collaborative;
+  EXPECT_TRUE(k.enabled && k.ssm_enabled && k.pfl_enabled && k.auto_resume);
+  EXPECT_EQ(k.resume_delay_ms, 1000U);
+  EXPECT_FLOAT_EQ(k.reduced_speed_mm_s, 250.0F);
+  EXPECT_FLOAT_EQ(k.ssm.reaction_s, 0.1F);
+  EXPECT_FLOAT_EQ(k.ssm.intrusion_mm + k.ssm.uncertainty_mm, 300.0F);
+  EXPECT_NEAR(k.pfl_speed_mm_s, 1347.93F, 0.5F);
+  EXPECT_FLOAT_EQ(k.f_qs_n, 140.0F);
+  EXPECT_NEAR(core::ssm_allowed_speed_mm_s(800.0F, k.ssm, 1500.0F), 344.761F, 0.01F);
+  EXPECT_FALSE(cell.config->limits.collaborative.enabled) << "no collaborative key: none of §11 acts";
 }
 
 // The shipped cell makes sense for the IRB 120: at the home pose q = 0 the tool sphere and

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "safestate/core/collaborative.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::core {
@@ -32,6 +33,21 @@ struct JointLimit {
   float max_speed_rad_s = 0.0F;
 };
 
+// SPEC §11 in the core's units; `enabled` false (the default, and a file without the key):
+// none of it acts.
+struct CollaborativeLimits {
+  bool enabled = false;
+  std::uint32_t resume_delay_ms = 1000;
+  bool auto_resume = true;
+  float reduced_speed_mm_s = 0.0F;  // collaborative.reduced_speed_mm_s (outer field)
+  bool ssm_enabled = false;
+  SsmParams ssm{};
+  bool pfl_enabled = false;
+  BodyRegion body_region = BodyRegion::hand;
+  float pfl_speed_mm_s = 0.0F;  // v_pfl for the region, robot mass and payload (start-up)
+  float f_qs_n = 0.0F;          // the region's quasi-static force limit: collision threshold
+};
+
 struct SafetyLimits {
   // First 32 bits of the SHA-256 of the file's RFC 8785 form: the 8 hex digits the
   // operator confirms (SPEC §10 "Checksum").
@@ -51,6 +67,7 @@ struct SafetyLimits {
   std::uint8_t zone_count = 0;
   std::array<Zone, kMaxZones> zones{};
   std::uint32_t max_stop_ms = 1000;  // stop.max_time_ms: SPEC §3 max_stop_ms
+  CollaborativeLimits collaborative{};
 };
 
 }  // namespace safestate::core

@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "safestate/core/collaborative.hpp"
 #include "safestate/core/safety_limits.hpp"
 
 namespace safestate::safety {
@@ -30,11 +31,9 @@ struct Error {
   [[nodiscard]] std::string text() const { return path.empty() ? message : path + ": " + message; }
 };
 
-// SPEC §11 ISO/TS 15066 Annex A body regions that allow transient contact (skull and face
-// do not, and are refused).
-enum class BodyRegion : std::uint8_t {
-  neck, back, chest, abdomen, pelvis, upper_arm, lower_arm, hand, thigh, lower_leg
-};
+// SPEC §11 ISO/TS 15066 Annex A body regions: the core's one table (collaborative.hpp).
+// A configuration may name only those that allow transient contact (not skull, not face).
+using core::BodyRegion;
 const char* to_string(BodyRegion r) noexcept;
 
 struct Ssm {
