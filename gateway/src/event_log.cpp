@@ -20,7 +20,10 @@ constexpr const char* kSchema =
     "kind TEXT NOT NULL, "
     "data TEXT NOT NULL, "
     "blackbox TEXT);"
-    "CREATE TABLE IF NOT EXISTS ring_progress(instance INTEGER PRIMARY KEY, tail INTEGER NOT NULL)";
+    "CREATE TABLE IF NOT EXISTS ring_progress(instance INTEGER PRIMARY KEY, tail INTEGER NOT NULL);"
+    // The newest event of a kind (config_validated: GET /api/safety, every start) without a
+    // scan of the whole history on the gateway's one I/O thread.
+    "CREATE INDEX IF NOT EXISTS events_kind ON events(kind, id)";
 
 // A string as a JSON string literal (our own ASCII time and kind names).
 std::string quoted(const unsigned char* s) {
