@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "safestate/bridge/segment.hpp"
+#include "safestate/core/monitors.hpp"
 #include "safestate/runtime/runtime.hpp"
 
 using namespace safestate;
@@ -18,6 +19,19 @@ using namespace safestate::bridge;
 
 namespace {
 std::string unique_name(const char* what) { return "/safestate-test-" + std::string(what) + "-" + std::to_string(getpid()); }
+
+// A configuration the status can be told apart by: checksum 3AD9012B, TCP 1500 mm/s.
+core::SafetyLimits safety_limits_for_test() {
+  core::SafetyLimits l{};
+  l.checksum = 0x3AD9012BU;
+  for (auto& j : l.joints) {
+    j.min_rad = -2.0F;
+    j.max_rad = 2.0F;
+    j.max_speed_rad_s = 3.0F;
+  }
+  l.tcp_max_speed_mm_s = 1500.0F;
+  return l;
+}
 }  // namespace
 
 TEST(Ring, FifoAndFullWithoutWaiting) {
@@ -262,6 +276,45 @@ TEST(RuntimeBridge, SimRecordsSetContactsAndInjectFaults) {
   runtime::take_record(rec, cell, pub, 0);
   cell.step();
   EXPECT_FALSE(cell.view().fieldbus_ok);
+}
+
+// SPEC §10: the reduced input's two channels through a sim record (the HMI's sim panel),
+// into the simulated cell, and as the line forwarded to an emulated EtherCAT segment.
+TEST(RuntimeBridge, SimRecordsReachTheReducedInput) {
+  const std::string name = unique_name("reduced");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell);
+  ASSERT_TRUE(cell.inputs().reduced_a && cell.inputs().reduced_b) << "NC: 1 = normal speed at start";
+  CommandRecord rec{};
+  rec.seq = 7;
+  rec.kind = RecordKind::sim_set;
+  rec.set_mask = (1U << static_cast<unsigned>(Contact::reduced_a)) | (1U << static_cast<unsigned>(Contact::reduced_b));
+  rec.set_values = (1U << static_cast<unsigned>(Contact::reduced_b));  // reduced.a=0, reduced.b=1
+  runtime::take_record(rec, cell, pub, 0);
+  EXPECT_FALSE(cell.inputs().reduced_a);
+  EXPECT_TRUE(cell.inputs().reduced_b);
+  EXPECT_TRUE(cell.inputs().estop_a) << "contacts outside the mask are untouched";
+  EXPECT_EQ(runtime::sim_line(rec), "in reduced.a=0 reduced.b=1");
+  // Published: the black box records both channels, and the status the core's safety fields.
+  cell.configure_limits(safety_limits_for_test(), true);
+  for (int i = 0; i < 5; ++i) {
+    cell.step();
+    pub.publish();
+  }
+  BlackBoxRecord b{};
+  ASSERT_TRUE(seg->blackbox()[4 % kBlackBoxCycles].read(b));
+  EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::reduced_a)) & 1U, 0U);
+  EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::reduced_b)) & 1U, 1U);
+  Status st{};
+  ASSERT_TRUE(seg->status().read(st));
+  EXPECT_EQ(st.safety_checksum, 0x3AD9012BU);
+  EXPECT_TRUE(st.safety_validated);
+  EXPECT_TRUE(st.safety_reduced) << "either channel asks for reduced speed";
+  EXPECT_EQ(st.safety_reduced_by, core::kReducedByInput);
+  EXPECT_FLOAT_EQ(st.safety_speed_limit_mm_s, 1500.0F) << "the normal limit until the ramp is over";
 }
 
 TEST(Histogram, PowerOfTwoBuckets) {
