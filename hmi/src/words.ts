@@ -22,6 +22,13 @@ export const RESULT_WORDS: Record<string, string> = {
   BUSY: 'The controller is busy arming or stopping: wait until it has finished, then try again.',
   WRONG_STATE: 'This command is not possible in the current state.',
   QUEUE_FULL: 'Too many commands at once: this one was not taken. Try again.',
+  CONFIG_NOT_VALIDATED:
+    'The safety configuration is not validated: AUTO and T2 need it. In T1 or T2, IDLE, validate it on the Safety page.',
+  CHECKSUM_MISMATCH: 'That is not the checksum of the active safety configuration: nothing changed.',
+  OUTSIDE_LIMITS:
+    'A safe limit is violated or the program leaves the limits (Safety page): in T1, jog back inside first.',
+  FIELD_INTERRUPTED: 'A protective field is interrupted: clear it first.',
+  BRAKE_TEST_REQUIRED: 'The brake test is due: run it first.',
 };
 
 // Protocol errors (protocol.md "Messages"); these come without a result code.
@@ -46,6 +53,8 @@ export const COMMAND_LABEL: Record<string, string> = {
   jog_stop: 'Jog stop',
   confirm_t2: 'Confirm T2',
   set_mode: 'Set mode',
+  validate_config: 'Validate configuration',
+  brake_test: 'Brake test',
 };
 
 export const STATE_WORDS: Record<State, string> = {
