@@ -190,6 +190,13 @@ export function nextStep(s: Status): string {
         return 'Remove the cause of the alarm (see its remedy), then press Reset.';
       }
       if (s.mode === 'NONE') return 'Turn the key switch to AUTO, T1 or T2.';
+      // SPEC §10: a violated limit is left in T1; AUTO and T2 need a validated configuration.
+      if (s.safety?.recovery && s.mode !== 'T1') {
+        return 'A safe limit is violated (Safety page): turn the key to T1, Servo on, and jog back inside.';
+      }
+      if (s.safety && !s.safety.validated && s.mode !== 'T1') {
+        return 'The safety configuration is not validated: in T1 or T2, validate it on the Safety page (T1 runs without).';
+      }
       if (s.mode === 'AUTO') return 'Press Servo on (AUTO needs the guard closed).';
       if (s.mode === 'T2' && !s.t2_confirmed) {
         return 'Press Confirm T2, hold the enabling device at centre, then Servo on.';
