@@ -344,7 +344,10 @@ class WebGlArm implements ArmDrawing {
       fill.name = `zone:${zone.name}`;
       fill.renderOrder = 1; // translucent boxes after the arm
       const label = new THREE.Sprite(new THREE.SpriteMaterial({ depthTest: false, transparent: true }));
-      label.position.set(centre.x, centre.y, z1 + 60);
+      // Where it stays in view: a keep-in box (the whole cell) by its corner nearest the
+      // camera, on the floor; a low box above its top; a tall one at 60 % of its height.
+      if (zone.kind === 'keep_in') label.position.set(x1, y0, Math.max(z0, 0) + 40);
+      else label.position.set(centre.x, centre.y, z1 - z0 < 400 ? z1 + 60 : z0 + 0.6 * (z1 - z0));
       label.renderOrder = 2;
       this.zoneGroup.add(fill, edges, label);
       this.zoneParts.push({ fill, edges, label, zone });

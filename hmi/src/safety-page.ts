@@ -45,7 +45,7 @@ export class SafetyPage {
     this.strip = h(
       'button',
       { type: 'button', class: 'safety-strip', id: 'safety-strip', title: 'Open the Safety page' },
-      h('span', { class: 'ss-label' }, 'Safety configuration'),
+      h('span', { class: 'ss-label' }, 'Safety'),
       el('ss-checksum', 'b', 'ss-checksum', '—'),
       el('ss-valid', 'span', 'ss-valid', 'unknown'),
       el('ss-violation', 'span', 'ss-violation', ''),
