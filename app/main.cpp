@@ -64,6 +64,8 @@ int main(int argc, char** argv) {
   run->add_option("--port", run_opt.port, "HTTP/WebSocket port")->check(CLI::Range(1, 65535));
   run->add_option("--bind", run_opt.bind, "address to listen on (beyond loopback both tokens are required)");
   run->add_option("--db", run_opt.db, "SQLite event database (survives restarts)");
+  run->add_option("--safety", run_opt.safety_file,
+                  "safety configuration (SPEC 10, JSON; default: the built-in one). Any error: exit 2, nothing starts");
   std::string run_pendant_file;
   std::string run_remote_file;
   std::vector<std::string> run_origins;

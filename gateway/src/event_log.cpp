@@ -1,6 +1,10 @@
 #include "safestate/gateway/event_log.hpp"
 
 #include <sqlite3.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
 
 #include <nlohmann/json.hpp>
 
@@ -55,7 +59,9 @@ std::unique_ptr<EventLog> EventLog::open(const std::string& path, std::string& e
       sqlite3_prepare_v2(db, "SELECT tail FROM ring_progress WHERE instance = ?", -1, &log->progress_get_, nullptr) !=
           SQLITE_OK ||
       sqlite3_prepare_v2(db, "INSERT OR REPLACE INTO ring_progress(instance, tail) VALUES(?, ?)", -1,
-                         &log->progress_set_, nullptr) != SQLITE_OK) {
+                         &log->progress_set_, nullptr) != SQLITE_OK ||
+      sqlite3_prepare_v2(db, "SELECT time, data FROM events WHERE kind = ? ORDER BY id DESC LIMIT 1", -1,
+                         &log->latest_, nullptr) != SQLITE_OK) {
     error = "cannot prepare event log statements: " + log->last_error();
     return nullptr;
   }
@@ -71,6 +77,7 @@ EventLog::~EventLog() {
   sqlite3_finalize(blackbox_);
   sqlite3_finalize(progress_get_);
   sqlite3_finalize(progress_set_);
+  sqlite3_finalize(latest_);
   sqlite3_close(db_);
 }
 
@@ -185,6 +192,75 @@ bool EventLog::set_ring_progress(std::uint64_t instance, std::uint64_t tail) {
   const int rc = sqlite3_step(progress_set_);
   sqlite3_reset(progress_set_);
   return rc == SQLITE_DONE;
+}
+
+bool EventLog::latest(const std::string& kind, std::string& time, std::string& data, bool& found, std::string& error) {
+  sqlite3_reset(latest_);
+  sqlite3_bind_text(latest_, 1, kind.c_str(), static_cast<int>(kind.size()), SQLITE_TRANSIENT);
+  const int rc = sqlite3_step(latest_);
+  found = rc == SQLITE_ROW;
+  if (found) {
+    const unsigned char* t = sqlite3_column_text(latest_, 0);
+    const unsigned char* d = sqlite3_column_text(latest_, 1);
+    time = (t == nullptr) ? std::string() : std::string(reinterpret_cast<const char*>(t));
+    data = (d == nullptr) ? std::string() : std::string(reinterpret_cast<const char*>(d));
+  }
+  sqlite3_reset(latest_);
+  if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+    error = last_error();
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+bool is_checksum(const std::string& s) {
+  return s.size() == 8U && std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'A' && c <= 'F'); });
+}
+
+// A config_validated event's data as the gateway writes it (hub.cpp).
+bool confirmation_of(const std::string& time, const std::string& data, Confirmation& out, std::string& error) {
+  const nlohmann::json j = nlohmann::json::parse(data, nullptr, false);
+  const auto text = [&j](const char* key) -> std::string {
+    const auto it = j.find(key);
+    return (it != j.end() && it->is_string()) ? it->get<std::string>() : std::string();
+  };
+  if (!j.is_object() || !is_checksum(text("checksum"))) {
+    error = "the latest config_validated event has no checksum of 8 upper-case hex digits";
+    return false;
+  }
+  out.checksum = text("checksum");
+  out.client = text("client");
+  out.role = text("role");
+  out.time = time;
+  return true;
+}
+
+}  // namespace
+
+bool latest_confirmation(EventLog& log, Confirmation& out, bool& found, std::string& error) {
+  std::string time;
+  std::string data;
+  if (!log.latest("config_validated", time, data, found, error)) {
+    return false;
+  }
+  return !found || confirmation_of(time, data, out, error);
+}
+
+bool latest_confirmation(const std::string& path, Confirmation& out, bool& found, std::string& error) {
+  found = false;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 && errno == ENOENT) {
+    return true;  // no log yet: nothing was ever confirmed
+  }
+  // Opened as the gateway opens it (the schema is created when missing, so an empty log
+  // answers "none"), by this process alone: the gateway starts after this returns.
+  std::unique_ptr<EventLog> log = EventLog::open(path, error);
+  if (!log) {
+    return false;
+  }
+  return latest_confirmation(*log, out, found, error);
 }
 
 }  // namespace safestate::gateway

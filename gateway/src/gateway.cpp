@@ -376,6 +376,9 @@ int gateway_main(const GatewayOptions& options) {
   }
   auto& header = segment->header();
   set_fieldbus(header.bus);
+  if (std::string why; !set_safety(header.safety, why)) {
+    say(why + " (GET /api/safety answers 503; zones are named by number)");
+  }
   const auto pid = static_cast<std::uint32_t>(::getpid());
   header.gateway_pid.store(pid, std::memory_order_relaxed);
 

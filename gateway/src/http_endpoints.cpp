@@ -313,6 +313,9 @@ HttpAnswer Hub::http_get(std::string_view target) {
   if (path == "/api/robot") {
     return HttpAnswer{200, "application/json", robot_, {}};
   }
+  if (path == "/api/safety") {
+    return safety_answer();
+  }
   if (path == "/metrics") {
     return metrics_answer();
   }
@@ -327,6 +330,34 @@ HttpAnswer Hub::http_get(std::string_view target) {
     return json_answer(404, j);
   }
   return static_answer(path);
+}
+
+// GET /api/safety: the configuration the core was given (from the segment), whether the
+// core holds it validated (status), and the latest confirmation in the log (any checksum).
+HttpAnswer Hub::safety_answer() {
+  Json j = safety_json();
+  if (j.is_null()) {
+    Json e;
+    e["error"] = "the core's safety configuration is not available to the gateway";
+    return json_answer(503, e);
+  }
+  j["validated"] = read_status().safety_validated;
+  Confirmation c;
+  bool found = false;
+  std::string error;
+  if (!latest_confirmation(log_, c, found, error)) {
+    Json e;
+    e["error"] = "event log: " + error;
+    return json_answer(500, e);
+  }
+  if (found) {
+    Json conf;
+    conf["checksum"] = c.checksum;
+    conf["client"] = c.client;
+    conf["time"] = c.time;
+    j["confirmation"] = std::move(conf);
+  }
+  return json_answer(200, j);
 }
 
 HttpAnswer Hub::events_answer(std::string_view query) {

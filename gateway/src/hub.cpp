@@ -103,6 +103,9 @@ void Hub::drain_replies() {
     }
     const Pending p = it->second;
     pending_.erase(it);
+    if (p.validate && r.kind == bridge::RecordKind::command && r.result == core::Result::OK) {
+      log_confirmation(p, r.t);  // before the reply: whoever sees OK finds it in the log
+    }
     const auto c = clients_.find(p.client);
     if (c == clients_.end()) {
       continue;  // the client has gone
@@ -119,6 +122,29 @@ void Hub::drain_replies() {
       send(client, make_error(ErrorCode::NOT_SIMULATED, "the cell is not simulated"));
     }
   }
+}
+
+// SPEC §10: the core has taken the operator's validate_config. The confirmation is kept in
+// the event log with the client and the time, and found again by the next `safestate run`
+// (latest_confirmation). Written at once, in its own transaction (synchronous=FULL: on disk
+// when insert returns), then pushed like every event. A gateway that dies before this line
+// loses the confirmation: the next start is then not validated, the safe side.
+// @req LIM-PERSIST
+void Hub::log_confirmation(const Pending& p, std::uint64_t t) {
+  std::array<char, 16> hex{};
+  std::snprintf(hex.data(), hex.size(), "%08X", p.code);
+  Json data;
+  data["checksum"] = hex.data();
+  data["client"] = p.client_name;
+  data["role"] = to_string(p.role);
+  const std::string time = iso8601_utc(std::chrono::system_clock::now());
+  const std::int64_t id = log_.insert(t, time, "config_validated", dump(data), {});
+  if (id < 0) {
+    log_error("event log: the config_validated event could not be written: " + log_.last_error());
+  } else {
+    ++events_stored_;
+  }
+  broadcast(std::make_shared<const std::string>(dump(event_message(id, t, time, "config_validated", data))), false);
 }
 
 bool Hub::blackbox_ready(const bridge::EventRecord& e) {

@@ -196,7 +196,18 @@ void Hub::submit(Client& c, bridge::CommandRecord record, const Json& client_seq
     return;
   }
   ++c.pending;
-  pending_[record.seq] = Pending{c.id, client_seq, sim, Clock::now()};
+  Pending p;
+  p.client = c.id;
+  p.seq = client_seq;
+  p.sim = sim;
+  p.since = Clock::now();
+  if (!sim && record.command.id == static_cast<std::uint8_t>(core::CommandId::validate_config)) {
+    p.validate = true;
+    p.code = record.command.code;
+    p.client_name = c.name;
+    p.role = c.role;
+  }
+  pending_[record.seq] = std::move(p);
   if (on_submit_) {
     on_submit_();
   }

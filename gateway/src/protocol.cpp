@@ -9,6 +9,8 @@
 //    argument that is missing (except speed, default 10), mistyped or out of the field's
 //    range is sent as 0 (BAD_ARGUMENT), a value that fits is sent as written (axis 9
 //    stays 9, the core refuses it). Arguments a command does not take are ignored.
+//    validate_config's `code` must be a string of exactly 8 hex digits (either case),
+//    else it is sent without a code (BAD_ARGUMENT from the core).
 //  - `sim`: `seq` must be an integer and exactly one of `set` (object) or `fault`
 //    (string) must be present. Raw contacts take 0/1, true/false or "0"/"1";
 //    `reset_button` likewise; the other shorthands take exactly the words of the
@@ -120,6 +122,38 @@ void fill_jog(const Json& j, core::Command& c) {
   c.speed = (speed == j.end()) ? std::uint8_t{10} : integer_or<std::uint8_t>(*speed, 0);
 }
 
+// validate_config: `code` must be a string of exactly 8 hex digits (the checksum as
+// `safestate safety check` prints it; lower case is the same number). Anything else is
+// sent without a code, and the core answers BAD_ARGUMENT.
+void fill_validate_config(const Json& j, core::Command& c) {
+  c.has_code = 0;
+  c.code = 0;
+  const auto code = j.find("code");
+  if (code == j.end() || !code->is_string()) {
+    return;
+  }
+  const auto& s = code->get_ref<const std::string&>();
+  if (s.size() != 8U) {
+    return;
+  }
+  std::uint32_t v = 0;
+  for (const char ch : s) {
+    unsigned d = 0;
+    if (ch >= '0' && ch <= '9') {
+      d = static_cast<unsigned>(ch - '0');
+    } else if (ch >= 'A' && ch <= 'F') {
+      d = static_cast<unsigned>(ch - 'A') + 10U;
+    } else if (ch >= 'a' && ch <= 'f') {
+      d = static_cast<unsigned>(ch - 'a') + 10U;
+    } else {
+      return;
+    }
+    v = (v << 4U) | d;
+  }
+  c.code = v;
+  c.has_code = 1;
+}
+
 void fill_set_mode(const Json& j, core::Command& c) {
   core::Mode m = core::Mode::NONE;
   const auto mode = j.find("mode");
@@ -156,6 +190,8 @@ ClientMessage parse_command(const Json& j) {
     fill_jog(j, m.command);
   } else if (id == core::CommandId::set_mode) {
     fill_set_mode(j, m.command);
+  } else if (id == core::CommandId::validate_config) {
+    fill_validate_config(j, m.command);
   }
   return m;
 }
@@ -201,7 +237,7 @@ struct Shorthand {
 };
 
 // clang-format off
-constexpr std::array<Shorthand, 4> kShorthands{{
+constexpr std::array<Shorthand, 5> kShorthands{{
   {"estop", "pressed|released", {{
     {"pressed", {{{Contact::estop_a, false}, {Contact::estop_b, false}, {}}}, 2},
     {"released", {{{Contact::estop_a, true}, {Contact::estop_b, true}, {}}}, 2}, {}, {}}}, 2},
@@ -217,6 +253,9 @@ constexpr std::array<Shorthand, 4> kShorthands{{
     {"T1", {{{Contact::mode_auto, false}, {Contact::mode_t1, true}, {Contact::mode_t2, false}}}, 3},
     {"T2", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, true}}}, 3},
     {"NONE", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, false}}}, 3}}}, 4},
+  {"reduced", "normal|reduced", {{
+    {"normal", {{{Contact::reduced_a, true}, {Contact::reduced_b, true}, {}}}, 2},
+    {"reduced", {{{Contact::reduced_a, false}, {Contact::reduced_b, false}, {}}}, 2}, {}, {}}}, 2},
 }};
 // clang-format on
 
@@ -224,7 +263,7 @@ struct RawContact {
   const char* key;
   Contact contact;
 };
-constexpr std::array<RawContact, 11> kRawContacts{{
+constexpr std::array<RawContact, bridge::kContactCount> kRawContacts{{
     {"estop.a", Contact::estop_a},
     {"estop.b", Contact::estop_b},
     {"gate.a", Contact::gate_a},
@@ -236,6 +275,8 @@ constexpr std::array<RawContact, 11> kRawContacts{{
     {"mode.t1", Contact::mode_t1},
     {"mode.t2", Contact::mode_t2},
     {"reset_button", Contact::reset_button},
+    {"reduced.a", Contact::reduced_a},
+    {"reduced.b", Contact::reduced_b},
 }};
 
 void apply(const Write& w, bridge::CommandRecord& out) noexcept {

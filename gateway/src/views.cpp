@@ -19,9 +19,11 @@
 #include <ctime>
 
 #include "safestate/core/describe.hpp"
+#include "safestate/core/monitors.hpp"
 #include "safestate/core/transitions.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/motion/robot.hpp"
+#include "safestate/safety/safety_config.hpp"
 
 namespace safestate::gateway {
 
@@ -29,7 +31,7 @@ namespace {
 
 constexpr std::array<const char*, bridge::kContactCount> kContactNames{
     "estop.a",  "estop.b",   "gate.a",  "gate.b",  "enable.a",    "enable.b",
-    "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button"};
+    "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button", "reduced.a", "reduced.b"};
 
 double rounded(double v, double scale) { return std::round(v * scale) / scale + 0.0; }  // + 0.0: no -0
 
@@ -43,11 +45,64 @@ Json name_or_null(const char* dash_for_none) {
 // The fieldbus as `safestate run` published it (set once at attach, before any view).
 bridge::BusInfo g_bus{};
 
+// The safety configuration `safestate run` gave the core (set once at attach).
+struct SafetyView {
+  bool ok = false;
+  std::string name;
+  std::string checksum;
+  std::string source;
+  Json config;
+  core::SafetyLimits limits{};
+};
+SafetyView g_safety;
+
+std::string hex8(std::uint32_t v) {
+  std::array<char, 16> b{};
+  std::snprintf(b.data(), b.size(), "%08X", v);
+  return b.data();
+}
+
+const char* zone_kind_words(core::ZoneKind k) noexcept {
+  switch (k) {
+    case core::ZoneKind::keep_in: return "keep-in";
+    case core::ZoneKind::keep_out: return "keep-out";
+    case core::ZoneKind::reduced: break;
+  }
+  return "reduced";
+}
+
+// SPEC §10 words the core cannot know: the zone's name (the core's detail carries its
+// index), the sources of reduced mode.
+std::string limit_words(core::AlarmId id, const core::AlarmDetail& d, std::string s) {
+  if (id == core::AlarmId::ZONE_VIOLATION && d.signal == core::Signal::zone && g_safety.ok &&
+      d.code < g_safety.limits.zone_count && d.code < core::kMaxZones) {
+    const core::Zone& z = g_safety.limits.zones[d.code];
+    const std::string key = "Zone " + std::to_string(d.code + 1U);
+    const std::size_t at = s.find(key);
+    if (at != std::string::npos) {
+      s.replace(at, key.size(), "Zone " + std::string(z.name.data()) + " (" + zone_kind_words(z.kind) + ")");
+    }
+  }
+  if (id == core::AlarmId::REDUCED_SPEED && d.signal == core::Signal::reduced && d.code != 0U) {
+    std::string why;
+    const std::array<std::pair<std::uint16_t, const char*>, 3> sources{
+        {{core::kReducedByZone, "in a reduced zone"}, {core::kReducedByInput, "reduced input"},
+         {core::kReducedByField, "outer protective field"}}};
+    for (const auto& [bit, words] : sources) {
+      if ((d.code & bit) != 0U) {
+        why += (why.empty() ? "" : ", ") + std::string(words);
+      }
+    }
+    s += " (" + why + ")";
+  }
+  return s;
+}
+
 // The core names a fieldbus subdevice by its bus position; the configuration's name is
 // added here, and for BOOT_FAILED the reason the bus did not come up.
 std::string alarm_words(core::AlarmId id, const core::AlarmDetail& d) {
   std::array<char, 160> buf{};
-  std::string s = core::describe(id, d, buf.data(), buf.size());
+  std::string s = limit_words(id, d, core::describe(id, d, buf.data(), buf.size()));
   const bool bus_alarm = id == core::AlarmId::FIELDBUS_LOST || id == core::AlarmId::BOOT_FAILED;
   if (!bus_alarm || d.signal != core::Signal::fieldbus) {
     return s;
@@ -115,6 +170,7 @@ Json alarm_object(core::AlarmId id, const core::AlarmDetail& d) {
   j["text"] = info.text;
   j["remedy"] = info.remedy;
   j["detail"] = alarm_words(id, d);
+  j["subject"] = alarm_subject(d);
   return j;
 }
 
@@ -226,6 +282,94 @@ void set_fieldbus(const bridge::BusInfo& bus) noexcept {
   g_bus.boot_error.back() = '\0';
 }
 
+bool set_safety(const bridge::SafetyInfo& info, std::string& error) {
+  g_safety = SafetyView{};
+  if (info.set != 1U) {
+    error = "the core's segment holds no safety configuration";
+    return false;
+  }
+  // Written by another process: never trusted to be terminated or in range.
+  const std::size_t n = std::min<std::size_t>(info.canonical_len, info.canonical.size());
+  const std::string text(info.canonical.data(), n);
+  const safety::Result r = safety::parse_safety(text);
+  if (!r.ok()) {
+    error = "the safety configuration in the core's segment does not parse: " +
+            (r.errors.empty() ? std::string("?") : r.errors.front().text());
+    return false;
+  }
+  if (r.config->limits.checksum != info.checksum) {
+    error = "the safety configuration in the core's segment has checksum " + r.config->checksum + ", the core runs " +
+            hex8(info.checksum);
+    return false;
+  }
+  SafetyView v;
+  v.config = Json::parse(text, nullptr, false);
+  if (v.config.is_discarded()) {
+    error = "the safety configuration in the core's segment is not JSON";
+    return false;
+  }
+  std::array<char, bridge::kSafetySourceChars> src = info.source;
+  src.back() = '\0';
+  v.source = src.data();
+  v.name = r.config->name;
+  v.checksum = r.config->checksum;
+  v.limits = r.config->limits;
+  v.ok = true;
+  g_safety = std::move(v);
+  return true;
+}
+
+Json safety_json() {
+  if (!g_safety.ok) {
+    return nullptr;
+  }
+  Json j;
+  j["name"] = g_safety.name;
+  j["checksum"] = g_safety.checksum;
+  j["source"] = g_safety.source;
+  j["validated"] = false;  // the caller fills it from the status
+  j["confirmation"] = nullptr;
+  j["config"] = g_safety.config;
+  return j;
+}
+
+Json status_safety_json(const bridge::Status& s) {
+  Json j;
+  j["checksum"] = hex8(s.safety_checksum);
+  j["validated"] = s.safety_validated;
+  j["reduced"] = s.safety_reduced;
+  Json by = Json::array();
+  if ((s.safety_reduced_by & core::kReducedByZone) != 0U) {
+    by.push_back("zone");
+  }
+  if ((s.safety_reduced_by & core::kReducedByInput) != 0U) {
+    by.push_back("input");
+  }
+  if ((s.safety_reduced_by & core::kReducedByField) != 0U) {
+    by.push_back("field");
+  }
+  j["reduced_by"] = std::move(by);
+  j["recovery"] = s.safety_recovery;
+  j["speed_limit"] = rounded(static_cast<double>(s.safety_speed_limit_mm_s), 10.0);
+  // SPEC §11 and §12 come with later issues: their fields are here, at their idle values.
+  j["v_allowed"] = nullptr;
+  Json fields;
+  fields["outer"] = "clear";
+  fields["inner"] = "clear";
+  j["fields"] = std::move(fields);
+  j["separation_mm"] = nullptr;
+  Json brake;
+  brake["due_in_h"] = nullptr;
+  brake["last"] = "none";
+  j["brake_test"] = std::move(brake);
+  return j;
+}
+
+std::string alarm_subject(const core::AlarmDetail& d) {
+  std::array<char, 64> buf{};
+  return core::limit_detail_name(d, g_safety.limits, buf.data(), buf.size());
+}
+
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type) {
   Json j;
   if (with_type) {
@@ -250,6 +394,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["tcp"] = std::move(tcp);
   j["t2_confirmed"] = s.t2_confirmed;
   j["owner"] = (x.owner == nullptr) ? Json(nullptr) : Json(x.owner);
+  j["safety"] = status_safety_json(s);
   // Beyond protocol.md (SPEC §7: requested beside effective, the first-out cause).
   j["mode_requested"] = core::to_string(s.mode_requested);
   j["target"] = leaf_target(s.target);

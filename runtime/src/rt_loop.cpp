@@ -36,7 +36,7 @@ void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) noexcept {
 // The contacts of RawInputs in bridge::Contact order: the one place that maps the two.
 std::array<bool*, bridge::kContactCount> contacts(core::RawInputs& r) noexcept {
   return {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
-          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button};
+          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button, &r.reduced_a, &r.reduced_b};
 }
 
 std::uint16_t contacts_of(core::RawInputs r) noexcept {
@@ -157,6 +157,12 @@ void Publisher::publish() noexcept {
     s.alarm_since[a] = alarms.since(static_cast<core::AlarmId>(a));
     s.alarm_detail[a] = alarms.detail(static_cast<core::AlarmId>(a));
   }
+  s.safety_checksum = o.safety.checksum;
+  s.safety_validated = o.safety.validated;
+  s.safety_reduced = o.safety.reduced;
+  s.safety_reduced_by = o.safety.reduced_by;
+  s.safety_recovery = o.safety.recovery;
+  s.safety_speed_limit_mm_s = o.safety.speed_limit_mm_s;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};

@@ -17,8 +17,10 @@
 #include <thread>
 #include <vector>
 
+#include "safestate/gateway/event_log.hpp"
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/runtime/runtime.hpp"
+#include "safestate/safety/safety_config.hpp"
 
 extern char** environ;
 
@@ -293,11 +295,76 @@ void publish_bus(const hal::ethercat::Backend& bus, const hal::ethercat::BusConf
   info.count = static_cast<std::uint32_t>(n);
 }
 
+// SPEC §10 at start-up: the configuration (a file, or the built-in one), and whether the
+// event log holds the operator's confirmation of its checksum. Nothing partial: any error
+// in the file and nothing starts.
+struct ActiveSafety {
+  safety::Loaded config;
+  std::string source;
+  bool validated = false;
+};
+
+// @req LIM-RUN LIM-PERSIST
+bool load_safety(const RunOptions& opt, ActiveSafety& out) {
+  if (opt.safety_file.empty()) {
+    out.config = safety::default_safety();
+    out.source = "built-in";
+    out.validated = true;  // the built-in configuration counts as validated (SPEC §10)
+    std::fprintf(stderr, "safestate run: safety configuration: built-in \"%s\", checksum %s (validated)\n",
+                 out.config.name.c_str(), out.config.checksum.c_str());
+    return true;
+  }
+  const safety::Result r = safety::load_safety_file(opt.safety_file);
+  if (!r.ok()) {
+    std::fprintf(stderr, "safestate run: safety configuration %s: %zu error%s; not started\n", opt.safety_file.c_str(),
+                 r.errors.size(), r.errors.size() == 1U ? "" : "s");
+    for (const safety::Error& e : r.errors) {
+      std::fprintf(stderr, "  %s\n", e.text().c_str());
+    }
+    return false;
+  }
+  out.config = *r.config;
+  out.source = opt.safety_file;
+  if (out.config.canonical.size() >= bridge::kSafetyTextChars || out.source.size() >= bridge::kSafetySourceChars) {
+    std::fprintf(stderr, "safestate run: safety configuration %s: too large to hand to the gateway; not started\n",
+                 opt.safety_file.c_str());
+    return false;
+  }
+  gateway::Confirmation c;
+  bool found = false;
+  std::string error;
+  if (!gateway::latest_confirmation(opt.db, c, found, error)) {
+    std::fprintf(stderr, "safestate run: event log %s: %s; the safety configuration counts as not validated\n",
+                 opt.db.c_str(), error.c_str());
+  }
+  out.validated = found && c.checksum == out.config.checksum;
+  std::fprintf(stderr, "safestate run: safety configuration %s: \"%s\", checksum %s, %s\n", opt.safety_file.c_str(),
+               out.config.name.c_str(), out.config.checksum.c_str(),
+               out.validated ? ("validated " + c.time + " by " + c.client).c_str()
+                             : "NOT validated (validate_config on the pendant, T1/T2, IDLE)");
+  return true;
+}
+
+void publish_safety(const ActiveSafety& s, bridge::SafetyInfo& info) {
+  bridge::copy_text(info.source, s.source.c_str());
+  const std::size_t n = std::min(s.config.canonical.size(), info.canonical.size() - 1U);
+  std::memcpy(info.canonical.data(), s.config.canonical.data(), n);
+  info.canonical[n] = '\0';
+  info.canonical_len = static_cast<std::uint32_t>(n);
+  info.checksum = s.config.limits.checksum;
+  info.set = 1U;
+}
+
 }  // namespace
 
 int run_main(const RunOptions& opt) {
   core::Config cfg = opt.core;
   cfg.cycle_us = opt.rt.cycle_us;
+  ActiveSafety safety;
+  if (!load_safety(opt, safety)) {
+    return 2;
+  }
+  cfg.max_stop_ms = safety.config.limits.max_stop_ms;  // SPEC §10: the file's stop.max_time_ms wins
   if (const core::ConfigError e = core::validate(cfg); !e.ok()) {
     std::fprintf(stderr, "safestate run: invalid setting %s: %s\n", e.field, e.reason);
     return 2;
@@ -346,6 +413,9 @@ int run_main(const RunOptions& opt) {
     return 2;
   }
   sim::Cell cell(cfg, bus.get());
+  // Before the first cycle, on the simulated cell and on EtherCAT alike.
+  cell.configure_limits(safety.config.limits, safety.validated);
+  publish_safety(safety, seg->header().safety);
   // The HMI's sim panel on an emulated segment: records to ecat-sim's control socket.
   SimForward forward;
   std::atomic<bool> forwarding{!opt.ecat_sim_control.empty() && bus != nullptr};

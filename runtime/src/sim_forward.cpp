@@ -30,7 +30,9 @@ bool SimForward::pop(bridge::CommandRecord& r) noexcept {
 std::string sim_line(const bridge::CommandRecord& r) {
   // Contacts in the order of scenario::Contact (the bit order of set_mask).
   static const char* const kContacts[] = {"estop.a", "estop.b", "gate.a",    "gate.b",  "enable.a",    "enable.b",
-                                          "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button"};
+                                          "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button",
+                                          "reduced.a", "reduced.b"};
+  static_assert(std::size(kContacts) == bridge::kContactCount);
   if (r.kind == bridge::RecordKind::sim_set) {
     std::string line = "in";
     for (std::size_t i = 0; i < std::size(kContacts); ++i) {

@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 3U;  // 2: instance, gateway_restarts; 3: bus
+inline constexpr std::uint32_t kLayoutVersion = 4U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -36,8 +36,9 @@ enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
 // Contacts a `sim` message may set (the scenario vocabulary), in RawInputs order.
 enum class Contact : std::uint8_t {
   estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic, mode_auto, mode_t1, mode_t2, reset_button,
+  reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
 };
-inline constexpr std::size_t kContactCount = 11;
+inline constexpr std::size_t kContactCount = 13;
 
 struct CommandRecord {
   std::uint32_t seq = 0;  // assigned by the gateway, echoed in the reply
@@ -113,6 +114,13 @@ struct Status {
   std::array<std::uint16_t, 6> statusword{};
   std::array<std::uint64_t, core::kAlarmCount> alarm_since{};
   std::array<core::AlarmDetail, core::kAlarmCount> alarm_detail{};
+  // SPEC §10, as the core reports it (core::SafetyStatus).
+  std::uint32_t safety_checksum = 0;
+  bool safety_validated = false;
+  bool safety_reduced = false;
+  std::uint8_t safety_reduced_by = 0;  // core::kReducedBy* bits
+  bool safety_recovery = false;
+  float safety_speed_limit_mm_s = 0.0F;
 };
 
 // One cycle of the black box: what the cycle read and what it wrote.
@@ -280,6 +288,22 @@ void copy_text(std::array<char, N>& dst, const char* s) noexcept {
   dst[i] = '\0';
 }
 
+// The active safety configuration (SPEC §10), written once by `safestate run` before the
+// gateway starts and never again: the gateway shows what the core was given (GET
+// /api/safety, zone names in alarm texts), not what a file holds by the time it reads it.
+// `canonical` is the file's RFC 8785 form; the schema bounds it far below its size (a
+// complete file with 16 zones and every optional block is about 4 kB).
+inline constexpr std::size_t kSafetyTextChars = 32768;
+inline constexpr std::size_t kSafetySourceChars = 1024;
+struct SafetyInfo {
+  std::uint32_t set = 0;       // 1 once written
+  std::uint32_t checksum = 0;  // as core::SafetyLimits::checksum
+  std::uint32_t canonical_len = 0;
+  std::uint32_t pad = 0;
+  std::array<char, kSafetySourceChars> source{};  // the --safety path, or "built-in"
+  std::array<char, kSafetyTextChars> canonical{};
+};
+
 struct Header {
   std::uint32_t magic = kMagic;
   std::uint32_t version = kLayoutVersion;
@@ -307,6 +331,7 @@ struct Header {
   // are due, instead of polling (protocol.md latency; docs/performance.md).
   std::atomic<std::uint64_t> next_cycle_ns{0};
   BusInfo bus{};
+  SafetyInfo safety{};
 };
 
 using CommandRing = Ring<CommandRecord, kCommandSlots>;

@@ -41,6 +41,8 @@ class EventLog {
   // together: a gateway killed at any moment neither loses nor repeats an event.
   std::uint64_t ring_progress(std::uint64_t instance);
   bool set_ring_progress(std::uint64_t instance, std::uint64_t tail);
+  // The newest event of `kind` (its time and data as JSON text); found false when none.
+  bool latest(const std::string& kind, std::string& time, std::string& data, bool& found, std::string& error);
   [[nodiscard]] std::string last_error() const;
 
  private:
@@ -53,7 +55,24 @@ class EventLog {
   sqlite3_stmt* blackbox_ = nullptr;
   sqlite3_stmt* progress_get_ = nullptr;
   sqlite3_stmt* progress_set_ = nullptr;
+  sqlite3_stmt* latest_ = nullptr;
   bool in_transaction_ = false;
 };
+
+// SPEC §10: the operator's latest confirmation of a safety configuration, as the gateway
+// logged it (event `config_validated`).
+struct Confirmation {
+  std::string checksum;  // 8 upper-case hex digits
+  std::string client;
+  std::string role;
+  std::string time;  // ISO-8601 UTC
+};
+// The latest `config_validated` event of the log at `path`, read before the core starts
+// (`safestate run`). No file or no such event: found false, true returned. False and
+// `error` when the log exists but cannot be read or the event is malformed: the caller
+// then treats the configuration as not validated.
+bool latest_confirmation(const std::string& path, Confirmation& out, bool& found, std::string& error);
+// The same from an open log (GET /api/safety).
+bool latest_confirmation(EventLog& log, Confirmation& out, bool& found, std::string& error);
 
 }  // namespace safestate::gateway

@@ -135,6 +135,12 @@ class Hub {
     Json seq;
     bool sim = false;
     Clock::time_point since;
+    // validate_config: what the core is asked to confirm and by whom, for the
+    // config_validated event written on its OK (the client may be gone by then).
+    bool validate = false;
+    std::uint32_t code = 0;
+    std::string client_name;
+    Role role = Role::observer;
   };
   struct Recent {
     Json seq;
@@ -160,6 +166,8 @@ class Hub {
   void sweep_pending(Clock::time_point now);
   const bridge::Status& read_status();
   StatusExtras extras() const;
+  void log_confirmation(const Pending& p, std::uint64_t t);
+  HttpAnswer safety_answer();
   HttpAnswer events_answer(std::string_view query);
   HttpAnswer blackbox_answer(std::string_view rest);
   HttpAnswer metrics_answer();

@@ -30,6 +30,19 @@ struct StatusExtras {
 // texts of FIELDBUS_LOST and BOOT_FAILED name the subdevice. Called once, at attach.
 void set_fieldbus(const bridge::BusInfo& bus) noexcept;
 
+// The active safety configuration `safestate run` put in the segment (SPEC §10): its
+// zone names name ZONE_VIOLATION's detail. Called once, at attach; false and `error` when
+// the segment holds none or one that does not parse (then zones are named by number).
+bool set_safety(const bridge::SafetyInfo& info, std::string& error);
+// GET /api/safety without `validated` and `confirmation` (the status and the log say those):
+// name, checksum, source, config; null when set_safety() has not succeeded.
+Json safety_json();
+// The status `safety` object (protocol.md).
+Json status_safety_json(const bridge::Status& s);
+// An alarm detail in the vocabulary of the scenario format's `alarm.NAME.detail=`: axis.N,
+// tcp, the zone's name, estop.a, ... (the `subject` of an alarm object).
+std::string alarm_subject(const core::AlarmDetail& d);
+
 // The `status` message (with_type) or GET /api/status (without).
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type);
 // Who may command (protocol.md "Roles"): the pendant in T1/T2; in AUTO a connected

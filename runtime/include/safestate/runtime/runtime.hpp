@@ -117,6 +117,9 @@ struct RunOptions {
   std::string opcua_main;        // default: SAFESTATE_OPCUA_MAIN (the build's adapters/opcua/dist/main.js)
   RtOptions rt{};
   core::Config core{};
+  // SPEC §10: the safety configuration file; empty = the built-in configuration. A file
+  // with any error refuses the start (exit 2, naming the key), never partial limits.
+  std::string safety_file;
   std::string fieldbus = "sim";  // sim | ethercat
   std::string ifname;            // ethercat: the interface of the segment
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)

@@ -1,0 +1,252 @@
+"""The safety configuration at run time (SPEC §10, issue 19 items 5 and the runtime half of 4):
+`safestate run --safety FILE`, GET /api/safety, the status `safety` object, validate_config
+through the gateway, the confirmation kept in the event log and found again after a
+restart, and zone names in alarm words. From outside, against a real `safestate run` on
+loopback (the SafeState helper of test_gateway.py).
+
+Run:  SAFESTATE_BIN=build/bin/safestate python -m pytest tests/integration/test_safety_run.py
+"""
+import hashlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import rfc8785
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_gateway import BIN, ROOT, Client, SafeState, get_json, pendant, run  # noqa: E402
+
+CELL = ROOT / "examples" / "safety" / "cell.json"
+SLOT = ROOT / "tests" / "scenarios" / "configs" / "slot-y60.json"
+HEX8 = set("0123456789ABCDEF")
+
+
+def checksum(path):
+    """SPEC §10, computed here from RFC 8785 and SHA-256, not asked of SafeState."""
+    doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    return hashlib.sha256(rfc8785.dumps(doc)).hexdigest()[:8].upper()
+
+
+def start(tmp_path, safety=None, db=None):
+    return SafeState(tmp_path, db=db, args=["--safety", str(safety)] if safety else [])
+
+
+def stop(s):
+    code = s.stop()
+    assert code == 0, f"safestate run exited {code}: {s.output()}"
+
+
+def logged(port, kind):
+    """Every event of `kind` in the log (GET /api/events, page by page)."""
+    found, after = [], 0
+    while True:
+        page = get_json(port, f"/api/events?after={after}&limit=500")
+        found += [e for e in page if e["kind"] == kind]
+        if len(page) < 500:
+            return found
+        after = page[-1]["id"]
+
+
+async def t1_idle(p):
+    assert (await p.sim(set={"mode": "T1"}))["result"] == "OK"
+    await p.status(lambda s: s["mode"] == "T1", what="mode T1")
+    assert await p.command("reset") == "OK"
+    await p.state("IDLE")
+
+
+# @req LIM-RUN
+def test_run_refuses_a_bad_file_naming_the_key(tmp_path):
+    doc = json.loads(CELL.read_text(encoding="utf-8"))
+    doc["joints"][2]["max_deg"] = "70"  # a number as a string
+    doc["tool"]["colour"] = "red"        # an unknown key
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc), encoding="utf-8")
+    db = tmp_path / "events.db"
+    r = subprocess.run([BIN, "run", "--no-opcua", "--port", "1", "--db", str(db), "--safety", str(bad)],
+                       capture_output=True, text=True, timeout=30, cwd=str(ROOT))
+    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
+    assert "joints[2].max_deg: must be a number" in r.stderr, r.stderr
+    assert "tool.colour: unknown key" in r.stderr, r.stderr
+    assert "SafeState running" not in r.stdout, "nothing may start"
+    assert not db.exists(), "refused before anything started (not even the event log)"
+    # A file that is not there, and one that is not JSON: the same refusal.
+    for text in (None, "{ not json"):
+        path = tmp_path / ("missing.json" if text is None else "broken.json")
+        if text is not None:
+            path.write_text(text, encoding="utf-8")
+        r = subprocess.run([BIN, "run", "--no-opcua", "--port", "1", "--db", str(db), "--safety", str(path)],
+                           capture_output=True, text=True, timeout=30, cwd=str(ROOT))
+        assert r.returncode == 2 and str(path) in r.stderr, (r.returncode, r.stderr)
+
+
+# @req LIM-RUN LIM-PERSIST
+def test_built_in_configuration_is_validated(tmp_path):
+    s = start(tmp_path)
+    try:
+        st = get_json(s.port, "/api/status")
+        assert st["safety"]["validated"] is True, st["safety"]
+        assert "CONFIG_NOT_VALIDATED" not in st["alarms"]
+        a = get_json(s.port, "/api/safety")
+        assert a["source"] == "built-in" and a["validated"] is True and a["confirmation"] is None, a
+        assert a["checksum"] == st["safety"]["checksum"]
+        # The built-in configuration's checksum, as `safestate safety check --default` prints it.
+        out = subprocess.run([BIN, "safety", "check", "--default"], capture_output=True, text=True, timeout=30).stdout
+        assert f"checksum:  {a['checksum']}" in out, out
+        assert hashlib.sha256(rfc8785.dumps(a["config"])).hexdigest()[:8].upper() == a["checksum"]
+    finally:
+        stop(s)
+
+
+# @req LIM-RUN
+def test_api_safety_and_status_shape(tmp_path):
+    expected = checksum(CELL)
+    s = start(tmp_path, CELL)
+    try:
+        a = get_json(s.port, "/api/safety")
+        assert list(a) == ["name", "checksum", "source", "validated", "confirmation", "config"], a.keys()
+        assert a["checksum"] == expected and set(a["checksum"]) <= HEX8
+        assert a["source"] == str(CELL) and a["validated"] is False and a["confirmation"] is None
+        assert a["config"] == json.loads(CELL.read_text(encoding="utf-8")), "the file's configuration, whole"
+        assert a["name"] == a["config"]["name"]
+        st = get_json(s.port, "/api/status")
+        sf = st["safety"]
+        assert list(sf) == ["checksum", "validated", "reduced", "reduced_by", "recovery", "speed_limit", "v_allowed",
+                            "fields", "separation_mm", "brake_test"], sf
+        assert sf["checksum"] == expected and sf["validated"] is False
+        assert sf["reduced"] is False and sf["reduced_by"] == [] and sf["recovery"] is False
+        assert sf["speed_limit"] == a["config"]["tcp_max_speed_mm_s"]
+        assert sf["v_allowed"] is None and sf["separation_mm"] is None
+        assert sf["fields"] == {"outer": "clear", "inner": "clear"}
+        assert sf["brake_test"] == {"due_in_h": None, "last": "none"}
+        assert "CONFIG_NOT_VALIDATED" in st["alarms"]
+
+        async def reduced_input():
+            p = await pendant(s)
+            assert (await p.sim(set={"reduced": "reduced"}))["result"] == "OK"
+            m = await p.status(lambda m: m["safety"]["reduced"], what="reduced mode")
+            assert m["safety"]["reduced_by"] == ["input"] and "REDUCED_SPEED" in m["alarms"], m["safety"]
+            assert m["safety"]["speed_limit"] == a["config"]["reduced"]["tcp_max_speed_mm_s"] or \
+                m["safety"]["speed_limit"] == a["config"]["tcp_max_speed_mm_s"]  # before / after the ramp
+            al = [x for x in get_json(s.port, "/api/alarms") if x["name"] == "REDUCED_SPEED"]
+            assert al and "reduced input" in al[0]["detail"], al
+            assert (await p.sim(set={"reduced.a": 1, "reduced.b": 1}))["result"] == "OK"
+            await p.status(lambda m: not m["safety"]["reduced"], what="normal speed again")
+            await p.close()
+        run(reduced_input())
+    finally:
+        stop(s)
+
+
+# @req LIM-PERSIST LIM-VALIDATION
+def test_validate_config_is_kept_across_a_restart(tmp_path):
+    code = checksum(SLOT)
+    wrong = "%08X" % (int(code, 16) ^ 1)
+    db = tmp_path / "events.db"
+    s = start(tmp_path, SLOT, db)
+    try:
+        async def main():
+            p = await pendant(s)
+            await p.state("ESTOP_RESET_NEEDED")
+            await t1_idle(p)
+            obs = await pendant(s, "observer")
+            rem = await pendant(s, "remote")
+            mark = p.mark()
+            assert await obs.command("validate_config", code=code) == "NOT_CONTROL_OWNER"
+            assert await rem.command("validate_config", code=code) == "NOT_CONTROL_OWNER"
+            assert await p.command("validate_config", code=wrong) == "CHECKSUM_MISMATCH"
+            for bad in (code.lower()[:7], code + "0", "0x" + code[2:], 123, None):
+                assert await p.command("validate_config", code=bad) == "BAD_ARGUMENT", bad
+            assert await p.command("validate_config") == "BAD_ARGUMENT"
+            st = get_json(s.port, "/api/status")
+            assert st["safety"]["validated"] is False and "CONFIG_NOT_VALIDATED" in st["alarms"]
+            assert get_json(s.port, "/api/safety")["confirmation"] is None
+            assert not [m for m in p.messages[mark:] if m["type"] == "event" and m["kind"] == "config_validated"]
+            # The right code from the pendant, T1, IDLE.
+            assert await p.command("validate_config", code=code) == "OK"
+            ev = await p.event(lambda m: m["kind"] == "config_validated", since=mark)
+            assert ev["data"] == {"checksum": code, "client": "pytest", "role": "pendant"}, ev
+            await p.status(lambda m: m["safety"]["validated"] and "CONFIG_NOT_VALIDATED" not in m["alarms"],
+                           what="validated")
+            a = get_json(s.port, "/api/safety")
+            assert a["validated"] is True
+            assert a["confirmation"]["checksum"] == code and a["confirmation"]["client"] == "pytest"
+            assert a["confirmation"]["time"] == ev["time"]
+            for c in (p, obs, rem):
+                await c.close()
+        run(main())
+        confirmations = logged(s.port, "config_validated")
+        assert len(confirmations) == 1 and confirmations[0]["data"]["checksum"] == code, confirmations
+    finally:
+        stop(s)
+
+    # Started again with the same file and log: validated, AUTO can be armed.
+    s = start(tmp_path, SLOT, db)
+    try:
+        st = get_json(s.port, "/api/status")
+        assert st["safety"]["validated"] is True and "CONFIG_NOT_VALIDATED" not in st["alarms"], st
+        assert get_json(s.port, "/api/safety")["confirmation"]["checksum"] == code
+
+        async def auto():
+            p = await pendant(s)
+            await p.state("ESTOP_RESET_NEEDED")
+            assert await p.command("reset") == "OK"
+            await p.state("IDLE")
+            assert await p.command("servo_on") == "OK"
+            await p.state("OPERATIONAL", "AUTO_IDLE")
+            await p.close()
+        run(auto())
+    finally:
+        stop(s)
+
+    # Another file: a new checksum, not validated; the log still shows the last confirmation.
+    s = start(tmp_path, CELL, db)
+    try:
+        st = get_json(s.port, "/api/status")
+        assert st["safety"]["validated"] is False and st["safety"]["checksum"] == checksum(CELL)
+        a = get_json(s.port, "/api/safety")
+        assert a["validated"] is False and a["confirmation"]["checksum"] == code, a
+
+        async def refused():
+            p = await pendant(s)
+            await p.state("ESTOP_RESET_NEEDED")
+            assert await p.command("reset") == "OK"
+            await p.state("IDLE")
+            assert await p.command("servo_on") == "CONFIG_NOT_VALIDATED"
+            await p.close()
+        run(refused())
+    finally:
+        stop(s)
+
+
+# @req LIM-ZONE LIM-PERSIST
+def test_zone_name_in_alarm_words(tmp_path):
+    code = checksum(SLOT)
+    s = start(tmp_path, SLOT)
+    try:
+        async def main():
+            p = await pendant(s)
+            await p.state("ESTOP_RESET_NEEDED")
+            await t1_idle(p)
+            assert await p.command("validate_config", code=code) == "OK"
+            assert (await p.sim(set={"mode": "AUTO"}))["result"] == "OK"
+            await p.status(lambda m: m["mode"] == "AUTO", what="mode AUTO")
+            assert await p.command("reset") == "OK"
+            assert await p.command("servo_on") == "OK"
+            await p.state("OPERATIONAL", "AUTO_IDLE")
+            mark = p.mark()
+            assert (await p.sim(fault="drive 1 runaway"))["result"] == "OK"
+            ev = await p.event(lambda m: m["kind"] == "alarm" and m["data"]["name"] == "ZONE_VIOLATION", since=mark)
+            # The second zone of the file (index 1): named, not numbered.
+            assert ev["data"]["subject"] == "slot", ev
+            assert "slot" in ev["data"]["detail"] and "Zone 2" not in ev["data"]["detail"], ev
+            st = await p.state("IDLE")
+            assert "ZONE_VIOLATION" in st["alarms"] and "slot" in st["cause"], st["cause"]
+            al = [a for a in get_json(s.port, "/api/alarms") if a["name"] == "ZONE_VIOLATION"]
+            assert al and al[0]["subject"] == "slot" and "slot" in al[0]["detail"], al
+            assert (await p.sim(fault="clear all"))["result"] == "OK"
+            await p.close()
+        run(main())
+    finally:
+        stop(s)
