@@ -32,21 +32,27 @@ export interface ArmDrawing {
   readonly kind: 'webgl' | '2d';
 }
 
-/** The zones as drawn, for tests and diagnostics (window.safestateHmi.view.zones and
- * #arm's data-zones / data-zones-violated). */
-function exposeZones(container: HTMLElement, zones: SafetyZone[], marks: ZoneMarks, meshes: number): void {
-  const list = zones.map((z, i) => ({
-    name: z.name,
-    kind: z.kind,
-    violated: marks.violated.includes(i),
-    active: marks.active.includes(i),
-  }));
-  container.dataset.zones = String(meshes);
+interface DrawnZone {
+  name: string;
+  kind: string;
+  violated: boolean;
+  active: boolean;
+}
+
+/** The zones as drawn, for tests and diagnostics (window.safestateHmi.zones and #arm's
+ * data-zones / data-zones-violated): the WebGL view reads them back from its meshes. */
+function exposeZones(container: HTMLElement, list: DrawnZone[]): void {
+  container.dataset.zones = String(list.length);
   container.dataset.zonesViolated = list.filter((z) => z.violated).map((z) => z.name).join(',');
   const w = window as unknown as { safestateHmi?: Record<string, unknown> };
   w.safestateHmi ??= {};
   w.safestateHmi.zones = list;
 }
+
+const VIOLATED_HEX = 0xff1744;
+
+const flatZones = (zones: SafetyZone[], marks: ZoneMarks): DrawnZone[] =>
+  zones.map((z, i) => ({ name: z.name, kind: z.kind, violated: marks.violated.includes(i), active: marks.active.includes(i) }));
 
 const sameMarks = (a: ZoneMarks, b: ZoneMarks) =>
   a.violated.join() === b.violated.join() && a.active.join() === b.active.join();
@@ -372,19 +378,28 @@ class WebGlArm implements ArmDrawing {
       const fill = p.fill.material as THREE.MeshBasicMaterial;
       // The keep-in box usually holds the whole cell: faint, so that it does not fog the arm.
       fill.opacity = bad ? 0.5 : p.zone.kind === 'keep_in' ? 0.04 : active ? 0.34 : 0.18;
-      fill.color.set(bad ? '#ff1744' : style?.color ?? '#9e9e9e');
+      fill.color.set(bad ? VIOLATED_HEX : style?.color ?? '#9e9e9e');
       const edges = p.edges.material as THREE.LineBasicMaterial;
       edges.color.set(bad ? '#ffffff' : style?.color ?? '#9e9e9e');
       edges.opacity = bad ? 1 : 0.85;
       const text = bad ? `${p.zone.name}: VIOLATED` : active ? `${p.zone.name}: reduced speed` : p.zone.name;
       const old = p.label.material.map;
       p.label.material.map = labelTexture(text, bad ? '#ff1744' : style?.color ?? '#9e9e9e', bad);
+      p.label.material.map.userData.active = active;
       p.label.material.needsUpdate = true;
       old?.dispose();
       const img = p.label.material.map.image as HTMLCanvasElement;
       p.label.scale.set(img.width * 2.2, img.height * 2.2, 1); // about 2 mm per pixel: readable in a 2 m cell
     });
-    exposeZones(this.container, this.zones, this.marks, this.zoneParts.length);
+    exposeZones(
+      this.container,
+      this.zoneParts.map((p) => ({
+        name: p.zone.name,
+        kind: p.zone.kind,
+        violated: (p.fill.material as THREE.MeshBasicMaterial).color.getHex() === VIOLATED_HEX,
+        active: p.label.material.map?.userData.active === true,
+      })),
+    );
   }
 }
 
@@ -458,14 +473,14 @@ class FlatArm implements ArmDrawing {
     this.safety = sd;
     this.tcpOffset = sd ? sd.tcp_mm : (this.robot.tcp_offset as Vec3);
     this.marks = { violated: [], active: [] };
-    exposeZones(this.container, sd?.zones ?? [], this.marks, sd?.zones.length ?? 0);
+    exposeZones(this.container, flatZones(sd?.zones ?? [], this.marks));
     this.update(this.lastJoints);
   }
 
   markZones(m: ZoneMarks): void {
     if (sameMarks(m, this.marks)) return;
     this.marks = { violated: [...m.violated], active: [...m.active] };
-    exposeZones(this.container, this.safety?.zones ?? [], this.marks, this.safety?.zones.length ?? 0);
+    exposeZones(this.container, flatZones(this.safety?.zones ?? [], this.marks));
     this.draw();
   }
 
