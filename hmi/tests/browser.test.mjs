@@ -148,6 +148,12 @@ test('the page loads and shows ESTOP_RESET_NEEDED with what to do', async () => 
   await until('connected as pendant', () => page.evaluate(() => window.safestateHmi?.link?.role === 'pendant'));
   await until('real-time figures from /metrics', () => page.evaluate(() => /ms|µs/.test(document.getElementById('m-period')?.textContent ?? '')));
   await until('the simulated-cell panel', () => page.evaluate(() => !document.getElementById('sim-slot').hidden));
+  // Without --safety: the built-in configuration, which counts as validated (SPEC §10).
+  const builtIn = await getJson(cell.port, '/api/safety');
+  assert.equal(builtIn.source, 'built-in');
+  await until('the built-in configuration in the safety strip, validated', () =>
+    page.evaluate((c) => document.getElementById('ss-checksum').textContent === c && document.getElementById('ss-valid').dataset.validated === 'yes',
+      builtIn.checksum));
   await shot('01-estop-reset-needed');
 });
 
@@ -533,7 +539,7 @@ test('safety: the simulated cell\'s reduced-speed input, both channels', async (
   await page.click('#tab-operate');
   await page.click('#sim-reduced-reduced');
   await reducedIs(true, 'input');
-  assert.match(await sp(() => document.getElementById('ss-reduced').textContent), /Reduced speed: input/);
+  await until('reduced speed by input in the strip', () => sp(() => /Reduced speed: input/.test(document.getElementById('ss-reduced').textContent)), 3000);
   // The monitor applies the reduced limit once reduced.ramp_ms (500 ms) has passed.
   await until('the reduced limit in force in the strip', () => sp(() => /TCP ≤ 250 mm\/s/.test(document.getElementById('ss-limit').textContent)), 3000);
   await page.click('#sim-reduced-normal');
@@ -590,7 +596,7 @@ test('safety: one reduced-speed channel alone: reduced speed stays on (the safe 
   await page.click('#tab-operate');
   await page.click('#sim-reduced-a');
   await reducedIs(true, 'input');
-  assert.match(await sp(() => document.getElementById('sim-reduced-note').textContent), /A open, B closed/);
+  await until('channel A shown open alone', () => sp(() => /A open, B closed/.test(document.getElementById('sim-reduced-note').textContent)), 3000);
   await sleep(200); // longer than the discrepancy time (50 ms)
   await page.click('#sim-reduced-a');
   await until('channel A shown closed again', () => sp(() => /A closed, B closed/.test(document.getElementById('sim-reduced-note').textContent)));
