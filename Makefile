@@ -125,8 +125,12 @@ embedded:
 
 # The live cell: core in a real-time loop on the simulated cell, gateway with the HMI,
 # OPC UA at opc.tcp://127.0.0.1:4840 (read-only without --opcua-users-file; docs/opcua.md).
+# SAFETY=FILE: run with that safety configuration (SPEC §10; `make run SAFETY=examples/safety/cell.json`);
+# without it, the built-in one.
+SAFETY ?=
+SAFETY_ARG = $(if $(SAFETY),--safety $(SAFETY))
 run: build hmi/dist/index.html adapters/opcua/dist/main.js
-	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist
+	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist $(SAFETY_ARG)
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
@@ -167,4 +171,4 @@ run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
 	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
 	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
-	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist
+	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG)

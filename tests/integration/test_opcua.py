@@ -508,6 +508,34 @@ def test_key_switch_modes_show_in_operational_mode(opc):
     run(main())
 
 
+def test_safe_limits_show_checksum_validated_and_reduced_mode(opc):
+    """SPEC §10 beside the 40010-1 SafetyState: what the status `safety` object says, read-only."""
+    async def main():
+        p = await booted(opc.cell)
+        async with client(opc.url) as c:
+            n = await Nodes.of(c)
+
+            async def var(name):
+                return await n.get(f"{n.rob}:SafetyStates", f"{n.own}:SafetyState", f"{n.own}:SafeLimits",
+                                   f"{n.own}:{name}")
+            st = get_json(opc.cell.port, "/api/status")["safety"]
+            assert st["validated"] is True, "the built-in configuration"
+            await wait_value(await var("checksum"), lambda dv: dv.Value.Value == st["checksum"], what="the checksum")
+            assert await (await var("validated")).read_value() is True
+            assert await (await var("speed_limit")).read_value() == st["speed_limit"]
+            assert await (await var("reduced")).read_value() is False
+            assert (await p.sim(set={"reduced": "reduced"}))["result"] == "OK"
+            await wait_value(await var("reduced"), lambda dv: dv.Value.Value is True, what="reduced mode")
+            await wait_value(await var("reduced_by"), lambda dv: dv.Value.Value == ["input"], what="reduced_by input")
+            with pytest.raises(ua.UaStatusCodeError) as e:
+                await (await var("validated")).write_value(ua.DataValue(ua.Variant(False, ua.VariantType.Boolean)))
+            assert e.value.code == ua.StatusCodes.BadNotWritable
+            assert (await p.sim(set={"reduced": "normal"}))["result"] == "OK"
+            await wait_value(await var("reduced"), lambda dv: dv.Value.Value is False, what="normal speed")
+        await p.close()
+    run(main())
+
+
 def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):
     async def main():
         p = await booted(opc.cell)

@@ -8,6 +8,7 @@ Run:  SAFESTATE_BIN=build/bin/safestate python -m pytest tests/integration/test_
 """
 import hashlib
 import json
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -16,7 +17,7 @@ import pytest
 import rfc8785
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_gateway import BIN, ROOT, Client, SafeState, get_json, pendant, run  # noqa: E402
+from test_gateway import BIN, ROOT, SafeState, free_port, get_json, pendant, run  # noqa: E402
 
 CELL = ROOT / "examples" / "safety" / "cell.json"
 SLOT = ROOT / "tests" / "scenarios" / "configs" / "slot-y60.json"
@@ -56,6 +57,20 @@ async def t1_idle(p):
     await p.state("IDLE")
 
 
+def run_refused(db, path):
+    """`safestate run --safety path`, expected to exit at once: (exit code, stdout, stderr).
+    One that starts instead is stopped (Cat 1, SIGINT) and reported."""
+    proc = subprocess.Popen([BIN, "run", "--no-opcua", "--port", str(free_port()), "--db", str(db), "--safety",
+                             str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(ROOT))
+    try:
+        out, err = proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=15)
+        pytest.fail(f"safestate run started with {path}: {out} {err}")
+    return proc.returncode, out, err
+
+
 # @req LIM-RUN
 def test_run_refuses_a_bad_file_naming_the_key(tmp_path):
     doc = json.loads(CELL.read_text(encoding="utf-8"))
@@ -64,21 +79,19 @@ def test_run_refuses_a_bad_file_naming_the_key(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(doc), encoding="utf-8")
     db = tmp_path / "events.db"
-    r = subprocess.run([BIN, "run", "--no-opcua", "--port", "1", "--db", str(db), "--safety", str(bad)],
-                       capture_output=True, text=True, timeout=30, cwd=str(ROOT))
-    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
-    assert "joints[2].max_deg: must be a number" in r.stderr, r.stderr
-    assert "tool.colour: unknown key" in r.stderr, r.stderr
-    assert "SafeState running" not in r.stdout, "nothing may start"
+    code, out, err = run_refused(db, bad)
+    assert code == 2, (code, out, err)
+    assert "joints[2].max_deg: must be a number" in err, err
+    assert "tool.colour: unknown key" in err, err
+    assert "SafeState running" not in out, "nothing may start"
     assert not db.exists(), "refused before anything started (not even the event log)"
     # A file that is not there, and one that is not JSON: the same refusal.
     for text in (None, "{ not json"):
         path = tmp_path / ("missing.json" if text is None else "broken.json")
         if text is not None:
             path.write_text(text, encoding="utf-8")
-        r = subprocess.run([BIN, "run", "--no-opcua", "--port", "1", "--db", str(db), "--safety", str(path)],
-                           capture_output=True, text=True, timeout=30, cwd=str(ROOT))
-        assert r.returncode == 2 and str(path) in r.stderr, (r.returncode, r.stderr)
+        code, out, err = run_refused(db, path)
+        assert code == 2 and str(path) in err, (code, err)
 
 
 # @req LIM-RUN LIM-PERSIST

@@ -22,6 +22,17 @@ export interface Status {
   axis_state?: string[];
   program_index?: number;
   program_length?: number;
+  safety?: SafetyStatus;
+}
+
+// The status message's `safety` object (protocol.md; SPEC §10).
+export interface SafetyStatus {
+  checksum: string;
+  validated: boolean;
+  reduced: boolean;
+  reduced_by: string[];
+  recovery: boolean;
+  speed_limit: number;
 }
 
 export interface AlarmInfo {

@@ -12,6 +12,7 @@ import {
   StatusCodes,
   UAObject,
   UAVariable,
+  VariantArrayType,
   standardUnits,
   makeEUInformation,
 } from "node-opcua";
@@ -173,7 +174,50 @@ export class Model {
     this.constant(this.variable(ps, "Name"), DataType.String, "gate (interlocked guard, channels gate.a, gate.b)");
     this.bind(this.variable(ps, "Enabled"), (st) => [DataType.Boolean, gateEnabled(st)]);
     this.bind(this.variable(ps, "Active"), (st) => [DataType.Boolean, gateActive(st)]);
+    this.safeLimits(s);
     return s;
+  }
+
+  // SPEC §10: the safe limits' configuration and state, SafeState's own variables beside the
+  // OPC 40010-1 ones (the companion specification has no safety configuration or reduced
+  // mode). Read-only like every variable here; validating is the pendant's (T1/T2 only).
+  private safeLimits(safetyState: UAObject): void {
+    const o = this.ns.addObject({
+      browseName: "SafeLimits",
+      componentOf: safetyState,
+      description: "the active safety configuration (SPEC §10): checksum, validated, reduced mode, recovery",
+    });
+    const add = (name: string, dataType: DataType, description: string, get: Getter, array = false) => {
+      const v = this.ns.addVariable({
+        browseName: name,
+        componentOf: o,
+        dataType,
+        description,
+        ...(array ? { valueRank: 1, arrayDimensions: [0] } : {}),
+      });
+      this.bind(v, get);
+    };
+    add("checksum", DataType.String, "checksum of the active safety configuration (8 hex digits, SPEC §10)", (st) => [
+      DataType.String,
+      st.safety?.checksum ?? "",
+    ]);
+    add("validated", DataType.Boolean, "the operator has confirmed this checksum (validate_config)", (st) => [
+      DataType.Boolean,
+      st.safety?.validated ?? false,
+    ]);
+    add("reduced", DataType.Boolean, "reduced mode is active", (st) => [DataType.Boolean, st.safety?.reduced ?? false]);
+    add(
+      "reduced_by",
+      DataType.String,
+      "why reduced mode is active: zone, input, field",
+      (st) => [DataType.String, st.safety?.reduced_by ?? []],
+      true,
+    );
+    add("recovery", DataType.Boolean, "a position limit is violated and being recovered from", (st) => [
+      DataType.Boolean,
+      st.safety?.recovery ?? false,
+    ]);
+    add("speed_limit", DataType.Double, "TCP speed limit in force, mm/s", (st) => [DataType.Double, st.safety?.speed_limit ?? 0]);
   }
 
   private motionDevice(): UAObject {
@@ -346,6 +390,8 @@ export class Model {
       b.last = key;
       if (value === NO_SENSOR) {
         b.v.setValueFromSource({ dataType: DataType.Null }, StatusCodes.BadNotConnected);
+      } else if (Array.isArray(value)) {
+        b.v.setValueFromSource({ dataType, arrayType: VariantArrayType.Array, value }, StatusCodes.Good);
       } else {
         b.v.setValueFromSource({ dataType, value }, StatusCodes.Good);
       }

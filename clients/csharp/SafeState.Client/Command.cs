@@ -19,6 +19,8 @@ namespace SafeState.Client
         public int Speed { get; private set; }
         /// <summary>set_mode: the mode asked for (always refused: MODE_BY_SELECTOR_ONLY).</summary>
         public Mode Mode { get; private set; }
+        /// <summary>validate_config: the checksum the operator read, 8 hex digits (SPEC §10).</summary>
+        public string Code { get; private set; }
 
         /// <summary>Commands that start motion. They are never re-sent by the client:
         /// after a lost link the operator must ask again (ISO 10218-1: no unexpected start-up).</summary>
@@ -29,9 +31,9 @@ namespace SafeState.Client
 
         public static Command Of(CommandName name)
         {
-            if (name == CommandName.jog || name == CommandName.set_mode)
+            if (name == CommandName.jog || name == CommandName.set_mode || name == CommandName.validate_config)
             {
-                throw new ArgumentException(Wire.Name(name) + " takes arguments: use Command.Jog or Command.SetMode");
+                throw new ArgumentException(Wire.Name(name) + " takes arguments: use Command.Jog, Command.SetMode or Command.ValidateConfig");
             }
             return new Command(name);
         }
@@ -56,6 +58,23 @@ namespace SafeState.Client
 
         public static Command SetMode(Mode mode) { return new Command(CommandName.set_mode) { Mode = mode }; }
 
+        /// <summary>SPEC §10: confirm the active safety configuration by its checksum (pendant, T1/T2, IDLE).</summary>
+        public static Command ValidateConfig(string code)
+        {
+            if (!IsChecksum(code)) throw new ArgumentException("validate_config takes the checksum: 8 hex digits", "code");
+            return new Command(CommandName.validate_config) { Code = code.ToUpperInvariant() };
+        }
+
+        private static bool IsChecksum(string code)
+        {
+            if (code == null || code.Length != 8) return false;
+            foreach (char c in code)
+            {
+                if (!Uri.IsHexDigit(c)) return false;
+            }
+            return true;
+        }
+
         /// <summary>Parses the .scn spelling; false with a reason when the line is not a command.</summary>
         public static bool TryParse(string line, out Command command, out string error)
         {
@@ -75,6 +94,12 @@ namespace SafeState.Client
                 Mode m;
                 if (w.Length != 2 || !Wire.TryParse(w[1], out m)) { error = "set_mode takes one mode: AUTO, T1, T2 or NONE"; return false; }
                 command = SetMode(m);
+                return true;
+            }
+            if (name == CommandName.validate_config)
+            {
+                if (w.Length != 2 || !IsChecksum(w[1])) { error = "validate_config takes the checksum: 8 hex digits"; return false; }
+                command = ValidateConfig(w[1]);
                 return true;
             }
             if (w.Length != 1) { error = w[0] + " takes no arguments"; return false; }
@@ -111,6 +136,10 @@ namespace SafeState.Client
             {
                 o.Set("mode", Wire.Name(Mode));
             }
+            else if (Name == CommandName.validate_config)
+            {
+                o.Set("code", Code);
+            }
             return o;
         }
 
@@ -118,6 +147,7 @@ namespace SafeState.Client
         {
             if (Name == CommandName.jog) return string.Format(CultureInfo.InvariantCulture, "jog {0} {1} {2}", Axis, Dir, Speed);
             if (Name == CommandName.set_mode) return "set_mode " + Wire.Name(Mode);
+            if (Name == CommandName.validate_config) return "validate_config " + Code;
             return Wire.Name(Name);
         }
     }

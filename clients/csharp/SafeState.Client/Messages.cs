@@ -189,6 +189,9 @@ namespace SafeState.Client
         public string Cause { get; private set; }
         public IReadOnlyList<AxisState> AxisStates { get; private set; }
         public long? GatewayPid { get; private set; }
+        /// <summary>SPEC §10 (protocol.md `safety`): the active safety configuration's checksum,
+        /// whether it is validated, reduced mode and recovery; null from a gateway without it.</summary>
+        public SafetyStatus Safety { get; private set; }
         /// <summary>The whole object as received, for fields this class does not type.</summary>
         public JsonObject Raw { get; private set; }
 
@@ -243,6 +246,7 @@ namespace SafeState.Client
                 }
             }
             s.AxisStates = states;
+            if (f.Object.Has("safety")) s.Safety = SafetyStatus.Read(new Fields(f.Obj("safety"), "status.safety"));
             f.Allow(Extras);
             return s;
         }
@@ -257,12 +261,59 @@ namespace SafeState.Client
         }
     }
 
+    /// <summary>The status message's `safety` object (protocol.md, SPEC §10).</summary>
+    public sealed class SafetyStatus
+    {
+        /// <summary>The active configuration's checksum, 8 upper-case hex digits.</summary>
+        public string Checksum { get; private set; }
+        /// <summary>The operator has confirmed this checksum (validate_config), or it is the built-in one.</summary>
+        public bool Validated { get; private set; }
+        public bool Reduced { get; private set; }
+        /// <summary>Why reduced mode is active: "zone", "input", "field".</summary>
+        public IReadOnlyList<string> ReducedBy { get; private set; }
+        public bool Recovery { get; private set; }
+        /// <summary>The TCP speed limit in force, mm/s.</summary>
+        public double SpeedLimit { get; private set; }
+
+        // Fields of later issues (SPEC §11, §12), not typed yet.
+        private static readonly string[] Extras = { "v_allowed", "fields", "separation_mm", "brake_test" };
+
+        internal static SafetyStatus Read(Fields f)
+        {
+            var s = new SafetyStatus();
+            s.Checksum = f.Str("checksum");
+            if (s.Checksum.Length != 8) throw f.Bad("checksum", "8 hex digits");
+            foreach (char c in s.Checksum)
+            {
+                if (!Uri.IsHexDigit(c)) throw f.Bad("checksum", "8 hex digits");
+            }
+            s.Validated = f.Bool("validated");
+            s.Reduced = f.Bool("reduced");
+            var by = new List<string>();
+            foreach (object o in f.List("reduced_by"))
+            {
+                var w = o as string;
+                if (w == null) throw f.Bad("reduced_by", "an array of strings");
+                by.Add(w);
+            }
+            s.ReducedBy = by;
+            s.Recovery = f.Bool("recovery");
+            s.SpeedLimit = f.Num("speed_limit");
+            f.Allow(Extras);
+            return s;
+        }
+    }
+
     public enum EventKind
     {
         transition,
         alarm,
         alarm_cleared,
         command,
+        /// <summary>SPEC §10: the operator confirmed a safety configuration (data: checksum, client, role).</summary>
+        config_validated,
+        /// <summary>SPEC §12: a brake test's result.</summary>
+        brake_test,
     }
 
     /// <summary>One event of the log (protocol.md `event`, also an item of GET /api/events).</summary>
@@ -318,6 +369,7 @@ namespace SafeState.Client
             {
                 case EventKind.transition: what = From + " -> " + To; break;
                 case EventKind.command: what = Cmd + " from " + (Data["from"] as string) + ": " + (Data["result"] as string); break;
+                case EventKind.config_validated: what = "safety configuration " + (Data["checksum"] as string) + " validated by " + (Data["client"] as string); break;
                 default: what = Name; break;
             }
             return string.Format(CultureInfo.InvariantCulture, "#{0} {1} {2} {3}", Id, Time, Kind, what);
@@ -334,6 +386,9 @@ namespace SafeState.Client
         public string Text { get; private set; }
         public string Remedy { get; private set; }
         public string Detail { get; private set; }
+        /// <summary>What the alarm names, as the scenario format's alarm.NAME.detail= does: axis.N,
+        /// tcp, a zone's name, estop.a, ...; null from a gateway without it.</summary>
+        public string Subject { get; private set; }
         public long Since { get; private set; }
 
         internal static AlarmEntry Read(Fields f)
@@ -347,6 +402,7 @@ namespace SafeState.Client
             a.Text = f.Str("text");
             a.Remedy = f.Str("remedy");
             a.Detail = f.StrOrNull("detail", true);
+            a.Subject = f.StrOrNull("subject", true);
             a.Since = f.Int("since");
             return a;
         }

@@ -78,7 +78,7 @@ namespace SafeState.Client
         }
 
         // protocol.md event kinds (the gateway's, not a core table).
-        internal static readonly string[] EventKindNames = { "transition", "alarm", "alarm_cleared", "command" };
+        internal static readonly string[] EventKindNames = { "transition", "alarm", "alarm_cleared", "command", "config_validated", "brake_test" };
 
         /// <summary>The wire name of a value, e.g. Result.NOT_CONTROL_OWNER -> "NOT_CONTROL_OWNER".</summary>
         public static string Name<T>(T value) where T : struct

@@ -209,6 +209,48 @@ namespace SafeState.Tests
         }
 
         [Test]
+        public void SafetyStatusAndConfigValidatedEventAreTyped()
+        {
+            // SPEC §10: the status `safety` object and the `config_validated` event of the gateway
+            // (protocol.md) are read, not refused nor reported as unknown.
+            const string safety =
+                ",\"safety\":{\"checksum\":\"3AD9012B\",\"validated\":false,\"reduced\":true,\"reduced_by\":[\"zone\",\"input\"]," +
+                "\"recovery\":false,\"speed_limit\":250.0,\"v_allowed\":null,\"fields\":{\"outer\":\"clear\",\"inner\":\"clear\"}," +
+                "\"separation_mm\":null,\"brake_test\":{\"due_in_h\":null,\"last\":\"none\"}}}";
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
+                var rec = new Recorder(client);
+                StatusMessage last = null;
+                client.Status += (s, e) => last = e;
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.SendText(ValidStatus.Substring(0, ValidStatus.Length - 1) + safety);
+                    await stub.SendText("{\"type\":\"event\",\"id\":9,\"t\":5,\"time\":\"2026-11-25T08:00:00.123Z\"," +
+                                        "\"kind\":\"config_validated\",\"data\":{\"checksum\":\"3AD9012B\",\"client\":\"hmi\",\"role\":\"pendant\"}}");
+                    await stub.SendText(ValidStatus.Substring(0, ValidStatus.Length - 1) + safety.Replace("3AD9012B", "3AD9012"));
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
+                Wait.Done(server, 10, "the stub");
+                Wait.Until(() => rec.EventsWhere(e => e.Kind == EventKind.config_validated).Count == 1 &&
+                                 rec.ErrorsOf(ClientErrorKind.BadMessage).Count == 1, 10, "the event and the bad checksum");
+                Assert.IsNotNull(last.Safety);
+                Assert.AreEqual("3AD9012B", last.Safety.Checksum);
+                Assert.IsFalse(last.Safety.Validated);
+                Assert.IsTrue(last.Safety.Reduced);
+                CollectionAssert.AreEqual(new[] { "zone", "input" }, last.Safety.ReducedBy);
+                Assert.AreEqual(250.0, last.Safety.SpeedLimit);
+                Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "every field of the safety object is known");
+                StringAssert.Contains("checksum", rec.ErrorsOf(ClientErrorKind.BadMessage)[0].Message);
+                EventMessage ev = rec.EventsWhere(e => e.Kind == EventKind.config_validated)[0];
+                Assert.AreEqual("3AD9012B", ev.Data["checksum"]);
+                StringAssert.Contains("3AD9012B validated by hmi", ev.Line());
+                client.Dispose();
+            }
+        }
+
+        [Test]
         public void RepliesOutOfOrderCompleteTheirOwnCommands()
         {
             // A reset that acknowledges drive faults is answered up to 50 cycles late, after

@@ -111,7 +111,7 @@ namespace SafeState.Tests
             AssertRoundTrip<AxisState>(8);
             AssertRoundTrip<Cia402State>(8);
             AssertRoundTrip<ErrorCode>(6);
-            AssertRoundTrip<EventKind>(4);
+            AssertRoundTrip<EventKind>(6);  // protocol.md: transition, alarm, alarm_cleared, command, config_validated, brake_test
             AssertRoundTrip<AlarmName>(Alarms.Table.Length);
         }
 
@@ -199,6 +199,7 @@ namespace SafeState.Tests
         [TestCase("jog 3 - 100", "{\"type\":\"command\",\"seq\":7,\"cmd\":\"jog\",\"axis\":3,\"dir\":\"-\",\"speed\":100}")]
         [TestCase("set_mode T2", "{\"type\":\"command\",\"seq\":7,\"cmd\":\"set_mode\",\"mode\":\"T2\"}")]
         [TestCase("confirm_t2", "{\"type\":\"command\",\"seq\":7,\"cmd\":\"confirm_t2\"}")]
+        [TestCase("validate_config 3ad9012B", "{\"type\":\"command\",\"seq\":7,\"cmd\":\"validate_config\",\"code\":\"3AD9012B\"}")]
         public void ParsesTheScnSpelling(string line, string json)
         {
             Command c;
@@ -222,6 +223,12 @@ namespace SafeState.Tests
         [TestCase("jog -1 +")]
         [TestCase("set_mode")]
         [TestCase("set_mode t1")]
+        [TestCase("validate_config")]
+        [TestCase("validate_config 3AD9012")]
+        [TestCase("validate_config 3AD9012B0")]
+        [TestCase("validate_config 0x3AD901")]
+        [TestCase("validate_config 3AD9012G")]
+        [TestCase("validate_config 3AD9012B 1")]
         public void RefusesMalformedCommands(string line)
         {
             Command c;
@@ -241,6 +248,9 @@ namespace SafeState.Tests
             Assert.IsFalse(Command.Reset().StartsMotion);
             Assert.Throws<ArgumentOutOfRangeException>(() => Command.Jog(0, '+'));
             Assert.Throws<ArgumentException>(() => Command.Of(CommandName.jog));
+            Assert.Throws<ArgumentException>(() => Command.Of(CommandName.validate_config));
+            Assert.Throws<ArgumentException>(() => Command.ValidateConfig("3AD9012"));
+            Assert.IsFalse(Command.ValidateConfig("3AD9012B").StartsMotion);
         }
     }
 
