@@ -15,6 +15,8 @@ export class AlarmList {
   private again = false;
   private lastStatus: Status | null = null;
   cyclePeriodMs = 1;
+  /** Called with every fresh list (the Safety page and the 3D view highlight from it). */
+  onAlarms: ((alarms: Alarm[]) => void) | null = null;
 
   constructor() {
     this.count = h('span', { class: 'count', id: 'alarm-count' }, '0');
@@ -64,6 +66,7 @@ export class AlarmList {
   }
 
   private render(alarms: Alarm[]): void {
+    this.onAlarms?.(alarms);
     setText(this.count, String(alarms.length));
     this.count.dataset.n = String(alarms.length);
     if (alarms.length === 0) {

@@ -45,6 +45,62 @@ export interface Status {
   core_heartbeat_age_ms?: number;
   core_pid?: number;
   shutting_down?: boolean;
+  // SPEC §10 (protocol.md): absent from a gateway that predates it.
+  safety?: SafetyStatus;
+}
+
+/** The status's `safety` object (protocol.md, SPEC §10-§12). */
+export interface SafetyStatus {
+  checksum: string;
+  validated: boolean;
+  reduced: boolean;
+  reduced_by: string[]; // subset of zone, input, field
+  recovery: boolean;
+  speed_limit: number; // mm/s, the TCP limit in force now
+  v_allowed: number | null;
+  fields?: { outer: string; inner: string };
+  separation_mm?: number | null;
+  brake_test?: { due_in_h: number | null; last: string };
+}
+
+export type ZoneKind = 'keep_in' | 'keep_out' | 'reduced';
+
+export interface SafetyZone {
+  name: string;
+  kind: ZoneKind;
+  min_mm: number[];
+  max_mm: number[];
+}
+
+export interface SafetyJoint {
+  min_deg: number;
+  max_deg: number;
+  max_speed_deg_s: number;
+}
+
+/** The safety configuration file as the gateway holds it (SPEC §10 keys). */
+export interface SafetyConfig {
+  format: string;
+  name: string;
+  tool: { tcp_mm: number[]; radius_mm: number; payload_kg: number };
+  joints: SafetyJoint[];
+  tcp_max_speed_mm_s: number;
+  reduced: { tcp_max_speed_mm_s: number; ramp_ms: number };
+  orientation?: { axis: number[]; max_deviation_deg: number } | null;
+  zones: SafetyZone[];
+  stop: { max_time_ms: number };
+  collaborative?: unknown;
+  brake_test?: unknown;
+}
+
+/** GET /api/safety. */
+export interface SafetyInfo {
+  name: string;
+  checksum: string;
+  source: string;
+  validated: boolean;
+  confirmation: { checksum: string; client: string; time: string } | null;
+  config: SafetyConfig;
 }
 
 export interface Alarm {
@@ -55,9 +111,10 @@ export interface Alarm {
   remedy: string;
   detail: string;
   since: number; // core cycle number
+  subject?: string; // scenario vocabulary: axis.N, tcp, a zone's name, estop.a, ...
 }
 
-export type EventKind = 'transition' | 'alarm' | 'alarm_cleared' | 'command';
+export type EventKind = 'transition' | 'alarm' | 'alarm_cleared' | 'command' | 'config_validated' | 'brake_test';
 
 export interface HmiEvent {
   id: number | null;
@@ -108,6 +165,7 @@ async function getJson<T>(path: string): Promise<T> {
 
 export const fetchAlarms = (): Promise<Alarm[]> => getJson<Alarm[]>('/api/alarms');
 export const fetchRobot = (): Promise<Robot> => getJson<Robot>('/api/robot');
+export const fetchSafety = (): Promise<SafetyInfo> => getJson<SafetyInfo>('/api/safety');
 export const fetchStatus = (): Promise<Status> => getJson<Status>('/api/status');
 export const fetchEvents = (after: number, limit: number): Promise<HmiEvent[]> =>
   getJson<HmiEvent[]>(`/api/events?after=${after}&limit=${limit}`);

@@ -5,15 +5,57 @@
 // (data-joints, data-tcp) and as window.safestateHmi.view.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import type { Robot } from './api';
+import type { Robot, SafetyZone } from './api';
 import { forward, type Frames, type Vec3 } from './kinematics';
+import { ZONE_STYLE } from './safety-logic';
+
+/** The zones and the tool of the safety configuration (SPEC §10), as drawn. */
+export interface SafetyDrawing {
+  zones: SafetyZone[];
+  /** The tool's TCP in the flange frame (mm): the TCP the core supervises. */
+  tcp_mm: Vec3;
+  radius_mm: number;
+}
+
+/** What is violated or active now (indices into zones). */
+export interface ZoneMarks {
+  violated: number[];
+  active: number[];
+}
 
 export interface ArmDrawing {
   update(joints: number[]): void;
   highlight(axis: number | null): void;
   clearTrail(): void;
+  setSafety(s: SafetyDrawing | null): void;
+  markZones(m: ZoneMarks): void;
   readonly kind: 'webgl' | '2d';
 }
+
+interface DrawnZone {
+  name: string;
+  kind: string;
+  violated: boolean;
+  active: boolean;
+}
+
+/** The zones as drawn, for tests and diagnostics (window.safestateHmi.zones and #arm's
+ * data-zones / data-zones-violated): the WebGL view reads them back from its meshes. */
+function exposeZones(container: HTMLElement, list: DrawnZone[]): void {
+  container.dataset.zones = String(list.length);
+  container.dataset.zonesViolated = list.filter((z) => z.violated).map((z) => z.name).join(',');
+  const w = window as unknown as { safestateHmi?: Record<string, unknown> };
+  w.safestateHmi ??= {};
+  w.safestateHmi.zones = list;
+}
+
+const VIOLATED_HEX = 0xff1744;
+
+const flatZones = (zones: SafetyZone[], marks: ZoneMarks): DrawnZone[] =>
+  zones.map((z, i) => ({ name: z.name, kind: z.kind, violated: marks.violated.includes(i), active: marks.active.includes(i) }));
+
+const sameMarks = (a: ZoneMarks, b: ZoneMarks) =>
+  a.violated.join() === b.violated.join() && a.active.join() === b.active.join();
 
 const TRAIL_POINTS = 800;
 
@@ -62,6 +104,13 @@ class WebGlArm implements ArmDrawing {
   private frame = 0;
   private lastRender = 0;
   private hot: number | null = null;
+  private tcpOffset: Vec3;
+  private lastJoints: number[] = [0, 0, 0, 0, 0, 0];
+  private toolSphere: THREE.Mesh;
+  private zoneGroup = new THREE.Group();
+  private zoneParts: { fill: THREE.Mesh; edges: THREE.LineSegments; label: THREE.Sprite; zone: SafetyZone }[] = [];
+  private zones: SafetyZone[] = [];
+  private marks: ZoneMarks = { violated: [], active: [] };
   /** Software GL (SwiftShader, llvmpipe) costs CPU that the jog keep-alive needs: fewer frames. */
   readonly software: boolean;
   private minFrameMs: number;
@@ -93,6 +142,8 @@ class WebGlArm implements ArmDrawing {
     const root = new THREE.Group();
     root.rotation.x = -Math.PI / 2;
     this.scene.add(root);
+    this.tcpOffset = robot.tcp_offset as Vec3;
+    root.add(this.zoneGroup);
 
     const reach = new THREE.Mesh(
       new THREE.RingGeometry(robot.reach - 3, robot.reach + 3, 96),
@@ -138,6 +189,13 @@ class WebGlArm implements ArmDrawing {
     this.tcpMark = new THREE.Group();
     this.tcpMark.add(new THREE.Mesh(new THREE.SphereGeometry(11, 20, 14), new THREE.MeshBasicMaterial({ color: 0x4dd0e1 })));
     this.tcpMark.add(new THREE.AxesHelper(90));
+    // The tool sphere the zone monitor checks (tool.radius_mm at the TCP).
+    this.toolSphere = new THREE.Mesh(
+      new THREE.SphereGeometry(1, 28, 18),
+      new THREE.MeshBasicMaterial({ color: 0x4dd0e1, transparent: true, opacity: 0.22, depthWrite: false }),
+    );
+    this.toolSphere.visible = false;
+    this.tcpMark.add(this.toolSphere);
     root.add(this.tcpMark);
 
     this.trailGeom.setAttribute('position', new THREE.BufferAttribute(new Float32Array(TRAIL_POINTS * 3), 3));
@@ -208,7 +266,8 @@ class WebGlArm implements ArmDrawing {
   }
 
   update(joints: number[]): void {
-    const f = forward(this.robot.dh, joints, this.robot.tcp_offset as Vec3);
+    this.lastJoints = joints;
+    const f = forward(this.robot.dh, joints, this.tcpOffset);
     for (let k = 0; k < 6; k++) WebGlArm.segment(this.links[k], f.origin[k], f.origin[k + 1]);
     for (let k = 0; k < 6; k++) {
       const m = this.housings[k];
@@ -261,6 +320,112 @@ class WebGlArm implements ArmDrawing {
     this.writeTrail();
     this.requestRender();
   }
+
+  setSafety(sd: SafetyDrawing | null): void {
+    for (const p of this.zoneParts) {
+      p.fill.geometry.dispose();
+      (p.fill.material as THREE.Material).dispose();
+      p.edges.geometry.dispose();
+      (p.edges.material as THREE.Material).dispose();
+      p.label.material.map?.dispose();
+      p.label.material.dispose();
+    }
+    this.zoneGroup.clear();
+    this.zoneParts = [];
+    this.zones = sd?.zones ?? [];
+    this.tcpOffset = sd ? sd.tcp_mm : (this.robot.tcp_offset as Vec3);
+    const r = sd?.radius_mm ?? 0;
+    this.toolSphere.visible = r > 0;
+    this.toolSphere.scale.setScalar(Math.max(r, 1));
+    for (const zone of this.zones) {
+      const [x0, y0, z0] = zone.min_mm;
+      const [x1, y1, z1] = zone.max_mm;
+      const geom = new THREE.BoxGeometry(x1 - x0, y1 - y0, z1 - z0);
+      const color = new THREE.Color(ZONE_STYLE[zone.kind]?.color ?? '#9e9e9e');
+      const fill = new THREE.Mesh(geom, new THREE.MeshBasicMaterial({ color, transparent: true, depthWrite: false, side: THREE.DoubleSide }));
+      const edges = new THREE.LineSegments(new THREE.EdgesGeometry(geom), new THREE.LineBasicMaterial({ color, transparent: true }));
+      const centre = new THREE.Vector3((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2);
+      fill.position.copy(centre);
+      edges.position.copy(centre);
+      fill.name = `zone:${zone.name}`;
+      fill.renderOrder = 1; // translucent boxes after the arm
+      const label = new THREE.Sprite(new THREE.SpriteMaterial({ depthTest: false, transparent: true }));
+      // Where it stays in view: a keep-in box (the whole cell) by its corner nearest the
+      // camera, on the floor; a low box above its top; a tall one at 60 % of its height.
+      if (zone.kind === 'keep_in') label.position.set(x1, y0, Math.max(z0, 0) + 40);
+      else label.position.set(centre.x, centre.y, z1 - z0 < 400 ? z1 + 60 : z0 + 0.6 * (z1 - z0));
+      label.renderOrder = 2;
+      this.zoneGroup.add(fill, edges, label);
+      this.zoneParts.push({ fill, edges, label, zone });
+    }
+    this.marks = { violated: [], active: [] };
+    this.paintZones();
+    this.update(this.lastJoints);
+  }
+
+  markZones(m: ZoneMarks): void {
+    if (sameMarks(m, this.marks)) return;
+    this.marks = { violated: [...m.violated], active: [...m.active] };
+    this.paintZones();
+    this.requestRender();
+  }
+
+  private paintZones(): void {
+    this.zoneParts.forEach((p, i) => {
+      const bad = this.marks.violated.includes(i);
+      const active = this.marks.active.includes(i);
+      const style = ZONE_STYLE[p.zone.kind];
+      const fill = p.fill.material as THREE.MeshBasicMaterial;
+      // The keep-in box usually holds the whole cell: faint, so that it does not fog the arm.
+      fill.opacity = bad ? 0.5 : p.zone.kind === 'keep_in' ? 0.04 : active ? 0.34 : 0.18;
+      fill.color.set(bad ? VIOLATED_HEX : style?.color ?? '#9e9e9e');
+      const edges = p.edges.material as THREE.LineBasicMaterial;
+      edges.color.set(bad ? '#ffffff' : style?.color ?? '#9e9e9e');
+      edges.opacity = bad ? 1 : 0.85;
+      const text = bad ? `${p.zone.name}: VIOLATED` : active ? `${p.zone.name}: reduced speed` : p.zone.name;
+      const old = p.label.material.map;
+      p.label.material.map = labelTexture(text, bad ? '#ff1744' : style?.color ?? '#9e9e9e', bad);
+      p.label.material.map.userData.active = active;
+      p.label.material.needsUpdate = true;
+      old?.dispose();
+      const img = p.label.material.map.image as HTMLCanvasElement;
+      p.label.scale.set(img.width * 2.2, img.height * 2.2, 1); // about 2 mm per pixel: readable in a 2 m cell
+    });
+    exposeZones(
+      this.container,
+      this.zoneParts.map((p) => ({
+        name: p.zone.name,
+        kind: p.zone.kind,
+        violated: (p.fill.material as THREE.MeshBasicMaterial).color.getHex() === VIOLATED_HEX,
+        active: p.label.material.map?.userData.active === true,
+      })),
+    );
+  }
+}
+
+/** A zone's name as a sprite texture (mm-sized through the sprite's scale). */
+function labelTexture(text: string, color: string, strong: boolean): THREE.CanvasTexture {
+  const c = document.createElement('canvas');
+  const g = c.getContext('2d')!;
+  const font = `${strong ? 800 : 700} 30px system-ui, sans-serif`;
+  g.font = font;
+  const w = Math.ceil(g.measureText(text).width) + 24;
+  c.width = w;
+  c.height = 44;
+  g.font = font;
+  g.fillStyle = strong ? color : 'rgba(13, 17, 22, 0.78)';
+  g.beginPath();
+  g.roundRect(0, 0, w, 44, 8);
+  g.fill();
+  g.strokeStyle = color;
+  g.lineWidth = 3;
+  g.stroke();
+  g.fillStyle = strong ? '#ffffff' : color;
+  g.textBaseline = 'middle';
+  g.fillText(text, 12, 23);
+  const t = new THREE.CanvasTexture(c);
+  t.colorSpace = THREE.SRGBColorSpace;
+  return t;
 }
 
 // ------------------------------------------------------------------------- 2D fallback
@@ -270,11 +435,16 @@ class FlatArm implements ArmDrawing {
   private trail = new Trail();
   private last: Frames | null = null;
   private hot: number | null = null;
+  private tcpOffset: Vec3;
+  private lastJoints: number[] = [0, 0, 0, 0, 0, 0];
+  private safety: SafetyDrawing | null = null;
+  private marks: ZoneMarks = { violated: [], active: [] };
 
   constructor(
     private readonly container: HTMLElement,
     private readonly robot: Robot,
   ) {
+    this.tcpOffset = robot.tcp_offset as Vec3;
     container.append(this.canvas);
     this.canvas.style.width = '100%';
     this.canvas.style.height = '100%';
@@ -282,7 +452,8 @@ class FlatArm implements ArmDrawing {
   }
 
   update(joints: number[]): void {
-    this.last = forward(this.robot.dh, joints, this.robot.tcp_offset as Vec3);
+    this.lastJoints = joints;
+    this.last = forward(this.robot.dh, joints, this.tcpOffset);
     this.trail.push(this.last.tcp);
     exposeDrawn(this.container, joints, this.last);
     this.draw();
@@ -295,6 +466,21 @@ class FlatArm implements ArmDrawing {
 
   clearTrail(): void {
     this.trail.clear();
+    this.draw();
+  }
+
+  setSafety(sd: SafetyDrawing | null): void {
+    this.safety = sd;
+    this.tcpOffset = sd ? sd.tcp_mm : (this.robot.tcp_offset as Vec3);
+    this.marks = { violated: [], active: [] };
+    exposeZones(this.container, flatZones(sd?.zones ?? [], this.marks));
+    this.update(this.lastJoints);
+  }
+
+  markZones(m: ZoneMarks): void {
+    if (sameMarks(m, this.marks)) return;
+    this.marks = { violated: [...m.violated], active: [...m.active] };
+    exposeZones(this.container, flatZones(this.safety?.zones ?? [], this.marks));
     this.draw();
   }
 
@@ -312,6 +498,26 @@ class FlatArm implements ArmDrawing {
     ];
     g.fillStyle = '#10151b';
     g.fillRect(0, 0, w, h);
+    // Zones as wire boxes (the 12 edges of each), named.
+    (this.safety?.zones ?? []).forEach((z, i) => {
+      const bad = this.marks.violated.includes(i);
+      const [a, b] = [z.min_mm, z.max_mm];
+      const corner = (k: number): Vec3 => [k & 1 ? b[0] : a[0], k & 2 ? b[1] : a[1], k & 4 ? b[2] : a[2]];
+      g.strokeStyle = bad ? '#ff1744' : ZONE_STYLE[z.kind]?.color ?? '#9e9e9e';
+      g.lineWidth = bad ? 3 : 1.5;
+      g.beginPath();
+      for (let k = 0; k < 8; k++) {
+        for (const bit of [1, 2, 4]) {
+          if (k & bit) continue;
+          g.moveTo(...P(corner(k)));
+          g.lineTo(...P(corner(k | bit)));
+        }
+      }
+      g.stroke();
+      g.fillStyle = g.strokeStyle;
+      g.font = bad ? 'bold 13px sans-serif' : '12px sans-serif';
+      g.fillText(bad ? `${z.name}: VIOLATED` : z.name, ...P([(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, b[2]]));
+    });
     g.strokeStyle = '#4dd0e1';
     g.lineWidth = 2;
     g.beginPath();
@@ -335,6 +541,14 @@ class FlatArm implements ArmDrawing {
     g.beginPath();
     g.arc(...P(this.last.tcp), 6, 0, 2 * Math.PI);
     g.fill();
+    const r = this.safety?.radius_mm ?? 0;
+    if (r > 0) {
+      g.strokeStyle = '#4dd0e1';
+      g.lineWidth = 1;
+      g.beginPath();
+      g.arc(...P(this.last.tcp), Math.max(3, r * s), 0, 2 * Math.PI);
+      g.stroke();
+    }
     g.fillStyle = '#9aa7b5';
     g.font = '12px sans-serif';
     g.fillText('2D view (WebGL unavailable)', 10, h - 10);

@@ -62,6 +62,12 @@ export function describeEvent(e: HmiEvent): { text: string; tone: string; kind: 
       const words = ok ? '' : ` — ${resultWords(r, str(d.cmd), null)}`;
       return { kind: 'cmd', text: `${str(d.cmd)} from ${str(d.from)}: ${r}${words}`, tone: ok ? 'ok' : 'refused' };
     }
+    case 'config_validated':
+      return {
+        kind: 'safety',
+        text: `Safety configuration ${str(d.checksum)} validated by ${str(d.client) || str(d.role)}`,
+        tone: 'ok',
+      };
   }
   return { kind: e.kind, text: JSON.stringify(d), tone: 'info' };
 }

@@ -3,9 +3,10 @@
 // when it is older than jog_timeout_ms, 100 ms). Release, pointer leave, pointer cancel,
 // window blur, a hidden page or a lost connection end the hold with `jog_stop`.
 // A refused jog ends the keep-alive at once (the refusal is shown, not repeated).
-import type { Robot, Status } from './api';
+import type { Robot, SafetyJoint, Status } from './api';
 import type { Link, Outcome } from './connection';
 import { deg, h, setAttr, setText, toggleClass } from './dom';
+import { barGeometry } from './safety-logic';
 
 export const KEEPALIVE_MS = 50;
 
@@ -31,9 +32,12 @@ function after(ms: number, cb: () => void): void {
 }
 
 interface Row {
+  row: HTMLElement;
   value: HTMLElement;
   state: HTMLElement;
+  range: HTMLElement;
   bar: HTMLElement;
+  band: HTMLElement;
   marker: HTMLElement;
 }
 
@@ -45,6 +49,8 @@ export class JogPanel {
   private speedOut: HTMLElement;
   private note: HTMLElement;
   private robot: Robot | null = null;
+  private safeJoints: SafetyJoint[] | null = null;
+  private violated = new Map<number, string>(); // axis -> "JOINT_LIMIT", ...
 
   constructor(
     private readonly link: Link,
@@ -93,6 +99,47 @@ export class JogPanel {
 
   setRobot(robot: Robot): void {
     this.robot = robot;
+    this.drawRanges();
+  }
+
+  /** The configured safe ranges (SPEC §10 config.joints), or null for the robot's own. */
+  setSafety(joints: SafetyJoint[] | null): void {
+    this.safeJoints = joints && joints.length === 6 ? joints : null;
+    this.drawRanges();
+  }
+
+  /** Axes (1..6) whose safe limit is violated now (JOINT_LIMIT, SPEED_LIMIT axis.N). */
+  setViolated(axes: number[], labels: Map<number, string>): void {
+    this.violated = new Map(axes.map((a) => [a, labels.get(a) ?? 'violated']));
+    this.rows.forEach((r, i) => {
+      const label = this.violated.get(i + 1);
+      toggleClass(r.row, 'violated', label !== undefined);
+      setAttr(r.row, 'data-violation', label ?? null);
+    });
+  }
+
+  private drawRanges(): void {
+    const lim = this.robot?.joint_limits;
+    this.rows.forEach((r, i) => {
+      if (!lim?.[i]) return;
+      const cfg = this.safeJoints?.[i] ?? null;
+      const g = barGeometry(0, lim[i].min, lim[i].max, cfg);
+      r.band.style.left = `${(g.lo * 100).toFixed(2)}%`;
+      r.band.style.width = `${((g.hi - g.lo) * 100).toFixed(2)}%`;
+      const rMin = deg(lim[i].min).toFixed(0);
+      const rMax = deg(lim[i].max).toFixed(0);
+      const text = cfg ? `safe ${cfg.min_deg}…${cfg.max_deg}°` : `${rMin}…${rMax}°`;
+      setText(r.range, text);
+      r.bar.dataset.min = String(cfg ? cfg.min_deg : Number(rMin));
+      r.bar.dataset.max = String(cfg ? cfg.max_deg : Number(rMax));
+      setAttr(
+        r.bar,
+        'title',
+        cfg
+          ? `Safe range ${cfg.min_deg}° … ${cfg.max_deg}° (the bright band; safety configuration), robot ${rMin}° … ${rMax}° (the whole bar)`
+          : `Robot range ${rMin}° … ${rMax}°`,
+      );
+    });
   }
 
   private setSpeed(p: number): void {
@@ -135,23 +182,25 @@ export class JogPanel {
       return b;
     };
     const value = h('div', { class: 'jog-value', id: `joint-${axis}` }, '—');
-    const state = h('div', { class: 'jog-axis-state' }, '');
+    const state = h('span', { class: 'jog-axis-state' }, '');
+    const range = h('span', { class: 'jog-range', id: `joint-${axis}-range` }, '');
     const marker = h('div', { class: 'jog-bar-marker' });
-    const bar = h('div', { class: 'jog-bar', title: 'Position within the joint limits' }, marker);
-    this.rows.push({ value, state, bar, marker });
-    return h(
-      'div',
-      { class: 'jog-row', 'data-axis': axis },
+    const band = h('div', { class: 'jog-bar-band' });
+    const bar = h('div', { class: 'jog-bar', id: `joint-${axis}-bar`, title: 'Position within the joint limits' }, band, marker);
+    const row = h('div', { class: 'jog-row', 'data-axis': axis });
+    this.rows.push({ row, value, state, range, bar, band, marker });
+    row.append(
       btn('-'),
       h(
         'div',
         { class: 'jog-mid' },
         h('div', { class: 'jog-line' }, h('span', { class: 'jog-axis' }, `J${axis}`), value),
         bar,
-        state,
+        h('div', { class: 'jog-sub' }, state, range),
       ),
       btn('+'),
     );
+    return row;
   }
 
   /** Keep-alive timing of the current or last hold (diagnostics, read by the browser test). */
@@ -234,11 +283,13 @@ export class JogPanel {
       const r = this.rows[i];
       const q = s.joints[i] ?? 0;
       setText(r.value, `${deg(q).toFixed(2)}°`);
-      setText(r.state, s.axis_state?.[i] ?? '');
+      const violation = this.violated.get(i + 1);
+      setText(r.state, violation ?? s.axis_state?.[i] ?? '');
       if (lim?.[i]) {
-        const f = (q - lim[i].min) / (lim[i].max - lim[i].min);
-        r.marker.style.left = `${(Math.min(1, Math.max(0, f)) * 100).toFixed(1)}%`;
-        toggleClass(r.bar, 'near-limit', f < 0.03 || f > 0.97);
+        const g = barGeometry(q, lim[i].min, lim[i].max, this.safeJoints?.[i] ?? null);
+        r.marker.style.left = `${(g.at * 100).toFixed(1)}%`;
+        toggleClass(r.bar, 'near-limit', g.where === 'near');
+        toggleClass(r.bar, 'outside', g.where === 'outside');
       }
     }
     const manual = s.mode === 'T1' || s.mode === 'T2';

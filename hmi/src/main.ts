@@ -2,7 +2,7 @@
 // the 3D view, alarms, history, the simulated cell and the real-time figures.
 import './style.css';
 import { AlarmList } from './alarms';
-import { fetchMetricsText, fetchRobot, fetchStatus, type HmiEvent, type Robot, type Status } from './api';
+import { type Alarm, fetchMetricsText, fetchRobot, fetchSafety, fetchStatus, type HmiEvent, type Robot, type SafetyInfo, type Status } from './api';
 import { createArmView, type ArmDrawing } from './arm-view';
 import { Link, type LinkState, type Outcome, type Role } from './connection';
 import { $, deg, h, setAttr, setText, toggleClass } from './dom';
@@ -10,6 +10,8 @@ import { SpeedGauge } from './gauge';
 import { History } from './history';
 import { JogPanel } from './jog';
 import { fmtSeconds, type Metrics, parseMetrics, quantile } from './metrics';
+import { SafetyPage } from './safety-page';
+import { highlights, ZONE_STYLE } from './safety-logic';
 import { SimPanel } from './sim-panel';
 import {
   COMMAND_LABEL,
@@ -62,6 +64,7 @@ const link = new Link({
     if (st === 'open') {
       void alarms.refresh();
       void history.latest();
+      void loadSafety();
     }
     renderConnection();
     scheduleRender();
@@ -194,6 +197,95 @@ $('history-slot').append(history.el);
 const sim = new SimPanel(link);
 $('sim-slot').append(sim.el);
 
+// ------------------------------------------------------------------ safety (SPEC §10)
+const safety = new SafetyPage(link);
+$('safety-page').append(safety.el);
+$('safety-strip-slot').append(safety.strip);
+document.body.append(safety.dialog);
+let safetyInfo: SafetyInfo | null = null;
+let safetyLoading = false;
+let safetyAgain = false;
+let alarmObjects: Alarm[] = [];
+let lastSafetyKey: string | null = null;
+
+function showPage(page: 'operate' | 'safety'): void {
+  const main = $('main');
+  main.dataset.page = page;
+  $('safety-page').hidden = page !== 'safety';
+  setAttr($('tab-operate'), 'aria-selected', page === 'operate' ? 'true' : 'false');
+  setAttr($('tab-safety'), 'aria-selected', page === 'safety' ? 'true' : 'false');
+  if (page === 'operate') armView?.update(status?.joints ?? [0, 0, 0, 0, 0, 0]);
+}
+$('tab-operate').addEventListener('click', () => showPage('operate'));
+$('tab-safety').addEventListener('click', () => showPage('safety'));
+safety.strip.addEventListener('click', () => showPage('safety'));
+
+/** GET /api/safety: at connection, when the checksum or validated changes, and after a
+ * config_validated event (the confirmation's client and time). */
+async function loadSafety(): Promise<void> {
+  if (safetyLoading) {
+    safetyAgain = true;
+    return;
+  }
+  safetyLoading = true;
+  try {
+    const info = await fetchSafety();
+    if (!info || typeof info !== 'object' || !info.config) throw new Error('the controller reports no safety configuration');
+    safetyInfo = info;
+    safety.setInfo(safetyInfo);
+  } catch (e) {
+    safetyInfo = null;
+    safety.setInfo(null, (e as Error).message);
+  } finally {
+    safetyLoading = false;
+  }
+  applySafetyDrawing();
+  if (safetyAgain) {
+    safetyAgain = false;
+    void loadSafety();
+  }
+}
+
+function applySafetyDrawing(): void {
+  const c = safetyInfo?.config;
+  jog.setSafety(c?.joints ?? null);
+  armView?.setSafety(
+    c ? { zones: c.zones ?? [], tcp_mm: (c.tool?.tcp_mm ?? [0, 0, 0]) as [number, number, number], radius_mm: c.tool?.radius_mm ?? 0 } : null,
+  );
+  const legend = $('zone-legend');
+  legend.hidden = !c;
+  if (c) {
+    const kinds = new Set(c.zones.map((z) => z.kind));
+    legend.replaceChildren(
+      ...Object.entries(ZONE_STYLE)
+        .filter(([k]) => kinds.has(k as keyof typeof ZONE_STYLE))
+        .map(([k, st]) => h('div', { class: 'legend-item', 'data-kind': k }, h('span', { class: 'swatch', style: `--c: ${st.color}` }), st.label)),
+      c.tool.radius_mm > 0 ? h('div', { class: 'legend-item' }, h('span', { class: 'swatch round', style: '--c: #4dd0e1' }), `tool ⌀${c.tool.radius_mm * 2} mm`) : '',
+    );
+  }
+  highlightKey = ''; // the view's marks were reset with its zones: mark them again
+  applyHighlight();
+}
+
+let highlightKey = '';
+function applyHighlight(): void {
+  const zoneNames = safetyInfo?.config.zones.map((z) => z.name) ?? [];
+  const hl = highlights(status?.alarms ?? [], alarmObjects, zoneNames);
+  const key = JSON.stringify(hl);
+  if (key === highlightKey) return;
+  highlightKey = key;
+  armView?.markZones({ violated: hl.zones, active: hl.activeZones });
+  const labels = new Map<number, string>();
+  for (const v of hl.violations) if (v.axis !== null) labels.set(v.axis, v.alarm);
+  jog.setViolated(hl.joints, labels);
+  safety.setHighlight(hl);
+  (exposed() as unknown as Record<string, unknown>).highlight = hl;
+}
+alarms.onAlarms = (list) => {
+  alarmObjects = list;
+  applyHighlight();
+};
+
 // TCP readout over the 3D view: X Y Z (mm), Rx Ry Rz.
 const readout = ['X', 'Y', 'Z', 'Rx', 'Ry', 'Rz'].map((n) => h('b', { id: `tcp-${n.toLowerCase()}` }, '—'));
 $('tcp-readout').append(
@@ -254,6 +346,13 @@ function onStatus(s: Status): void {
   exposed().status = s;
   alarms.update(s);
   sim.update(s);
+  // The confirmation (client, time) and the file come from /api/safety: read again when
+  // the core's checksum or validated changes.
+  const safetyKey = s.safety ? `${s.safety.checksum}|${s.safety.validated}` : '';
+  if (safetyKey !== lastSafetyKey) {
+    if (lastSafetyKey !== null) void loadSafety();
+    lastSafetyKey = safetyKey;
+  }
   armView?.update(s.joints);
   if (first) renderConnection();
   const key = discrete(s);
@@ -272,6 +371,7 @@ function onStatus(s: Status): void {
 function onEvent(e: HmiEvent): void {
   history.push(e);
   if (e.kind === 'alarm' || e.kind === 'alarm_cleared') void alarms.refresh();
+  if (e.kind === 'config_validated') void loadSafety();
 }
 
 function suggested(s: Status): Set<string> {
@@ -340,6 +440,8 @@ function render(): void {
   setText($('owner'), role === 'pendant' ? 'This pendant has control' : role === 'observer' ? 'Read-only (observer)' : '');
 
   jog.update(s);
+  safety.update(s, role, linkState);
+  applyHighlight();
   gauge.update(s.tcp_speed, s.mode, s.max_point_speed);
   const [x, y, z, rx, ry, rz] = s.tcp;
   const ro = [x.toFixed(1), y.toFixed(1), z.toFixed(1), `${deg(rx).toFixed(1)}°`, `${deg(ry).toFixed(1)}°`, `${deg(rz).toFixed(1)}°`];
@@ -455,6 +557,7 @@ async function loadRobot(): Promise<void> {
   container.dataset.robot = robot.name;
   armView = createArmView(container, robot);
   container.dataset.renderer = armView.kind;
+  applySafetyDrawing();
   armView.update(status?.joints ?? (await fetchStatus().catch(() => null))?.joints ?? [0, 0, 0, 0, 0, 0]);
 }
 

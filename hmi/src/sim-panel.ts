@@ -16,9 +16,19 @@ interface Devices {
   gate: 'closed' | 'open';
   enable: 'released' | 'centre' | 'panic';
   mode: 'AUTO' | 'T1' | 'T2';
+  reducedA: boolean; // SPEC §10 reduced-speed input, NC: contact closed = normal speed
+  reducedB: boolean;
 }
 
-const INITIAL: Devices = { estopA: true, estopB: true, gate: 'closed', enable: 'released', mode: 'AUTO' };
+const INITIAL: Devices = {
+  estopA: true,
+  estopB: true,
+  gate: 'closed',
+  enable: 'released',
+  mode: 'AUTO',
+  reducedA: true,
+  reducedB: true,
+};
 
 function segmented<T extends string>(
   id: string,
@@ -51,6 +61,10 @@ export class SimPanel {
   private gate: ReturnType<typeof segmented<'closed' | 'open'>>;
   private enable: ReturnType<typeof segmented<'released' | 'centre' | 'panic'>>;
   private key: ReturnType<typeof segmented<'AUTO' | 'T1' | 'T2'>>;
+  private reduced: ReturnType<typeof segmented<'normal' | 'reduced'>>;
+  private redA: HTMLButtonElement;
+  private redB: HTMLButtonElement;
+  private redNote: HTMLElement;
   private drive: HTMLSelectElement;
   private estopNote: HTMLElement;
 
@@ -76,6 +90,24 @@ export class SimPanel {
     this.key = segmented('sim-mode', [['AUTO', 'AUTO'], ['T1', 'T1'], ['T2', 'T2']], (v) =>
       this.set({ mode: v }, { mode: v }, `key switch ${v}`),
     );
+
+    // The reduced-speed input (scenario vocabulary: reduced=normal|reduced, raw reduced.a/.b).
+    this.reduced = segmented('sim-reduced', [['normal', 'Normal'], ['reduced', 'Reduced']], (v) =>
+      this.set(
+        { reducedA: v === 'normal', reducedB: v === 'normal' },
+        { reduced: v },
+        `reduced-speed input ${v}`,
+      ),
+    );
+    const redCh = (ch: 'a' | 'b') =>
+      h(
+        'button',
+        { type: 'button', class: 'switch small', id: `sim-reduced-${ch}`, onclick: () => this.toggleReduced(ch) },
+        ch.toUpperCase(),
+      );
+    this.redNote = h('div', { class: 'sim-note', id: 'sim-reduced-note' }, '');
+    this.redA = redCh('a');
+    this.redB = redCh('b');
 
     this.drive = h('select', { id: 'sim-axis', 'aria-label': 'Drive or brake number' });
     for (let i = 1; i <= 6; i++) this.drive.append(h('option', { value: i }, String(i)));
@@ -119,6 +151,14 @@ export class SimPanel {
           this.enable.el,
           h('div', { class: 'sim-label' }, 'Guard'),
           this.gate.el,
+          h('div', { class: 'sim-label', title: 'SPEC §10: two NC channels; either open asks for reduced speed' }, 'Reduced-speed input'),
+          h(
+            'div',
+            { class: 'sim-reduced-row' },
+            this.reduced.el,
+            h('div', { class: 'sim-channels small', title: 'Open one channel alone: reduced speed stays on (the safe side)' }, this.redA, this.redB),
+          ),
+          this.redNote,
         ),
         h(
           'div',
@@ -188,6 +228,16 @@ export class SimPanel {
     this.set({ [key]: closed }, { [`estop.${ch}`]: closed ? 1 : 0 }, `E-stop channel ${ch.toUpperCase()} ${closed ? 'closed' : 'opened'}`);
   }
 
+  private toggleReduced(ch: 'a' | 'b'): void {
+    const key = ch === 'a' ? 'reducedA' : 'reducedB';
+    const closed = !this.d[key];
+    this.set(
+      { [key]: closed },
+      { [`reduced.${ch}`]: closed ? 1 : 0 },
+      `reduced-speed input channel ${ch.toUpperCase()} ${closed ? 'closed' : 'opened'}`,
+    );
+  }
+
   private render(): void {
     const pressed = !this.d.estopA && !this.d.estopB;
     const partial = this.d.estopA !== this.d.estopB;
@@ -207,6 +257,18 @@ export class SimPanel {
     this.gate.set(this.d.gate);
     this.enable.set(this.d.enable);
     this.key.set(this.d.mode);
+    const redBoth = this.d.reducedA && this.d.reducedB ? 'normal' : !this.d.reducedA && !this.d.reducedB ? 'reduced' : '';
+    this.reduced.set(redBoth as 'normal' | 'reduced');
+    for (const [b, closed, name] of [
+      [this.redA, this.d.reducedA, 'A'],
+      [this.redB, this.d.reducedB, 'B'],
+    ] as const) {
+      toggleClass(b, 'open', !closed);
+      setText(b, name);
+      setAttr(b, 'aria-pressed', closed ? 'false' : 'true');
+      setAttr(b, 'title', `Channel ${name} ${closed ? 'closed (normal)' : 'open (asks for reduced)'}: click to ${closed ? 'open' : 'close'} it alone`);
+    }
+    setText(this.redNote, `Channel A ${this.d.reducedA ? 'closed' : 'open'}, B ${this.d.reducedB ? 'closed' : 'open'}`);
   }
 
   update(s: Status): void {
@@ -228,6 +290,9 @@ export class SimPanel {
     const powered = s.state === 'OPERATIONAL' || s.state === 'ARMING';
     if (powered && (s.mode === 'T1' || s.mode === 'T2')) d.enable = 'centre';
     if (powered && s.mode === 'AUTO') d.gate = 'closed';
+    // Reduced mode not asked for by the input: both of its channels are closed. (Asked for
+    // proves nothing about the contacts: a discrepancy keeps it on with both closed.)
+    if (s.safety && !s.safety.reduced_by.includes('input')) d.reducedA = d.reducedB = true;
     if (JSON.stringify(d) !== JSON.stringify(this.d)) {
       this.d = d;
       this.save();

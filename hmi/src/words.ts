@@ -22,6 +22,13 @@ export const RESULT_WORDS: Record<string, string> = {
   BUSY: 'The controller is busy arming or stopping: wait until it has finished, then try again.',
   WRONG_STATE: 'This command is not possible in the current state.',
   QUEUE_FULL: 'Too many commands at once: this one was not taken. Try again.',
+  CONFIG_NOT_VALIDATED:
+    'The safety configuration is not validated: AUTO and T2 need it. In T1 or T2, IDLE, validate it on the Safety page.',
+  CHECKSUM_MISMATCH: 'That is not the checksum of the active safety configuration: nothing changed.',
+  OUTSIDE_LIMITS:
+    'A safe limit is violated or the program leaves the limits (Safety page): in T1, jog back inside first.',
+  FIELD_INTERRUPTED: 'A protective field is interrupted: clear it first.',
+  BRAKE_TEST_REQUIRED: 'The brake test is due: run it first.',
 };
 
 // Protocol errors (protocol.md "Messages"); these come without a result code.
@@ -46,6 +53,8 @@ export const COMMAND_LABEL: Record<string, string> = {
   jog_stop: 'Jog stop',
   confirm_t2: 'Confirm T2',
   set_mode: 'Set mode',
+  validate_config: 'Validate configuration',
+  brake_test: 'Brake test',
 };
 
 export const STATE_WORDS: Record<State, string> = {
@@ -181,6 +190,13 @@ export function nextStep(s: Status): string {
         return 'Remove the cause of the alarm (see its remedy), then press Reset.';
       }
       if (s.mode === 'NONE') return 'Turn the key switch to AUTO, T1 or T2.';
+      // SPEC §10: a violated limit is left in T1; AUTO and T2 need a validated configuration.
+      if (s.safety?.recovery && s.mode !== 'T1') {
+        return 'A safe limit is violated (Safety page): turn the key to T1, Servo on, and jog back inside.';
+      }
+      if (s.safety && !s.safety.validated && s.mode !== 'T1') {
+        return 'The safety configuration is not validated: in T1 or T2, validate it on the Safety page (T1 runs without).';
+      }
       if (s.mode === 'AUTO') return 'Press Servo on (AUTO needs the guard closed).';
       if (s.mode === 'T2' && !s.t2_confirmed) {
         return 'Press Confirm T2, hold the enabling device at centre, then Servo on.';

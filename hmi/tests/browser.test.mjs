@@ -10,7 +10,7 @@
 // headless browser rendering WebGL in software on a 2-core machine must not be able to
 // lock the cell out through the fieldbus watchdog), CHROMIUM (default /usr/bin/chromium).
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
+import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
 import net from 'node:net';
@@ -122,6 +122,12 @@ before(async () => {
 
 after(async () => {
   await ctx?.close().catch(() => {});
+  await safetyCell.ctx?.close().catch(() => {});
+  if (safetyCell.proc && safetyCell.proc.exitCode === null) {
+    safetyCell.proc.kill('SIGINT');
+    const done = await Promise.race([safetyCell.exit, sleep(10000).then(() => null)]);
+    if (!done) safetyCell.proc.kill('SIGKILL');
+  }
   if (cell?.proc.exitCode === null) {
     cell.proc.kill('SIGINT');
     const done = await Promise.race([cell.exit, sleep(10000).then(() => null)]);
@@ -142,6 +148,12 @@ test('the page loads and shows ESTOP_RESET_NEEDED with what to do', async () => 
   await until('connected as pendant', () => page.evaluate(() => window.safestateHmi?.link?.role === 'pendant'));
   await until('real-time figures from /metrics', () => page.evaluate(() => /ms|µs/.test(document.getElementById('m-period')?.textContent ?? '')));
   await until('the simulated-cell panel', () => page.evaluate(() => !document.getElementById('sim-slot').hidden));
+  // Without --safety: the built-in configuration, which counts as validated (SPEC §10).
+  const builtIn = await getJson(cell.port, '/api/safety');
+  assert.equal(builtIn.source, 'built-in');
+  await until('the built-in configuration in the safety strip, validated', () =>
+    page.evaluate((c) => document.getElementById('ss-checksum').textContent === c && document.getElementById('ss-valid').dataset.validated === 'yes',
+      builtIn.checksum));
   await shot('01-estop-reset-needed');
 });
 
@@ -350,4 +362,254 @@ test('with a pendant token the page asks for it in a login screen, never in the 
     const done = await Promise.race([exit, sleep(10000).then(() => null)]);
     if (!done) proc.kill('SIGKILL');
   }
+});
+
+// ------------------------------------------------------------------ the safety configuration (SPEC §10, issue 19)
+// A cell of its own with `--safety hmi/tests/safety-cell.json`: a keep-in box, a keep-out
+// "fixture" 15 mm beside the tool sphere at the start pose (+y, where a runaway of axis 1
+// drives it within 2°, before its following error), a reduced zone elsewhere.
+const SAFETY_FILE = path.join(ROOT, 'hmi', 'tests', 'safety-cell.json');
+const safetyCell = {};
+
+async function sp(fn, arg) {
+  return safetyCell.page.evaluate(fn, arg);
+}
+const spStatus = () => sp(() => window.safestateHmi.status);
+const spShot = (name) => safetyCell.page.screenshot({ path: path.join(ARTIFACTS, `${name}.png`) });
+
+test('safety: the Safety page shows the configuration and its checksum in large type', async () => {
+  const check = execFileSync(BIN, ['safety', 'check', SAFETY_FILE], { encoding: 'utf8' });
+  safetyCell.checksum = /checksum:\s+([0-9A-F]{8})/.exec(check)[1];
+  safetyCell.config = JSON.parse(fs.readFileSync(SAFETY_FILE, 'utf8'));
+  const port = await freePort();
+  const logPath = path.join(tmp, 'run-safety.log');
+  const log = fs.openSync(logPath, 'w');
+  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, 'events-safety.db'), '--static', DIST, '--no-opcua',
+    '--safety', SAFETY_FILE, ...RUN_ARGS], { cwd: ROOT, stdio: ['ignore', log, log] });
+  Object.assign(safetyCell, { proc, port, logPath, errors: [], exit: new Promise((r) => proc.on('exit', (code, signal) => r({ code, signal }))) });
+  await until('GET /api/status after BOOT', async () => {
+    if (proc.exitCode !== null) throw new Error(`safestate run --safety exited: ${fs.readFileSync(logPath, 'utf8')}`);
+    return (await getJson(port, '/api/status')).state !== 'BOOT';
+  }, 20000);
+  safetyCell.ctx = await chromium.launchPersistentContext(fs.mkdtempSync(path.join(tmp, 'chromium-safety-')), {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 800 },
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+  });
+  const page = safetyCell.ctx.pages()[0] ?? (await safetyCell.ctx.newPage());
+  safetyCell.page = page;
+  page.on('pageerror', (e) => safetyCell.errors.push(e.message));
+  await page.goto(`http://127.0.0.1:${port}/`);
+  await until('connected as pendant', () => sp(() => window.safestateHmi?.link?.role === 'pendant'));
+  const { checksum, config } = safetyCell;
+
+  // On every page: the strip under the banner.
+  await until('the checksum in the strip', () => sp(() => document.getElementById('ss-checksum').textContent) .then((t) => t === checksum));
+  assert.equal(await sp(() => document.getElementById('ss-valid').dataset.validated), 'no', 'a fresh configuration is not validated');
+
+  await page.click('#tab-safety');
+  const head = await until('the Safety page filled in', () =>
+    sp(() => {
+      const el = document.getElementById('sp-checksum');
+      const name = document.getElementById('sp-name').textContent;
+      if (document.getElementById('safety-page').hidden || !document.getElementById('sp-zone-0')) return false;
+      return { text: el.textContent, px: parseFloat(getComputedStyle(el).fontSize), h: el.getBoundingClientRect().height, name,
+        valid: document.getElementById('sp-valid').dataset.validated, word: document.getElementById('sp-valid-word').textContent };
+    }),
+  );
+  assert.equal(head.text, checksum, 'the checksum `safestate safety check` prints');
+  assert.ok(head.px >= 48, `checksum font ${head.px} px: readable from 1 m`);
+  assert.equal(head.name, config.name);
+  assert.equal(head.valid, 'no');
+  assert.match(head.word, /NOT VALIDATED/);
+  const tables = await sp(() => ({
+    joints: [...document.querySelectorAll('#sp-joints tbody tr')].map((tr) => [...tr.cells].slice(1, 4).map((c) => Number(c.textContent))),
+    zones: [...document.querySelectorAll('#sp-zones tbody tr')].map((tr) => [tr.dataset.zone, tr.dataset.kind]),
+    bar1: { ...document.getElementById('joint-1-bar').dataset, text: document.getElementById('joint-1-range').textContent },
+  }));
+  assert.deepEqual(tables.joints, config.joints.map((j) => [j.min_deg, j.max_deg, j.max_speed_deg_s]));
+  assert.deepEqual(tables.zones, config.zones.map((z) => [z.name, z.kind]));
+  // The joint bars: the configured range (J1 ±150°), not only the robot's (±165°).
+  assert.deepEqual([Number(tables.bar1.min), Number(tables.bar1.max)], [-150, 150]);
+  assert.match(tables.bar1.text, /-150…150°/);
+  await spShot('11-safety-page');
+});
+
+test('safety: the validate dialog is disabled, saying why, for an observer and outside T1/T2 IDLE', async () => {
+  const page = safetyCell.page;
+  const why = () => sp(() => ({ disabled: document.getElementById('sp-validate').disabled, why: document.getElementById('sp-validate-why').textContent }));
+  let w = await why();
+  assert.equal(w.disabled, true, 'ESTOP_RESET_NEEDED in AUTO');
+  assert.match(w.why, /T1 or T2 \(now AUTO\)/);
+  assert.match(w.why, /IDLE/);
+  await page.click('#cmd-reset');
+  await page.click('#tab-operate'); // the simulated cell's panel is on the Operate page
+  await page.click('#sim-mode-t1');
+  await page.click('#tab-safety');
+  await until('T1 IDLE', async () => {
+    const s = await spStatus();
+    return s.state === 'IDLE' && s.mode === 'T1';
+  });
+  w = await until('the dialog enabled for the pendant in T1 IDLE', async () => ((await why()).disabled ? false : why()));
+  assert.equal(w.disabled, false);
+
+  // A second screen is an observer: same state, and its button stays disabled, saying why.
+  const obs = await safetyCell.ctx.newPage();
+  try {
+    await obs.goto(`http://127.0.0.1:${safetyCell.port}/`);
+    await until('the second screen is an observer', () => obs.evaluate(() => window.safestateHmi?.link?.role === 'observer'));
+    await obs.click('#tab-safety');
+    const o = await until('the observer sees T1 IDLE', () =>
+      obs.evaluate(() => (window.safestateHmi.status?.mode === 'T1' ? {
+        disabled: document.getElementById('sp-validate').disabled, why: document.getElementById('sp-validate-why').textContent,
+        checksum: document.getElementById('sp-checksum').textContent } : false)),
+    );
+    assert.equal(o.disabled, true, 'an observer may not validate');
+    assert.match(o.why, /read-only \(observer\)/);
+    assert.doesNotMatch(o.why, /T1 or T2|IDLE/, 'only the reason that applies');
+    assert.equal(o.checksum, safetyCell.checksum, 'an observer reads the checksum too');
+  } finally {
+    await obs.close();
+  }
+});
+
+test('safety: as the pendant in T1 IDLE, a wrong code is CHECKSUM_MISMATCH and the right one validates', async () => {
+  const page = safetyCell.page;
+  const { checksum } = safetyCell;
+  await page.click('#sp-validate');
+  await until('the dialog open', () => sp(() => document.getElementById('validate-dialog').open));
+  const wrong = checksum.slice(0, 7) + (checksum[7] === '0' ? '1' : '0');
+  await page.fill('#validate-code', '12345');
+  assert.match(await sp(() => document.getElementById('validate-problem').textContent), /5 of 8/);
+  assert.equal(await sp(() => document.getElementById('validate-send').disabled), true, 'an incomplete code is not sent');
+  await page.fill('#validate-code', wrong);
+  await page.click('#validate-send');
+  const r1 = await until('the reply to the wrong code', () =>
+    sp(() => { const r = document.getElementById('validate-result'); return r.dataset.result && r.dataset.result !== 'pending' ? { code: r.dataset.result, text: r.textContent } : false; }));
+  assert.equal(r1.code, 'CHECKSUM_MISMATCH', r1.text);
+  assert.match(r1.text, /nothing changed/);
+  await sleep(200);
+  assert.equal((await spStatus()).safety.validated, false, 'a wrong code changes nothing');
+  assert.equal(await sp(() => document.getElementById('sp-valid').dataset.validated), 'no');
+  await spShot('12-validate-mismatch');
+
+  await page.fill('#validate-code', checksum.toLowerCase()); // case does not matter
+  await page.click('#validate-send');
+  const r2 = await until('the reply to the right code', () =>
+    sp(() => { const r = document.getElementById('validate-result'); return r.dataset.result === 'OK' || r.dataset.result === 'CHECKSUM_MISMATCH' && r.textContent.includes(document.getElementById('sp-checksum').textContent) ? { code: r.dataset.result, text: r.textContent } : false; }));
+  assert.equal(r2.code, 'OK', r2.text);
+  const v = await until('validated on the page, with the confirmation', () =>
+    sp(() => {
+      const t = document.getElementById('sp-valid-text').textContent;
+      return document.getElementById('sp-valid').dataset.validated === 'yes' && /Confirmed by/.test(t)
+        ? { t, strip: document.getElementById('ss-valid').textContent } : false;
+    }));
+  assert.match(v.t, /Confirmed by "SafeState HMI"/);
+  assert.match(v.strip, /validated/);
+  await spShot('13-validated');
+  await page.click('#validate-close');
+  await until('the validation in the history', () =>
+    sp((c) => [...document.querySelectorAll('#event-list .event')].some((e) => e.textContent.includes(`${c} validated`)), checksum));
+});
+
+test('safety: zones and the tool sphere drawn in the 3D view; the drawn TCP is the tool TCP', async () => {
+  const page = safetyCell.page;
+  await page.click('#tab-operate');
+  const z = await until('the zones drawn', () =>
+    sp(() => (document.getElementById('arm').dataset.zones === '3' ? {
+      zones: window.safestateHmi.zones.map((x) => [x.name, x.kind]),
+      legend: [...document.querySelectorAll('#zone-legend .legend-item')].map((e) => e.textContent),
+    } : false)));
+  assert.deepEqual(z.zones, safetyCell.config.zones.map((x) => [x.name, x.kind]));
+  assert.deepEqual(z.legend, ['keep-in', 'keep-out', 'reduced', 'tool ⌀80 mm']);
+  const { view, status } = await sp(() => ({ view: window.safestateHmi.view, status: window.safestateHmi.status }));
+  for (let i = 0; i < 3; i++) {
+    assert.ok(Math.abs(view.tcp[i] - status.tcp[i]) < 0.5, `drawn TCP ${view.tcp} vs status.tcp ${status.tcp.slice(0, 3)} (tool [0, 0, 120])`);
+  }
+});
+
+const reducedIs = (want, by) => until(`reduced=${want}`, async () => {
+  const s = await spStatus();
+  return s.safety.reduced === want && (!by || s.safety.reduced_by.includes(by)) && s.alarms.includes('REDUCED_SPEED') === want ? s : false;
+}, 5000);
+
+test('safety: the simulated cell\'s reduced-speed input, both channels', async () => {
+  const page = safetyCell.page;
+  await page.click('#tab-operate');
+  await page.click('#sim-reduced-reduced');
+  await reducedIs(true, 'input');
+  await until('reduced speed by input in the strip', () => sp(() => /Reduced speed: input/.test(document.getElementById('ss-reduced').textContent)), 3000);
+  // The monitor applies the reduced limit once reduced.ramp_ms (500 ms) has passed.
+  await until('the reduced limit in force in the strip', () => sp(() => /TCP ≤ 250 mm\/s/.test(document.getElementById('ss-limit').textContent)), 3000);
+  await page.click('#sim-reduced-normal');
+  await reducedIs(false);
+});
+
+test('safety: a runaway into the keep-out zone is highlighted with its name', async () => {
+  const page = safetyCell.page;
+  await page.click('#sim-mode-auto');
+  await until('AUTO IDLE', async () => { const s = await spStatus(); return s.mode === 'AUTO' && s.state === 'IDLE'; });
+  await page.click('#cmd-servo-on');
+  await until('AUTO_IDLE (validated: AUTO allowed)', async () => (await spStatus()).sub === 'AUTO_IDLE', 10000).catch(async (e) => {
+    throw new Error(`${e.message}; ${JSON.stringify(await spStatus())}; ${JSON.stringify((await sp(() => window.safestateHmi.outcomes)).slice(-3))}`);
+  });
+  await page.selectOption('#sim-axis', '1');
+  await page.click('#sim-drive-runaway');
+  const s = await until('ZONE_VIOLATION, Cat 0 to IDLE', async () => {
+    const x = await spStatus();
+    return x.state === 'IDLE' && x.alarms.includes('ZONE_VIOLATION') ? x : false;
+  }, 10000).catch(async (e) => {
+    throw new Error(`${e.message}; ${JSON.stringify(await spStatus())}`);
+  });
+  assert.ok(!s.alarms.includes('DRIVE_FAULT'), `the zone monitor trips first: ${s.alarms}`);
+  const h = await until('the fixture highlighted', () =>
+    sp(() => (document.getElementById('arm').dataset.zonesViolated === 'fixture' ? {
+      strip: document.getElementById('ss-violation').textContent,
+      zones: window.safestateHmi.zones.filter((z) => z.violated).map((z) => z.name),
+    } : false)));
+  assert.deepEqual(h.zones, ['fixture']);
+  assert.match(h.strip, /ZONE_VIOLATION · zone fixture/);
+  await spShot('14-zone-violation-3d');
+  await page.click('#tab-safety');
+  const p = await sp(() => ({
+    row: document.getElementById('sp-zone-1').classList.contains('violated'),
+    others: [0, 2].map((i) => document.getElementById(`sp-zone-${i}`).classList.contains('violated')),
+    box: document.getElementById('sp-violations').hidden ? '' : document.getElementById('sp-violations').textContent,
+  }));
+  assert.equal(p.row, true, 'the fixture row is marked');
+  assert.deepEqual(p.others, [false, false]);
+  assert.match(p.box, /ZONE_VIOLATION · zone fixture/);
+  await spShot('15-zone-violation-safety-page');
+
+  // Reset: the alarm goes, the arm is still in the zone: recovery.
+  await page.click('#tab-operate');
+  await page.click('#sim-clear-all');
+  await page.click('#cmd-reset');
+  await until('recovery shown, highlight gone', () =>
+    sp(() => document.getElementById('sp-recovery').textContent === 'YES' && document.getElementById('arm').dataset.zonesViolated === ''));
+  assert.deepEqual(safetyCell.errors, [], 'no script errors on the page');
+});
+
+test('safety: one reduced-speed channel alone: reduced speed stays on (the safe side), also once it closes', async () => {
+  const page = safetyCell.page;
+  await page.click('#tab-operate');
+  await page.click('#sim-reduced-a');
+  await reducedIs(true, 'input');
+  await until('channel A shown open alone', () => sp(() => /A open, B closed/.test(document.getElementById('sim-reduced-note').textContent)), 3000);
+  await sleep(200); // longer than the discrepancy time (50 ms)
+  await page.click('#sim-reduced-a');
+  await until('channel A shown closed again', () => sp(() => /A closed, B closed/.test(document.getElementById('sim-reduced-note').textContent)));
+  await sleep(300);
+  const s = await reducedIs(true, 'input'); // SPEC §10: a discrepancy keeps reduced mode on, no lockout
+  assert.notEqual(s.state, 'ERROR_LOCKOUT');
+  assert.deepEqual(safetyCell.errors, [], 'no script errors on the page');
+});
+
+test('safety: safestate run --safety stops on SIGINT with exit 0', async () => {
+  await safetyCell.ctx?.close();
+  safetyCell.ctx = null;
+  safetyCell.proc.kill('SIGINT');
+  const r = await Promise.race([safetyCell.exit, sleep(15000).then(() => ({ code: 'timeout' }))]);
+  assert.equal(r.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(safetyCell.logPath, 'utf8').slice(-2000)}`);
 });

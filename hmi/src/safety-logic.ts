@@ -1,0 +1,234 @@
+// The pure rules behind the Safety page (SPEC §10): when the validate dialog may send, what
+// a typed code is, which limit an alarm names (for the highlight), where a joint stands in
+// its configured range, and the zone colours shared by the 3D view and its legend.
+// No DOM and no value imports: hmi/tests/safety-logic.test.mjs loads this very file
+// (types stripped) under `node --test`.
+import type { Alarm, Mode, SafetyJoint, State, ZoneKind } from './api';
+
+// ------------------------------------------------------------------ validate dialog
+export interface Gate {
+  enabled: boolean;
+  /** Every condition that is not met, in words (empty when enabled). */
+  reasons: string[];
+}
+
+export interface GateInput {
+  connected: boolean;
+  role: 'pendant' | 'observer' | null;
+  state: State | null;
+  mode: Mode | null;
+  /** The status carries a `safety` object (a gateway that predates SPEC §10 does not). */
+  hasSafety: boolean;
+}
+
+/** SPEC §10: `validate_config` from the pendant, in IDLE with mode T1 or T2. */
+export function validateGate(g: GateInput): Gate {
+  const reasons: string[] = [];
+  if (!g.connected || g.state === null) {
+    reasons.push('Not connected to the controller.');
+    return { enabled: false, reasons };
+  }
+  if (g.role !== 'pendant') {
+    reasons.push('This screen is read-only (observer): only the pendant that has control may validate.');
+  }
+  if (g.mode !== 'T1' && g.mode !== 'T2') {
+    reasons.push(`Turn the key switch to T1 or T2 (now ${g.mode ?? 'unknown'}).`);
+  }
+  if (g.state !== 'IDLE') {
+    reasons.push(`Only in IDLE, with the drives off (now ${g.state}).`);
+  }
+  if (!g.hasSafety) {
+    reasons.push('The controller does not report a safety configuration.');
+  }
+  return { enabled: reasons.length === 0, reasons };
+}
+
+export interface TypedCode {
+  /** The code to send (8 upper-case hex digits), or null when `problem` says why not. */
+  code: string | null;
+  problem: string;
+}
+
+/** What the operator typed: spaces are ignored and lower case is the same digit. */
+export function typedCode(text: string): TypedCode {
+  const t = text.replace(/\s+/g, '').toUpperCase();
+  if (t.length === 0) return { code: null, problem: 'Type the 8 hex digits of the checksum.' };
+  const bad = [...t].find((ch) => !/[0-9A-F]/.test(ch));
+  if (bad !== undefined) return { code: null, problem: `"${bad}" is not a hex digit (0–9, A–F).` };
+  if (t.length !== 8) return { code: null, problem: `${t.length} of 8 digits.` };
+  return { code: t, problem: '' };
+}
+
+/** The reply to validate_config in words (SPEC §5 results). */
+export function validateReplyWords(result: string, code: string): { tone: 'ok' | 'refused' | 'failed'; text: string } {
+  switch (result) {
+    case 'OK':
+      return { tone: 'ok', text: `Validated: the controller confirmed checksum ${code} and wrote it to the event log.` };
+    case 'CHECKSUM_MISMATCH':
+      return {
+        tone: 'refused',
+        text: `${code} is not the checksum of the active configuration: nothing changed. Check that the loaded configuration is the approved one.`,
+      };
+    case 'WRONG_STATE':
+      return { tone: 'refused', text: 'Refused: validation is only possible in IDLE with the drives off.' };
+    case 'MODE_INVALID':
+      return { tone: 'refused', text: 'Refused: validation needs the key switch at T1 or T2.' };
+    case 'NOT_CONTROL_OWNER':
+      return { tone: 'refused', text: 'Refused: only the pendant that has control may validate.' };
+    case 'BAD_ARGUMENT':
+      return { tone: 'refused', text: 'Refused: the code must be 8 hex digits.' };
+    case 'NOT_SENT':
+      return { tone: 'failed', text: 'Not sent: there is no connection to the controller.' };
+    case 'NO_REPLY':
+      return { tone: 'failed', text: 'No answer from the controller: check the Safety page before trying again.' };
+    default:
+      return { tone: 'refused', text: `Refused: ${result}.` };
+  }
+}
+
+// ------------------------------------------------------------------ violated limits
+export const LIMIT_ALARMS = ['JOINT_LIMIT', 'ZONE_VIOLATION', 'ORIENTATION_LIMIT', 'SPEED_LIMIT'] as const;
+
+export interface Violation {
+  alarm: string;
+  axis: number | null; // 1..6
+  zone: number | null; // index in config.zones
+  tcp: boolean;
+  /** "axis 3", "zone table", "TCP", "tool orientation", or "" while the detail is not known. */
+  what: string;
+}
+
+export interface Highlight {
+  violations: Violation[];
+  joints: number[]; // axes (1..6) whose range or speed is violated
+  zones: number[]; // zone indices violated
+  tcp: boolean; // the TCP speed limit
+  orientation: boolean;
+  /** Reduced zones that make reduced mode active now (REDUCED_SPEED from a zone). */
+  activeZones: number[];
+}
+
+type AlarmLike = Pick<Alarm, 'name' | 'detail'> & { subject?: string };
+
+/** Which axis, zone or TCP an alarm names: from its `subject` (the scenario vocabulary:
+ * axis.N, tcp, the zone's name), else from its words ("Axis 3 …", "Zone table …",
+ * "Zone 2 …", "TCP …"). */
+export function subjectOf(a: AlarmLike, zoneNames: readonly string[]): { axis: number | null; zone: number | null; tcp: boolean } {
+  const none = { axis: null, zone: null, tcp: false };
+  const sub = (a.subject ?? '').trim();
+  if (sub) {
+    const m = /^axis\.([1-6])$/.exec(sub);
+    if (m) return { ...none, axis: Number(m[1]) };
+    if (sub === 'tcp') return { ...none, tcp: true };
+    const z = zoneNames.indexOf(sub);
+    if (z >= 0) return { ...none, zone: z };
+  }
+  const d = a.detail ?? '';
+  const axis = /\bAxis ([1-6])\b/.exec(d);
+  if (axis) return { ...none, axis: Number(axis[1]) };
+  if (/\bTCP\b/.test(d)) return { ...none, tcp: true };
+  // "Zone table (keep-out) violated": the longest zone name that follows "Zone ".
+  let best = -1;
+  zoneNames.forEach((n, i) => {
+    if (d.includes(`Zone ${n}`) && (best < 0 || n.length > zoneNames[best].length)) best = i;
+  });
+  if (best >= 0) return { ...none, zone: best };
+  const num = /\bZone (\d+)\b/.exec(d); // the core's own words: 1-based
+  if (num && Number(num[1]) >= 1 && Number(num[1]) <= zoneNames.length) return { ...none, zone: Number(num[1]) - 1 };
+  return none;
+}
+
+/** The violated limits among the active alarms. `names` are status.alarms (always current);
+ * `alarms` the objects of /api/alarms (with the detail; may lag a moment behind). */
+export function highlights(names: readonly string[], alarms: readonly AlarmLike[], zoneNames: readonly string[]): Highlight {
+  const h: Highlight = { violations: [], joints: [], zones: [], tcp: false, orientation: false, activeZones: [] };
+  const add = <T>(list: T[], v: T) => {
+    if (!list.includes(v)) list.push(v);
+  };
+  for (const name of names) {
+    if (name === 'REDUCED_SPEED') {
+      for (const a of alarms.filter((x) => x.name === name)) {
+        const s = subjectOf(a, zoneNames);
+        if (s.zone !== null) add(h.activeZones, s.zone);
+      }
+      continue;
+    }
+    if (!(LIMIT_ALARMS as readonly string[]).includes(name)) continue;
+    const objs = alarms.filter((x) => x.name === name);
+    if (objs.length === 0) objs.push({ name, detail: '' });
+    for (const a of objs) {
+      const s = subjectOf(a, zoneNames);
+      const v: Violation = { alarm: name, ...s, what: '' };
+      if (name === 'ORIENTATION_LIMIT') {
+        v.what = 'tool orientation';
+        h.orientation = true;
+      } else if (s.axis !== null) {
+        v.what = `axis ${s.axis}`;
+        add(h.joints, s.axis);
+      } else if (s.zone !== null) {
+        v.what = `zone ${zoneNames[s.zone]}`;
+        add(h.zones, s.zone);
+      } else if (s.tcp) {
+        v.what = 'TCP';
+        h.tcp = true;
+      }
+      h.violations.push(v);
+    }
+  }
+  return h;
+}
+
+/** One line naming a violation: "ZONE_VIOLATION · zone table". */
+export function violationLabel(v: Violation): string {
+  return v.what ? `${v.alarm} · ${v.what}` : v.alarm;
+}
+
+// ------------------------------------------------------------------ joint bars
+export interface BarGeometry {
+  /** The configured range within the robot's own, as fractions 0..1 of the bar. */
+  lo: number;
+  hi: number;
+  /** The joint's position as a fraction of the bar (clamped). */
+  at: number;
+  where: 'inside' | 'near' | 'outside';
+}
+
+const clamp01 = (x: number) => Math.min(1, Math.max(0, x));
+const DEG = 180 / Math.PI;
+
+/** Where joint position `q` (rad) stands: the bar spans the robot's range [rMin, rMax]
+ * (rad); `cfg` is the configured safe range (degrees), or null (then the robot's). Near:
+ * within 3 % of the configured span or 2° of either end. */
+export function barGeometry(q: number, rMin: number, rMax: number, cfg: SafetyJoint | null): BarGeometry {
+  const span = rMax - rMin || 1;
+  const cMin = cfg ? cfg.min_deg / DEG : rMin;
+  const cMax = cfg ? cfg.max_deg / DEG : rMax;
+  const lo = clamp01((cMin - rMin) / span);
+  const hi = clamp01((cMax - rMin) / span);
+  const at = clamp01((q - rMin) / span);
+  const near = Math.max(0.03 * (cMax - cMin), 2 / DEG);
+  let where: BarGeometry['where'] = 'inside';
+  if (q < cMin || q > cMax) where = 'outside';
+  else if (q - cMin < near || cMax - q < near) where = 'near';
+  return { lo, hi, at, where };
+}
+
+// ------------------------------------------------------------------ zones and reduced mode
+export const ZONE_STYLE: Record<ZoneKind, { color: string; label: string; words: string }> = {
+  keep_in: { color: '#43a047', label: 'keep-in', words: 'the arm must stay inside' },
+  keep_out: { color: '#e53935', label: 'keep-out', words: 'the arm must stay outside' },
+  reduced: { color: '#ffb300', label: 'reduced', words: 'reduced speed inside' },
+};
+
+export const REDUCED_BY_WORDS: Record<string, string> = {
+  zone: 'the TCP is in a reduced zone',
+  input: 'the reduced-speed input asks for it',
+  field: 'the outer protective field is interrupted',
+};
+
+/** Why reduced mode is on, in words ("" when it is off). */
+export function reducedWords(reduced: boolean, by: readonly string[]): string {
+  if (!reduced) return '';
+  const why = by.map((b) => REDUCED_BY_WORDS[b] ?? b);
+  return why.length ? `because ${why.join(' and ')}` : 'reason not reported';
+}

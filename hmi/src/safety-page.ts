@@ -1,0 +1,430 @@
+// The Safety page (SPEC §10): the active safety configuration as the controller holds it
+// (GET /api/safety), its checksum large enough to read from a metre away, validated or not
+// (status.safety, live), the limits (joints, TCP speeds, tool, orientation, zones), reduced
+// mode and why, recovery, the violated limits named; and the validate dialog, where the
+// operator types the checksum from the approved configuration record (`validate_config`,
+// pendant only, IDLE, T1/T2: safety-logic.ts says when and why not).
+// Also the strip under the banner that shows checksum, validated and reduced on every page.
+import type { SafetyInfo, Status } from './api';
+import type { Link, LinkState, Role } from './connection';
+import { clockTime, deg, h, setAttr, setText, toggleClass } from './dom';
+import {
+  type Highlight,
+  reducedWords,
+  typedCode,
+  validateGate,
+  validateReplyWords,
+  violationLabel,
+  ZONE_STYLE,
+} from './safety-logic';
+
+const fmt = (v: number, digits = 0) => (Number.isFinite(v) ? v.toFixed(digits) : '—');
+const vec = (v: number[] | undefined) => (v ? `[${v.map((x) => fmt(x, Number.isInteger(x) ? 0 : 1)).join(', ')}]` : '—');
+
+export class SafetyPage {
+  readonly el: HTMLElement;
+  readonly strip: HTMLElement;
+  readonly dialog: HTMLDialogElement;
+  private info: SafetyInfo | null = null;
+  private infoError = '';
+  private status: Status | null = null;
+  private role: Role = null;
+  private linkState: LinkState = 'closed';
+  private hl: Highlight | null = null;
+  private pendingSeq: number | null = null;
+  private lastKey = '';
+  private e: Record<string, HTMLElement> = {};
+
+  constructor(private readonly link: Link) {
+    const el = (id: string, tag: keyof HTMLElementTagNameMap = 'div', cls = '', text = '') => {
+      const x = h(tag, { id, class: cls }, text);
+      this.e[id] = x;
+      return x;
+    };
+    // ------------------------------------------------------------ strip
+    this.strip = h(
+      'button',
+      { type: 'button', class: 'safety-strip', id: 'safety-strip', title: 'Open the Safety page' },
+      h('span', { class: 'ss-label' }, 'Safety'),
+      el('ss-checksum', 'b', 'ss-checksum', '—'),
+      el('ss-valid', 'span', 'ss-valid', 'unknown'),
+      el('ss-violation', 'span', 'ss-violation', ''),
+      el('ss-reduced', 'span', 'ss-reduced', ''),
+      el('ss-limit', 'span', 'ss-limit', ''),
+    );
+
+    // ------------------------------------------------------------ page
+    const validateBtn = h('button', { type: 'button', class: 'btn primary', id: 'sp-validate' }, 'Validate…') as HTMLButtonElement;
+    validateBtn.addEventListener('click', () => this.openDialog());
+    this.e['sp-validate'] = validateBtn;
+    this.el = h(
+      'div',
+      { class: 'safety-page-inner' },
+      h(
+        'div',
+        { class: 'sp-top' },
+        h(
+          'div',
+          { class: 'sp-id' },
+          h('h2', {}, 'Safety configuration'),
+          el('sp-name', 'div', 'sp-name', 'Loading…'),
+          el('sp-source', 'div', 'sp-source', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-checksum-box' },
+          h('div', { class: 'sp-label' }, 'Checksum'),
+          el('sp-checksum', 'div', 'sp-checksum', '—'),
+        ),
+        (this.e['sp-valid'] = h(
+          'div',
+          { class: 'sp-valid', id: 'sp-valid', 'data-validated': 'unknown' },
+          el('sp-valid-word', 'div', 'sp-valid-word', '—'),
+          el('sp-valid-text', 'div', 'sp-valid-text', ''),
+          h('div', { class: 'sp-validate-line' }, validateBtn, el('sp-validate-why', 'div', 'sp-why', '')),
+        )),
+      ),
+      el('sp-violations', 'div', 'sp-violations', ''),
+      h(
+        'div',
+        { class: 'sp-now' },
+        h('div', { class: 'sp-card' }, h('div', { class: 'sp-label' }, 'TCP speed limit now'), el('sp-limit', 'div', 'sp-big', '—')),
+        h(
+          'div',
+          { class: 'sp-card', id: 'sp-reduced-card' },
+          h('div', { class: 'sp-label' }, 'Reduced speed'),
+          el('sp-reduced', 'div', 'sp-big', '—'),
+          el('sp-reduced-why', 'div', 'sp-small', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card', id: 'sp-recovery-card' },
+          h('div', { class: 'sp-label' }, 'Recovery'),
+          el('sp-recovery', 'div', 'sp-big', '—'),
+          el('sp-recovery-why', 'div', 'sp-small', ''),
+        ),
+      ),
+      h(
+        'div',
+        { class: 'sp-cols' },
+        h(
+          'div',
+          { class: 'sp-col' },
+          h('h3', {}, 'Joint limits'),
+          el('sp-joints', 'table', 'sp-table'),
+        ),
+        h(
+          'div',
+          { class: 'sp-col' },
+          h('h3', {}, 'Zones (base frame, mm)'),
+          el('sp-zones', 'table', 'sp-table'),
+          el('sp-legend', 'div', 'sp-legend'),
+          h('h3', {}, 'TCP, tool, orientation, stop'),
+          el('sp-tcp', 'dl', 'sp-dl'),
+        ),
+      ),
+    );
+
+    // ------------------------------------------------------------ dialog
+    const input = h('input', {
+      id: 'validate-code',
+      type: 'text',
+      autocomplete: 'off',
+      spellcheck: 'false',
+      maxlength: 12,
+      placeholder: '8 hex digits',
+      'aria-label': 'Checksum (8 hex digits)',
+    }) as HTMLInputElement;
+    input.addEventListener('input', () => this.renderDialog());
+    input.addEventListener('keydown', (ev) => {
+      if (ev.key === 'Enter') {
+        ev.preventDefault();
+        this.send();
+      }
+    });
+    this.e['validate-code'] = input;
+    const send = h('button', { type: 'button', class: 'btn primary', id: 'validate-send' }, 'Validate') as HTMLButtonElement;
+    send.addEventListener('click', () => this.send());
+    this.e['validate-send'] = send;
+    const close = h('button', { type: 'button', class: 'btn', id: 'validate-close' }, 'Close');
+    close.addEventListener('click', () => this.dialog.close());
+    this.dialog = h(
+      'dialog',
+      { id: 'validate-dialog', class: 'validate-dialog' },
+      h('h2', {}, 'Validate the safety configuration'),
+      h(
+        'p',
+        {},
+        'Type the checksum written on the approved configuration record (the one the safety engineer signed, from ',
+        h('code', {}, 'safestate safety check'),
+        '), not the one on this screen. If they match, the controller runs the approved limits.',
+      ),
+      el('validate-config', 'p', 'vd-config', ''),
+      input,
+      el('validate-problem', 'div', 'vd-problem', ''),
+      el('validate-why', 'div', 'vd-why', ''),
+      el('validate-result', 'div', 'vd-result', ''),
+      h('div', { class: 'dialog-actions' }, send, close),
+    ) as HTMLDialogElement;
+  }
+
+  setInfo(info: SafetyInfo | null, error = ''): void {
+    this.info = info;
+    this.infoError = error;
+    this.lastKey = '';
+    this.renderConfig();
+    this.render();
+  }
+
+  get config(): SafetyInfo['config'] | null {
+    return this.info?.config ?? null;
+  }
+
+  update(s: Status | null, role: Role, linkState: LinkState): void {
+    this.status = s;
+    this.role = role;
+    this.linkState = linkState;
+    this.render();
+  }
+
+  setHighlight(hl: Highlight): void {
+    this.hl = hl;
+    this.render();
+  }
+
+  // ------------------------------------------------------------ rendering
+  private render(): void {
+    const s = this.status;
+    const sf = s?.safety;
+    const info = this.info;
+    const checksum = sf?.checksum ?? info?.checksum ?? '—';
+    const validated = sf ? sf.validated : info ? info.validated : null;
+    const v = validated === null ? 'unknown' : validated ? 'yes' : 'no';
+
+    // strip
+    setText(this.e['ss-checksum'], checksum);
+    setText(this.e['ss-valid'], validated === null ? 'not reported' : validated ? '✓ validated' : '✗ NOT validated');
+    setAttr(this.e['ss-valid'], 'data-validated', v);
+    setAttr(this.strip, 'data-validated', v);
+    setText(this.e['ss-reduced'], sf?.reduced ? `Reduced speed: ${sf.reduced_by.join(' + ') || 'on'}` : sf ? 'Normal speed' : '');
+    toggleClass(this.e['ss-reduced'], 'on', !!sf?.reduced);
+    setText(this.e['ss-limit'], sf ? `TCP ≤ ${fmt(sf.speed_limit)} mm/s` : '');
+    const viol = this.hl?.violations ?? [];
+    setText(this.e['ss-violation'], viol.length ? `Violated: ${viol.map(violationLabel).join(', ')}` : sf?.recovery ? 'Recovery: a limit is violated' : '');
+    toggleClass(this.e['ss-violation'], 'on', viol.length > 0 || !!sf?.recovery);
+
+    // page head
+    setText(this.e['sp-checksum'], checksum);
+    setAttr(this.e['sp-valid'], 'data-validated', v);
+    setText(this.e['sp-valid-word'], validated === null ? 'VALIDATION NOT REPORTED' : validated ? 'VALIDATED' : 'NOT VALIDATED');
+    let vt = '';
+    if (validated && info?.confirmation && info.confirmation.checksum === checksum) {
+      const at = new Date(info.confirmation.time);
+      const day = `${at.getFullYear()}-${String(at.getMonth() + 1).padStart(2, '0')}-${String(at.getDate()).padStart(2, '0')}`;
+      vt = Number.isNaN(at.getTime())
+        ? `Confirmed by "${info.confirmation.client}".`
+        : `Confirmed by "${info.confirmation.client}" on ${day} at ${clockTime(at)}.`;
+    } else if (validated) {
+      vt = info?.source === 'built-in' ? 'The built-in configuration counts as validated.' : 'Confirmed.';
+    } else if (validated === false) {
+      vt = 'AUTO and T2 are refused until an operator confirms this checksum (T1 stays allowed for commissioning).';
+      if (info?.confirmation) vt += ` The last confirmation in the log was for ${info.confirmation.checksum}.`;
+    } else {
+      vt = 'This controller does not report whether its configuration is validated.';
+    }
+    setText(this.e['sp-valid-text'], vt);
+
+    const gate = validateGate({
+      connected: this.linkState === 'open',
+      role: this.role,
+      state: s?.state ?? null,
+      mode: s?.mode ?? null,
+      hasSafety: !!sf,
+    });
+    const btn = this.e['sp-validate'] as HTMLButtonElement;
+    btn.disabled = !gate.enabled;
+    setText(btn, validated ? 'Validate again…' : 'Validate…');
+    setText(this.e['sp-validate-why'], gate.enabled ? 'Type the checksum from the approved record.' : `Disabled: ${gate.reasons.join(' ')}`);
+    setAttr(this.e['sp-validate-why'], 'data-enabled', gate.enabled ? 'yes' : 'no');
+
+    // violations
+    const vbox = this.e['sp-violations'];
+    if (viol.length) {
+      vbox.hidden = false;
+      setText(vbox, `Violated limit: ${viol.map(violationLabel).join(', ')}. Reset, then in T1 jog back out of it.`);
+    } else {
+      vbox.hidden = true;
+    }
+
+    // now
+    setText(this.e['sp-limit'], sf ? `${fmt(sf.speed_limit)} mm/s` : '—');
+    setText(this.e['sp-reduced'], sf ? (sf.reduced ? 'ON' : 'off') : '—');
+    toggleClass(this.e['sp-reduced'], 'warn', !!sf?.reduced);
+    setText(this.e['sp-reduced-why'], sf?.reduced ? reducedWords(true, sf.reduced_by) : 'Normal speed limits apply.');
+    setText(this.e['sp-recovery'], sf ? (sf.recovery ? 'YES' : 'no') : '—');
+    toggleClass(this.e['sp-recovery'], 'warn', !!sf?.recovery);
+    setText(
+      this.e['sp-recovery-why'],
+      sf?.recovery
+        ? 'A limit is violated: in T1, Servo on is allowed and only motion back toward the limits; AUTO/T2 refuse Servo on.'
+        : 'No limit violated.',
+    );
+
+    // live cells of the tables
+    const key = `${this.hl?.joints.join()}|${this.hl?.zones.join()}|${this.hl?.activeZones.join()}`;
+    if (key !== this.lastKey) {
+      this.lastKey = key;
+      this.markTables();
+    }
+    if (s && info) {
+      s.joints.forEach((q, i) => {
+        const cell = document.getElementById(`sp-joint-now-${i + 1}`);
+        if (cell) setText(cell, `${deg(q).toFixed(1)}°`);
+      });
+    }
+    this.renderDialog();
+  }
+
+  private renderConfig(): void {
+    const info = this.info;
+    const joints = this.e['sp-joints'];
+    const zones = this.e['sp-zones'];
+    const tcp = this.e['sp-tcp'];
+    if (!info) {
+      setText(this.e['sp-name'], this.infoError ? `Not available: ${this.infoError}` : 'Loading…');
+      setText(this.e['sp-source'], '');
+      joints.replaceChildren();
+      zones.replaceChildren();
+      tcp.replaceChildren();
+      return;
+    }
+    const c = info.config;
+    setText(this.e['sp-name'], info.name);
+    setText(this.e['sp-source'], info.source === 'built-in' ? 'built-in configuration (no --safety file)' : `file: ${info.source}`);
+    setText(this.e['validate-config'], `Active configuration: ${info.name} (${info.source})`);
+    joints.replaceChildren(
+      h('thead', {}, h('tr', {}, ...['Axis', 'min °', 'max °', 'max °/s', 'now'].map((t) => h('th', {}, t)))),
+      h(
+        'tbody',
+        {},
+        ...c.joints.map((j, i) =>
+          h(
+            'tr',
+            { id: `sp-joint-${i + 1}` },
+            h('td', {}, `J${i + 1}`),
+            h('td', {}, fmt(j.min_deg, Number.isInteger(j.min_deg) ? 0 : 1)),
+            h('td', {}, fmt(j.max_deg, Number.isInteger(j.max_deg) ? 0 : 1)),
+            h('td', {}, fmt(j.max_speed_deg_s)),
+            h('td', { id: `sp-joint-now-${i + 1}` }, '—'),
+          ),
+        ),
+      ),
+    );
+    const o = c.orientation;
+    const row = (k: string, v: string) => [h('dt', {}, k), h('dd', {}, v)];
+    tcp.replaceChildren(
+      ...row('TCP max speed', `${fmt(c.tcp_max_speed_mm_s)} mm/s`),
+      ...row('Reduced', `${fmt(c.reduced.tcp_max_speed_mm_s)} mm/s, reached within ${fmt(c.reduced.ramp_ms)} ms`),
+      ...row('Tool TCP', `${vec(c.tool.tcp_mm)} mm (flange frame)`),
+      ...row('Tool sphere', `radius ${fmt(c.tool.radius_mm)} mm, payload ${c.tool.payload_kg} kg`),
+      ...row('Orientation', o ? `tool z within ${fmt(o.max_deviation_deg)}° of ${vec(o.axis)}` : 'no limit'),
+      ...row('Stop time', `≤ ${fmt(c.stop.max_time_ms)} ms`),
+    );
+    tcp.querySelectorAll('dd')[4]?.setAttribute('id', 'sp-orientation');
+    tcp.querySelectorAll('dd')[0]?.setAttribute('id', 'sp-tcp-speed');
+    if (c.zones.length === 0) {
+      zones.replaceChildren(h('tbody', {}, h('tr', {}, h('td', { class: 'empty' }, 'No zones configured.'))));
+    } else {
+      zones.replaceChildren(
+        h('thead', {}, h('tr', {}, ...['', 'Name', 'Kind', 'min [x, y, z]', 'max [x, y, z]'].map((t) => h('th', {}, t)))),
+        h(
+          'tbody',
+          {},
+          ...c.zones.map((z, i) =>
+            h(
+              'tr',
+              { id: `sp-zone-${i}`, 'data-zone': z.name, 'data-kind': z.kind },
+              h('td', {}, h('span', { class: 'swatch', style: `--c: ${ZONE_STYLE[z.kind]?.color ?? '#999'}` })),
+              h('td', { class: 'zone-name' }, z.name),
+              h('td', {}, ZONE_STYLE[z.kind]?.label ?? z.kind),
+              h('td', {}, vec(z.min_mm)),
+              h('td', {}, vec(z.max_mm)),
+            ),
+          ),
+        ),
+      );
+    }
+    this.e['sp-legend'].replaceChildren(
+      ...Object.values(ZONE_STYLE).map((st) =>
+        h('span', { class: 'legend-item' }, h('span', { class: 'swatch', style: `--c: ${st.color}` }), `${st.label}: ${st.words}`),
+      ),
+    );
+    this.markTables();
+  }
+
+  private markTables(): void {
+    const hl = this.hl;
+    for (let a = 1; a <= 6; a++) {
+      const tr = document.getElementById(`sp-joint-${a}`);
+      if (tr) toggleClass(tr, 'violated', !!hl?.joints.includes(a));
+    }
+    this.info?.config.zones.forEach((_, i) => {
+      const tr = document.getElementById(`sp-zone-${i}`);
+      if (!tr) return;
+      toggleClass(tr, 'violated', !!hl?.zones.includes(i));
+      toggleClass(tr, 'active', !!hl?.activeZones.includes(i));
+    });
+    const or = document.getElementById('sp-orientation');
+    if (or) toggleClass(or, 'violated', !!hl?.orientation);
+    const sp = document.getElementById('sp-tcp-speed');
+    if (sp) toggleClass(sp, 'violated', !!hl?.tcp);
+  }
+
+  // ------------------------------------------------------------ dialog
+  private openDialog(): void {
+    setText(this.e['validate-result'], '');
+    setAttr(this.e['validate-result'], 'data-result', null);
+    (this.e['validate-code'] as HTMLInputElement).value = '';
+    if (!this.dialog.open) this.dialog.showModal();
+    this.renderDialog();
+    (this.e['validate-code'] as HTMLInputElement).focus();
+  }
+
+  private gateNow() {
+    return validateGate({
+      connected: this.linkState === 'open',
+      role: this.role,
+      state: this.status?.state ?? null,
+      mode: this.status?.mode ?? null,
+      hasSafety: !!this.status?.safety,
+    });
+  }
+
+  private renderDialog(): void {
+    if (!this.dialog.open) return;
+    const gate = this.gateNow();
+    const typed = typedCode((this.e['validate-code'] as HTMLInputElement).value);
+    setText(this.e['validate-problem'], typed.problem);
+    setText(this.e['validate-why'], gate.enabled ? '' : `Cannot validate now: ${gate.reasons.join(' ')}`);
+    (this.e['validate-send'] as HTMLButtonElement).disabled = !gate.enabled || typed.code === null || this.pendingSeq !== null;
+  }
+
+  private send(): void {
+    const typed = typedCode((this.e['validate-code'] as HTMLInputElement).value);
+    if (!this.gateNow().enabled || typed.code === null || this.pendingSeq !== null) return;
+    const code = typed.code;
+    const result = this.e['validate-result'];
+    setText(result, `Sending ${code}…`);
+    setAttr(result, 'data-result', 'pending');
+    this.pendingSeq = this.link.command('validate_config', { code }, 'all', (o) => {
+      this.pendingSeq = null;
+      const w = validateReplyWords(o.result, code);
+      result.replaceChildren(h('b', { class: 'vd-code' }, o.result), ' ', w.text);
+      setAttr(result, 'data-result', o.result);
+      setAttr(result, 'data-tone', w.tone);
+      if (o.result === 'OK') (this.e['validate-code'] as HTMLInputElement).value = '';
+      this.renderDialog();
+    });
+    this.renderDialog();
+  }
+}

@@ -1,0 +1,137 @@
+// The pure rules of the Safety page (hmi/src/safety-logic.ts), unit-level: the very source
+// file with its types stripped by Vite's own transform (hmi/node_modules), no build.
+// Run: node --test hmi/tests/safety-logic.test.mjs
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { transformWithOxc } from 'vite';
+
+const file = new URL('../src/safety-logic.ts', import.meta.url);
+const { code } = await transformWithOxc(readFileSync(file, 'utf8'), file.pathname);
+const L = await import(`data:text/javascript,${encodeURIComponent(code)}`);
+
+const gate = (over) => L.validateGate({ connected: true, role: 'pendant', state: 'IDLE', mode: 'T1', hasSafety: true, ...over });
+
+test('validate: enabled only for the pendant, in IDLE, with T1 or T2', () => {
+  assert.deepEqual(gate({}), { enabled: true, reasons: [] });
+  assert.equal(gate({ mode: 'T2' }).enabled, true);
+  for (const over of [
+    { role: 'observer' },
+    { role: null },
+    { mode: 'AUTO' },
+    { mode: 'NONE' },
+    { state: 'OPERATIONAL' },
+    { state: 'ESTOP_RESET_NEEDED' },
+    { state: 'ARMING' },
+    { connected: false },
+    { hasSafety: false },
+  ]) {
+    const g = gate(over);
+    assert.equal(g.enabled, false, JSON.stringify(over));
+    assert.ok(g.reasons.length >= 1, JSON.stringify(over));
+  }
+});
+
+test('validate: the reasons say what is wrong, every one of them', () => {
+  assert.match(gate({ role: 'observer' }).reasons.join(' '), /read-only.*pendant/i);
+  assert.match(gate({ mode: 'AUTO' }).reasons.join(' '), /T1 or T2 \(now AUTO\)/);
+  assert.match(gate({ state: 'OPERATIONAL' }).reasons.join(' '), /IDLE.*now OPERATIONAL/);
+  const all = gate({ role: 'observer', mode: 'AUTO', state: 'OPERATIONAL' });
+  assert.equal(all.reasons.length, 3, all.reasons.join(' | '));
+  assert.deepEqual(gate({ connected: false }).reasons, ['Not connected to the controller.']);
+});
+
+test('the typed code: 8 hex digits, case and spaces do not matter', () => {
+  assert.deepEqual(L.typedCode('3ad9012b'), { code: '3AD9012B', problem: '' });
+  assert.deepEqual(L.typedCode(' 3AD9 012B '), { code: '3AD9012B', problem: '' });
+  assert.equal(L.typedCode('').code, null);
+  assert.match(L.typedCode('3AD9012').problem, /7 of 8/);
+  assert.match(L.typedCode('3AD9012BC').problem, /9 of 8/);
+  assert.match(L.typedCode('3AG9012B').problem, /"G" is not a hex digit/);
+  assert.equal(L.typedCode('0x3AD901').code, null);
+});
+
+test('replies in words', () => {
+  assert.equal(L.validateReplyWords('OK', '3AD9012B').tone, 'ok');
+  const m = L.validateReplyWords('CHECKSUM_MISMATCH', '00000000');
+  assert.equal(m.tone, 'refused');
+  assert.match(m.text, /00000000 is not the checksum.*nothing changed/);
+  assert.equal(L.validateReplyWords('NO_REPLY', 'X').tone, 'failed');
+});
+
+const ZONES = ['table', 'cell', 'loading', 'table 2'];
+
+test('alarm -> highlight: by subject (axis.N, tcp, zone name)', () => {
+  const h = L.highlights(
+    ['JOINT_LIMIT', 'ZONE_VIOLATION', 'SPEED_LIMIT', 'ORIENTATION_LIMIT', 'ESTOP_PRESSED'],
+    [
+      { name: 'JOINT_LIMIT', detail: 'whatever', subject: 'axis.3' },
+      { name: 'ZONE_VIOLATION', detail: 'x', subject: 'loading' },
+      { name: 'SPEED_LIMIT', detail: 'x', subject: 'tcp' },
+      { name: 'ORIENTATION_LIMIT', detail: 'Tool orientation outside its permitted cone', subject: '' },
+      { name: 'ESTOP_PRESSED', detail: 'E-stop pressed', subject: 'estop.a' },
+    ],
+    ZONES,
+  );
+  assert.deepEqual(h.joints, [3]);
+  assert.deepEqual(h.zones, [2]);
+  assert.equal(h.tcp, true);
+  assert.equal(h.orientation, true);
+  assert.deepEqual(h.violations.map(L.violationLabel), [
+    'JOINT_LIMIT · axis 3',
+    'ZONE_VIOLATION · zone loading',
+    'SPEED_LIMIT · TCP',
+    'ORIENTATION_LIMIT · tool orientation',
+  ]);
+});
+
+test('alarm -> highlight: from the words when there is no subject', () => {
+  const h = L.highlights(
+    ['JOINT_LIMIT', 'ZONE_VIOLATION', 'SPEED_LIMIT'],
+    [
+      { name: 'JOINT_LIMIT', detail: 'Axis 6 outside its safe range' },
+      { name: 'ZONE_VIOLATION', detail: 'Zone table 2 (keep-out) violated' }, // the longest name wins
+      { name: 'SPEED_LIMIT', detail: 'Axis 2 speed above its safe limit' },
+    ],
+    ZONES,
+  );
+  assert.deepEqual(h.joints, [6, 2]);
+  assert.deepEqual(h.zones, [3]);
+  assert.equal(h.tcp, false);
+  const core = L.highlights(['ZONE_VIOLATION'], [{ name: 'ZONE_VIOLATION', detail: 'Zone 1 violated' }], ZONES);
+  assert.deepEqual(core.zones, [0], "the core's own words number zones from 1");
+  const tcp = L.highlights(['SPEED_LIMIT'], [{ name: 'SPEED_LIMIT', detail: 'TCP speed above the safe limit (1612 mm/s)' }], ZONES);
+  assert.equal(tcp.tcp, true);
+});
+
+test('alarm -> highlight: a name without its object yet is still a violation; others are not', () => {
+  const h = L.highlights(['ZONE_VIOLATION', 'DRIVE_FAULT', 'T1_SPEED_EXCEEDED'], [], ZONES);
+  assert.equal(h.violations.length, 1);
+  assert.equal(L.violationLabel(h.violations[0]), 'ZONE_VIOLATION');
+  assert.deepEqual(h.zones, []);
+  const stale = L.highlights([], [{ name: 'JOINT_LIMIT', detail: 'Axis 1 outside its safe range' }], ZONES);
+  assert.equal(stale.violations.length, 0, 'an alarm the status no longer lists is not highlighted');
+  const reduced = L.highlights(['REDUCED_SPEED'], [{ name: 'REDUCED_SPEED', detail: 'x', subject: 'loading' }], ZONES);
+  assert.deepEqual(reduced.activeZones, [2]);
+  assert.equal(reduced.violations.length, 0, 'reduced speed is not a violation');
+});
+
+test('joint bars: the configured range inside the robot range', () => {
+  const r = Math.PI / 180;
+  const g = L.barGeometry(0, -165 * r, 165 * r, { min_deg: -120, max_deg: 120, max_speed_deg_s: 200 });
+  assert.ok(Math.abs(g.lo - 45 / 330) < 1e-9 && Math.abs(g.hi - 285 / 330) < 1e-9, JSON.stringify(g));
+  assert.equal(g.at, 0.5);
+  assert.equal(g.where, 'inside');
+  assert.equal(L.barGeometry(119 * r, -165 * r, 165 * r, { min_deg: -120, max_deg: 120, max_speed_deg_s: 1 }).where, 'near');
+  assert.equal(L.barGeometry(121 * r, -165 * r, 165 * r, { min_deg: -120, max_deg: 120, max_speed_deg_s: 1 }).where, 'outside');
+  assert.equal(L.barGeometry(-130 * r, -165 * r, 165 * r, { min_deg: -120, max_deg: 120, max_speed_deg_s: 1 }).where, 'outside');
+  const robot = L.barGeometry(0, -1, 1, null);
+  assert.deepEqual([robot.lo, robot.hi], [0, 1]);
+});
+
+test('reduced mode in words; zone colours distinct', () => {
+  assert.equal(L.reducedWords(false, ['input']), '');
+  assert.match(L.reducedWords(true, ['zone', 'input']), /reduced zone and the reduced-speed input/);
+  const colours = Object.values(L.ZONE_STYLE).map((s) => s.color);
+  assert.equal(new Set(colours).size, 3);
+});
