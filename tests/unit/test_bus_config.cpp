@@ -34,6 +34,22 @@ TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
   }
   EXPECT_EQ(c.subdevices[0].in_bit[0], 0);   // estop.a
   EXPECT_EQ(c.subdevices[0].in_bit[11], 11); // contactor feedback
+  // Every named input bit of the configuration is where the emulated DI terminal's TxPDO
+  // entry of the same name is (one layout on both ends of the wire, reduced.a/b included).
+  std::size_t named = 0;
+  std::size_t bit = 0;
+  for (const auto& e : segment[0].tx.entries) {
+    for (std::size_t k = 0; k < kInputBits && !e.name.empty(); ++k) {
+      if (e.name == kInputBitNames[k]) {
+        EXPECT_EQ(c.subdevices[0].in_bit[k], bit) << e.name;
+        ++named;
+      }
+    }
+    bit += e.bits;
+  }
+  EXPECT_EQ(named, kInputBits);
+  EXPECT_EQ(c.subdevices[0].in_bit[18], 18);  // reduced.a
+  EXPECT_EQ(c.subdevices[0].in_bit[19], 19);  // reduced.b
   EXPECT_NEAR(c.subdevices[2].counts_per_rad, safestate::ecat::kCountsPerRad, 1e-9);
   EXPECT_EQ(c.scan_timeout_ms, 5000U);  // not in the file: the default
 
@@ -59,6 +75,14 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j = default_json();
   j["subdevices"][0]["bits"].erase("gate.b");
   EXPECT_NE(refused(j).find("subdevices[0].bits.gate.b"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"].erase("reduced.b");  // the reduced input is wired like every contact
+  EXPECT_NE(refused(j).find("subdevices[0].bits.reduced.b"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"]["reduced.a"] = 32;  // past the terminal's 4 bytes
+  EXPECT_NE(refused(j).find("subdevices[0].bits.reduced.a"), std::string::npos);
 
   j = default_json();
   j["subdevices"][3]["axis"] = 1;  // axis 1 twice, axis 2 missing

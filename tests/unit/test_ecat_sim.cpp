@@ -262,6 +262,26 @@ TEST(EcatProcessData, InputsFollowThePlantAndEstopOnOneChannel) {
   EXPECT_EQ(r[0].data[0] & 0x03, 0x01);  // estop.a closed, estop.b open
 }
 
+TEST(EcatProcessData, ReducedInputChannelsAreBits18And19) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  const auto di = [&] {
+    auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
+                                       {Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes)}});
+    return static_cast<unsigned>(r[0].data[2]);  // bits 16..23
+  };
+  EXPECT_EQ(di() & 0x0C, 0x0C);  // NC: both closed = normal speed
+  ASSERT_EQ(control_line(cell, "in reduced.a=0"), "OK");
+  EXPECT_EQ(di() & 0x0C, 0x08);
+  ASSERT_EQ(control_line(cell, "in reduced=reduced"), "OK");
+  EXPECT_EQ(di() & 0x0C, 0x00);
+  ASSERT_EQ(control_line(cell, R"({"type":"sim","set":{"reduced":"normal"}})"), "OK");
+  EXPECT_EQ(di() & 0x0C, 0x0C);
+  ASSERT_EQ(control_line(cell, "in reduced.b=0"), "OK");
+  EXPECT_EQ(di() & 0x0C, 0x04);
+  EXPECT_EQ(di() & 0xF0, 0x00);  // bits 20..23 stay free for the field scanner (issue 20)
+}
+
 // One exchange writing the outputs with the contactor bit as given, at time t (ns).
 void exchange_contactor(EmulatedCell& cell, bool contactor, std::uint64_t t) {
   std::vector<std::uint8_t> out(kOutBytes, 0);

@@ -18,11 +18,12 @@ constexpr std::uint8_t kUint16 = 0x06;
 const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "gate.b",      "enable.a",
                                 "enable.b",     "enable.panic", "mode.auto", "mode.t1",     "mode.t2",
                                 "reset_button", "contactor_fb", "brake_fb.1", "brake_fb.2", "brake_fb.3",
-                                "brake_fb.4",   "brake_fb.5", "brake_fb.6"};
+                                "brake_fb.4",   "brake_fb.5", "brake_fb.6", "reduced.a",  "reduced.b"};
+static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::reduced_b) + 1U, "one name per DI bit");
 const char* const kDoNames[] = {"contactor", "brakes_release", "reset_lamp"};
 
 SubdeviceDesc digital_in() {
-  SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI18 safety contacts", {}, {}};
+  SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI20 safety contacts", {}, {}};
   d.tx.index = 0x1A00;
   std::uint8_t sub = 1;
   for (const char* n : kDiNames) {
@@ -96,6 +97,8 @@ void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (
   for (std::size_t i = 0; i < std::size(contacts); ++i) {
     set_bit(di, i, contacts[i]);
   }
+  set_bit(di, bit(DiBit::reduced_a), s.reduced_a);
+  set_bit(di, bit(DiBit::reduced_b), s.reduced_b);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     set_bit(di, bit(DiBit::brake_fb1) + a, in.brake_released[a]);
     put16(&drive_tx[a][0], in.drive[a].statusword);

@@ -63,13 +63,6 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   }
   const scenario::Directive& d = r.scenario.steps.front().what;
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
-    // The emulated DI terminal has no bits for the reduced-speed input yet (SPEC §10): refuse
-    // it rather than take it and never put it on the wire.
-    for (const scenario::ContactWrite& w : in->writes) {
-      if (w.contact == scenario::Contact::reduced_a || w.contact == scenario::Contact::reduced_b) {
-        return "ERROR the emulated DI terminal has no reduced.a / reduced.b bits yet";
-      }
-    }
     scenario::apply(*in, cell.inputs());
     cell.latch_inputs();
     cell.mark_input_change();
