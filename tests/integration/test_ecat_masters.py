@@ -99,7 +99,7 @@ def test_pysoem_scans_identities_and_reaches_op(segment):
     assert r["input_bytes"] == IN_BYTES
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]  # Switch on disabled
-    assert r["di"] == "8f000000"  # estop.a/b, gate.a/b closed, mode.auto
+    assert r["di"] == "8f000c00"  # estop.a/b, gate.a/b closed, mode.auto; reduced.a/b (bits 18, 19, NC) closed
 
 
 def test_kickcat_scans_and_reaches_op_with_the_same_layout(segment):
@@ -109,7 +109,7 @@ def test_kickcat_scans_and_reaches_op_with_the_same_layout(segment):
     assert r["sizes"] == [[i, o] for i, o in zip(IN_BYTES, OUT_BYTES)]  # from the SII PDO categories
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]
-    assert r["di"] == "8f000000"
+    assert r["di"] == "8f000c00"
 
 
 def test_both_masters_read_the_same_statuswords(segment):

@@ -33,9 +33,6 @@ TIMING = {
     # a silent bus is found after the fieldbus watchdog (100 lost frames), not in the cycle of the fault
     "row01-fieldbus-lost.scn": "bus loss detected after the fieldbus watchdog",
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
-    # the emulated DI terminal has no reduced.a / reduced.b bits yet (issue 19 item 4): ecat-sim
-    # refuses such an `in` line, so the run fails by design until the bits exist
-    "safety-reduced-input.scn": "no reduced input bits on the emulated DI terminal yet",
 }
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")

@@ -34,6 +34,22 @@ TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
   }
   EXPECT_EQ(c.subdevices[0].in_bit[0], 0);   // estop.a
   EXPECT_EQ(c.subdevices[0].in_bit[11], 11); // contactor feedback
+  // Every named input bit of the configuration is where the emulated DI terminal's TxPDO
+  // entry of the same name is (one layout on both ends of the wire, reduced.a/b included).
+  std::size_t named = 0;
+  std::size_t bit = 0;
+  for (const auto& e : segment[0].tx.entries) {
+    for (std::size_t k = 0; k < kInputBits && !e.name.empty(); ++k) {
+      if (e.name == kInputBitNames[k]) {
+        EXPECT_EQ(c.subdevices[0].in_bit[k], bit) << e.name;
+        ++named;
+      }
+    }
+    bit += e.bits;
+  }
+  EXPECT_EQ(named, kInputBits);
+  EXPECT_EQ(c.subdevices[0].in_bit[18], 18);  // reduced.a
+  EXPECT_EQ(c.subdevices[0].in_bit[19], 19);  // reduced.b
   EXPECT_NEAR(c.subdevices[2].counts_per_rad, safestate::ecat::kCountsPerRad, 1e-9);
   EXPECT_EQ(c.scan_timeout_ms, 5000U);  // not in the file: the default
 
@@ -61,6 +77,14 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   EXPECT_NE(refused(j).find("subdevices[0].bits.gate.b"), std::string::npos);
 
   j = default_json();
+  j["subdevices"][0]["bits"].erase("reduced.b");  // the reduced input is wired like every contact
+  EXPECT_NE(refused(j).find("subdevices[0].bits.reduced.b"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"]["reduced.a"] = 32;  // past the terminal's 4 bytes
+  EXPECT_NE(refused(j).find("subdevices[0].bits.reduced.a"), std::string::npos);
+
+  j = default_json();
   j["subdevices"][3]["axis"] = 1;  // axis 1 twice, axis 2 missing
   EXPECT_NE(refused(j).find("appears twice"), std::string::npos);
 
@@ -85,5 +109,44 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j["scan_timeout_ms"] = "5 s";
   EXPECT_NE(refused(j).find("scan_timeout_ms"), std::string::npos);
 
+  j = default_json();
+  for (const auto& [key, bad] : {std::pair<const char*, Json>{"stale_cycles", 0}, {"stale_cycles", 1001},
+                                 {"stale_cycles", -3}, {"stale_cycles", "3"}, {"watchdog_cycles", 1},
+                                 {"watchdog_cycles", 10001}, {"watchdog_cycles", 2.5}}) {
+    j[key] = bad;
+    EXPECT_NE(refused(j).find(std::string("bus.") + key + ": expected an integer"), std::string::npos) << key << bad;
+    j = default_json();
+  }
+
   EXPECT_EQ(refused(Json::array()), "not a JSON object");
+}
+
+// Issue 22: FIELDBUS_LOST after stale_cycles stale cycles (default 3) and every subdevice's
+// process-data watchdog at watchdog_cycles (default 10), both from the file.
+TEST(BusConfig, StaleCyclesAndWatchdogCycles) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  EXPECT_EQ(c.stale_cycles, 3U);
+  EXPECT_EQ(c.watchdog_cycles, 10U);
+  Json j = default_json();
+  j["stale_cycles"] = 5;
+  j["watchdog_cycles"] = 20;
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.stale_cycles, 5U);
+  EXPECT_EQ(c.watchdog_cycles, 20U);
+}
+
+TEST(BusConfig, WatchdogRegistersNeverShorterThanAsked) {
+  std::uint16_t div = 0;
+  std::uint16_t time = 0;
+  ASSERT_TRUE(watchdog_registers(10, 1000, div, time));  // 10 ms: 100 ticks of 100 us
+  EXPECT_EQ(div, 2498);
+  EXPECT_EQ(time, 100);
+  ASSERT_TRUE(watchdog_registers(3, 250, div, time));  // 750 us: 8 ticks (800 us), not 7
+  EXPECT_EQ(time, 8);
+  ASSERT_TRUE(watchdog_registers(10000, 1000, div, time));  // 10 s: past 16 bits of 100 us, 1 ms ticks
+  EXPECT_EQ(div, 24998);
+  EXPECT_EQ(time, 10000);
+  EXPECT_FALSE(watchdog_registers(10000, 10000, div, time));  // 100 s fits neither
 }

@@ -29,12 +29,15 @@ inline constexpr std::size_t kPosFirstDrive = 2;
 inline constexpr std::size_t kSubdevices = 8;
 
 // Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
+// Bits 20..23 are kept free for the protective-field scanner's four channels
+// (field.outer.a/b, field.inner.a/b, SPEC §11); 24..31 are spare. docs/ethercat.md.
 enum class DiBit : std::uint8_t {
   estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic,
   mode_auto, mode_t1, mode_t2, reset_button, contactor_fb,
   brake_fb1, brake_fb2, brake_fb3, brake_fb4, brake_fb5, brake_fb6,
+  reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
 };
-inline constexpr std::size_t kDiBytes = 4;  // 18 contacts, padded to 32 bits
+inline constexpr std::size_t kDiBytes = 4;  // 20 contacts, padded to 32 bits
 // Bits of the digital output terminal's RxPDO (0x7000:01..).
 enum class DoBit : std::uint8_t { contactor, brakes_release, reset_lamp };
 inline constexpr std::size_t kDoBytes = 2;
@@ -89,9 +92,25 @@ class EmulatedCell {
   };
   void mark_input_change() noexcept;
   [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
+  // Outputs dropped by the subdevices themselves (issue 22 item 3): while no process data
+  // arrives (the master died), the time from the last exchange to the plant seeing the
+  // contactor output open and the last drive's enable (controlword bit 3) gone, as the
+  // subdevices' process-data watchdogs put their outputs in the safe state. Cleared when
+  // an exchange closes the contactor again.
+  struct OutputDrop {
+    bool contactor = false;
+    bool enable = false;
+    std::uint64_t contactor_ns = 0;  // after the last exchange
+    std::uint64_t enable_ns = 0;
+  };
+  [[nodiscard]] const OutputDrop& output_drop() const noexcept { return drop_; }
 
  private:
   void time_reaction(bool was_closed) noexcept;
+  void time_output_drop(bool was_closed, bool was_enabled) noexcept;
+  [[nodiscard]] bool outputs_went_safe() const noexcept;
+  [[nodiscard]] bool any_enabled() const noexcept;
+  void plant_cycle(bool exchange) noexcept;
 
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
@@ -103,7 +122,9 @@ class EmulatedCell {
   std::uint64_t now_ns_ = 0;
   bool free_running_ = false;
   Reaction reaction_{};
+  OutputDrop drop_{};
   std::uint64_t next_free_ns_ = 0;
+  std::uint64_t last_exchange_ns_ = 0;
 };
 
 }  // namespace safestate::ecat
