@@ -62,7 +62,8 @@ struct LimitReport {
   LimitFinding joint;        // JOINT_LIMIT, detail axis.N
   LimitFinding zone;         // ZONE_VIOLATION, detail the zone (index in `code`)
   LimitFinding orientation;  // ORIENTATION_LIMIT, detail tcp
-  LimitFinding speed;        // SPEED_LIMIT, detail axis.N or tcp
+  LimitFinding speed;        // SPEED_LIMIT, detail axis.N or tcp (with power on: trips)
+  bool speed_over = false;   // a speed over its limit now, with power or not (reset guard)
   bool outside = false;      // a position limit is violated now
   bool recovering = false;   // ... and that is being recovered from (status `recovery`)
   bool in_reduced_zone = false;
