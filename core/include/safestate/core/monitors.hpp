@@ -56,6 +56,7 @@ struct LimitContext {
   // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   bool powered;             // ARMING, OPERATIONAL, STOPPING
   bool reduced_enforced;    // reduced mode active and its ramp time over
+  float orientation_cos;    // cos(orientation max deviation), computed once at configure()
 };
 
 struct LimitReport {
@@ -141,6 +142,7 @@ class SafeLimitMonitors {
   Cycle ramp_cycles_ = 0;
   bool configured_ = false;
   ArmPose pose_{};
+  float orientation_cos_ = 1.0F;
   JointLimitMonitor joints_;
   ZoneMonitor zones_;
   OrientationMonitor orientation_;
