@@ -32,7 +32,7 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   }
   // A position limit still violated is no reason to refuse: SPEC §10 recovery needs the
   // reset to jog back in T1. A speed still above its limit is.
-  if (v.alarms.active(AlarmId::SPEED_LIMIT) && (v.limits != nullptr) && v.limits->speed.hit) {
+  if (v.alarms.active(AlarmId::SPEED_LIMIT) && (v.limits != nullptr) && v.limits->speed_over) {
     return Result::FAULT_PRESENT;
   }
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)

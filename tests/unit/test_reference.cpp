@@ -5,21 +5,126 @@
 #include <random>
 #include <sstream>
 
+#include <cmath>
+
 #include "../../tools/reference/reference.hpp"
 #include "bench.hpp"
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/monitors.hpp"
+#include "safestate/motion/robot.hpp"
 
 using namespace safestate::test;
 namespace ref = safestate::reference;
 
 namespace {
 
+// SPEC §10 for the differential test: a safety configuration, and the poses the arm is put
+// in (measured positions jump there: a fault below the planner), each with what it violates.
+constexpr std::uint32_t kChecksum = 0x5AFE0001U;
+enum Pose : std::uint8_t { kHome, kJoint, kJointBetter, kJointWorse, kZone, kOrientation, kReduced, kPoses };
+const std::array<JointArray, kPoses> kPose{{
+    {0.0F, 0.3F, 0.3F, 0.0F, 0.3F, 0.0F},   // home: inside every limit
+    {1.10F, 0.3F, 0.3F, 0.0F, 0.3F, 0.0F},  // joint 1 outside its range [-1, 1] by 0.1 rad
+    {1.05F, 0.3F, 0.3F, 0.0F, 0.3F, 0.0F},  // ... by less (recovering)
+    {1.30F, 0.3F, 0.3F, 0.0F, 0.3F, 0.0F},  // ... by more (worse)
+    {0.0F, 0.9F, 0.3F, 0.0F, 0.3F, 0.0F},   // the TCP sphere in the keep_out zone
+    {0.0F, 0.3F, 0.3F, 0.0F, 1.6F, 0.0F},   // the tool axis outside its cone
+    {0.0F, -0.3F, 0.3F, 0.0F, 0.3F, 0.0F},  // the TCP in the reduced zone
+}};
+
+ArmGeometry geometry() { return safestate::controller::Controller::arm_geometry(safestate::motion::kRobot); }
+
+ArmPose pose_of(const JointArray& q, const SafetyLimits& l) {
+  ArmPose p{};
+  arm_forward(geometry(), q, l.tcp_mm, p);
+  return p;
+}
+
+Zone box_around(const char* name, ZoneKind kind, const Vec3& c, float half) {
+  Zone z{};
+  for (std::size_t i = 0; name[i] != '\0' && i + 1U < z.name.size(); ++i) z.name[i] = name[i];
+  z.kind = kind;
+  for (std::size_t k = 0; k < 3; ++k) {
+    z.min_mm[k] = c[k] - half;
+    z.max_mm[k] = c[k] + half;
+  }
+  return z;
+}
+
+SafetyLimits limits() {
+  SafetyLimits l{};
+  l.checksum = kChecksum;
+  l.tcp_mm = {0.0F, 0.0F, 120.0F};
+  l.tool_radius_mm = 40.0F;
+  for (auto& j : l.joints) j = JointLimit{-2.8F, 2.8F, 3.0F};
+  l.joints[0] = JointLimit{-1.0F, 1.0F, 3.0F};
+  l.joints[5].max_speed_rad_s = 0.8F;  // the harness's random speeds exceed it now and then
+  l.tcp_max_speed_mm_s = 3000.0F;
+  l.reduced_tcp_max_speed_mm_s = 300.0F;
+  l.reduced_ramp_ms = 100;
+  l.orientation_enabled = true;
+  l.orientation_axis = pose_of(kPose[kHome], l).tool_z;  // unit
+  l.orientation_max_deviation_rad = 0.8F;
+  l.zone_count = 3;
+  l.zones[0] = box_around("table", ZoneKind::keep_out, pose_of(kPose[kZone], l).tcp, 60.0F);
+  l.zones[1] = box_around("loading", ZoneKind::reduced, pose_of(kPose[kReduced], l).tcp, 60.0F);
+  l.zones[2] = box_around("cell", ZoneKind::keep_in, Vec3{0.0F, 0.0F, 0.0F}, 5000.0F);
+  return l;
+}
+
+// What the reference needs from the kinematics, computed here: the zone distances and the
+// TCP speed with the core's arm model (shared geometry), the cone and the reduced box by hand.
+ref::Geometry geometry_of(const SafetyLimits& l, const Feedback& fb) {
+  JointArray q{};
+  JointArray qd{};
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    q[i] = fb.drive[i].position_rad;
+    qd[i] = fb.drive[i].velocity_rad_s;
+  }
+  const ArmPose p = pose_of(q, l);
+  ref::Geometry g{};
+  for (std::size_t k = 0; k < l.zone_count; ++k) {
+    const Zone& z = l.zones[k];
+    if (z.kind == ZoneKind::reduced) {
+      bool in = true;
+      for (std::size_t a = 0; a < 3; ++a) in = in && p.tcp[a] >= z.min_mm[a] && p.tcp[a] <= z.max_mm[a];
+      g.in_reduced_zone = g.in_reduced_zone || in;
+    } else {
+      g.zone_outside[g.zones++] = ZoneMonitor::outside_mm(z, p, l.tool_radius_mm);
+    }
+  }
+  g.orientation = l.orientation_enabled;
+  const Vec3& a = l.orientation_axis;
+  g.orientation_outside = std::cos(l.orientation_max_deviation_rad) -
+                          (a[0] * p.tool_z[0] + a[1] * p.tool_z[1] + a[2] * p.tool_z[2]);
+  g.tcp_speed_mm_s = point_speed(p, p.tcp, kAxes, qd);
+  return g;
+}
+
+ref::Limits ref_limits(const SafetyLimits& l, bool validated) {
+  ref::Limits r{};
+  r.configured = true;
+  r.validated = validated;
+  r.checksum = l.checksum;
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    r.min_rad[i] = l.joints[i].min_rad;
+    r.max_rad[i] = l.joints[i].max_rad;
+    r.max_speed_rad_s[i] = l.joints[i].max_speed_rad_s;
+  }
+  r.tcp_max_mm_s = l.tcp_max_speed_mm_s;
+  r.reduced_tcp_max_mm_s = l.reduced_tcp_max_speed_mm_s;
+  r.ramp = ms_to_cycles(l.reduced_ramp_ms, 1000U);
+  return r;
+}
+
 struct Harness {
-  explicit Harness(std::uint32_t seed) : rng(seed), feedback_rng(seed * 7919U) {}
+  explicit Harness(std::uint32_t seed) : rng(seed), feedback_rng(seed * 7919U), limits_rng(seed * 104729U) {}
   std::mt19937 rng;
   // Feedback-monitoring faults (SPEC §7) draw from their own stream, and only in the
   // histories that ask for them, so the other histories keep their coverage.
   Cycle bus_boot_failed_at = 0;
   std::mt19937 feedback_rng;
+  std::mt19937 limits_rng;  // SPEC §10 perturbations
   bool feedback_faults = false;
   bool rare_feedback(int per_100k) {
     return feedback_faults && static_cast<int>(feedback_rng() % 100000U) < per_100k;
@@ -88,6 +193,27 @@ struct Harness {
     if (chance(5)) { plant.point_speed = static_cast<float>(rng() % 300U); }
     if (chance(2)) { plant.program_finished = !plant.program_finished; }
     if (rare(20)) { plant.program_loaded = !plant.program_loaded; }
+    // SPEC §10: the arm jumps into or out of a limit, the reduced input, the program's check.
+    // From their own stream, so that the other histories keep their coverage.
+    if (safety) {
+      const auto lim_chance = [this](int per_100k) { return static_cast<int>(limits_rng() % 100000U) < per_100k; };
+      if (pose != kHome && lim_chance(200)) { pose = kHome; log << t << ":pose home\n"; }
+      if (lim_chance(out.contactor ? 80 : 10)) { pose = static_cast<Pose>(1U + limits_rng() % (kPoses - 1U)); log << t << ":pose " << static_cast<int>(pose) << "\n"; }
+      if (raw.reduced_a ? lim_chance(5) : lim_chance(200)) { raw.reduced_a = raw.reduced_b = !raw.reduced_a; log << t << ":reduced " << raw.reduced_a << "\n"; }
+      if (raw.reduced_b != raw.reduced_a ? lim_chance(500) : lim_chance(2)) { raw.reduced_b = !raw.reduced_b; log << t << ":reduced.b " << raw.reduced_b << "\n"; }
+      if (within_limits ? lim_chance(3) : lim_chance(200)) { within_limits = !within_limits; log << t << ":program within limits " << within_limits << "\n"; }
+    }
+  }
+  bool safety = true;  // SPEC §10 monitored (configure_limits) and perturbed
+  Pose pose = kHome;
+  bool within_limits = true;
+  SafetyLimits lim = limits();
+  bool validated_at_start = true;
+
+  void configure() {
+    if (!safety) return;
+    core.configure_limits(lim, geometry(), 1000U, validated_at_start);
+    reference = ref::Supervisor{ref_timing, ref_limits(lim, validated_at_start)};
   }
 
   // Per 10^5: rarer than chance().
@@ -103,7 +229,8 @@ struct Harness {
     c.speed = static_cast<std::uint8_t>(1U + rng() % 100U);
     c.mode = static_cast<std::uint8_t>(1U + rng() % 3U);
     c.has_code = 1U;
-    c.code = chance(500) ? 0U : static_cast<std::uint32_t>(rng());  // 0: the checksum without a configuration
+    const std::uint32_t active = safety ? kChecksum : 0U;  // 0: the checksum without a configuration
+    c.code = chance(500) ? active : static_cast<std::uint32_t>(rng());
     return c;
   }
 
@@ -139,6 +266,7 @@ struct Harness {
 
   // After a lockout only a power cycle helps: restart everything, keep the history going.
   void power_cycle(Cycle t) {
+    validated_at_start = reference.validated();  // the event log keeps the confirmation
     signals = SignalLayer{};
     core = SystemStateManager{timing};
     reference = ref::Supervisor{ref_timing};
@@ -148,6 +276,8 @@ struct Harness {
     out = SupervisorOut{};
     fieldbus_down_until = 0;
     button_held_until = 0;
+    within_limits = true;
+    configure();
     log << t << ":power cycle\n";
   }
   Timing ref_timing = timing;
@@ -173,9 +303,15 @@ struct Harness {
       perturb(t);
       signals.update(raw, local, timing);
       plant.fill(fb);
+      ref::Geometry geo{};
+      if (safety) {
+        for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = kPose[pose][i];
+        fb.program_within_limits = within_limits;
+        geo = geometry_of(lim, fb);
+      }
       const std::size_t n = commands(cmds, t);
       const std::size_t a = core.step(signals.inputs(), fb, cmds.data(), n, out);
-      const std::size_t b = reference.step(signals.inputs(), fb, cmds.data(), n, rout);
+      const std::size_t b = reference.step(signals.inputs(), fb, cmds.data(), n, rout, geo);
       std::ostringstream d;
       if (a != b) d << " taken " << a << "/" << b;
       if (out.state != rout.state) d << " state " << to_string(out.state) << "/" << to_string(rout.state);
@@ -234,6 +370,13 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   std::array<long, kResultCount> results{};
   for (int seed = 1; seed <= kSeeds; ++seed) {
     Harness h(static_cast<std::uint32_t>(seed));
+    // SPEC §10: three histories in four run with a safety configuration (a third of those
+    // start with it not validated yet); every fourth runs without one, as the state machine's
+    // own unit tests do, and keeps its history as it was (seed 40's stop-time episode: with
+    // speed limits, a drive that does not stop trips SPEED_LIMIT before the stop time is over).
+    h.safety = seed % 4 != 0;
+    h.validated_at_start = seed % 3 != 1;
+    h.configure();
     if (seed % 8 == 0) {
       h.fieldbus_down_until = 3500;  // the bus never comes up in time: BOOT_FAILED
     }
@@ -255,13 +398,12 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   for (std::size_t i = 1; i < subs.size(); ++i) {
     EXPECT_GT(subs[i], 100) << "sub-state never reached: " << to_string(static_cast<Sub>(i));
   }
-  // The reference model does not know the safe limits of SPEC §10-§12 yet (the harness runs
-  // the core without a safety configuration, so they can never trip): those alarms and
-  // results are left out of this coverage check until it does; validate_config is modelled.
-  const auto not_modelled_alarm = [](std::size_t i) { return i >= static_cast<std::size_t>(AlarmId::JOINT_LIMIT); };
+  // The reference models SPEC §10 (safe limits, validation, reduced mode, recovery) but not
+  // yet §11 (collaborative operation) or §12 (brake test): the core has neither, so their
+  // alarms and results are left out of this coverage check until they are built.
+  const auto not_modelled_alarm = [](std::size_t i) { return i >= kAlarmCount; };
   const auto not_modelled_result = [](Result r) {
-    return r == Result::CONFIG_NOT_VALIDATED || r == Result::OUTSIDE_LIMITS || r == Result::FIELD_INTERRUPTED ||
-           r == Result::BRAKE_TEST_REQUIRED;
+    return r == Result::FIELD_INTERRUPTED || r == Result::BRAKE_TEST_REQUIRED;
   };
   for (std::size_t i = 0; i < alarms.size(); ++i) {
     if (not_modelled_alarm(i)) continue;
@@ -273,9 +415,32 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   }
 }
 
+// The poses of the harness violate what they say (else the comparison of SPEC §10 would
+// compare nothing), by the harness's own measure and by the core's monitors.
+TEST(Differential, ThePosesViolateWhatTheySay) {
+  const SafetyLimits l = limits();
+  SafeLimitMonitors m;
+  m.configure(l, geometry(), 1000U);
+  for (std::size_t k = 0; k < kPoses; ++k) {
+    Feedback fb{};
+    for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = kPose[k][i];
+    const ref::Geometry g = geometry_of(l, fb);
+    LimitReport r{};
+    m.evaluate(fb, false, false, 0U, r);
+    const bool joint = k == kJoint || k == kJointBetter || k == kJointWorse;
+    EXPECT_EQ(g.zone_outside[0] > 0.0F, k == kZone) << "pose " << k << " keep_out " << g.zone_outside[0];
+    EXPECT_LE(g.zone_outside[1], 0.0F) << "pose " << k << " keep_in";
+    EXPECT_EQ(g.orientation_outside > 0.0F, k == kOrientation) << "pose " << k << " cone " << g.orientation_outside;
+    EXPECT_EQ(g.in_reduced_zone, k == kReduced) << "pose " << k;
+    EXPECT_EQ(r.outside, joint || k == kZone || k == kOrientation) << "pose " << k;
+    EXPECT_EQ(r.in_reduced_zone, k == kReduced) << "pose " << k;
+  }
+}
+
 TEST(Differential, TheComparisonCanFail) {
   // A reference with other timeouts must disagree: the harness compares what it claims.
   Harness h(7);
+  h.safety = false;  // the history this test was written on (no SPEC §10 perturbation)
   h.ref_timing.jog_timeout = 30;
   h.ref_timing.max_stop = 50;
   h.reference = ref::Supervisor{h.ref_timing};

@@ -10,6 +10,7 @@
 #include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/safety/safety_config.hpp"
+#include "bench.hpp"
 
 using namespace safestate;
 using core::Feedback;
@@ -188,4 +189,25 @@ TEST(Recovery, WorseThanTheBestSinceTrackingTripsWithinTolerance) {
   EXPECT_TRUE(core::track_violation(t, 0.01F, true, 0.1F)) << "out again: a new violation";
   core::RecoveryTrack n{};
   EXPECT_TRUE(core::track_violation(n, std::nanf(""), true, 0.1F)) << "unknown is unsafe";
+}
+
+// @req LIM-SPEED RES-RESET-OK
+// A reset in IDLE after SPEED_LIMIT is refused while a joint is still faster than its limit
+// (SPEC §5: every latched alarm's cause gone), and accepted once it is not. The speed is
+// judged with power off too: with power only, the guard's check could never hold in IDLE.
+TEST(SpeedLimit, ResetIsRefusedWhileAJointIsStillFasterThanItsLimit) {
+  test::Bench b;
+  b.configure_limits(builtin(), controller::Controller::arm_geometry(motion::kRobot), true);
+  b.to_operational(core::Mode::AUTO);
+  b.plant.drive_nostop[0] = true;  // keeps its speed when power is removed (a drive that does not stop)
+  b.plant.vel[0] = builtin().joints[0].max_speed_rad_s * 1.2F;
+  b.cycle();
+  ASSERT_EQ(b.out.state, core::State::IDLE);
+  ASSERT_TRUE(b.ssm().alarms().active(core::AlarmId::SPEED_LIMIT));
+  EXPECT_EQ(b.command(core::CommandId::reset), core::Result::FAULT_PRESENT);
+  EXPECT_TRUE(b.ssm().alarms().active(core::AlarmId::SPEED_LIMIT));
+  b.plant.vel[0] = builtin().joints[0].max_speed_rad_s * 0.5F;
+  b.cycle();
+  EXPECT_EQ(b.command(core::CommandId::reset), core::Result::OK);
+  EXPECT_FALSE(b.ssm().alarms().active(core::AlarmId::SPEED_LIMIT));
 }

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -11,6 +12,8 @@
 
 #include "reference.hpp"
 #include "safestate/core/cia402.hpp"
+#include "safestate/core/monitors.hpp"
+#include "safestate/safety/safety_config.hpp"
 #include "safestate/scenario/scenario.hpp"
 #include "safestate/sim/cell.hpp"
 
@@ -35,9 +38,19 @@ const std::vector<std::string>& action_texts() {
       "fault drive 1 fault", "fault drive 1 clear", "fault drive 2 runaway", "fault drive 3 nostop",
       "fault fieldbus lost", "fault contactor stuck_open", "fault brake 1 stuck", "fault clear all",
       "fault contactor welded", "fault brake 2 stuck_released",
+      // SPEC §10, abstractly: reduced mode asked for (both channels, one channel), the
+      // configuration validated (the right code, a wrong one), a jog toward and away from
+      // the limited axes' ranges (limit violated or not, recovery), a runaway into them.
+      // (kFirstLimitAction on: only from the seeds with a configuration of their own, where
+      // they matter; the first of them from every configuration.)
+      "in reduced=reduced", "in reduced=normal", "in reduced.a=0",
+      "cmd validate_config 00000000", "cmd jog 1 - 50", "fault drive 1 runaway",
   };
   return k;
 }
+constexpr std::size_t kFirstLimitAction = 44;  // "in reduced=reduced"
+constexpr std::size_t kLimitActionsEverywhere = 1;
+constexpr std::size_t kValidateRight = 999;  // action id: validate_config with the active checksum
 constexpr std::size_t kWaitOne = 1000;     // action id: let one cycle pass
 constexpr std::size_t kWaitChange = 1001;  // let time pass until something changes
 constexpr std::size_t kWaitLong = 1002;    // 5100 cycles: reset button held / boot timeout
@@ -63,13 +76,86 @@ struct FeedbackWatch {
   std::array<core::Cycle, core::kAxes> brake{};
 };
 
+// SPEC §10 as the checker watches it, from the outside: which configuration the node runs,
+// whether the checker saw it validated, and per limited joint the best (smallest) amount
+// outside its range since power came on (recovery may only reduce it).
+struct LimitWatch {
+  std::size_t config = 0;  // index into configurations()
+  bool validated = true;
+  std::array<float, core::kAxes> best{};
+  std::uint32_t validate_seq = 0;  // a validate_config sent, and its code
+  std::uint32_t validate_code = 0;
+};
+
 struct Node {
   std::unique_ptr<sim::Cell> cell;
   reference::Supervisor ref;
   std::vector<std::pair<std::uint32_t, core::Cycle>> pending;  // command seq, cycle sent
   std::size_t trail = 0;  // index into the trail (path) table
   FeedbackWatch watch{};
+  LimitWatch lim{};
 };
+
+// The safety configurations the seeds run with (SPEC §10 files, parsed by the same parser
+// as `safestate run --safety`): the built-in one, axis 1 within 2 deg (a jog reaches it, a
+// runaway crosses it; started not validated) and axis 1 within [-90, -2] deg (the home
+// pose, 0 deg, is outside it: recovery from boot, where + is worse and a runaway makes it so).
+struct Configuration {
+  const char* file;  // written beside a counterexample; "" for the built-in one
+  std::string text;
+  bool validated;    // at start (the event log holds a confirmation)
+  safety::Loaded loaded;
+};
+std::string joints_json(const char* axis1) {
+  return std::string(R"({"format":"safestate-safety/1","name":"checker","tool":{"tcp_mm":[0,0,120],"radius_mm":40,"payload_kg":1.5},"joints":[)") +
+         axis1 + R"(,{"min_deg":-90,"max_deg":100,"max_speed_deg_s":200},{"min_deg":-110,"max_deg":70,"max_speed_deg_s":200},{"min_deg":-160,"max_deg":160,"max_speed_deg_s":300},{"min_deg":-120,"max_deg":120,"max_speed_deg_s":300},{"min_deg":-360,"max_deg":360,"max_speed_deg_s":400}],"tcp_max_speed_mm_s":1500,"reduced":{"tcp_max_speed_mm_s":250,"ramp_ms":500},"stop":{"max_time_ms":1000}})";
+}
+const std::vector<Configuration>& configurations() {
+  static const std::vector<Configuration> k = [] {
+    std::vector<Configuration> v;
+    v.push_back({"", std::string(safety::default_safety_text()), true, safety::default_safety()});
+    v.push_back({"checker-axis1-2deg.json", joints_json(R"({"min_deg":-2,"max_deg":2,"max_speed_deg_s":200})"),
+                 false, {}});
+    v.push_back({"checker-axis1-below-2deg.json",
+                 joints_json(R"({"min_deg":-90,"max_deg":-2,"max_speed_deg_s":200})"), true, {}});
+    for (Configuration& c : v) {
+      if (c.file[0] != '\0') {
+        safety::Result r = safety::parse_safety(c.text);
+        if (!r.ok()) {
+          std::fprintf(stderr, "safestate check: a built-in checker configuration does not parse\n");
+          std::abort();
+        }
+        c.loaded = *r.config;
+      }
+    }
+    return v;
+  }();
+  return k;
+}
+
+reference::Limits ref_limits(const Configuration& c, std::uint32_t cycle_us) {
+  const core::SafetyLimits& l = c.loaded.limits;
+  reference::Limits r{};
+  r.configured = true;
+  r.validated = c.validated;
+  r.checksum = l.checksum;
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    r.min_rad[i] = l.joints[i].min_rad;
+    r.max_rad[i] = l.joints[i].max_rad;
+    r.max_speed_rad_s[i] = l.joints[i].max_speed_rad_s;
+  }
+  r.tcp_max_mm_s = l.tcp_max_speed_mm_s;
+  r.reduced_tcp_max_mm_s = l.reduced_tcp_max_speed_mm_s;
+  r.ramp = core::ms_to_cycles(l.reduced_ramp_ms, cycle_us);
+  return r;
+}
+
+// How far joint i is outside its range (rad, <= 0 inside), measured from the outside.
+float joint_outside(const core::SafetyLimits& l, std::size_t i, float q) {
+  const float below = l.joints[i].min_rad - q;
+  const float above = q - l.joints[i].max_rad;
+  return (q != q) ? 1.0e30F : ((below > above) ? below : above);
+}
 
 struct Trail {
   std::size_t parent;
@@ -83,6 +169,7 @@ struct Trail {
 struct Seed {
   const char* name;
   const char* script;  // .scn lines
+  std::size_t config = 0;  // index into configurations()
 };
 const std::vector<Seed>& seeds() {
   static const std::vector<Seed> k = {
@@ -100,6 +187,13 @@ const std::vector<Seed>& seeds() {
       {"MANUAL_IDLE (T2)",
        "@0 in mode=T2\n@100 cmd reset\n@101 cmd confirm_t2\n@105 in enable=centre\n@110 cmd servo_on\n@400 in reset_button=0\n"},
       {"ESTOP_ACTIVE", "@100 cmd reset\n@110 cmd servo_on\n@400 in estop=pressed\n@401 in reset_button=0\n"},
+      // SPEC §10: a configuration not validated yet, axis 1 within 2 deg.
+      {"IDLE (T1), not validated", "@0 in mode=T1\n@100 cmd reset\n@101 in reset_button=0\n", 1},
+      {"MANUAL_JOGGING (T1) toward axis 1's limit, not validated",
+       "@0 in mode=T1\n@100 cmd reset\n@105 in enable=centre\n@110 cmd servo_on\n@400 cmd jog 1 + 50\n@430 cmd jog 1 + 50\n", 1},
+      // SPEC §10 recovery: axis 1 outside its range from boot.
+      {"MANUAL_IDLE (T1), recovering axis 1",
+       "@0 in mode=T1\n@100 cmd reset\n@105 in enable=centre\n@110 cmd servo_on\n@400 in reset_button=0\n", 2},
   };
   return k;
 }
@@ -111,25 +205,42 @@ struct Violation {
   core::Cycle t = 0;
 };
 
+// The abstract key, built as bytes (it is made once per cycle while time passes: an
+// ostringstream here was a tenth of the checker's time).
 std::string key_of(const sim::Cell& c) {
   const core::SupervisorOut& o = c.out();
   const sim::CellView& v = c.view();
   const core::SafetyInputs& in = c.safety_inputs();
   const core::RawInputs& r = c.raw_inputs_of_last_cycle();
-  std::ostringstream k;
-  k << static_cast<int>(c.leaf()) << '|' << o.alarms << '|' << static_cast<int>(o.mode) << o.t2_confirmed
-    << static_cast<int>(o.arming_step) << o.motion.fault_reset << o.brakes_release << '|' << r.estop_a << r.estop_b
-    << r.gate_a << r.gate_b << r.enable_a << r.enable_b << r.enable_panic << r.mode_auto << r.mode_t1 << r.mode_t2
-    << r.reset_button << '|' << in.estop_pressed << in.gate_open << in.enable_ok << static_cast<int>(in.enable)
-    << in.mode_invalid << in.estop_discrepancy << in.gate_discrepancy << in.enable_discrepancy << '|' << v.injected
-    << '|' << v.contactor_closed << v.fieldbus_ok << '|';
+  std::string k;
+  k.reserve(96);
+  const auto put = [&k](auto x) {  // the value's bytes
+    const auto* b = reinterpret_cast<const char*>(&x);
+    k.append(b, sizeof x);
+  };
+  put(c.leaf());
+  put(o.alarms);
+  put(o.mode);
+  put(o.arming_step);
+  put(v.injected);
+  put(o.safety.checksum);
+  for (bool b : {o.t2_confirmed, o.motion.fault_reset, o.brakes_release, r.estop_a, r.estop_b, r.gate_a, r.gate_b,
+                 r.enable_a, r.enable_b, r.enable_panic, r.mode_auto, r.mode_t1, r.mode_t2, r.reset_button,
+                 in.estop_pressed, in.gate_open, in.enable_ok, in.mode_invalid, in.estop_discrepancy,
+                 in.gate_discrepancy, in.enable_discrepancy, v.contactor_closed, v.fieldbus_ok, o.safety.validated,
+                 o.safety.recovery, o.safety.outside, o.safety.reduced, r.reduced_a, r.reduced_b,
+                 in.reduced_requested}) {
+    k.push_back(b ? '1' : '0');
+  }
+  put(in.enable);
   bool moving = false;
   for (std::size_t i = 0; i < 6; ++i) {
-    k << static_cast<int>(core::cia402::decode(v.statusword[i])) << v.brake_released[i];
+    put(core::cia402::decode(v.statusword[i]));
+    k.push_back(v.brake_released[i] ? '1' : '0');
     moving = moving || !(std::fabs(v.velocities_rad_s[i]) < 0.01F);
   }
-  k << '|' << moving;
-  return k.str();
+  k.push_back(moving ? '1' : '0');
+  return k;
 }
 
 class Checker {
@@ -142,7 +253,8 @@ class Checker {
   bool apply(Node& n, std::size_t action, Violation& v);
   bool apply_directive(Node& n, const scenario::Directive& d, Violation& v);
   bool run_seed(const Seed& seed, Node& n, Violation& v);
-  void report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v);
+  void report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v, std::size_t config);
+  bool limits(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v);
 
   CheckOptions opt_;
   CheckStats& stats_;
@@ -165,8 +277,10 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   std::size_t taken = 0;
   const core::Command* cmds = n.cell->commands_taken(taken);
   reference::Out r{};
-  n.ref.step(in, n.cell->feedback(), cmds, taken, r);
-  stats_.checks += 9;
+  reference::Geometry geo{};  // the checker's configurations have no zones and no orientation limit
+  geo.tcp_speed_mm_s = o.safety.tcp_speed_mm_s;  // the measured TCP speed, judged by the reference itself
+  n.ref.step(in, n.cell->feedback(), cmds, taken, r, geo);
+  stats_.checks += 12;
 
   const bool powered_state = o.state == State::ARMING || o.state == State::OPERATIONAL || o.state == State::STOPPING;
   const bool any_power = o.contactor || o.drives_enable || o.brakes_release;
@@ -242,6 +356,9 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
          "sub=" + std::string(to_string(before.sub)), t};
     return false;
   }
+  if (!limits(n, before, reset_ok, v)) {
+    return false;
+  }
   // Exactly one result per command.
   for (std::size_t i = 0; i < o.reply_count; ++i) {
     const std::uint32_t s = o.replies[i].seq;
@@ -306,8 +423,94 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   return true;
 }
 
+// SPEC §10, from the outside (the checker's own measure of the joints, its own record of
+// validation), after every cycle:
+// 10. never ARMING or OPERATIONAL in AUTO or T2 with a configuration not validated;
+// 11. a safe limit violated with power on (a joint newly outside its range, or further
+//     outside than its best since power came on, or a joint faster than its limit) is a
+//     Cat 0 in that cycle: power off, IDLE (or a higher rule's state), the alarm raised;
+// 12. power stays on only while no joint is worse than its best since power came on
+//     (recovery lets only motion that reduces a violation), and a SPEC §10 alarm, once
+//     latched, leaves only with a reset answered OK.
+bool Checker::limits(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v) {
+  const core::SupervisorOut& o = n.cell->out();
+  const core::SafetyInputs& in = n.cell->safety_inputs();
+  const core::Feedback& fb = n.cell->feedback();
+  const Configuration& cfg = configurations()[n.lim.config];
+  const core::SafetyLimits& l = cfg.loaded.limits;
+  const core::Cycle t = v.t;
+  for (std::size_t i = 0; i < o.reply_count; ++i) {
+    const core::Reply& rp = o.replies[i];
+    if (rp.seq == n.lim.validate_seq && n.lim.validate_seq != 0U) {
+      if (rp.result == core::Result::OK && n.lim.validate_code != l.checksum) {
+        v = {"validate_config with a wrong code changes nothing", "answered OK", "reply=CHECKSUM_MISMATCH", t};
+        return false;
+      }
+      n.lim.validated = n.lim.validated || rp.result == core::Result::OK;
+      n.lim.validate_seq = 0;
+    }
+  }
+  const bool powered_before = before.state == State::ARMING || before.state == State::OPERATIONAL ||
+                              before.state == State::STOPPING;
+  const bool any_power = o.contactor || o.drives_enable || o.brakes_release;
+  const bool armed = o.state == State::ARMING || o.state == State::OPERATIONAL;
+  if (armed && (in.mode == core::Mode::AUTO || in.mode == core::Mode::T2) && !n.lim.validated) {
+    v = {"never ARMING or OPERATIONAL in AUTO or T2 with a configuration not validated", to_string(o.state),
+         "state=IDLE", t};
+    return false;
+  }
+  const auto cat0 = [&](core::AlarmId a, const std::string& what) {
+    const bool right_state = o.state == State::IDLE || o.state == State::ESTOP_ACTIVE || o.state == State::ERROR_LOCKOUT;
+    if (!right_state || any_power || o.stop != core::StopCat::CAT0 || (o.alarms & core::bit(a)) == 0U) {
+      v = {"a safe limit violated with power on => Cat 0 to IDLE in that cycle, alarm latched", what,
+           "state=IDLE stop=CAT0 contactor=open alarm=" + std::string(to_string(a)), t};
+      return false;
+    }
+    return true;
+  };
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    const float out = joint_outside(l, i, fb.drive[i].position_rad);
+    if (!powered_before) {
+      n.lim.best[i] = out;  // found without power: the reference point of a recovery
+      continue;
+    }
+    const bool newly = out > 0.0F && n.lim.best[i] <= 0.0F;
+    const bool worse = out > 0.0F && out > n.lim.best[i] + core::kWorseJointRad;
+    if (newly || worse) {
+      if (any_power) {
+        v = {"power stays on only while no limit gets worse (recovery only lets motion that reduces it)",
+             "axis " + std::to_string(i + 1U) + (newly ? " left its range" : " moved further outside"), "contactor=open", t};
+        return false;
+      }
+      if (!cat0(core::AlarmId::JOINT_LIMIT, "axis " + std::to_string(i + 1U) + " outside its range")) return false;
+    }
+    n.lim.best[i] = (out < n.lim.best[i]) ? out : n.lim.best[i];
+    const float w = fb.drive[i].velocity_rad_s;
+    if (!((w < 0.0F ? -w : w) <= l.joints[i].max_speed_rad_s) &&
+        !cat0(core::AlarmId::SPEED_LIMIT, "axis " + std::to_string(i + 1U) + " faster than its limit")) {
+      return false;
+    }
+  }
+  for (core::AlarmId a : {core::AlarmId::JOINT_LIMIT, core::AlarmId::ZONE_VIOLATION, core::AlarmId::ORIENTATION_LIMIT,
+                          core::AlarmId::SPEED_LIMIT}) {
+    if ((before.alarms & core::bit(a)) != 0U && (o.alarms & core::bit(a)) == 0U && !reset_ok) {
+      v = {"a SPEC §10 alarm stays latched until a reset answered OK", to_string(a) + std::string(" cleared"),
+           "alarm=" + std::string(to_string(a)), t};
+      return false;
+    }
+  }
+  return true;
+}
+
 bool Checker::apply(Node& n, std::size_t action, Violation& v) {
   ++stats_.transitions;
+  if (action == kValidateRight) {  // the operator confirms the active checksum
+    char line[64];
+    std::snprintf(line, sizeof line, "@0 cmd validate_config %08X\n",
+                  static_cast<unsigned>(configurations()[n.lim.config].loaded.limits.checksum));
+    const scenario::ParseResult p = scenario::parse(line, "check");
+    return apply_directive(n, p.scenario.steps.at(0).what, v);
+  }
   if (action == kWaitOne) {
     return step(n, nullptr, 0, v);
   }
@@ -333,13 +536,17 @@ bool Checker::apply_directive(Node& n, const scenario::Directive& d, Violation& 
     return step(n, nullptr, 0, v);
   }
   const auto& c = std::get<scenario::CommandStep>(d);
-  Node base{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch};
+  Node base{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch, n.lim};
   Violation ignored;
   step(base, nullptr, 0, ignored);
   core::Command cmd = c.command;
   cmd.seq = seq_++;
   if (n.cell->submit(cmd) != core::Result::OK) return true;  // QUEUE_FULL is its answer
   n.pending.emplace_back(cmd.seq, n.cell->now());
+  if (cmd.id == static_cast<std::uint8_t>(core::CommandId::validate_config)) {
+    n.lim.validate_seq = cmd.seq;
+    n.lim.validate_code = cmd.code;
+  }
   return step(n, &base, cmd.seq, v);
 }
 
@@ -362,7 +569,7 @@ bool Checker::run_seed(const Seed& seed, Node& n, Violation& v) {
   return true;
 }
 
-void Checker::report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v) {
+void Checker::report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v, std::size_t config) {
   std::vector<const Trail*> path;
   const Trail last{trail, line, t};
   path.push_back(&last);
@@ -371,6 +578,13 @@ void Checker::report(std::size_t trail, const std::string& line, core::Cycle t, 
   }
   std::ostringstream scn;
   scn << "# Counterexample found by `safestate check`: " << v.invariant << "\n# found: " << v.detail << "\n";
+  const Configuration& cfg = configurations()[config];
+  if (cfg.file[0] != '\0') {  // the configuration beside it, as `config safety=` reads it
+    std::ofstream(opt_.out_dir + "/" + cfg.file) << cfg.text << "\n";
+    scn << "config safety=" << cfg.file;
+    if (cfg.validated) scn << " validated=" << cfg.loaded.checksum;
+    scn << "\n";
+  }
   for (auto it = path.rbegin(); it != path.rend(); ++it) {
     if (!(*it)->line.empty()) {
       scn << "@" << (*it)->t << " " << (*it)->line << "\n";
@@ -390,10 +604,16 @@ int Checker::run() {
   std::unordered_set<std::string> seen;
   std::vector<Node> frontier;
   for (const Seed& sd : seeds()) {
-    Node n{std::make_unique<sim::Cell>(core::Config{}), reference::Supervisor{core::to_timing(core::Config{})}, {}, 0};
+    const Configuration& cfg = configurations()[sd.config];
+    const core::Config cc{};
+    Node n{std::make_unique<sim::Cell>(cc),
+           reference::Supervisor{core::to_timing(cc), ref_limits(cfg, cc.cycle_us)}, {}, 0};
+    n.cell->configure_limits(cfg.loaded.limits, cfg.validated);
+    n.lim.config = sd.config;
+    n.lim.validated = cfg.validated;
     Violation v;
     if (!run_seed(sd, n, v)) {
-      report(n.trail, "", n.cell->now(), v);
+      report(n.trail, "", n.cell->now(), v, n.lim.config);
       return 1;
     }
     if (seen.insert(key_of(*n.cell)).second) {
@@ -401,25 +621,42 @@ int Checker::run() {
     }
   }
   stats_.configurations = frontier.size();
-  std::vector<std::size_t> all;
-  for (std::size_t i = 0; i < action_texts().size(); ++i) all.push_back(i);
-  all.push_back(kWaitOne);
-  all.push_back(kWaitChange);
+  // Every configuration explores the vocabulary and the reduced input; the seeds with a
+  // configuration of their own (a limit within reach, recovery, not validated) also the
+  // rest of SPEC §10's actions. That keeps the checker's time within a few seconds of
+  // what it was without SPEC §10 (docs/verification.md).
+  if (action_texts()[kFirstLimitAction] != "in reduced=reduced") {
+    std::fprintf(stderr, "safestate check: kFirstLimitAction is stale\n");
+    return 2;
+  }
+  std::vector<std::size_t> base;
+  for (std::size_t i = 0; i < kFirstLimitAction + kLimitActionsEverywhere; ++i) base.push_back(i);
+  base.push_back(kWaitOne);
+  base.push_back(kWaitChange);
+  std::vector<std::size_t> all = base;
+  for (std::size_t i = kFirstLimitAction + kLimitActionsEverywhere; i < action_texts().size(); ++i) all.push_back(i);
+  all.push_back(kValidateRight);
 
   for (std::size_t depth = 0; depth < opt_.max_depth && !frontier.empty(); ++depth) {
     std::vector<Node> next;
     for (Node& n : frontier) {
-      std::vector<std::size_t> acts = all;
+      std::vector<std::size_t> acts = (n.lim.config == 0U) ? base : all;
       if (n.cell->out().state == State::BOOT || n.cell->raw_inputs_of_last_cycle().reset_button) {
         acts.push_back(kWaitLong);
       }
       for (std::size_t a : acts) {
-        Node child{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch};
+        Node child{std::make_unique<sim::Cell>(*n.cell), n.ref, n.pending, n.trail, n.watch, n.lim};
         const core::Cycle t = child.cell->now();
-        const std::string line = (a < action_texts().size()) ? action_texts()[a] : std::string();
+        std::string line = (a < action_texts().size()) ? action_texts()[a] : std::string();
+        if (a == kValidateRight) {
+          char code[16];
+          std::snprintf(code, sizeof code, "%08X",
+                        static_cast<unsigned>(configurations()[n.lim.config].loaded.limits.checksum));
+          line = std::string("cmd validate_config ") + code;
+        }
         Violation v;
         if (!apply(child, a, v)) {
-          report(n.trail, line, t, v);
+          report(n.trail, line, t, v, n.lim.config);
           stats_.max_depth = depth + 1;
           return 1;
         }

@@ -2,6 +2,7 @@
 #include "reference.hpp"
 
 #include "safestate/core/cia402.hpp"
+#include "safestate/core/monitors.hpp"  // the recovery tolerances kWorse* (vocabulary), nothing else
 
 namespace safestate::reference {
 
@@ -101,6 +102,68 @@ void Supervisor::answer(Out& out, std::uint32_t seq, std::uint8_t id, std::uint8
   }
 }
 
+bool Supervisor::trips(Track& t, float outside, bool powered, float tolerance) noexcept {
+  const bool nan = outside != outside;
+  const bool out = nan || outside > 0.0F;
+  if (!powered) {  // found without power: nothing trips, remember it for recovery (SPEC §10)
+    t.recovering = out;
+    t.best = outside;
+    return false;
+  }
+  if (!out) {
+    t.recovering = false;
+    return false;
+  }
+  if (!t.recovering) {
+    return true;  // newly violated with power on
+  }
+  const bool worse = nan || (t.best != t.best) || outside > t.best + tolerance;
+  if (worse) {
+    return true;  // recovery lets only motion that does not make it worse
+  }
+  if (outside < t.best) {
+    t.best = outside;
+  }
+  return false;
+}
+
+void Supervisor::judge_limits(const core::SafetyInputs& in, const core::Feedback& fb, const Geometry& g) noexcept {
+  joint_hit_ = zone_hit_ = orientation_hit_ = speed_hit_ = speed_over_ = outside_ = false;
+  if (!lim_.configured) {
+    return;
+  }
+  const bool powered = st_ == St::ARMING || st_ == St::OP || st_ == St::STOPPING;
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    const float q = fb.drive[i].position_rad;
+    float o = lim_.min_rad[i] - q;
+    if (q - lim_.max_rad[i] > o) o = q - lim_.max_rad[i];
+    if (q != q) o = q;  // unknown is outside
+    outside_ = outside_ || !(o <= 0.0F);
+    joint_hit_ = trips(joint_track_[i], o, powered, core::kWorseJointRad) || joint_hit_;
+  }
+  for (std::size_t k = 0; k < g.zones && k < core::kMaxZones; ++k) {
+    outside_ = outside_ || !(g.zone_outside[k] <= 0.0F);
+    zone_hit_ = trips(zone_track_[k], g.zone_outside[k], powered, core::kWorseZoneMm) || zone_hit_;
+  }
+  if (g.orientation) {
+    outside_ = outside_ || !(g.orientation_outside <= 0.0F);
+    orientation_hit_ = trips(orientation_track_, g.orientation_outside, powered, core::kWorseOrientationCos);
+  }
+  // Reduced mode: active while the TCP is in a reduced zone or the input asks; the reduced
+  // TCP limit applies once `ramp` cycles have passed since it became active.
+  const bool reduced_now = g.in_reduced_zone || in.reduced_requested;
+  if (reduced_now && !reduced_) reduced_since_ = now_;
+  reduced_ = reduced_now;
+  const bool enforced = reduced_ && (now_ - reduced_since_ > lim_.ramp);
+  const float tcp_limit = enforced ? lim_.reduced_tcp_max_mm_s : lim_.tcp_max_mm_s;
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    const float v = fb.drive[i].velocity_rad_s;
+    speed_over_ = speed_over_ || !((v < 0.0F ? -v : v) <= lim_.max_speed_rad_s[i]);
+  }
+  speed_over_ = speed_over_ || !(g.tcp_speed_mm_s <= tcp_limit);
+  speed_hit_ = powered && speed_over_;
+}
+
 void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
   static_cast<void>(out);
   const St s0 = st_;
@@ -147,6 +210,11 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
     }
     if (s0 == St::STOPPING && ramping_at_start && stop_elapsed_at_start > t_.max_stop) { raise(AlarmId::STOP_TIME_EXCEEDED); r3 = true; }
     if (brake_not_engaged_) r3 = true;  // raised in every state, above
+    // SPEC §10: a safe limit violated with power on (judged in judge_limits()).
+    if (joint_hit_) { raise(AlarmId::JOINT_LIMIT); r3 = true; }
+    if (zone_hit_) { raise(AlarmId::ZONE_VIOLATION); r3 = true; }
+    if (orientation_hit_) { raise(AlarmId::ORIENTATION_LIMIT); r3 = true; }
+    if (speed_hit_) { raise(AlarmId::SPEED_LIMIT); r3 = true; }
     if (r3 && !done) {
       done = true;
       cat0_to(St::IDLE);
@@ -289,6 +357,9 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           if (has(AlarmId::T1_SPEED_EXCEEDED) && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) return Result::FAULT_PRESENT;
           if (has(AlarmId::STOP_TIME_EXCEEDED) && !standstill()) return Result::FAULT_PRESENT;
           if (has(AlarmId::BRAKE_NOT_ENGAGED) && brake_not_engaged_) return Result::FAULT_PRESENT;
+          // SPEC §10: a position limit still violated is no reason (recovery needs the reset);
+          // a speed still over its limit is.
+          if (has(AlarmId::SPEED_LIMIT) && speed_over_) return Result::FAULT_PRESENT;
           if (drives_faulted(fb)) {
             pending_reset_ = true;
             pending_since_ = now_;
@@ -306,6 +377,10 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           if (in.mode == Mode::AUTO && in.gate_open) return Result::GATE_OPEN;
           if (manual(in.mode) && !in.enable_ok) return Result::ENABLING_NOT_HELD;
           if (in.mode == Mode::T2 && !t2_ok_) return Result::T2_NOT_CONFIRMED;
+          // SPEC §10: AUTO and T2 need a validated configuration and no limit violated; T1
+          // stays allowed (commissioning, recovery).
+          if ((in.mode == Mode::AUTO || in.mode == Mode::T2) && !validated_) return Result::CONFIG_NOT_VALIDATED;
+          if ((in.mode == Mode::AUTO || in.mode == Mode::T2) && outside_) return Result::OUTSIDE_LIMITS;
           armed_mode_ = in.mode;
           arming_step_ = 0;
           arming_elapsed_ = 0;
@@ -314,9 +389,11 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
         case CommandId::confirm_t2:
           return confirm();
         case CommandId::validate_config:
-          // SPEC §10; the harness runs without a safety configuration: checksum 0.
+          // SPEC §10: the operator confirms the active checksum (0 without a configuration).
           if (!manual(in.mode)) return Result::MODE_INVALID;
-          return (c.code == 0U) ? Result::OK : Result::CHECKSUM_MISMATCH;
+          if (c.code != (lim_.configured ? lim_.checksum : 0U)) return Result::CHECKSUM_MISMATCH;
+          validated_ = true;
+          return Result::OK;
         default:
           return jog_in_auto ? Result::JOG_NOT_IN_AUTO : Result::WRONG_STATE;
       }
@@ -352,12 +429,14 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
       if (sub_ == Sub::AUTO_IDLE) {
         if (in.gate_open) return Result::GATE_OPEN;
         if (!fb.program_loaded) return Result::NO_PROGRAM;
+        if (!fb.program_within_limits) return Result::OUTSIDE_LIMITS;
         go(St::OP, Sub::AUTO_RUNNING);
         return Result::OK;
       }
       if (sub_ == Sub::MANUAL_IDLE) {
         if (!in.enable_ok) return Result::ENABLING_NOT_HELD;
         if (!fb.program_loaded) return Result::NO_PROGRAM;
+        if (!fb.program_within_limits) return Result::OUTSIDE_LIMITS;
         go(St::OP, Sub::MANUAL_RUNNING);
         return Result::OK;
       }
@@ -418,7 +497,7 @@ void Supervisor::write(Out& out) const noexcept {
 }
 
 std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command* cmds,
-                             std::size_t n, Out& out) noexcept {
+                             std::size_t n, Out& out, const Geometry& g) noexcept {
   out.reply_count = 0;
   cat0_now_ = false;
 
@@ -429,9 +508,11 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   }
   quiet_ = still ? (quiet_ < t_.standstill_cycles ? quiet_ + 1U : quiet_) : 0U;
   if (in.mode_changed) t2_ok_ = false;
-  const AlarmId conds[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK};
-  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck};
-  for (int i = 0; i < 3; ++i) {
+  judge_limits(in, fb, g);
+  const AlarmId conds[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK,
+                           AlarmId::CONFIG_NOT_VALIDATED, AlarmId::REDUCED_SPEED};
+  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_};
+  for (int i = 0; i < 5; ++i) {
     if (holds[i]) raise(conds[i]); else drop(conds[i]);
   }
   if (in.enable_panic_edge) raise(AlarmId::ENABLING_PANIC);

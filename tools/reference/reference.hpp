@@ -11,6 +11,7 @@
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
+#include "safestate/core/safety_limits.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/types.hpp"
 
@@ -30,11 +31,42 @@ struct Out {
   std::uint8_t reply_count = 0;
 };
 
+// SPEC §10 as the supervisor sees it, abstractly: the limits that the reference judges
+// itself from the measured joints (range, speed), and what needs the arm's kinematics
+// (zones, orientation, TCP speed), handed over as numbers each cycle (`Geometry`). From
+// these the reference decides, independently of core/src/monitors/ and the core's guards,
+// when a limit trips (rule 3, with SPEC §10 recovery), which alarm it raises, the reduced
+// ramp, validation and the guards CONFIG_NOT_VALIDATED / OUTSIDE_LIMITS.
+struct Limits {
+  bool configured = false;  // without: nothing is monitored (the core without configure_limits)
+  bool validated = true;    // at start (the event log's confirmation); validate_config sets it
+  std::uint32_t checksum = 0;
+  std::array<float, core::kAxes> min_rad{};
+  std::array<float, core::kAxes> max_rad{};
+  std::array<float, core::kAxes> max_speed_rad_s{};
+  float tcp_max_mm_s = 0.0F;
+  float reduced_tcp_max_mm_s = 0.0F;
+  core::Cycle ramp = 0;  // reduced.ramp_ms in cycles
+};
+
+struct Geometry {
+  // How far the TCP sphere / link points are outside each keep_in or into each keep_out
+  // zone (mm, <= 0: respected; NaN: unknown). Reduced zones are not listed here.
+  std::array<float, core::kMaxZones> zone_outside{};
+  std::uint8_t zones = 0;
+  bool orientation = false;           // an orientation limit is configured
+  float orientation_outside = -1.0F;  // cos(max deviation) - cos(angle): <= 0 inside the cone
+  bool in_reduced_zone = false;       // the TCP is in a `reduced` zone
+  float tcp_speed_mm_s = 0.0F;        // measured TCP speed
+};
+
 class Supervisor {
  public:
-  explicit Supervisor(const core::Timing& t) noexcept : t_(t) {}
+  explicit Supervisor(const core::Timing& t, const Limits& l = Limits{}) noexcept
+      : t_(t), lim_(l), validated_(!l.configured || l.validated) {}
   std::size_t step(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command* cmds, std::size_t n,
-                   Out& out) noexcept;
+                   Out& out, const Geometry& g = Geometry{}) noexcept;
+  [[nodiscard]] bool validated() const noexcept { return validated_; }
 
  private:
   enum class St : std::uint8_t { BOOT, LOCKOUT, ESTOP, ESTOP_RESET, IDLE, ARMING, OP, STOPPING };
@@ -55,8 +87,32 @@ class Supervisor {
   [[nodiscard]] bool drive_fault_condition(const core::Feedback& fb, St s0, core::StopCat cat0, int step0) const noexcept;
   [[nodiscard]] bool standstill() const noexcept { return quiet_ >= t_.standstill_cycles; }
   void write(Out& out) const noexcept;
+  // SPEC §10, judged once per cycle before the rules (on the state the cycle began in).
+  void judge_limits(const core::SafetyInputs& in, const core::Feedback& fb, const Geometry& g) noexcept;
+
+  // One position limit (a joint's range, a zone, the orientation cone): SPEC §10 recovery.
+  struct Track {
+    bool recovering = false;
+    float best = 0.0F;
+  };
+  static bool trips(Track& t, float outside, bool powered, float tolerance) noexcept;
 
   core::Timing t_;
+  Limits lim_;
+  bool validated_ = true;
+  std::array<Track, core::kAxes> joint_track_{};
+  std::array<Track, core::kMaxZones> zone_track_{};
+  Track orientation_track_{};
+  bool reduced_ = false;          // reduced mode active this cycle
+  core::Cycle reduced_since_ = 0;
+  // This cycle's verdicts.
+  bool joint_hit_ = false;
+  bool zone_hit_ = false;
+  bool orientation_hit_ = false;
+  bool speed_hit_ = false;   // with power: a speed over its limit trips
+  bool speed_over_ = false;  // a speed over its limit, with power or not (the reset guard)
+  bool outside_ = false;     // a position limit violated now
+
   St st_ = St::BOOT;
   core::Sub sub_ = core::Sub::NONE;
   core::StopCat stop_cat_ = core::StopCat::NONE;  // while STOPPING

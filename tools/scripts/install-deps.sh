@@ -15,7 +15,7 @@ declare -A GROUPS_PKGS=(
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
   [browser]="chromium"
   [lint]="clang-tidy-19 cppcheck"
-  [bench]="libbenchmark-dev valgrind rt-tests"
+  [bench]="libbenchmark-dev valgrind rt-tests qemu-system-arm"
   [csharp]="mono-devel nunit-console libnunit-cil-dev pkg-config"
   [ecat]="iproute2"
 )

@@ -7,6 +7,12 @@ Mutant families (issue 6):
   timer     move each timer threshold by one cycle (> becomes >=, >= becomes >)
   stop      swap the stop category of each row (CAT0->CAT1, CAT1->CAT2, CAT2->CAT1)
   output    invert each output of each state in the output table, and of ARMING/STOPPING
+  monitor   weaken each safe-limit monitor of core/src/monitors/ (SPEC §10): a bound or a
+            check dropped, a threshold given slack, recovery's "not worse" loosened, the
+            reduced limit or its ramp lost, the wrong axis or zone named; and each of the
+            supervisor's rule-3 entries for them dropped
+  margin    remove each planning margin of the motion layer (motion/limits.hpp: 1 deg,
+            10 mm, 5 %, 1 deg), so that a jog holds at the limit itself
 
 Each mutant is applied to a copy of the source in build-mut/src, built, and run against
 the unit tests, the scenario suite, the differential test and the exhaustive checker.
@@ -23,6 +29,7 @@ import argparse
 import json
 import os
 import re
+from shlex import quote as shlex_quote
 import shutil
 import subprocess
 import sys
@@ -36,11 +43,13 @@ TRANSITIONS = "core/include/safestate/core/transitions.hpp"
 GUARDS = "core/src/guards.cpp"
 SUPERVISOR = "core/src/supervisor.cpp"
 SIGNALS = "core/src/signals.cpp"
+MON = "core/src/monitors/"
+MARGINS = "motion/include/safestate/motion/limits.hpp"
 # The suites that judge core/: the unit tests of the state machine and signal layer, the
 # differential test, the scenario suite and the exhaustive checker. Only their binaries
 # are rebuilt for each mutant.
-TARGETS = "test_transitions test_commands test_principles test_signals test_reference safestate"
-SELECT = "^(Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
+TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits safestate"
+SELECT = "^(CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
 
 
 def read(rel):
@@ -107,10 +116,79 @@ def mutants():
                    line.replace("== ArmingStep::BRAKES", "!= ArmingStep::BRAKES") if "== ArmingStep" in line else
                    line.replace("= false;", "= true;"))
             out.append(("output", desc, SUPERVISOR, line, new))
+    # --- monitors: each safe-limit monitor weakened (SPEC §10) ---------------------------
+    J, R, Z, O, S, RM, SL = (MON + f for f in ("joint_limits.cpp", "recovery.cpp", "zones.cpp", "orientation.cpp",
+                                                "speed_limits.cpp", "reduced_mode.cpp", "safe_limits.cpp"))
+    weak = [
+        (J, "const float below = l.min_rad - q;", "const float below = -1.0F;", "joint: lower bound dropped"),
+        (J, "const float above = q - l.max_rad;", "const float above = -1.0F;", "joint: upper bound dropped"),
+        (J, "(q == q) ? outside : q", "(q == q) ? (outside - 0.01F) : q", "joint: 0.01 rad of slack"),
+        (J, "if (trips && !r.joint.hit) {", "if (trips && r.joint.hit) {", "joint: finding never reported"),
+        (J, "r.joint.detail.axis = static_cast<std::uint8_t>(i + 1U);", "r.joint.detail.axis = static_cast<std::uint8_t>(i);", "joint: wrong axis named"),
+        (R, "  if (!powered) {", "  if (false) {", "recovery: none (found without power trips at power-on)"),
+        (R, "    t.recovering = out;", "    t.recovering = false;", "recovery: never entered"),
+        (R, "    t.recovering = false;  // back inside", "    // back inside", "recovery: not left when back inside"),
+        (R, "if (!t.recovering || !(outside <= (t.best + tolerance))) {", "if (!t.recovering) {", "recovery: worse allowed"),
+        (R, "(t.best + tolerance)", "(t.best + (10.0F * tolerance))", "recovery: tolerance x10"),
+        (R, "  if (outside < t.best) {", "  if (false) {", "recovery: best never improves (creep back allowed)"),
+        (R, "const bool out = !(outside <= 0.0F);", "const bool out = outside > 0.0F;", "recovery: NaN no longer outside"),
+        (Z, "(p[2] >= z.min_mm[2]) && (p[2] <= z.max_mm[2])", "true", "zones: inside() ignores z"),
+        (Z, "(z.min_mm[k] + r) - p[k]", "z.min_mm[k] - p[k]", "zones: keep_in sphere radius dropped at min"),
+        (Z, "p[k] - (z.max_mm[k] - r)", "p[k] - z.max_mm[k]", "zones: keep_in sphere radius dropped at max"),
+        (Z, "return r - std::sqrt(d2);", "return -std::sqrt(d2);", "zones: keep_out sphere radius dropped"),
+        (Z, "return r + to_face + ((r > 0.0F) ? 0.0F : 1.0e-3F);", "return -1.0F;", "zones: a point inside a keep_out box not seen"),
+        (Z, "for (std::size_t k = kFirstLinkPoint; k < kArmFrames; ++k) {", "for (std::size_t k = kFirstLinkPoint; k < kFirstLinkPoint; ++k) {", "zones: link points dropped"),
+        (Z, "const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;",
+            "const std::size_t n = (c.limits.zone_count < kMaxZones) ? ((c.limits.zone_count > 0U) ? c.limits.zone_count - 1U : 0U) : kMaxZones;",
+            "zones: the last zone dropped"),
+        (Z, "    if (z.kind == ZoneKind::reduced) {\n      r.in_reduced_zone", "    if (z.kind != ZoneKind::keep_out) {\n      r.in_reduced_zone", "zones: keep_in boxes not checked"),
+        (Z, "r.in_reduced_zone = r.in_reduced_zone || inside(z, c.pose.tcp);", "r.in_reduced_zone = r.in_reduced_zone;", "zones: reduced zone dropped"),
+        (Z, "track_violation(track_[i], outside, c.powered, kWorseZoneMm)", "track_violation(track_[i], outside - 5.0F, c.powered, kWorseZoneMm)", "zones: 5 mm of slack"),
+        (Z, "r.zone.detail.code = static_cast<std::uint16_t>(i);", "r.zone.detail.code = 0U;", "zones: wrong zone named"),
+        (Z, "return (b.hi[0] < z.min_mm[0]) ||", "return (b.hi[0] < (z.min_mm[0] + 50.0F)) ||", "zones: bounding box lets 50 mm into a keep_out box"),
+        (Z, "return (b.lo[0] >= z.min_mm[0]) &&", "return (b.lo[0] >= (z.min_mm[0] - 50.0F)) &&", "zones: bounding box lets 50 mm out of a keep_in box"),
+        (O, "  if (!c.limits.orientation_enabled) {", "  if (true) {", "orientation: monitor dropped"),
+        (SL, "orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad);",
+             "orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad * 1.05F);", "orientation: 5 % slack"),
+        (O, " + (a[2] * z[2]);", ";", "orientation: z component dropped"),
+        (S, "if (!(speed <= c.limits.joints[i].max_speed_rad_s)) {", "if (!(speed <= (1.05F * c.limits.joints[i].max_speed_rad_s))) {", "speed: joints 5 % slack"),
+        (S, "const float speed = (v < 0.0F) ? -v : v;", "const float speed = v;", "speed: negative direction unchecked"),
+        (S, "if (!f.hit && !(r.tcp_speed_mm_s <= r.speed_limit_mm_s)) {", "if (false) {", "speed: TCP check dropped"),
+        (S, "if (!f.hit && !(r.tcp_speed_mm_s <= r.speed_limit_mm_s)) {", "if (!f.hit && !(r.tcp_speed_mm_s <= (1.05F * r.speed_limit_mm_s))) {", "speed: TCP 5 % slack"),
+        (S, "c.reduced_enforced ? c.limits.reduced_tcp_max_speed_mm_s : c.limits.tcp_max_speed_mm_s",
+            "c.limits.tcp_max_speed_mm_s", "speed: reduced limit never applied"),
+        (S, "point_speed(c.pose, c.pose.tcp, kAxes, c.qd)", "point_speed(c.pose, c.pose.tcp, 3U, c.qd)", "speed: TCP speed without the wrist"),
+        (S, "  r.speed_over = f.hit;", "  r.speed_over = false;", "speed: reset guard blind to a speed still over"),
+        (RM, "} else if (elapsed_ <= ramp_) {", "} else if (elapsed_ < ramp_) {", "reduced: ramp never ends (limit never enforced)"),
+        (SL, "(input_reduced ? kReducedByInput : 0U)", "0U", "reduced: input ignored"),
+        (SL, "ms_to_cycles(limits_.reduced_ramp_ms, cycle_us)", "(10U * ms_to_cycles(limits_.reduced_ramp_ms, cycle_us))", "reduced: ramp 10x longer"),
+        (SL, "  joints_.check(ctx, out);\n", "", "joint monitor dropped"),
+        (SL, "  zones_.check(ctx, out);\n", "", "zone monitor dropped"),
+        (SL, "  orientation_.check(ctx, out);\n", "", "orientation monitor dropped"),
+        (SL, "  SpeedLimitMonitor::check(ctx, out);\n", "", "speed monitor dropped"),
+        (SL, "a = {a[0] / len, a[1] / len, a[2] / len};", "a = {a[0], a[1], a[2]};", "orientation axis not normalised"),
+        (SUPERVISOR, "std::pair{AlarmId::JOINT_LIMIT, &c.limits.joint}", "std::pair{AlarmId::JOINT_LIMIT, &c.limits.zone}", "rule 3: JOINT_LIMIT entry dropped"),
+        (SUPERVISOR, "std::pair{AlarmId::ZONE_VIOLATION, &c.limits.zone}", "std::pair{AlarmId::ZONE_VIOLATION, &c.limits.joint}", "rule 3: ZONE_VIOLATION entry dropped"),
+        (SUPERVISOR, "std::pair{AlarmId::ORIENTATION_LIMIT, &c.limits.orientation}", "std::pair{AlarmId::ORIENTATION_LIMIT, &c.limits.joint}", "rule 3: ORIENTATION_LIMIT entry dropped"),
+        (SUPERVISOR, "std::pair{AlarmId::SPEED_LIMIT, &c.limits.speed}", "std::pair{AlarmId::SPEED_LIMIT, &c.limits.joint}", "rule 3: SPEED_LIMIT entry dropped"),
+    ]
+    for rel, old, new, desc in weak:
+        out.append(("monitor", desc, rel, old, new))  # "not applied" if the text has gone
+    # --- margins of the motion layer ----------------------------------------------------
+    for old, new, desc in [("kJointMarginRad = deg(1.0F);", "kJointMarginRad = deg(0.0F);", "joint margin 1 deg removed"),
+                           ("kZoneMarginMm = 10.0F;", "kZoneMarginMm = 0.0F;", "zone margin 10 mm removed"),
+                           ("kSpeedFactor = 0.95F;", "kSpeedFactor = 1.0F;", "speed margin 5 % removed"),
+                           ("kOrientationMarginRad = deg(1.0F);", "kOrientationMarginRad = deg(0.0F);", "orientation margin 1 deg removed")]:
+        out.append(("margin", desc, MARGINS, old, new))
     return out
 
 
+LOCK = os.environ.get("MUTATE_LOCK", "")  # e.g. /tmp/safestate-cpu.lock: each build/test step takes it
+
+
 def sh(cmd, cwd, timeout):
+    if LOCK:
+        cmd = f"flock {LOCK} sh -c {shlex_quote(cmd)}"
     try:
         r = subprocess.run(cmd, cwd=cwd, shell=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=timeout)
         return r.returncode, r.stdout.decode(errors="replace")
@@ -138,13 +216,13 @@ def judge():
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", help="only this family (row, guard, timer, stop, output)")
+    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
     ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()
     ms = mutants()
     if a.only:
-        ms = [m for m in ms if m[0] == a.only]
+        ms = [m for m in ms if m[0] in a.only.split(",")]
     if a.limit:
         ms = ms[: a.limit]
     os.makedirs(WORK, exist_ok=True)

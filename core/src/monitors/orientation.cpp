@@ -1,8 +1,6 @@
 // SPEC §10: the tool's z axis within max_deviation_deg of orientation.axis (base frame)
 // -> else ORIENTATION_LIMIT (detail tcp). Compared as cosines: no acos in the cycle, and
 // "how far outside" stays monotonic in the angle.
-#include <cmath>
-
 #include "safestate/core/monitors.hpp"
 
 namespace safestate::core {
@@ -15,7 +13,7 @@ void OrientationMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   const Vec3& a = c.limits.orientation_axis;  // unit (configure() normalises it)
   const Vec3& z = c.pose.tool_z;
   const float cos_angle = (a[0] * z[0]) + (a[1] * z[1]) + (a[2] * z[2]);
-  const float outside = std::cos(c.limits.orientation_max_deviation_rad) - cos_angle;
+  const float outside = c.orientation_cos - cos_angle;
   const bool trips = track_violation(track_, outside, c.powered, kWorseOrientationCos);
   r.outside = r.outside || !(outside <= 0.0F);
   r.recovering = r.recovering || track_.recovering;

@@ -17,6 +17,7 @@ void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry&
   } else {
     limits_.orientation_enabled = false;  // safety/ refuses a zero axis before we get here
   }
+  orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad);  // once, not every cycle
   ramp_cycles_ = (cycle_us > 0U) ? ms_to_cycles(limits_.reduced_ramp_ms, cycle_us) : 0U;
   configured_ = true;
 }
@@ -36,7 +37,7 @@ void SafeLimitMonitors::evaluate(const Feedback& fb, bool powered, bool input_re
   arm_forward(arm_, q, limits_.tcp_mm, pose_);
   // Reduced mode first: the speed monitor needs to know whether it is enforced. The zone
   // source is this cycle's TCP position, so the zone monitor runs before it.
-  LimitContext ctx{limits_, pose_, q, qd, powered, false};
+  LimitContext ctx{limits_, pose_, q, qd, powered, false, orientation_cos_};
   joints_.check(ctx, out);
   zones_.check(ctx, out);
   orientation_.check(ctx, out);

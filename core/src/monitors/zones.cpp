@@ -49,6 +49,47 @@ float depth(const Zone& z, const Vec3& p, float r) noexcept {
   return r - std::sqrt(d2);
 }
 
+// The box around every point a zone is checked against (the TCP sphere, the link-frame
+// origins 2..6), once per cycle. `known` is false when a coordinate is NaN.
+struct Bounds {
+  Vec3 lo{};
+  Vec3 hi{};
+  bool known = true;
+};
+
+Bounds bounds_of(const ArmPose& p, float r) noexcept {
+  Bounds b{};
+  for (std::size_t k = 0; k < 3U; ++k) {
+    b.lo[k] = p.tcp[k] - r;
+    b.hi[k] = p.tcp[k] + r;
+    b.known = b.known && !std::isnan(p.tcp[k]);
+  }
+  for (std::size_t i = kFirstLinkPoint; i < kArmFrames; ++i) {
+    for (std::size_t k = 0; k < 3U; ++k) {
+      const float v = p.origin[i][k];
+      b.lo[k] = (v < b.lo[k]) ? v : b.lo[k];
+      b.hi[k] = (v > b.hi[k]) ? v : b.hi[k];
+      b.known = b.known && !std::isnan(v);
+    }
+  }
+  return b;
+}
+
+// True when the zone is respected by every point in `b` for certain: a keep_out box that
+// the bounds do not reach, a keep_in box that holds them whole. Then no per-point distance
+// is needed: how far a zone is violated matters only when it is (recovery, SPEC §10).
+bool clearly_respected(const Zone& z, const Bounds& b) noexcept {
+  if (!b.known) {
+    return false;
+  }
+  if (z.kind == ZoneKind::keep_out) {
+    return (b.hi[0] < z.min_mm[0]) || (b.lo[0] > z.max_mm[0]) || (b.hi[1] < z.min_mm[1]) ||
+           (b.lo[1] > z.max_mm[1]) || (b.hi[2] < z.min_mm[2]) || (b.lo[2] > z.max_mm[2]);
+  }
+  return (b.lo[0] >= z.min_mm[0]) && (b.hi[0] <= z.max_mm[0]) && (b.lo[1] >= z.min_mm[1]) &&
+         (b.hi[1] <= z.max_mm[1]) && (b.lo[2] >= z.min_mm[2]) && (b.hi[2] <= z.max_mm[2]);
+}
+
 }  // namespace
 
 float ZoneMonitor::outside_mm(const Zone& z, const ArmPose& p, float radius_mm) noexcept {
@@ -69,13 +110,19 @@ float ZoneMonitor::outside_mm(const Zone& z, const ArmPose& p, float radius_mm) 
 void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;
   // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
+  if (n == 0U) {
+    return;
+  }
+  const Bounds b = bounds_of(c.pose, c.limits.tool_radius_mm);
+  // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
   for (std::size_t i = 0; i < n; ++i) {
     const Zone& z = c.limits.zones[i];
     if (z.kind == ZoneKind::reduced) {
       r.in_reduced_zone = r.in_reduced_zone || inside(z, c.pose.tcp);
       continue;
     }
-    const float outside = outside_mm(z, c.pose, c.limits.tool_radius_mm);
+    // Far from the arm (the common case): respected, without the per-point distances.
+    const float outside = clearly_respected(z, b) ? -1.0F : outside_mm(z, c.pose, c.limits.tool_radius_mm);
     const bool trips = track_violation(track_[i], outside, c.powered, kWorseZoneMm);
     r.outside = r.outside || !(outside <= 0.0F);
     r.recovering = r.recovering || track_[i].recovering;

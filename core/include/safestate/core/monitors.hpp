@@ -56,13 +56,15 @@ struct LimitContext {
   // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   bool powered;             // ARMING, OPERATIONAL, STOPPING
   bool reduced_enforced;    // reduced mode active and its ramp time over
+  float orientation_cos;    // cos(orientation max deviation), computed once at configure()
 };
 
 struct LimitReport {
   LimitFinding joint;        // JOINT_LIMIT, detail axis.N
   LimitFinding zone;         // ZONE_VIOLATION, detail the zone (index in `code`)
   LimitFinding orientation;  // ORIENTATION_LIMIT, detail tcp
-  LimitFinding speed;        // SPEED_LIMIT, detail axis.N or tcp
+  LimitFinding speed;        // SPEED_LIMIT, detail axis.N or tcp (with power on: trips)
+  bool speed_over = false;   // a speed over its limit now, with power or not (reset guard)
   bool outside = false;      // a position limit is violated now
   bool recovering = false;   // ... and that is being recovered from (status `recovery`)
   bool in_reduced_zone = false;
@@ -140,6 +142,7 @@ class SafeLimitMonitors {
   Cycle ramp_cycles_ = 0;
   bool configured_ = false;
   ArmPose pose_{};
+  float orientation_cos_ = 1.0F;
   JointLimitMonitor joints_;
   ZoneMonitor zones_;
   OrientationMonitor orientation_;
