@@ -2,7 +2,9 @@
 // kinematics against the motion layer's (two implementations of one robot).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "safestate/controller/controller.hpp"
@@ -60,6 +62,41 @@ TEST(CoreArm, AgreesWithTheMotionLayersKinematicsOnRandomPoses) {
       EXPECT_NEAR(pose.origin[4][k], f.origin[4][k], 0.05F);
       EXPECT_NEAR(pose.tool_z[k], f.R[k][2], 1e-4F);
     }
+  }
+}
+
+// The cycle's sine and cosine (core/src/arm.cpp) against the library's in double: every
+// quadrant, both signs, the joint ranges (axis 6: +-400 deg) and far beyond, up to the
+// fast path's bound and past it (library fallback); NaN and infinities give NaN.
+TEST(CoreArm, SinCosAgreesWithTheLibraryWithin1e6) {
+  double worst = 0.0;  // printed: the figure docs/performance.md quotes
+  const auto check = [&](float x) {
+    float s = 0.0F;
+    float c = 0.0F;
+    core::sin_cos(x, s, c);
+    const double es = std::fabs(static_cast<double>(s) - std::sin(static_cast<double>(x)));
+    const double ec = std::fabs(static_cast<double>(c) - std::cos(static_cast<double>(x)));
+    worst = std::max({worst, es, ec});
+    ASSERT_LT(es, 1e-6) << "sin(" << x << ")";
+    ASSERT_LT(ec, 1e-6) << "cos(" << x << ")";
+  };
+  for (int i = -200000; i <= 200000; ++i) {
+    check(static_cast<float>(i) * 5.0e-5F);  // [-10, 10] rad, every 0.05 mrad
+  }
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> far(-core::kSinCosFastRange, core::kSinCosFastRange);
+  for (int i = 0; i < 200000; ++i) {
+    check(far(rng));
+  }
+  for (const float x : {core::kSinCosFastRange, -core::kSinCosFastRange, 1.0e4F, -3.0e6F, 1.0e-30F, -0.0F}) {
+    check(x);
+  }
+  std::printf("sin_cos: worst absolute error %.3g\n", worst);
+  for (const float x : {std::nanf(""), INFINITY, -INFINITY}) {
+    float s = 0.0F;
+    float c = 0.0F;
+    core::sin_cos(x, s, c);
+    EXPECT_TRUE(std::isnan(s) && std::isnan(c)) << x;
   }
 }
 

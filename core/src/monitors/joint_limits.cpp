@@ -12,6 +12,9 @@ void JointLimitMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
     const float below = l.min_rad - q;
     const float above = q - l.max_rad;
     const float outside = (below > above) ? below : above;  // NaN q: both NaN, stays NaN
+    if ((outside <= 0.0F) && !track_[i].recovering) {
+      continue;  // inside, as before: what track_violation() would conclude, without the call
+    }
     const bool trips = track_violation(track_[i], (q == q) ? outside : q, c.powered, kWorseJointRad);
     r.outside = r.outside || !(outside <= 0.0F);
     r.recovering = r.recovering || track_[i].recovering;

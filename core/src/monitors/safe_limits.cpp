@@ -9,7 +9,7 @@ namespace safestate::core {
 
 void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept {
   limits_ = limits;
-  arm_ = arm;
+  arm_ = prepare_arm(arm);
   Vec3& a = limits_.orientation_axis;
   const float len = std::sqrt((a[0] * a[0]) + (a[1] * a[1]) + (a[2] * a[2]));
   if (len > 0.0F) {
@@ -24,7 +24,7 @@ void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry&
 
 void SafeLimitMonitors::evaluate(const Feedback& fb, bool powered, bool input_reduced, std::uint8_t other_sources,
                                  LimitReport& out) noexcept {
-  out = LimitReport{};
+  out.clear();
   if (!configured_) {
     return;
   }

@@ -68,8 +68,25 @@ struct LimitReport {
   bool outside = false;      // a position limit is violated now
   bool recovering = false;   // ... and that is being recovered from (status `recovery`)
   bool in_reduced_zone = false;
+  std::uint8_t reduced_zone = 0;  // 1 + index of the first reduced zone holding the TCP, 0: none
   float tcp_speed_mm_s = 0.0F;
   float speed_limit_mm_s = 0.0F;  // the TCP limit in force this cycle
+
+  // As a value-initialised report, member by member: `= LimitReport{}` is a byte-wise
+  // memset in newlib-nano (a hundred and more instructions per cycle on the Cortex-M4).
+  void clear() noexcept {
+    joint = LimitFinding{};
+    zone = LimitFinding{};
+    orientation = LimitFinding{};
+    speed = LimitFinding{};
+    speed_over = false;
+    outside = false;
+    recovering = false;
+    in_reduced_zone = false;
+    reduced_zone = 0U;
+    tcp_speed_mm_s = 0.0F;
+    speed_limit_mm_s = 0.0F;
+  }
 };
 
 class JointLimitMonitor {
@@ -138,7 +155,7 @@ class SafeLimitMonitors {
 
  private:
   SafetyLimits limits_{};
-  ArmGeometry arm_{};
+  PreparedArm arm_{};
   Cycle ramp_cycles_ = 0;
   bool configured_ = false;
   ArmPose pose_{};
