@@ -176,7 +176,8 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
                                       limits_.reduced().active()};
   const std::array<AlarmDetail, kCond> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
                                             detail_of(Signal::reset_button), detail_of(Signal::internal),
-                                            detail_of(Signal::reduced, Channel::none, 0U, limits_.reduced().sources())};
+                                            detail_of(Signal::reduced, Channel::none, c.limits.reduced_zone,
+                                                      limits_.reduced().sources())};
   for (std::size_t i = 0; i < kCond; ++i) {
     if (holds[i]) {
       alarms_.raise(cond[i], what[i], now_);

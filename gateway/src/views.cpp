@@ -86,11 +86,16 @@ std::string limit_words(core::AlarmId id, const core::AlarmDetail& d, std::strin
   if (id == core::AlarmId::REDUCED_SPEED && d.signal == core::Signal::reduced && d.code != 0U) {
     std::string why;
     const std::array<std::pair<std::uint16_t, const char*>, 3> sources{
-        {{core::kReducedByZone, "in a reduced zone"}, {core::kReducedByInput, "reduced input"},
+        {{core::kReducedByZone, "in reduced zone"}, {core::kReducedByInput, "reduced input"},
          {core::kReducedByField, "outer protective field"}}};
     for (const auto& [bit, words] : sources) {
       if ((d.code & bit) != 0U) {
         why += (why.empty() ? "" : ", ") + std::string(words);
+        // The core's detail carries 1 + the zone's index in `axis` (core/src/monitors/zones.cpp).
+        if (bit == core::kReducedByZone && d.axis != 0U && g_safety.ok && d.axis <= g_safety.limits.zone_count &&
+            d.axis <= core::kMaxZones) {
+          why += " " + std::string(g_safety.limits.zones[d.axis - 1U].name.data());
+        }
       }
     }
     s += " (" + why + ")";

@@ -263,3 +263,16 @@ def test_zone_name_in_alarm_words(tmp_path):
         run(main())
     finally:
         stop(s)
+
+
+# @req LIM-REDUCED
+def test_reduced_zone_named_in_alarm_words(tmp_path):
+    """REDUCED_SPEED from a reduced zone names the zone (the core's detail carries its index)."""
+    s = start(tmp_path, ROOT / "tests" / "scenarios" / "configs" / "reduced-home.json")
+    try:
+        st = get_json(s.port, "/api/status")
+        assert st["safety"]["reduced"] is True and st["safety"]["reduced_by"] == ["zone"], st["safety"]
+        al = [a for a in get_json(s.port, "/api/alarms") if a["name"] == "REDUCED_SPEED"]
+        assert al and "in reduced zone loading" in al[0]["detail"], al
+    finally:
+        stop(s)
