@@ -231,11 +231,11 @@ Frame Hub::store(const bridge::EventRecord& e, const std::string& time, const st
   return std::make_shared<const std::string>(dump(event_message(id, e.t, time, kind, data)));
 }
 
-void Hub::broadcast(const Frame& frame, bool droppable) {
+void Hub::broadcast(const Frame& frame, bool droppable, const std::function<bool(Client&)>& take) {
   std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
   targets.reserve(clients_.size());
   for (const auto& [id, c] : clients_) {
-    if (c->hello) {
+    if (c->hello && (!take || take(*c))) {
       targets.push_back(c);
     }
   }
@@ -298,22 +298,17 @@ void Hub::broadcast_status() {
   read_status();
   const auto frame = std::make_shared<const std::string>(dump(status_json(status_, extras(), true)));
   const auto now = Clock::now();
-  std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
-  targets.reserve(clients_.size());
-  for (const auto& [id, c] : clients_) {
+  broadcast(frame, true, [&](Client& c) {
     // The same snapshot again within a period (the hello's status just before this tick)
     // tells the client nothing; a stalled core's snapshot is still repeated every period,
     // with the gateway's own fields (core_heartbeat_age_ms) moving on.
-    const bool just_sent = c->status_t == status_.t && now - c->status_at < kStatusPeriod;
-    if (c->hello && !just_sent) {
-      targets.push_back(c);
+    if (c.status_t == status_.t && now - c.status_at < kStatusPeriod) {
+      return false;
     }
-  }
-  for (Client* c : targets) {
-    c->status_t = status_.t;
-    c->status_at = now;
-    c->send(frame, true);
-  }
+    c.status_t = status_.t;
+    c.status_at = now;
+    return true;
+  });
 }
 
 // The core process is gone when it no longer exists or is a zombie (its parent has not

@@ -149,7 +149,8 @@ class Hub {
 
   void refuse(Client& c, ErrorCode code, const std::string& detail);
   void send(Client& c, const Json& message);
-  void broadcast(const Frame& frame, bool droppable);
+  // To every client past its hello for which `take` (when given) says yes.
+  void broadcast(const Frame& frame, bool droppable, const std::function<bool(Client&)>& take = {});
   void on_hello(Client& c, const HelloMsg& h);
   void on_command(Client& c, const CommandMsg& m);
   void on_sim(Client& c, const SimMsg& m);
