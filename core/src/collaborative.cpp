@@ -68,8 +68,12 @@ float ssm_allowed_speed_mm_s(float separation_mm, const SsmParams& p, float limi
 
 float ssm_protective_distance_mm(float speed_mm_s, float separation_mm, const SsmParams& p) noexcept {
   const float v_h = human_speed(separation_mm, p);
-  const float t_s = positive_finite(p.decel_mm_s2) ? (speed_mm_s / p.decel_mm_s2) : 0.0F;
-  const float braking = positive_finite(p.decel_mm_s2) ? ((speed_mm_s * speed_mm_s) / (2.0F * p.decel_mm_s2)) : 0.0F;
+  float t_s = 0.0F;      // the robot's stopping time v/a
+  float braking = 0.0F;  // and distance v^2/(2a); both 0 without a deceleration
+  if (positive_finite(p.decel_mm_s2)) {
+    t_s = speed_mm_s / p.decel_mm_s2;
+    braking = (speed_mm_s * t_s) / 2.0F;
+  }
   return (v_h * (p.reaction_s + t_s)) + (speed_mm_s * p.reaction_s) + braking + p.intrusion_mm + p.uncertainty_mm;
 }
 
