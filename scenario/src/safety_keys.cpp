@@ -277,6 +277,15 @@ bool parse_expect(std::string_view tok, Expectation& e, Problem& problem) {
 
 bool known_detail(std::string_view v) noexcept {
   std::uint8_t axis = 0;
+  // SPEC §11: the protective fields' channels (FIELD_DISCREPANCY, PERSON_IN_FIELD) and the
+  // distance sensor (SEPARATION_VIOLATED).
+  constexpr std::array<std::string_view, 5> kCollaborative{"field.outer.a", "field.outer.b", "field.inner.a",
+                                                           "field.inner.b", "separation"};
+  for (const std::string_view c : kCollaborative) {
+    if (v == c) {
+      return true;
+    }
+  }
   return (v == "tcp") || (v == "reduced") || (v.substr(0, 5) == "axis." && util::axis_1_to_6(v.substr(5), axis));
 }
 
