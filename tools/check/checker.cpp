@@ -389,7 +389,10 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     return false;
   }
   const bool motion_sub = o.sub == Sub::AUTO_RUNNING || o.sub == Sub::MANUAL_JOGGING || o.sub == Sub::MANUAL_RUNNING;
-  if (motion_sub && o.sub != before.sub && !motion_ok) {
+  // SPEC §11's automatic resume is the one motion without a command: invariant 14 judges it.
+  const core::CollaborativeLimits& co = configurations()[n.lim.config].loaded.limits.collaborative;
+  const bool auto_resume = co.enabled && co.auto_resume && before.sub == Sub::AUTO_PAUSED && o.sub == Sub::AUTO_RUNNING;
+  if (motion_sub && o.sub != before.sub && !motion_ok && !auto_resume) {
     v = {"no motion sub-state without a motion command accepted in that cycle", to_string(o.sub),
          "sub=" + std::string(to_string(before.sub)), t};
     return false;
