@@ -138,6 +138,13 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       break;
     case AlarmId::CONFIG_NOT_VALIDATED: t.s("Safety configuration not validated"); break;
     case AlarmId::REDUCED_SPEED: t.s("Reduced speed active"); break;
+    case AlarmId::FIELD_DISCREPANCY:
+      t.s((d.signal == Signal::field_inner) ? "Inner" : "Outer").s(" protective field channels disagree").s(ch);
+      break;
+    case AlarmId::SEPARATION_VIOLATED:
+      t.s("TCP faster than allowed for the separation (").u(d.code).s(" mm/s)");
+      break;
+    case AlarmId::PERSON_IN_FIELD: t.s("Person in the inner protective field"); break;
   }
   return t.c_str();
 }
@@ -179,7 +186,8 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     return "";
   }
   Text t(buf, n);
-  const bool dual = (d.signal == Signal::estop) || (d.signal == Signal::gate) || (d.signal == Signal::enable);
+  const bool dual = (d.signal == Signal::estop) || (d.signal == Signal::gate) || (d.signal == Signal::enable) ||
+                    (d.signal == Signal::field_outer) || (d.signal == Signal::field_inner);
   if (d.signal == Signal::none) {
     t.s("-");
   } else if (dual && (d.channel == Channel::panic)) {

@@ -35,6 +35,10 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   if (v.alarms.active(AlarmId::SPEED_LIMIT) && (v.limits != nullptr) && v.limits->speed_over) {
     return Result::FAULT_PRESENT;
   }
+  // SPEC §11: the TCP still faster than the separation allows.
+  if (v.alarms.active(AlarmId::SEPARATION_VIOLATED) && v.separation_over) {
+    return Result::FAULT_PRESENT;
+  }
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)
 }
 
@@ -79,15 +83,26 @@ Result program_ready(const GuardView& v) noexcept {
 }
 }  // namespace
 
+// @req COL-FIELD-GUARD
 Result guard_start_auto(const GuardView& v) noexcept {
   if (v.in.gate_open) {
     return Result::GATE_OPEN;
   }
+  if (!v.fb.program_loaded) {
+    return Result::NO_PROGRAM;
+  }
+  if (v.field_blocks) {
+    return Result::FIELD_INTERRUPTED;  // SPEC §11: a person in the inner field
+  }
   return program_ready(v);
 }
 
-Result guard_gate_closed(const GuardView& v) noexcept {
-  return v.in.gate_open ? Result::GATE_OPEN : Result::OK;
+// @req COL-FIELD-GUARD
+Result guard_resume(const GuardView& v) noexcept {
+  if (v.in.gate_open) {
+    return Result::GATE_OPEN;
+  }
+  return v.field_blocks ? Result::FIELD_INTERRUPTED : Result::OK;
 }
 
 Result guard_enable_held(const GuardView& v) noexcept {

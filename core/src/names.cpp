@@ -49,9 +49,10 @@ constexpr std::array<const char*, kCommandCount> kCommandNames{
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
     "validate_config"};
 constexpr std::array<const char*, kSourceCount> kSourceNames{"pendant", "remote", "observer", "reset_button"};
-constexpr std::array<const char*, 16> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
+constexpr std::array<const char*, 19> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
                                                    "drive",     "contactor", "brake", "fieldbus", "command", "internal",
-                                                   "axis",      "tcp",       "zone",  "reduced"};
+                                                   "axis",      "tcp",       "zone",  "reduced",
+                                                   "field.outer", "field.inner", "separation"};
 constexpr std::array<const char*, 5> kChannelNames{"none", "a", "b", "both", "panic"};
 constexpr std::array<const char*, 3> kStepNames{"CONTACTOR", "DRIVES", "BRAKES"};
 constexpr std::array<const char*, 17> kLeafNames{
@@ -60,28 +61,31 @@ constexpr std::array<const char*, 17> kLeafNames{
     "STOPPING_CAT1", "STOPPING_CAT2", "(same)",        "OPERATIONAL (AUTO_IDLE or MANUAL_IDLE by mode)",
     "(the stop's target)"};
 constexpr std::array<const char*, kTriggerCount> kTriggerNames{
-    "discrepancy > limit, fieldbus lost, integrity check failed, boot failed",
+    "discrepancy > limit (also of the protective fields), fieldbus lost, integrity check failed, boot failed",
     "estop pressed",
     "drive fault, T1 speed of TCP or link origin > limit, stop time exceeded, brake not engaged, "
-    "a safe limit violated (joint, zone, orientation, speed)",
+    "a safe limit violated (joint, zone, orientation, speed), separation violated (SSM)",
     "gate open while mode=AUTO",
     "enable leaves centre while mode is T1/T2",
     "mode changes (including to NONE)",
     "jog keep-alive older than jog_timeout_ms",
+    "inner protective field interrupted while collaborative operation is on (AUTO)",
     "self-test passed, fieldbus up, all drives answer",
     "estop released on both channels",
     "all arming steps done (CONTACTOR, DRIVES, BRAKES)",
     "an arming step timed out",
     "program finished",
     "standstill reached (Cat 1: and brakes engaged)",
+    "paused by rule 9; both fields clear for resume_delay_ms, auto_resume on",
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
     "validate_config"};
-constexpr std::array<const char*, 9> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
+constexpr std::array<const char*, 10> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
                                                   "arm from step CONTACTOR", "start program from first waypoint",
                                                   "resume program, re-planned from measured position",
                                                   "discard program", "restart jog keep-alive",
                                                   "T2 confirmed until the mode changes",
-                                                  "configuration validated (written to the event log)"};
+                                                  "configuration validated (written to the event log)",
+                                                  "the pause may resume by itself (auto_resume)"};
 constexpr std::array<const char*, kAlarmCount> kAlarmNames = [] {
   std::array<const char*, kAlarmCount> n{};
   for (std::size_t i = 0; i < kAlarmCount; ++i) {

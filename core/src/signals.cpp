@@ -112,6 +112,8 @@ void SignalLayer::update(const RawInputs& raw, Cycle now, const Timing& t) noexc
   enable_.update(raw.enable_a, raw.enable_b, raw.enable_panic, manual_entered, t.discrepancy);
   reset_.update(raw.reset_button, now, t.reset_hold_max);
   reduced_.update(raw.reduced_a, raw.reduced_b, t.discrepancy);
+  field_outer_.update(raw.field_outer_a, raw.field_outer_b, t.discrepancy);
+  field_inner_.update(raw.field_inner_a, raw.field_inner_b, t.discrepancy);
 
   out_.estop_pressed = !estop_.active();
   out_.estop_cause = estop_.cause();
@@ -136,6 +138,17 @@ void SignalLayer::update(const RawInputs& raw, Cycle now, const Timing& t) noexc
   out_.reset_stuck = reset_.stuck();
   out_.reduced_requested = !reduced_.active();
   out_.reduced_discrepancy = reduced_.discrepancy();
+  // @req COL-FIELDS
+  out_.field_outer_interrupted = !field_outer_.active();
+  out_.field_outer_cause = field_outer_.cause();
+  out_.field_outer_discrepancy = field_outer_.discrepancy();
+  out_.field_outer_fault_channel = field_outer_.fault_channel();
+  out_.field_inner_interrupted = !field_inner_.active();
+  out_.field_inner_cause = field_inner_.cause();
+  out_.field_inner_discrepancy = field_inner_.discrepancy();
+  out_.field_inner_fault_channel = field_inner_.fault_channel();
+  // @req COL-SSM-INPUT
+  out_.separation_mm = (raw.separation_valid && (raw.separation_mm >= 0)) ? static_cast<float>(raw.separation_mm) : 0.0F;
 }
 
 }  // namespace safestate::core

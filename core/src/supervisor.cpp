@@ -111,6 +111,8 @@ struct SystemStateManager::CycleCtx {
   std::uint8_t brake_axis = 0;     // rule 3: first axis whose brake did not engage in 300 ms
   std::uint8_t fastest_moving_axis = 0;
   LimitReport limits{};  // SPEC §10 monitors' verdict this cycle
+  FieldReport fields{};  // SPEC §11 protective fields
+  SsmReport ssm{};       // SPEC §11 speed and separation monitoring
 };
 
 SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(timing) {
@@ -128,6 +130,8 @@ SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(
 void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
                                           bool validated) noexcept {
   limits_.configure(limits, arm, cycle_us);
+  fields_.configure(limits.collaborative, cycle_us);
+  ssm_.configure(limits, cycle_us);
   config_validated_ = validated;
 }
 
@@ -135,7 +139,7 @@ GuardView SystemStateManager::view(const CycleCtx& c, std::uint32_t code) const 
   return GuardView{c.in,           c.fb,           alarms_,           timing_,
                    t2_confirmed_,  boot_pending_,  reset_pending_,    c.at_standstill,
                    c.brake_axis != 0U, &c.limits,  config_validated_, limits_.limits().checksum,
-                   code};
+                   code,           c.fields.blocks_start,             c.ssm.over};
 }
 
 void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
@@ -164,20 +168,26 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   if (in.mode_changed) {
     t2_confirmed_ = false;  // "T2 confirmed until the mode next changes"
   }
-  limits_.evaluate(fb, in_mask(kPowered, leaf_), in.reduced_requested, 0U, c.limits);
+  // SPEC §11 first: the outer field is a source of reduced mode; SSM clamps v_allowed to
+  // the TCP limit in force, which the safe limits decide.
+  const bool powered = in_mask(kPowered, leaf_);
+  fields_.check(in, c.fields);
+  limits_.evaluate(fb, powered, in.reduced_requested, c.fields.outer_reduces ? kReducedByField : 0U, c.limits);
+  ssm_.check(in, c.limits.tcp_speed_mm_s, c.limits.speed_limit_mm_s, powered, c.ssm);
 
   // @req AL-LIFETIME
   // Alarms that are active while their condition lasts.
-  constexpr std::size_t kCond = 5U;
+  constexpr std::size_t kCond = 6U;
   const std::array<AlarmId, kCond> cond{AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID,
                                         AlarmId::RESET_BUTTON_STUCK, AlarmId::CONFIG_NOT_VALIDATED,
-                                        AlarmId::REDUCED_SPEED};
+                                        AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD};
   const std::array<bool, kCond> holds{in.estop_pressed, in.mode_invalid, in.reset_stuck, !config_validated_,
-                                      limits_.reduced().active()};
+                                      limits_.reduced().active(), c.fields.inner_stops};
   const std::array<AlarmDetail, kCond> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
                                             detail_of(Signal::reset_button), detail_of(Signal::internal),
                                             detail_of(Signal::reduced, Channel::none, c.limits.reduced_zone,
-                                                      limits_.reduced().sources())};
+                                                      limits_.reduced().sources()),
+                                            c.fields.inner_detail};
   for (std::size_t i = 0; i < kCond; ++i) {
     if (holds[i]) {
       alarms_.raise(cond[i], what[i], now_);
@@ -315,7 +325,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
     if (row == nullptr) {
       continue;  // this rule does not apply in this state
     }
-    const auto rule = static_cast<std::uint8_t>(t + 1U);
+    const std::uint8_t rule = kConditionRule[t];
     bool holds = false;
     Cause cause{};
     // Evaluate the condition; raise every alarm it implies; remember the first as cause.
@@ -327,15 +337,21 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
       holds = true;
     };
     switch (trig) {
-      case Trigger::lockout_condition:
-        if (in.estop_discrepancy) {
-          hit(AlarmId::ESTOP_DISCREPANCY, detail_of(Signal::estop, in.estop_fault_channel));
-        }
-        if (in.gate_discrepancy) {
-          hit(AlarmId::GATE_DISCREPANCY, detail_of(Signal::gate, in.gate_fault_channel));
-        }
-        if (in.enable_discrepancy) {
-          hit(AlarmId::ENABLE_DISCREPANCY, detail_of(Signal::enable, in.enable_fault_channel));
+      case Trigger::lockout_condition: {
+        // The dual-channel inputs' discrepancies, in the order of SPEC §2 and §11.
+        const std::array<std::pair<bool, AlarmId>, 4> discrepancies{{
+            {in.estop_discrepancy, AlarmId::ESTOP_DISCREPANCY},
+            {in.gate_discrepancy, AlarmId::GATE_DISCREPANCY},
+            {in.enable_discrepancy, AlarmId::ENABLE_DISCREPANCY},
+            {c.fields.discrepancy, AlarmId::FIELD_DISCREPANCY}}};
+        const std::array<AlarmDetail, 4> where{detail_of(Signal::estop, in.estop_fault_channel),
+                                               detail_of(Signal::gate, in.gate_fault_channel),
+                                               detail_of(Signal::enable, in.enable_fault_channel),
+                                               c.fields.discrepancy_detail};
+        for (std::size_t k = 0; k < discrepancies.size(); ++k) {
+          if (discrepancies[k].first) {
+            hit(discrepancies[k].second, where[k]);
+          }
         }
         if (!boot_pending_ && !fb.fieldbus_ok) {
           hit(AlarmId::FIELDBUS_LOST, detail_of(Signal::fieldbus, Channel::none, 0U, fieldbus_code(fb)));
@@ -353,6 +369,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor));
         }
         break;
+      }
       case Trigger::estop_pressed:
         if (in.estop_pressed) {
           hit(AlarmId::ESTOP_PRESSED, detail_of(Signal::estop, in.estop_cause));
@@ -383,7 +400,8 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         for (const auto& [id, f] : {std::pair{AlarmId::JOINT_LIMIT, &c.limits.joint},
                                     std::pair{AlarmId::ZONE_VIOLATION, &c.limits.zone},
                                     std::pair{AlarmId::ORIENTATION_LIMIT, &c.limits.orientation},
-                                    std::pair{AlarmId::SPEED_LIMIT, &c.limits.speed}}) {
+                                    std::pair{AlarmId::SPEED_LIMIT, &c.limits.speed},
+                                    std::pair{AlarmId::SEPARATION_VIOLATED, &c.ssm.violated}}) {
           if (f->hit) {
             hit(id, f->detail);
           }
@@ -416,6 +434,12 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
       case Trigger::jog_timeout:
         if ((now_ - last_jog_) > timing_.jog_timeout) {
           hit(AlarmId::JOG_LINK_LOST, detail_of(Signal::command));
+        }
+        break;
+      // @req COL-FIELD-GUARD
+      case Trigger::person_in_field:
+        if (c.fields.inner_stops) {
+          hit(AlarmId::PERSON_IN_FIELD, c.fields.inner_detail);
         }
         break;
       default:
@@ -495,6 +519,9 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
   } else if ((leaf_ == Leaf::AUTO_RUNNING) || (leaf_ == Leaf::MANUAL_RUNNING)) {
     trig = Trigger::program_finished;
     fired = c.fb.program_finished;
+  } else if (leaf_ == Leaf::AUTO_PAUSED) {
+    trig = Trigger::fields_clear;  // SPEC §11: only a pause of rule 9 resumes by itself
+    fired = field_paused_ && c.fields.resume_due;
   } else if (auto* s = std::get_if<StStopping>(&state_)) {
     trig = Trigger::standstill;
     if (!s->braking) {
@@ -697,6 +724,9 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     case Effect::set_validated:
       config_validated_ = true;
       break;
+    case Effect::field_pause:
+      field_paused_ = true;
+      break;
     case Effect::begin_arming:
       armed_mode_ = c.in.mode;
       break;
@@ -771,6 +801,9 @@ void SystemStateManager::enter(CycleCtx& c, Leaf to) noexcept {
     default: state_ = StOperational{sub_of(to)}; break;
   }
   leaf_ = to;
+  // A pause of rule 9 stays one through its Cat 2 stop (entered by apply()) into
+  // AUTO_PAUSED, and ends with any other state.
+  field_paused_ = field_paused_ && (to == Leaf::AUTO_PAUSED);
   const bool resettable_before = (from == Leaf::ESTOP_RESET_NEEDED) || (from == Leaf::IDLE);
   const bool resettable_now = (to == Leaf::ESTOP_RESET_NEEDED) || (to == Leaf::IDLE);
   if (resettable_now && !resettable_before) {
@@ -854,6 +887,8 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.alarms_raised = alarms_.raised();
   o.alarms_cleared = alarms_.cleared();
   o.motion.reduced = limits_.reduced().active();
+  o.motion.reduced_limit_mm_s = limits_.reduced().limit();
+  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_allowed_mm_s : -1.0F;
   o.motion.recovery = c.limits.recovering;
   SafetyStatus& st = o.safety;
   st.checksum = limits_.limits().checksum;
@@ -864,6 +899,11 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   st.outside = c.limits.outside;
   st.speed_limit_mm_s = c.limits.speed_limit_mm_s;
   st.tcp_speed_mm_s = c.limits.tcp_speed_mm_s;
+  st.field_outer_interrupted = c.in.field_outer_interrupted;
+  st.field_inner_interrupted = c.in.field_inner_interrupted;
+  st.ssm = c.ssm.acting;
+  st.v_allowed_mm_s = c.ssm.v_allowed_mm_s;
+  st.separation_mm = c.ssm.separation_mm;
 }
 
 bool SystemStateManager::outputs_consistent(const CycleCtx& c) const noexcept {

@@ -237,7 +237,7 @@ struct Shorthand {
 };
 
 // clang-format off
-constexpr std::array<Shorthand, 5> kShorthands{{
+constexpr std::array<Shorthand, 7> kShorthands{{
   {"estop", "pressed|released", {{
     {"pressed", {{{Contact::estop_a, false}, {Contact::estop_b, false}, {}}}, 2},
     {"released", {{{Contact::estop_a, true}, {Contact::estop_b, true}, {}}}, 2}, {}, {}}}, 2},
@@ -256,6 +256,12 @@ constexpr std::array<Shorthand, 5> kShorthands{{
   {"reduced", "normal|reduced", {{
     {"normal", {{{Contact::reduced_a, true}, {Contact::reduced_b, true}, {}}}, 2},
     {"reduced", {{{Contact::reduced_a, false}, {Contact::reduced_b, false}, {}}}, 2}, {}, {}}}, 2},
+  {"field.outer", "clear|interrupted", {{
+    {"clear", {{{Contact::field_outer_a, true}, {Contact::field_outer_b, true}, {}}}, 2},
+    {"interrupted", {{{Contact::field_outer_a, false}, {Contact::field_outer_b, false}, {}}}, 2}, {}, {}}}, 2},
+  {"field.inner", "clear|interrupted", {{
+    {"clear", {{{Contact::field_inner_a, true}, {Contact::field_inner_b, true}, {}}}, 2},
+    {"interrupted", {{{Contact::field_inner_a, false}, {Contact::field_inner_b, false}, {}}}, 2}, {}, {}}}, 2},
 }};
 // clang-format on
 
@@ -277,13 +283,16 @@ constexpr std::array<RawContact, bridge::kContactCount> kRawContacts{{
     {"reset_button", Contact::reset_button},
     {"reduced.a", Contact::reduced_a},
     {"reduced.b", Contact::reduced_b},
+    {"field.outer.a", Contact::field_outer_a},
+    {"field.outer.b", Contact::field_outer_b},
+    {"field.inner.a", Contact::field_inner_a},
+    {"field.inner.b", Contact::field_inner_b},
 }};
 
 void apply(const Write& w, bridge::CommandRecord& out) noexcept {
-  const auto b = static_cast<std::uint16_t>(1U << static_cast<unsigned>(w.contact));
-  out.set_mask = static_cast<std::uint16_t>(out.set_mask | b);
-  out.set_values = w.closed ? static_cast<std::uint16_t>(out.set_values | b)
-                            : static_cast<std::uint16_t>(out.set_values & static_cast<std::uint16_t>(~b));
+  const std::uint32_t b = 1U << static_cast<unsigned>(w.contact);
+  out.set_mask |= b;
+  out.set_values = w.closed ? (out.set_values | b) : (out.set_values & ~b);
 }
 
 // 0/1, true/false or "0"/"1".
@@ -328,7 +337,33 @@ std::string apply_shorthand(const std::string& key, const Json& value, bridge::C
   return "?";
 }
 
+// SPEC §11's distance sensor: `separation_mm` an integer >= 0 (mm), `separation_valid` 0|1.
+// "" when handled, "?" when `key` is neither, else the problem.
+std::string apply_separation(const std::string& key, const Json& value, bridge::CommandRecord& out) {
+  if (key == "separation_mm") {
+    if (!value.is_number_integer() || value.get<std::int64_t>() < 0 || value.get<std::int64_t>() > 100000000) {
+      return "bad value " + value_text(value) + " for input separation_mm (expected an integer number of mm >= 0)";
+    }
+    out.separation_mm = static_cast<std::int32_t>(value.get<std::int64_t>());
+    out.separation_set |= bridge::kSetSeparation;
+    return {};
+  }
+  if (key == "separation_valid") {
+    bool valid = false;
+    if (!contact_value(value, valid)) {
+      return "bad value " + value_text(value) + " for input separation_valid (expected 0|1)";
+    }
+    out.separation_set = static_cast<std::uint8_t>(out.separation_set | bridge::kSetValid |
+                                                   (valid ? bridge::kSeparationValid : 0U));
+    return {};
+  }
+  return "?";
+}
+
 std::string apply_raw(const std::string& key, const Json& value, bridge::CommandRecord& out) {
+  if (std::string p = apply_separation(key, value, out); p != "?") {
+    return p;
+  }
   for (const RawContact& r : kRawContacts) {
     if (key != r.key) {
       continue;

@@ -31,7 +31,8 @@ namespace {
 
 constexpr std::array<const char*, bridge::kContactCount> kContactNames{
     "estop.a",  "estop.b",   "gate.a",  "gate.b",  "enable.a",    "enable.b",
-    "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button", "reduced.a", "reduced.b"};
+    "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button", "reduced.a", "reduced.b",
+    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
 
 double rounded(double v, double scale) { return std::round(v * scale) / scale + 0.0; }  // + 0.0: no -0
 
@@ -356,13 +357,15 @@ Json status_safety_json(const bridge::Status& s) {
   j["reduced_by"] = std::move(by);
   j["recovery"] = s.safety_recovery;
   j["speed_limit"] = rounded(static_cast<double>(s.safety_speed_limit_mm_s), 10.0);
-  // SPEC §11 and §12 come with later issues: their fields are here, at their idle values.
-  j["v_allowed"] = nullptr;
+  // SPEC §11: v_allowed and the separation used while SSM acts (collaborative and ssm on,
+  // mode AUTO), else null; the fields as validated, whether or not they act.
+  j["v_allowed"] = s.safety_ssm ? Json(rounded(static_cast<double>(s.safety_v_allowed_mm_s), 10.0)) : Json(nullptr);
   Json fields;
-  fields["outer"] = "clear";
-  fields["inner"] = "clear";
+  fields["outer"] = s.safety_field_outer_interrupted ? "interrupted" : "clear";
+  fields["inner"] = s.safety_field_inner_interrupted ? "interrupted" : "clear";
   j["fields"] = std::move(fields);
-  j["separation_mm"] = nullptr;
+  j["separation_mm"] = s.safety_ssm ? Json(rounded(static_cast<double>(s.safety_separation_mm), 1.0)) : Json(nullptr);
+  // SPEC §12 comes with a later issue: its fields are here, at their idle values.
   Json brake;
   brake["due_in_h"] = nullptr;
   brake["last"] = "none";

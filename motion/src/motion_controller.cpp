@@ -178,7 +178,7 @@ Joints ProgramExecutor::advance(float dt, const RobotModel& m, float override) n
 
 // ------------------------------------------------------------------ MotionController
 MotionController::MotionController(const RobotModel& model, const MotionConfig& cfg) noexcept
-    : model_(model), cfg_(cfg), plan_(model), tcp_allow_(kUnlimited) {
+    : model_(model), cfg_(cfg), plan_(model), tcp_allow_(kUnlimited), tcp_cap_(kUnlimited) {
   axis_.fill(AxisState::Disabled);
   // Without set_limits: the robot's own ranges and speeds and SafetyLimits' defaults, used
   // for reduced mode only (limits_set_ gates everything else).
@@ -301,8 +301,8 @@ void MotionController::follow_program(const core::SupervisorOut& so) noexcept {
   }
   // SPEC §10: the TCP at 0.95 x its limit (normal, or the reduced ramp), by time-scaling
   // like T1; the joints' 0.95 x max_speed is in plan_, the model the executor plans with.
-  if (tcp_allow_ < kUnlimited) {
-    scale = minf(scale, tcp_scale(model_, q_sp_, program_.velocity(), tcp_allow_));
+  if (tcp_cap_ < kUnlimited) {
+    scale = minf(scale, tcp_scale(model_, q_sp_, program_.velocity(), tcp_cap_));
   }
   const Joints q = program_.advance(cfg_.cycle_s * scale, plan_, cfg_.speed_override);
   for (std::size_t i = 0; i < kJoints; ++i) {
@@ -380,8 +380,8 @@ bool MotionController::stop_path_clear() const noexcept {
 
 // @req MO-LIMITS-SPEED
 void MotionController::limit_tcp() noexcept {
-  if (tcp_allow_ < kUnlimited) {
-    const float s = tcp_scale(model_, q_sp_, v_sp_, tcp_allow_);
+  if (tcp_cap_ < kUnlimited) {
+    const float s = tcp_scale(model_, q_sp_, v_sp_, tcp_cap_);
     for (float& v : v_sp_) {
       v *= s;
     }
@@ -395,11 +395,16 @@ void MotionController::limit_tcp() noexcept {
 // back at the rate (normal - reduced) / ramp_ms (no step up either). Without set_limits
 // there is no normal cap: the allowed speed rises until it is above anything this arm can
 // reach, then the cap is lifted.
-void MotionController::update_tcp_allow(bool reduced) noexcept {
-  const float red = lim_.reduced_tcp_speed();
+void MotionController::update_tcp_allow(const core::MotionRequest& r) noexcept {
+  const bool reduced = r.reduced;
+  // The reduced limit the core names (SPEC §11's outer field may lower it), else the file's.
+  const float red = (r.reduced_limit_mm_s > 0.0F) ? minf(kSpeedFactor * r.reduced_limit_mm_s, lim_.reduced_tcp_speed())
+                                                  : lim_.reduced_tcp_speed();
   const float normal = limits_set_ ? lim_.tcp_speed() : kUnlimited;
   const float ramp_s = lim_.reduced_ramp_s();
-  if (reduced && !reduced_prev_) {
+  const bool lowered = reduced && reduced_prev_ && (red < red_prev_);
+  red_prev_ = red;
+  if ((reduced && !reduced_prev_) || lowered) {
     PointSpeeds ps{};
     point_speeds(model_, q_sp_, v_sp_, ps);
     const float now = finite(ps.speed[kTcpPoint]) ? ps.speed[kTcpPoint] : red;
@@ -466,7 +471,14 @@ void MotionController::integrate(bool bounded) noexcept {
 void MotionController::step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
                             std::array<hal::DriveOut, kJoints>& out) noexcept {
   const core::MotionRequest& r = so.motion;
-  update_tcp_allow(r.reduced);
+  update_tcp_allow(r);
+  // @req COL-SSM-MOTION
+  // SPEC §11 SSM: the TCP at 0.95 x v_allowed (the margin of SPEC §10 for speeds), on top of
+  // the normal or reduced cap; at 0 the program holds where it is.
+  tcp_cap_ = tcp_allow_;
+  if (r.v_allowed_mm_s >= 0.0F) {
+    tcp_cap_ = minf(tcp_cap_, kSpeedFactor * r.v_allowed_mm_s);
+  }
   switch (r.program) {
     case core::ProgramCmd::Start:
       // A second barrier behind the supervisor's OUTSIDE_LIMITS: never start outside.

@@ -36,24 +36,34 @@ void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) noexcept {
 // The contacts of RawInputs in bridge::Contact order: the one place that maps the two.
 std::array<bool*, bridge::kContactCount> contacts(core::RawInputs& r) noexcept {
   return {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
-          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button, &r.reduced_a, &r.reduced_b};
+          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button, &r.reduced_a, &r.reduced_b,
+          &r.field_outer_a, &r.field_outer_b, &r.field_inner_a, &r.field_inner_b};
 }
 
-std::uint16_t contacts_of(core::RawInputs r) noexcept {
-  std::uint16_t m = 0;
+std::uint32_t contacts_of(core::RawInputs r) noexcept {
+  std::uint32_t m = 0;
   const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
-    m = static_cast<std::uint16_t>(m | (*c[i] ? (1U << i) : 0U));
+    m |= *c[i] ? (1U << i) : 0U;
   }
   return m;
 }
 
-void apply_contacts(std::uint16_t mask, std::uint16_t values, core::RawInputs& r) noexcept {
+void apply_contacts(const bridge::CommandRecord& rec, core::RawInputs& r) noexcept {
   const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
-    if ((mask & (1U << i)) != 0U) {
-      *c[i] = (values & (1U << i)) != 0U;
+    if ((rec.set_mask & (1U << i)) != 0U) {
+      *c[i] = (rec.set_values & (1U << i)) != 0U;
     }
+  }
+  // SPEC §11's distance sensor, as the scenario format's `in separation_mm=N`: a reading
+  // given is valid unless the record says otherwise.
+  if ((rec.separation_set & bridge::kSetSeparation) != 0U) {
+    r.separation_mm = rec.separation_mm;
+    r.separation_valid = true;
+  }
+  if ((rec.separation_set & bridge::kSetValid) != 0U) {
+    r.separation_valid = (rec.separation_set & bridge::kSeparationValid) != 0U;
   }
 }
 
@@ -163,6 +173,11 @@ void Publisher::publish() noexcept {
   s.safety_reduced_by = o.safety.reduced_by;
   s.safety_recovery = o.safety.recovery;
   s.safety_speed_limit_mm_s = o.safety.speed_limit_mm_s;
+  s.safety_field_outer_interrupted = o.safety.field_outer_interrupted;
+  s.safety_field_inner_interrupted = o.safety.field_inner_interrupted;
+  s.safety_ssm = o.safety.ssm;
+  s.safety_v_allowed_mm_s = o.safety.v_allowed_mm_s;
+  s.safety_separation_mm = o.safety.separation_mm;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};
@@ -214,7 +229,7 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
   switch (rec.kind) {
     case bridge::RecordKind::command: return;
     case bridge::RecordKind::sim_set:
-      apply_contacts(rec.set_mask, rec.set_values, cell.inputs());
+      apply_contacts(rec, cell.inputs());
       break;
     case bridge::RecordKind::sim_fault:
       if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all)) {

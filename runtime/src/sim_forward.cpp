@@ -31,7 +31,8 @@ std::string sim_line(const bridge::CommandRecord& r) {
   // Contacts in the order of scenario::Contact (the bit order of set_mask).
   static const char* const kContacts[] = {"estop.a", "estop.b", "gate.a",    "gate.b",  "enable.a",    "enable.b",
                                           "enable.panic", "mode.auto", "mode.t1", "mode.t2", "reset_button",
-                                          "reduced.a", "reduced.b"};
+                                          "reduced.a", "reduced.b", "field.outer.a", "field.outer.b",
+                                          "field.inner.a", "field.inner.b"};
   static_assert(std::size(kContacts) == bridge::kContactCount);
   if (r.kind == bridge::RecordKind::sim_set) {
     std::string line = "in";
@@ -39,6 +40,13 @@ std::string sim_line(const bridge::CommandRecord& r) {
       if (((r.set_mask >> i) & 1U) != 0U) {
         line += std::string(" ") + kContacts[i] + "=" + (((r.set_values >> i) & 1U) != 0U ? "1" : "0");
       }
+    }
+    // The distance sensor: the emulated segment has no channel for it and refuses it (docs/ethercat.md).
+    if ((r.separation_set & bridge::kSetSeparation) != 0U) {
+      line += " separation_mm=" + std::to_string(r.separation_mm);
+    }
+    if ((r.separation_set & bridge::kSetValid) != 0U) {
+      line += std::string(" separation_valid=") + (((r.separation_set & bridge::kSeparationValid) != 0U) ? "1" : "0");
     }
     return line;
   }

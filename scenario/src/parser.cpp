@@ -79,8 +79,13 @@ void apply(const InputStep& step, core::RawInputs& raw) noexcept {
       case Contact::reset_button: raw.reset_button = w.closed; break;
       case Contact::reduced_a: raw.reduced_a = w.closed; break;
       case Contact::reduced_b: raw.reduced_b = w.closed; break;
+      case Contact::field_outer_a: raw.field_outer_a = w.closed; break;
+      case Contact::field_outer_b: raw.field_outer_b = w.closed; break;
+      case Contact::field_inner_a: raw.field_inner_a = w.closed; break;
+      case Contact::field_inner_b: raw.field_inner_b = w.closed; break;
     }
   }
+  safety_keys::apply_separation(step, raw);
 }
 
 namespace {

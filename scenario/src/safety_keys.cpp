@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
 
 #include "safestate/core/monitors.hpp"
 #include "safestate/safety/safety_config.hpp"
@@ -124,7 +125,76 @@ Problem finish_config(const ConfigLines& lines, bool max_stop_set, Scenario& s, 
   return {};
 }
 
+namespace {
+// SPEC §11 protective fields: the shorthand sets both OSSD channels (NC: 1 = clear).
+struct FieldKey {
+  std::string_view key;
+  Contact a;
+  Contact b;
+};
+constexpr std::array<FieldKey, 2> kFields{{
+    {"field.outer", Contact::field_outer_a, Contact::field_outer_b},
+    {"field.inner", Contact::field_inner_a, Contact::field_inner_b},
+}};
+
+// @req COL-FIELDS COL-SSM-INPUT
+bool parse_collaborative_input(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
+  for (const FieldKey& f : kFields) {
+    if (key == f.key) {
+      if (value != "clear" && value != "interrupted") {
+        problem = "bad value " + quoted(value) + " for input " + std::string(key) + " (expected clear|interrupted)";
+        return true;
+      }
+      out.writes.push_back(ContactWrite{f.a, value == "clear"});
+      out.writes.push_back(ContactWrite{f.b, value == "clear"});
+      return true;
+    }
+    for (const auto& [suffix, contact] : {std::pair{std::string_view(".a"), f.a}, std::pair{std::string_view(".b"), f.b}}) {
+      if (key.size() == f.key.size() + 2U && key.substr(0, f.key.size()) == f.key && key.substr(f.key.size()) == suffix) {
+        if (value != "0" && value != "1") {
+          problem = "bad value " + quoted(value) + " for contact " + std::string(key) + " (expected 0|1)";
+          return true;
+        }
+        out.writes.push_back(ContactWrite{contact, value == "1"});
+        return true;
+      }
+    }
+  }
+  if (key == "separation_mm") {
+    std::int32_t mm = 0;
+    if (!util::to_number(value, mm) || mm < 0) {
+      problem = "bad value " + quoted(value) + " for input separation_mm (expected an integer number of mm >= 0)";
+      return true;
+    }
+    out.separation_mm = mm;
+    return true;
+  }
+  if (key == "separation_valid") {
+    if (value != "0" && value != "1") {
+      problem = "bad value " + quoted(value) + " for input separation_valid (expected 0|1)";
+      return true;
+    }
+    out.separation_valid = value == "1";
+    return true;
+  }
+  return false;
+}
+}  // namespace
+
+void apply_separation(const InputStep& step, core::RawInputs& raw) noexcept {
+  if (step.separation_mm) {
+    raw.separation_mm = *step.separation_mm;
+    raw.separation_valid = true;  // a reading given is a valid one, unless the line says otherwise
+  }
+  if (step.separation_valid) {
+    raw.separation_valid = *step.separation_valid;
+  }
+}
+
 bool parse_input(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
+  if (parse_collaborative_input(key, value, out, problem)) {
+    return true;
+  }
   if (key == "reduced") {
     if (value != "normal" && value != "reduced") {
       problem = "bad value " + quoted(value) + " for input reduced (expected normal|reduced)";
@@ -156,6 +226,16 @@ void fill_validate_config(const util::Tokens& args, std::size_t first, core::Com
 bool parse_expect(std::string_view tok, Expectation& e, Problem& problem) {
   std::string_view key;
   std::string_view value;
+  if (tok.substr(0, 9) == "v_allowed" && tok.size() > 9U && (tok[9] == '<' || tok[9] == '>' || tok[9] == '=')) {
+    e.key = ExpectKey::v_allowed;
+    std::string_view number;
+    if (!util::compare_op(tok.substr(9), e.cmp, number)) {
+      problem = "expect " + quoted(tok) + ": v_allowed takes <=, <, >= or > and a speed in mm/s";
+    } else if (!util::to_real(number, e.limit)) {
+      problem = "expect " + quoted(tok) + ": the speed is not a number";
+    }
+    return true;
+  }
   if (tok.substr(0, 6) == "joint.") {
     const std::size_t op = tok.find_first_of("<>=");
     if (op == std::string_view::npos || !util::axis_1_to_6(tok.substr(6, op - 6), e.axis)) {
@@ -197,6 +277,15 @@ bool parse_expect(std::string_view tok, Expectation& e, Problem& problem) {
 
 bool known_detail(std::string_view v) noexcept {
   std::uint8_t axis = 0;
+  // SPEC §11: the protective fields' channels (FIELD_DISCREPANCY, PERSON_IN_FIELD) and the
+  // distance sensor (SEPARATION_VIOLATED).
+  constexpr std::array<std::string_view, 5> kCollaborative{"field.outer.a", "field.outer.b", "field.inner.a",
+                                                           "field.inner.b", "separation"};
+  for (const std::string_view c : kCollaborative) {
+    if (v == c) {
+      return true;
+    }
+  }
   return (v == "tcp") || (v == "reduced") || (v.substr(0, 5) == "axis." && util::axis_1_to_6(v.substr(5), axis));
 }
 
@@ -227,13 +316,16 @@ Problem check_details(const Scenario& s, std::size_t& line) {
 
 bool is_safety_key(ExpectKey k) noexcept {
   return k == ExpectKey::checksum || k == ExpectKey::validated || k == ExpectKey::reduced ||
-         k == ExpectKey::recovery || k == ExpectKey::joint;
+         k == ExpectKey::recovery || k == ExpectKey::joint || k == ExpectKey::v_allowed;
 }
 
 bool holds(const Expectation& e, const core::SupervisorOut& out, const sim::CellView& v) noexcept {
   switch (e.key) {
     case ExpectKey::checksum: return out.safety.checksum == e.number;
     case ExpectKey::joint: return compare(joint_deg(e, v), e.cmp, e.limit);
+    // @req COL-SSM-MONITOR
+    case ExpectKey::v_allowed:
+      return out.safety.ssm && compare(static_cast<double>(out.safety.v_allowed_mm_s), e.cmp, e.limit);
     default: return yes_no_value(e, out) == (e.value != 0U);
   }
 }
@@ -245,6 +337,15 @@ std::string found(const Expectation& e, const core::SupervisorOut& out, const si
       std::array<char, 32> buf{};
       const auto r = std::to_chars(buf.data(), buf.data() + buf.size(), joint_deg(e, v));
       return "joint." + std::to_string(e.axis) + "=" + std::string(buf.data(), r.ptr);
+    }
+    case ExpectKey::v_allowed: {
+      if (!out.safety.ssm) {
+        return "v_allowed=null (SSM does not act: collaborative.ssm off, or the mode is not AUTO)";
+      }
+      std::array<char, 32> buf{};
+      const auto r = std::to_chars(buf.data(), buf.data() + buf.size(), out.safety.v_allowed_mm_s);
+      return "v_allowed=" + std::string(buf.data(), r.ptr) + " (separation " +
+             std::to_string(static_cast<long>(out.safety.separation_mm)) + " mm)";
     }
     default: break;
   }

@@ -99,7 +99,9 @@ def test_pysoem_scans_identities_and_reaches_op(segment):
     assert r["input_bytes"] == IN_BYTES
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]  # Switch on disabled
-    assert r["di"] == "8f000c00"  # estop.a/b, gate.a/b closed, mode.auto; reduced.a/b (bits 18, 19, NC) closed
+    # estop.a/b, gate.a/b closed, mode.auto; reduced.a/b (bits 18, 19, NC) and the field scanner's
+    # OSSD pairs (bits 20..23, NC, clear) closed
+    assert r["di"] == "8f00fc00"
 
 
 def test_kickcat_scans_and_reaches_op_with_the_same_layout(segment):
@@ -109,7 +111,7 @@ def test_kickcat_scans_and_reaches_op_with_the_same_layout(segment):
     assert r["sizes"] == [[i, o] for i, o in zip(IN_BYTES, OUT_BYTES)]  # from the SII PDO categories
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]
-    assert r["di"] == "8f000c00"
+    assert r["di"] == "8f00fc00"
 
 
 def test_both_masters_read_the_same_statuswords(segment):

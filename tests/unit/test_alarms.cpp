@@ -55,6 +55,11 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"SPEED_LIMIT", Severity::fault, Latch::reset},
       {"CONFIG_NOT_VALIDATED", Severity::warning, Latch::condition},
       {"REDUCED_SPEED", Severity::info, Latch::condition},
+      // SPEC §7/§11: FIELD_DISCREPANCY lockout; SEPARATION_VIOLATED latched fault; PERSON_IN_FIELD
+      // info while the condition lasts.
+      {"FIELD_DISCREPANCY", Severity::lockout, Latch::power_cycle},
+      {"SEPARATION_VIOLATED", Severity::fault, Latch::reset},
+      {"PERSON_IN_FIELD", Severity::info, Latch::condition},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

@@ -317,6 +317,60 @@ TEST(RuntimeBridge, SimRecordsReachTheReducedInput) {
   EXPECT_FLOAT_EQ(st.safety_speed_limit_mm_s, 1500.0F) << "the normal limit until the ramp is over";
 }
 
+// @req COL-FIELDS COL-SSM-INPUT
+TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
+  const std::string name = unique_name("collab");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell);
+  core::SafetyLimits l = safety_limits_for_test();
+  l.collaborative.enabled = true;
+  l.collaborative.ssm_enabled = true;
+  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
+  cell.configure_limits(l, true);
+  ASSERT_TRUE(cell.inputs().field_outer_a && cell.inputs().field_inner_b) << "NC: 1 = clear at start";
+  ASSERT_FALSE(cell.inputs().separation_valid) << "no sensor reading yet: invalid";
+  CommandRecord rec{};
+  rec.seq = 8;
+  rec.kind = RecordKind::sim_set;
+  rec.set_mask = (1U << static_cast<unsigned>(Contact::field_inner_a)) | (1U << static_cast<unsigned>(Contact::field_inner_b));
+  rec.separation_mm = 800;
+  rec.separation_set = kSetSeparation;
+  runtime::take_record(rec, cell, pub, 0);
+  EXPECT_FALSE(cell.inputs().field_inner_a);
+  EXPECT_FALSE(cell.inputs().field_inner_b);
+  EXPECT_TRUE(cell.inputs().field_outer_a) << "contacts outside the mask are untouched";
+  EXPECT_EQ(cell.inputs().separation_mm, 800);
+  EXPECT_TRUE(cell.inputs().separation_valid) << "a reading given is valid";
+  EXPECT_EQ(runtime::sim_line(rec), "in field.inner.a=0 field.inner.b=0 separation_mm=800");
+  for (int i = 0; i < 400; ++i) {  // the separation believed rises to 800 (3.5 mm a cycle)
+    cell.step();
+    pub.publish();
+  }
+  BlackBoxRecord b{};
+  ASSERT_TRUE(seg->blackbox()[399 % kBlackBoxCycles].read(b));
+  EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::field_inner_b)) & 1U, 0U);
+  EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::field_outer_b)) & 1U, 1U);
+  Status st{};
+  ASSERT_TRUE(seg->status().read(st));
+  EXPECT_TRUE(st.safety_field_inner_interrupted);
+  EXPECT_FALSE(st.safety_field_outer_interrupted);
+  EXPECT_TRUE(st.safety_ssm) << "collaborative and ssm on, mode AUTO";
+  EXPECT_NEAR(st.safety_v_allowed_mm_s, 344.76F, 0.05F);
+  EXPECT_FLOAT_EQ(st.safety_separation_mm, 800.0F);
+  rec.set_mask = 0;
+  rec.separation_set = kSetValid;  // separation_valid=0
+  runtime::take_record(rec, cell, pub, 400);
+  EXPECT_FALSE(cell.inputs().separation_valid);
+  EXPECT_EQ(runtime::sim_line(rec), "in separation_valid=0");
+  cell.step();
+  pub.publish();
+  ASSERT_TRUE(seg->status().read(st));
+  EXPECT_FLOAT_EQ(st.safety_v_allowed_mm_s, 0.0F) << "invalid is 0";
+}
+
 TEST(Histogram, PowerOfTwoBuckets) {
   EXPECT_EQ(histogram_bucket(0), 0U);
   EXPECT_EQ(histogram_bucket(1), 0U);

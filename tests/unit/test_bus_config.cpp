@@ -50,6 +50,8 @@ TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
   EXPECT_EQ(named, kInputBits);
   EXPECT_EQ(c.subdevices[0].in_bit[18], 18);  // reduced.a
   EXPECT_EQ(c.subdevices[0].in_bit[19], 19);  // reduced.b
+  EXPECT_EQ(c.subdevices[0].in_bit[20], 20);  // field.outer.a (SPEC §11)
+  EXPECT_EQ(c.subdevices[0].in_bit[23], 23);  // field.inner.b
   EXPECT_NEAR(c.subdevices[2].counts_per_rad, safestate::ecat::kCountsPerRad, 1e-9);
   EXPECT_EQ(c.scan_timeout_ms, 5000U);  // not in the file: the default
 
@@ -79,6 +81,10 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j = default_json();
   j["subdevices"][0]["bits"].erase("reduced.b");  // the reduced input is wired like every contact
   EXPECT_NE(refused(j).find("subdevices[0].bits.reduced.b"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][0]["bits"].erase("field.inner.a");  // the scanner's OSSD pairs are wired like every contact
+  EXPECT_NE(refused(j).find("subdevices[0].bits.field.inner.a"), std::string::npos);
 
   j = default_json();
   j["subdevices"][0]["bits"]["reduced.a"] = 32;  // past the terminal's 4 bytes

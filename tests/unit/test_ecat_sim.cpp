@@ -279,7 +279,28 @@ TEST(EcatProcessData, ReducedInputChannelsAreBits18And19) {
   EXPECT_EQ(di() & 0x0C, 0x0C);
   ASSERT_EQ(control_line(cell, "in reduced.b=0"), "OK");
   EXPECT_EQ(di() & 0x0C, 0x04);
-  EXPECT_EQ(di() & 0xF0, 0x00);  // bits 20..23 stay free for the field scanner (issue 20)
+  EXPECT_EQ(di() & 0xF0, 0xF0);  // bits 20..23: the field scanner's OSSD pairs, NC, clear
+}
+
+// @req COL-FIELDS
+TEST(EcatProcessData, ProtectiveFieldChannelsAreBits20To23) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  const auto di = [&] {
+    auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
+                                       {Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes)}});
+    return static_cast<unsigned>(r[0].data[2]);  // bits 16..23
+  };
+  EXPECT_EQ(di() & 0xF0, 0xF0);  // NC: both fields clear
+  ASSERT_EQ(control_line(cell, "in field.outer=interrupted"), "OK");
+  EXPECT_EQ(di() & 0xF0, 0xC0);
+  ASSERT_EQ(control_line(cell, "in field.inner.b=0"), "OK");
+  EXPECT_EQ(di() & 0xF0, 0x40);
+  ASSERT_EQ(control_line(cell, "in field.outer.a=1 field.inner=interrupted"), "OK");
+  EXPECT_EQ(di() & 0xF0, 0x10);
+  ASSERT_EQ(control_line(cell, "in field.outer=clear field.inner=clear"), "OK");
+  EXPECT_EQ(di() & 0xF0, 0xF0);
+  EXPECT_EQ(di() & 0x0C, 0x0C);  // reduced.a/b untouched
 }
 
 // One exchange writing the outputs with the contactor bit as given, at time t (ns).

@@ -45,11 +45,18 @@ const std::vector<std::string>& action_texts() {
       // they matter; the first of them from every configuration.)
       "in reduced=reduced", "in reduced=normal", "in reduced.a=0",
       "cmd validate_config 00000000", "cmd jog 1 - 50", "fault drive 1 runaway",
+      // SPEC §11, abstractly, from the collaborative seeds only: a person in and out of each
+      // field, one OSSD channel alone (discrepancy), the distance sensor near, at the 500 mm
+      // switch, far, and failing.
+      "in field.inner=interrupted", "in field.inner=clear", "in field.outer=interrupted", "in field.outer=clear",
+      "in field.inner.a=0", "in separation_mm=300", "in separation_mm=800", "in separation_mm=5000",
+      "in separation_valid=0",
   };
   return k;
 }
 constexpr std::size_t kFirstLimitAction = 44;  // "in reduced=reduced"
 constexpr std::size_t kLimitActionsEverywhere = 1;
+constexpr std::size_t kFirstCollabAction = 50;  // "in field.inner=interrupted"
 constexpr std::size_t kValidateRight = 999;  // action id: validate_config with the active checksum
 constexpr std::size_t kWaitOne = 1000;     // action id: let one cycle pass
 constexpr std::size_t kWaitChange = 1001;  // let time pass until something changes
@@ -85,6 +92,10 @@ struct LimitWatch {
   std::array<float, core::kAxes> best{};
   std::uint32_t validate_seq = 0;  // a validate_config sent, and its code
   std::uint32_t validate_code = 0;
+  // SPEC §11, counted from the outside: cycles both fields have read clear, cycles the TCP
+  // has been over v_allowed + 5 %.
+  core::Cycle fields_clear = 0;
+  core::Cycle ssm_over = 0;
 };
 
 struct Node {
@@ -118,6 +129,14 @@ const std::vector<Configuration>& configurations() {
                  false, {}});
     v.push_back({"checker-axis1-below-2deg.json",
                  joints_json(R"({"min_deg":-90,"max_deg":-2,"max_speed_deg_s":200})"), true, {}});
+    // SPEC §11: fields, SSM with the SPEC's example figures, PFL for the hand; a short
+    // resume delay so that the time actions reach it.
+    std::string collab = joints_json(R"({"min_deg":-165,"max_deg":165,"max_speed_deg_s":200})");
+    collab.pop_back();
+    collab += R"(,"collaborative":{"enabled":true,"resume_delay_ms":200,"auto_resume":true,"reduced_speed_mm_s":200,)"
+              R"("ssm":{"enabled":true,"human_speed_mm_s":1600,"decel_mm_s2":2000,"reaction_ms":100,"intrusion_mm":200,)"
+              R"("uncertainty_mm":100},"pfl":{"enabled":true,"body_region":"hand","robot_mass_kg":25}}})";
+    v.push_back({"checker-collaborative.json", collab, true, {}});
     for (Configuration& c : v) {
       if (c.file[0] != '\0') {
         safety::Result r = safety::parse_safety(c.text);
@@ -147,6 +166,15 @@ reference::Limits ref_limits(const Configuration& c, std::uint32_t cycle_us) {
   r.tcp_max_mm_s = l.tcp_max_speed_mm_s;
   r.reduced_tcp_max_mm_s = l.reduced_tcp_max_speed_mm_s;
   r.ramp = core::ms_to_cycles(l.reduced_ramp_ms, cycle_us);
+  const core::CollaborativeLimits& co = l.collaborative;
+  r.collaborative = co.enabled;
+  r.field_reduced_mm_s = (co.pfl_enabled && co.pfl_speed_mm_s < co.reduced_speed_mm_s) ? co.pfl_speed_mm_s : co.reduced_speed_mm_s;
+  r.auto_resume = co.auto_resume;
+  r.resume_delay = core::ms_to_cycles(co.resume_delay_ms, cycle_us);
+  r.ssm = co.ssm_enabled;
+  r.ssm_params = co.ssm;
+  r.reaction = static_cast<core::Cycle>(std::llround(static_cast<double>(co.ssm.reaction_s) * 1.0e6)) / cycle_us;
+  r.rise_mm = static_cast<float>((2000.0 + static_cast<double>(l.tcp_max_speed_mm_s)) * cycle_us * 1.0e-6);
   return r;
 }
 
@@ -194,6 +222,12 @@ const std::vector<Seed>& seeds() {
       // SPEC §10 recovery: axis 1 outside its range from boot.
       {"MANUAL_IDLE (T1), recovering axis 1",
        "@0 in mode=T1\n@100 cmd reset\n@105 in enable=centre\n@110 cmd servo_on\n@400 in reset_button=0\n", 2},
+      // SPEC §11: collaborative operation, the person far away (SSM lets the program run).
+      {"AUTO_RUNNING, collaborative",
+       "@0 in separation_mm=5000\n@100 cmd reset\n@110 cmd servo_on\n@400 cmd start\n@600 in reset_button=0\n", 3},
+      {"AUTO_PAUSED by rule 9, collaborative",
+       "@0 in separation_mm=5000\n@100 cmd reset\n@110 cmd servo_on\n@400 cmd start\n@600 in field.inner=interrupted\n"
+       "@1500 in reset_button=0\n", 3},
   };
   return k;
 }
@@ -229,10 +263,13 @@ std::string key_of(const sim::Cell& c) {
                  in.estop_pressed, in.gate_open, in.enable_ok, in.mode_invalid, in.estop_discrepancy,
                  in.gate_discrepancy, in.enable_discrepancy, v.contactor_closed, v.fieldbus_ok, o.safety.validated,
                  o.safety.recovery, o.safety.outside, o.safety.reduced, r.reduced_a, r.reduced_b,
-                 in.reduced_requested}) {
+                 in.reduced_requested, r.field_outer_a, r.field_outer_b, r.field_inner_a, r.field_inner_b,
+                 in.field_outer_interrupted, in.field_inner_interrupted, r.separation_valid,
+                 o.safety.ssm && o.safety.v_allowed_mm_s > 0.0F}) {
     k.push_back(b ? '1' : '0');
   }
   put(in.enable);
+  put(r.separation_mm);
   bool moving = false;
   for (std::size_t i = 0; i < 6; ++i) {
     put(core::cia402::decode(v.statusword[i]));
@@ -255,6 +292,7 @@ class Checker {
   bool run_seed(const Seed& seed, Node& n, Violation& v);
   void report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v, std::size_t config);
   bool limits(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v);
+  bool collaborative(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v);
 
   CheckOptions opt_;
   CheckStats& stats_;
@@ -351,12 +389,18 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     return false;
   }
   const bool motion_sub = o.sub == Sub::AUTO_RUNNING || o.sub == Sub::MANUAL_JOGGING || o.sub == Sub::MANUAL_RUNNING;
-  if (motion_sub && o.sub != before.sub && !motion_ok) {
+  // SPEC §11's automatic resume is the one motion without a command: invariant 14 judges it.
+  const core::CollaborativeLimits& co = configurations()[n.lim.config].loaded.limits.collaborative;
+  const bool auto_resume = co.enabled && co.auto_resume && before.sub == Sub::AUTO_PAUSED && o.sub == Sub::AUTO_RUNNING;
+  if (motion_sub && o.sub != before.sub && !motion_ok && !auto_resume) {
     v = {"no motion sub-state without a motion command accepted in that cycle", to_string(o.sub),
          "sub=" + std::string(to_string(before.sub)), t};
     return false;
   }
   if (!limits(n, before, reset_ok, v)) {
+    return false;
+  }
+  if (!collaborative(n, before, reset_ok, v)) {
     return false;
   }
   // Exactly one result per command.
@@ -502,6 +546,64 @@ bool Checker::limits(Node& n, const core::SupervisorOut& before, bool reset_ok, 
   return true;
 }
 
+// SPEC §11, from the outside, after every cycle (with collaborative operation on, in AUTO):
+// 13. never AUTO_RUNNING with the inner field interrupted (rule 9 acts in the cycle that
+//     reads it), and start / resume are never accepted then;
+// 14. AUTO_PAUSED becomes AUTO_RUNNING without a resume only once both fields have been
+//     clear for resume_delay_ms (auto_resume on);
+// 15. power stays on only while the TCP has not been above v_allowed + 5 % for longer than
+//     T_r, and then SEPARATION_VIOLATED is raised; once latched it leaves only with a reset.
+bool Checker::collaborative(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v) {
+  const core::SupervisorOut& o = n.cell->out();
+  const core::SafetyInputs& in = n.cell->safety_inputs();
+  const core::SafetyLimits& l = configurations()[n.lim.config].loaded.limits;
+  const core::CollaborativeLimits& c = l.collaborative;
+  const core::Cycle t = v.t;
+  const std::uint32_t cycle_us = n.cell->config().cycle_us;
+  const bool clear = !in.field_outer_interrupted && !in.field_inner_interrupted;
+  n.lim.fields_clear = clear ? n.lim.fields_clear + 1U : 0U;
+  if (!c.enabled || in.mode != core::Mode::AUTO) {
+    n.lim.ssm_over = 0;
+    return true;
+  }
+  if (in.field_inner_interrupted && o.sub == Sub::AUTO_RUNNING) {
+    v = {"collaborative, AUTO: never AUTO_RUNNING with the inner field interrupted (rule 9 in the detecting cycle)",
+         "AUTO_RUNNING", "sub=AUTO_PAUSED", t};
+    return false;
+  }
+  bool resumed_by_command = false;
+  for (std::size_t i = 0; i < o.reply_count; ++i) {
+    const auto id = static_cast<core::CommandId>(o.replies[i].cmd);
+    resumed_by_command = resumed_by_command || (id == core::CommandId::resume && o.replies[i].result == core::Result::OK);
+  }
+  if (before.sub == Sub::AUTO_PAUSED && o.sub == Sub::AUTO_RUNNING && !resumed_by_command &&
+      (!c.auto_resume || n.lim.fields_clear <= core::ms_to_cycles(c.resume_delay_ms, cycle_us))) {
+    v = {"AUTO_PAUSED -> AUTO_RUNNING without resume only after both fields clear for resume_delay_ms, auto_resume on",
+         "resumed after " + std::to_string(n.lim.fields_clear) + " clear cycles", "sub=AUTO_PAUSED", t};
+    return false;
+  }
+  if (c.ssm_enabled) {
+    const bool over = !(o.safety.tcp_speed_mm_s <= o.safety.v_allowed_mm_s * 1.05F);
+    n.lim.ssm_over = over ? n.lim.ssm_over + 1U : 0U;
+    const auto reaction = static_cast<core::Cycle>(std::llround(static_cast<double>(c.ssm.reaction_s) * 1.0e6)) / cycle_us;
+    const bool powered = o.contactor || o.drives_enable || o.brakes_release;
+    const bool was_powered = before.state == State::ARMING || before.state == State::OPERATIONAL ||
+                             before.state == State::STOPPING;
+    if (was_powered && n.lim.ssm_over > reaction + 1U &&
+        (powered || (o.alarms & core::bit(core::AlarmId::SEPARATION_VIOLATED)) == 0U)) {
+      v = {"TCP above v_allowed + 5 % for longer than T_r => SEPARATION_VIOLATED, power off",
+           "over for " + std::to_string(n.lim.ssm_over) + " cycles", "alarm=SEPARATION_VIOLATED contactor=open", t};
+      return false;
+    }
+  }
+  const core::AlarmMask sv = core::bit(core::AlarmId::SEPARATION_VIOLATED);
+  if ((before.alarms & sv) != 0U && (o.alarms & sv) == 0U && !reset_ok) {
+    v = {"SEPARATION_VIOLATED stays latched until a reset answered OK", "cleared", "alarm=SEPARATION_VIOLATED", t};
+    return false;
+  }
+  return true;
+}
+
 bool Checker::apply(Node& n, std::size_t action, Violation& v) {
   ++stats_.transitions;
   if (action == kValidateRight) {  // the operator confirms the active checksum
@@ -634,13 +736,19 @@ int Checker::run() {
   base.push_back(kWaitOne);
   base.push_back(kWaitChange);
   std::vector<std::size_t> all = base;
-  for (std::size_t i = kFirstLimitAction + kLimitActionsEverywhere; i < action_texts().size(); ++i) all.push_back(i);
+  for (std::size_t i = kFirstLimitAction + kLimitActionsEverywhere; i < kFirstCollabAction; ++i) all.push_back(i);
   all.push_back(kValidateRight);
+  std::vector<std::size_t> collab = base;  // SPEC §11's seeds: the vocabulary and the fields
+  for (std::size_t i = kFirstCollabAction; i < action_texts().size(); ++i) collab.push_back(i);
+  if (action_texts()[kFirstCollabAction] != "in field.inner=interrupted") {
+    std::fprintf(stderr, "safestate check: kFirstCollabAction is stale\n");
+    return 2;
+  }
 
   for (std::size_t depth = 0; depth < opt_.max_depth && !frontier.empty(); ++depth) {
     std::vector<Node> next;
     for (Node& n : frontier) {
-      std::vector<std::size_t> acts = (n.lim.config == 0U) ? base : all;
+      std::vector<std::size_t> acts = (n.lim.config == 0U) ? base : ((n.lim.config == 3U) ? collab : all);
       if (n.cell->out().state == State::BOOT || n.cell->raw_inputs_of_last_cycle().reset_button) {
         acts.push_back(kWaitLong);
       }

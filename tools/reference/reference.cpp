@@ -67,6 +67,7 @@ void Supervisor::go(St s, Sub sub) noexcept {
   }
   st_ = s;
   sub_ = (s == St::OP) ? sub : Sub::NONE;
+  if (!(s == St::OP && sub == Sub::AUTO_PAUSED)) field_paused_ = false;  // only a rule 9 pause resumes itself
 }
 
 void Supervisor::cat0_to(St s) noexcept {
@@ -149,19 +150,37 @@ void Supervisor::judge_limits(const core::SafetyInputs& in, const core::Feedback
     outside_ = outside_ || !(g.orientation_outside <= 0.0F);
     orientation_hit_ = trips(orientation_track_, g.orientation_outside, powered, core::kWorseOrientationCos);
   }
-  // Reduced mode: active while the TCP is in a reduced zone or the input asks; the reduced
-  // TCP limit applies once `ramp` cycles have passed since it became active.
-  const bool reduced_now = g.in_reduced_zone || in.reduced_requested;
-  if (reduced_now && !reduced_) reduced_since_ = now_;
+  // Reduced mode: active while the TCP is in a reduced zone, the input asks or (SPEC §11)
+  // the outer field is interrupted; the reduced TCP limit applies once `ramp` cycles have
+  // passed since it became active, or since a source that reduces further joined.
+  const bool by_field = collab_acts(in) && in.field_outer_interrupted;
+  const bool reduced_now = g.in_reduced_zone || in.reduced_requested || by_field;
+  float red = lim_.reduced_tcp_max_mm_s;
+  if (by_field && lim_.field_reduced_mm_s < red) red = lim_.field_reduced_mm_s;
+  if (reduced_now && (!reduced_ || red < reduced_limit_)) reduced_since_ = now_;
   reduced_ = reduced_now;
+  reduced_limit_ = red;
   const bool enforced = reduced_ && (now_ - reduced_since_ > lim_.ramp);
-  const float tcp_limit = enforced ? lim_.reduced_tcp_max_mm_s : lim_.tcp_max_mm_s;
+  const float tcp_limit = enforced ? red : lim_.tcp_max_mm_s;
   for (std::size_t i = 0; i < core::kAxes; ++i) {
     const float v = fb.drive[i].velocity_rad_s;
     speed_over_ = speed_over_ || !((v < 0.0F ? -v : v) <= lim_.max_speed_rad_s[i]);
   }
   speed_over_ = speed_over_ || !(g.tcp_speed_mm_s <= tcp_limit);
   speed_hit_ = powered && speed_over_;
+  // SPEC §11 SSM: the separation believed falls at once and rises at rise_mm a cycle at most;
+  // over v_allowed + 5 % for more than T_r cycles with power on trips (rule 3).
+  separation_ = (in.separation_mm < separation_ + lim_.rise_mm) ? in.separation_mm : separation_ + lim_.rise_mm;
+  ssm_over_now_ = false;
+  ssm_hit_ = false;
+  if (lim_.ssm && collab_acts(in)) {
+    const float v = core::ssm_allowed_speed_mm_s(separation_, lim_.ssm_params, tcp_limit);
+    ssm_over_now_ = !(g.tcp_speed_mm_s <= v * 1.05F);
+    ssm_over_ = ssm_over_now_ ? ssm_over_ + 1U : 0U;
+    ssm_hit_ = powered && ssm_over_ > lim_.reaction;
+  } else {
+    ssm_over_ = 0;
+  }
 }
 
 void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
@@ -179,6 +198,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   if (in.estop_discrepancy) { raise(AlarmId::ESTOP_DISCREPANCY); r1 = true; }
   if (in.gate_discrepancy) { raise(AlarmId::GATE_DISCREPANCY); r1 = true; }
   if (in.enable_discrepancy) { raise(AlarmId::ENABLE_DISCREPANCY); r1 = true; }
+  if (in.field_outer_discrepancy || in.field_inner_discrepancy) { raise(AlarmId::FIELD_DISCREPANCY); r1 = true; }
   bool offline = false;
   for (const core::DriveFeedback& d : fb.drive) offline = offline || !d.online;
   if (!boot_pending_ && (!fb.fieldbus_ok || offline)) { raise(AlarmId::FIELDBUS_LOST); r1 = true; }
@@ -215,6 +235,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
     if (zone_hit_) { raise(AlarmId::ZONE_VIOLATION); r3 = true; }
     if (orientation_hit_) { raise(AlarmId::ORIENTATION_LIMIT); r3 = true; }
     if (speed_hit_) { raise(AlarmId::SPEED_LIMIT); r3 = true; }
+    if (ssm_hit_) { raise(AlarmId::SEPARATION_VIOLATED); r3 = true; }
     if (r3 && !done) {
       done = true;
       cat0_to(St::IDLE);
@@ -252,6 +273,16 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
       stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE);
     }
   }
+  // Rule 9 (SPEC §11): a person in the inner field stops a running AUTO program (Cat 2),
+  // and the pause may resume by itself.
+  if (s0 == St::OP && sub_ == Sub::AUTO_RUNNING && person_in_inner(in)) {
+    raise(AlarmId::PERSON_IN_FIELD);
+    if (!done) {
+      done = true;
+      stop_to(StopCat::CAT2, St::OP, Sub::AUTO_PAUSED);
+      field_paused_ = true;
+    }
+  }
   changed_ = done;
 }
 
@@ -287,7 +318,10 @@ void Supervisor::events(const core::SafetyInputs& in, const core::Feedback& fb) 
       break;
     }
     case St::OP:
-      if (fb.program_finished && sub_ == Sub::AUTO_RUNNING) {
+      if (sub_ == Sub::AUTO_PAUSED && field_paused_ && collab_acts(in) && lim_.auto_resume &&
+          fields_clear_ > lim_.resume_delay) {
+        go(St::OP, Sub::AUTO_RUNNING);  // both fields clear for resume_delay_ms (SPEC §11)
+      } else if (fb.program_finished && sub_ == Sub::AUTO_RUNNING) {
         go(St::OP, Sub::AUTO_IDLE);
       } else if (fb.program_finished && sub_ == Sub::MANUAL_RUNNING) {
         stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE);
@@ -360,6 +394,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           // SPEC §10: a position limit still violated is no reason (recovery needs the reset);
           // a speed still over its limit is.
           if (has(AlarmId::SPEED_LIMIT) && speed_over_) return Result::FAULT_PRESENT;
+          if (has(AlarmId::SEPARATION_VIOLATED) && ssm_over_now_) return Result::FAULT_PRESENT;
           if (drives_faulted(fb)) {
             pending_reset_ = true;
             pending_since_ = now_;
@@ -429,6 +464,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
       if (sub_ == Sub::AUTO_IDLE) {
         if (in.gate_open) return Result::GATE_OPEN;
         if (!fb.program_loaded) return Result::NO_PROGRAM;
+        if (person_in_inner(in)) return Result::FIELD_INTERRUPTED;
         if (!fb.program_within_limits) return Result::OUTSIDE_LIMITS;
         go(St::OP, Sub::AUTO_RUNNING);
         return Result::OK;
@@ -453,6 +489,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
     case CommandId::resume:
       if (sub_ == Sub::AUTO_PAUSED) {
         if (in.gate_open) return Result::GATE_OPEN;
+        if (person_in_inner(in)) return Result::FIELD_INTERRUPTED;
         go(St::OP, Sub::AUTO_RUNNING);
         return Result::OK;
       }
@@ -509,10 +546,12 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   quiet_ = still ? (quiet_ < t_.standstill_cycles ? quiet_ + 1U : quiet_) : 0U;
   if (in.mode_changed) t2_ok_ = false;
   judge_limits(in, fb, g);
+  const bool clear = !in.field_outer_interrupted && !in.field_inner_interrupted;
+  fields_clear_ = clear ? (fields_clear_ <= lim_.resume_delay ? fields_clear_ + 1U : fields_clear_) : 0U;
   const AlarmId conds[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK,
-                           AlarmId::CONFIG_NOT_VALIDATED, AlarmId::REDUCED_SPEED};
-  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_};
-  for (int i = 0; i < 5; ++i) {
+                           AlarmId::CONFIG_NOT_VALIDATED, AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD};
+  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_, person_in_inner(in)};
+  for (int i = 0; i < 6; ++i) {
     if (holds[i]) raise(conds[i]); else drop(conds[i]);
   }
   if (in.enable_panic_edge) raise(AlarmId::ENABLING_PANIC);

@@ -47,6 +47,19 @@ struct Limits {
   float tcp_max_mm_s = 0.0F;
   float reduced_tcp_max_mm_s = 0.0F;
   core::Cycle ramp = 0;  // reduced.ramp_ms in cycles
+  // SPEC §11, in the reference's own terms: whether collaborative operation is on, the
+  // reduced limit the outer field brings (the lower of collaborative.reduced_speed_mm_s and
+  // v_pfl), the automatic resume, and SSM: the formula's parameters (the formula itself is
+  // the shared pure function, pinned by its own tests), T_r in cycles and how far the
+  // separation may rise in a cycle.
+  bool collaborative = false;
+  float field_reduced_mm_s = 0.0F;
+  bool auto_resume = true;
+  core::Cycle resume_delay = 0;
+  bool ssm = false;
+  core::SsmParams ssm_params{};
+  core::Cycle reaction = 0;
+  float rise_mm = 0.0F;
 };
 
 struct Geometry {
@@ -89,6 +102,13 @@ class Supervisor {
   void write(Out& out) const noexcept;
   // SPEC §10, judged once per cycle before the rules (on the state the cycle began in).
   void judge_limits(const core::SafetyInputs& in, const core::Feedback& fb, const Geometry& g) noexcept;
+  // SPEC §11: whether the fields and SSM act (collaborative on, mode AUTO).
+  [[nodiscard]] bool collab_acts(const core::SafetyInputs& in) const noexcept {
+    return lim_.configured && lim_.collaborative && in.mode == core::Mode::AUTO;
+  }
+  [[nodiscard]] bool person_in_inner(const core::SafetyInputs& in) const noexcept {
+    return collab_acts(in) && in.field_inner_interrupted;
+  }
 
   // One position limit (a joint's range, a zone, the orientation cone): SPEC §10 recovery.
   struct Track {
@@ -112,6 +132,14 @@ class Supervisor {
   bool speed_hit_ = false;   // with power: a speed over its limit trips
   bool speed_over_ = false;  // a speed over its limit, with power or not (the reset guard)
   bool outside_ = false;     // a position limit violated now
+  float reduced_limit_ = 0.0F;  // the reduced limit of the sources active last cycle
+  // SPEC §11
+  bool field_paused_ = false;     // the current pause (or the Cat 2 stop to it) is rule 9's
+  core::Cycle fields_clear_ = 0;  // cycles both fields have read clear
+  float separation_ = 0.0F;       // the separation believed (rises at rise_mm a cycle at most)
+  core::Cycle ssm_over_ = 0;      // cycles the TCP has been over v_allowed + 5 %
+  bool ssm_over_now_ = false;
+  bool ssm_hit_ = false;
 
   St st_ = St::BOOT;
   core::Sub sub_ = core::Sub::NONE;

@@ -13,6 +13,11 @@ Mutant families (issue 6):
             supervisor's rule-3 entries for them dropped
   margin    remove each planning margin of the motion layer (motion/limits.hpp: 1 deg,
             10 mm, 5 %, 1 deg), so that a jog holds at the limit itself
+  collab    SPEC §11: the v_allowed formula (each term: v_h, a·T_r, C, Z, the 500 mm switch,
+            the clamp), the PFL cap, the field logic (mode, which field, the resume delay
+            and its reset, auto_resume, the lowest reduced limit, the discrepancy), the SSM
+            monitor (tolerance, T_r, the separation's rise bound) and the supervisor's and
+            guards' entries for them
 
 Each mutant is applied to a copy of the source in build-mut/src, built, and run against
 the unit tests, the scenario suite, the differential test and the exhaustive checker.
@@ -48,8 +53,8 @@ MARGINS = "motion/include/safestate/motion/limits.hpp"
 # The suites that judge core/: the unit tests of the state machine and signal layer, the
 # differential test, the scenario suite and the exhaustive checker. Only their binaries
 # are rebuilt for each mutant.
-TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits safestate"
-SELECT = "^(CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
+TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative safestate"
+SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
 
 
 def read(rel):
@@ -174,6 +179,72 @@ def mutants():
     ]
     for rel, old, new, desc in weak:
         out.append(("monitor", desc, rel, old, new))  # "not applied" if the text has gone
+    # --- collaborative operation (SPEC §11): the formula and the field logic ----------------
+    CO, FI, SS = "core/src/collaborative.cpp", MON + "fields.cpp", MON + "ssm.cpp"
+    collab = [
+        (CO, "return (near && (p.human_speed_mm_s < kHumanSpeedNearMmS)) ? kHumanSpeedNearMmS : p.human_speed_mm_s;",
+             "return p.human_speed_mm_s;", "formula: no 2000 mm/s within 500 mm"),
+        (CO, "const bool near = !(separation_mm > kSsmNearMm);", "const bool near = separation_mm < kSsmNearMm;",
+             "formula: the switch at 500 mm moved (500 itself far)"),
+        (CO, "(v_h * v_h) + (a_tr * a_tr) + (2.0F * p.decel_mm_s2", "(v_h * v_h) + (2.0F * p.decel_mm_s2",
+             "formula: (a T_r)^2 dropped"),
+        (CO, "(separation_mm - p.intrusion_mm - p.uncertainty_mm)", "(separation_mm - p.intrusion_mm)",
+             "formula: Z dropped"),
+        (CO, "(separation_mm - p.intrusion_mm - p.uncertainty_mm)", "(separation_mm - p.uncertainty_mm)",
+             "formula: C dropped"),
+        (CO, "const float v = std::sqrt(radicand) - (v_h + a_tr);", "const float v = std::sqrt(radicand) - v_h;",
+             "formula: a T_r not subtracted"),
+        (CO, "(2.0F * p.decel_mm_s2 * (separation_mm", "(p.decel_mm_s2 * (separation_mm", "formula: 2a becomes a"),
+        (CO, "return (v < limit) ? v : limit;", "return v;", "formula: not clamped to the limit in force"),
+        (CO, "const float v_m_s = b.f_tr_n / std::sqrt(mu * k_n_per_m);", "const float v_m_s = b.f_tr_n / (mu * k_n_per_m);",
+             "pfl: the square root dropped"),
+        (CO, "const float m_r = (robot_mass_kg / 2.0F) + payload_kg;", "const float m_r = robot_mass_kg + payload_kg;",
+             "pfl: the whole robot mass"),
+        (FI, "r.acting = enabled_ && (in.mode == Mode::AUTO);", "r.acting = enabled_;", "fields: act in T1/T2 too"),
+        (FI, "r.acting = enabled_ && (in.mode == Mode::AUTO);", "r.acting = in.mode == Mode::AUTO;",
+             "fields: act without collaborative operation"),
+        (FI, "r.inner_stops = r.acting && in.field_inner_interrupted;", "r.inner_stops = r.acting && in.field_outer_interrupted;",
+             "fields: the outer field stops"),
+        (FI, "r.outer_reduces = r.acting && in.field_outer_interrupted;", "r.outer_reduces = false;",
+             "fields: the outer field does not reduce"),
+        (FI, "r.blocks_start = r.inner_stops;", "r.blocks_start = false;", "fields: start/resume never refused"),
+        (FI, "r.resume_due = r.acting && auto_resume_ && (clear_ > delay_);", "r.resume_due = r.acting && auto_resume_ && (clear_ >= delay_);",
+             "fields: resume one cycle early"),
+        (FI, "r.resume_due = r.acting && auto_resume_ && (clear_ > delay_);", "r.resume_due = r.acting && (clear_ > delay_);",
+             "fields: auto_resume ignored"),
+        (FI, "const bool both_clear = !in.field_outer_interrupted && !in.field_inner_interrupted;",
+             "const bool both_clear = !in.field_inner_interrupted;", "fields: resume with the outer field interrupted"),
+        (FI, "clear_ = both_clear ? ((clear_ <= delay_) ? clear_ + 1U : clear_) : 0U;",
+             "clear_ = both_clear ? ((clear_ <= delay_) ? clear_ + 1U : clear_) : clear_;", "fields: the delay not restarted"),
+        (FI, "if (in.field_outer_discrepancy || in.field_inner_discrepancy) {", "if (in.field_outer_discrepancy) {",
+             "fields: inner discrepancy ignored"),
+        (FI, "    limit = lower(limit, c.reduced_speed_mm_s);\n", "", "fields: collaborative.reduced_speed_mm_s ignored"),
+        (FI, "    if (c.pfl_enabled) {", "    if (false) {", "fields: the PFL cap ignored"),
+        (SS, "r.over = !(tcp_speed <= (r.v_allowed_mm_s * kSsmTolerance));", "r.over = !(tcp_speed <= (r.v_allowed_mm_s * 1.2F));",
+             "ssm: 20 % instead of 5 %"),
+        (SS, "if (powered && (over_ > reaction_)) {", "if (powered && (over_ > 2U * reaction_)) {", "ssm: 2 T_r"),
+        (SS, "used_ = (in.separation_mm < ceiling) ? in.separation_mm : ceiling;", "used_ = in.separation_mm;",
+             "ssm: a jump believed"),
+        (SS, "r.acting = enabled_ && (in.mode == Mode::AUTO);", "r.acting = enabled_;", "ssm: acts in T1/T2 too"),
+        (SUPERVISOR, "std::pair{AlarmId::SEPARATION_VIOLATED, &c.ssm.violated}", "std::pair{AlarmId::SEPARATION_VIOLATED, &c.limits.joint}",
+             "rule 3: SEPARATION_VIOLATED entry dropped"),
+        (SUPERVISOR, "            {c.fields.discrepancy, AlarmId::FIELD_DISCREPANCY}}};", "            {false, AlarmId::FIELD_DISCREPANCY}}};",
+             "rule 1: FIELD_DISCREPANCY entry dropped"),
+        (SUPERVISOR, "    fired = field_paused_ && c.fields.resume_due;", "    fired = c.fields.resume_due;",
+             "resume: any pause resumes by itself"),
+        (SUPERVISOR, "  field_paused_ = field_paused_ && (to == Leaf::AUTO_PAUSED);", "",
+             "resume: a pause of rule 9 is never forgotten"),
+        (SUPERVISOR, "  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_allowed_mm_s : -1.0F;", "  o.motion.v_allowed_mm_s = -1.0F;",
+             "motion: v_allowed not handed to the motion layer"),
+        (SUPERVISOR, "  o.motion.reduced_limit_mm_s = limits_.reduced().limit();", "  o.motion.reduced_limit_mm_s = 0.0F;",
+             "motion: the field's reduced limit not handed over"),
+        (GUARDS, "  if (v.field_blocks) {\n    return Result::FIELD_INTERRUPTED;", "  if (false) {\n    return Result::FIELD_INTERRUPTED;",
+             "guard: start with the inner field interrupted"),
+        (GUARDS, "  return v.field_blocks ? Result::FIELD_INTERRUPTED : Result::OK;", "  return Result::OK;",
+             "guard: resume with the inner field interrupted"),
+    ]
+    for rel, old, new, desc in collab:
+        out.append(("collab", desc, rel, old, new))
     # --- margins of the motion layer ----------------------------------------------------
     for old, new, desc in [("kJointMarginRad = deg(1.0F);", "kJointMarginRad = deg(0.0F);", "joint margin 1 deg removed"),
                            ("kZoneMarginMm = 10.0F;", "kZoneMarginMm = 0.0F;", "zone margin 10 mm removed"),
@@ -216,7 +287,7 @@ def judge():
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin)")
+    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
     ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()

@@ -7,12 +7,15 @@
 namespace safestate::core {
 
 // @req LIM-REDUCED
-void ReducedMode::update(std::uint8_t sources, Cycle ramp) noexcept {
+void ReducedMode::update(std::uint8_t sources, Cycle ramp, float limit) noexcept {
   const bool was = sources_ != 0U;
+  const bool lower = was && (limit < limit_);
   sources_ = sources;
   ramp_ = ramp;
-  if ((sources_ == 0U) || !was) {
-    elapsed_ = 0;  // inactive, or became active in this cycle: the ramp starts now
+  limit_ = limit;
+  if ((sources_ == 0U) || !was || lower) {
+    // inactive, became active in this cycle, or a source that reduces further joined
+    // (SPEC §11's outer field): the ramp to the new limit starts now
   } else if (elapsed_ <= ramp_) {
     ++elapsed_;
   }

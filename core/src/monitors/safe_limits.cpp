@@ -37,13 +37,14 @@ void SafeLimitMonitors::evaluate(const Feedback& fb, bool powered, bool input_re
   arm_forward(arm_, q, limits_.tcp_mm, pose_);
   // Reduced mode first: the speed monitor needs to know whether it is enforced. The zone
   // source is this cycle's TCP position, so the zone monitor runs before it.
-  LimitContext ctx{limits_, pose_, q, qd, powered, false, orientation_cos_};
+  LimitContext ctx{limits_, pose_, q, qd, powered, false, limits_.reduced_tcp_max_speed_mm_s, orientation_cos_};
   joints_.check(ctx, out);
   zones_.check(ctx, out);
   orientation_.check(ctx, out);
   const auto sources = static_cast<std::uint8_t>((out.in_reduced_zone ? kReducedByZone : 0U) |
                                                  (input_reduced ? kReducedByInput : 0U) | other_sources);
-  reduced_.update(sources, ramp_cycles_);
+  ctx.reduced_limit_mm_s = reduced_limit_mm_s(limits_, sources);
+  reduced_.update(sources, ramp_cycles_, ctx.reduced_limit_mm_s);
   ctx.reduced_enforced = reduced_.enforced();
   SpeedLimitMonitor::check(ctx, out);
 }

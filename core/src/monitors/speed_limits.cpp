@@ -8,7 +8,7 @@ namespace safestate::core {
 // @req LIM-SPEED
 void SpeedLimitMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   r.tcp_speed_mm_s = point_speed(c.pose, c.pose.tcp, kAxes, c.qd);
-  r.speed_limit_mm_s = c.reduced_enforced ? c.limits.reduced_tcp_max_speed_mm_s : c.limits.tcp_max_speed_mm_s;
+  r.speed_limit_mm_s = c.reduced_enforced ? c.reduced_limit_mm_s : c.limits.tcp_max_speed_mm_s;
   // Judged with or without power: the reset guard asks whether the cause is gone (SPEC §5);
   // only with power on is it a finding of rule 3.
   LimitFinding f{};

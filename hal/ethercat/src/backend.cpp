@@ -210,7 +210,8 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       for (std::size_t b = 0; b < kInputBits; ++b) {
         v[b] = get_bit(p, s.in_bit[b]);
       }
-      in.safety = core::RawInputs{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[18], v[19]};
+      in.safety = core::RawInputs{v[0], v[1], v[2],  v[3],  v[4],  v[5],  v[6],  v[7],  v[8],
+                                  v[9], v[10], v[18], v[19], v[20], v[21], v[22], v[23]};
       in.contactor_closed = v[11];
       for (std::size_t a = 0; a < kAxes; ++a) {
         in.brake_released[a] = v[12U + a];

@@ -16,7 +16,7 @@ const char* const kInputBitNames[kInputBits] = {
     "estop.a",      "estop.b",      "gate.a",     "gate.b",     "enable.a",   "enable.b",
     "enable.panic", "mode.auto",    "mode.t1",    "mode.t2",    "reset_button", "contactor_fb",
     "brake_fb.1",   "brake_fb.2",   "brake_fb.3", "brake_fb.4", "brake_fb.5", "brake_fb.6",
-    "reduced.a",    "reduced.b"};
+    "reduced.a",    "reduced.b",    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
 const char* const kOutputBitNames[kOutputBits] = {"contactor", "brakes_release", "reset_lamp"};
 
 namespace {

@@ -18,12 +18,13 @@ constexpr std::uint8_t kUint16 = 0x06;
 const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "gate.b",      "enable.a",
                                 "enable.b",     "enable.panic", "mode.auto", "mode.t1",     "mode.t2",
                                 "reset_button", "contactor_fb", "brake_fb.1", "brake_fb.2", "brake_fb.3",
-                                "brake_fb.4",   "brake_fb.5", "brake_fb.6", "reduced.a",  "reduced.b"};
-static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::reduced_b) + 1U, "one name per DI bit");
+                                "brake_fb.4",   "brake_fb.5", "brake_fb.6", "reduced.a",  "reduced.b",
+                                "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
+static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::field_inner_b) + 1U, "one name per DI bit");
 const char* const kDoNames[] = {"contactor", "brakes_release", "reset_lamp"};
 
 SubdeviceDesc digital_in() {
-  SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI20 safety contacts", {}, {}};
+  SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI24 safety contacts", {}, {}};
   d.tx.index = 0x1A00;
   std::uint8_t sub = 1;
   for (const char* n : kDiNames) {
@@ -99,6 +100,10 @@ void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (
   }
   set_bit(di, bit(DiBit::reduced_a), s.reduced_a);
   set_bit(di, bit(DiBit::reduced_b), s.reduced_b);
+  set_bit(di, bit(DiBit::field_outer_a), s.field_outer_a);
+  set_bit(di, bit(DiBit::field_outer_b), s.field_outer_b);
+  set_bit(di, bit(DiBit::field_inner_a), s.field_inner_a);
+  set_bit(di, bit(DiBit::field_inner_b), s.field_inner_b);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     set_bit(di, bit(DiBit::brake_fb1) + a, in.brake_released[a]);
     put16(&drive_tx[a][0], in.drive[a].statusword);

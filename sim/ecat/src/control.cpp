@@ -63,6 +63,11 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   }
   const scenario::Directive& d = r.scenario.steps.front().what;
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
+    // SPEC §11's distance sensor has no channel on the emulated segment yet (the fields do:
+    // DI bits 20..23): refuse it rather than take it and never put it on the wire.
+    if (in->separation_mm || in->separation_valid) {
+      return "ERROR the emulated segment has no distance sensor (separation_mm, separation_valid) yet";
+    }
     scenario::apply(*in, cell.inputs());
     cell.latch_inputs();
     cell.mark_input_change();

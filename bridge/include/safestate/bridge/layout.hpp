@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 4U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced
+inline constexpr std::uint32_t kLayoutVersion = 5U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -37,19 +37,27 @@ enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
 enum class Contact : std::uint8_t {
   estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic, mode_auto, mode_t1, mode_t2, reset_button,
   reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
+  field_outer_a, field_outer_b, field_inner_a, field_inner_b,  // SPEC §11 protective fields, NC (1 = clear)
 };
-inline constexpr std::size_t kContactCount = 13;
+inline constexpr std::size_t kContactCount = 17;
+
+// A `sim` record's distance sensor (SPEC §11): which of separation_mm / separation_valid it writes.
+inline constexpr std::uint8_t kSetSeparation = 0x01U;    // separation_mm written (and valid, unless kSetValid)
+inline constexpr std::uint8_t kSetValid = 0x02U;         // separation_valid written ...
+inline constexpr std::uint8_t kSeparationValid = 0x04U;  // ... with this value
 
 struct CommandRecord {
   std::uint32_t seq = 0;  // assigned by the gateway, echoed in the reply
   RecordKind kind = RecordKind::command;
   std::uint8_t pad[3]{};
   core::Command command{};        // kind == command (command.seq == seq)
-  std::uint16_t set_mask = 0;     // kind == sim_set: bit i = Contact i is written ...
-  std::uint16_t set_values = 0;   // ... with this value (1 = closed)
+  std::uint32_t set_mask = 0;     // kind == sim_set: bit i = Contact i is written ...
+  std::uint32_t set_values = 0;   // ... with this value (1 = closed)
+  std::int32_t separation_mm = 0;  // kind == sim_set: the distance sensor (separation_set says what)
+  std::uint8_t separation_set = 0;
   std::uint8_t fault_kind = 0;    // kind == sim_fault: sim::FaultKind
   std::uint8_t fault_axis = 0;
-  std::uint8_t pad2[2]{};
+  std::uint8_t pad2[1]{};
 };
 
 // Answer to a record: a command's result, or for sim records OK / NOT_SIMULATED.
@@ -121,12 +129,18 @@ struct Status {
   std::uint8_t safety_reduced_by = 0;  // core::kReducedBy* bits
   bool safety_recovery = false;
   float safety_speed_limit_mm_s = 0.0F;
+  // SPEC §11 (core::SafetyStatus): the fields as validated, and SSM while it acts.
+  bool safety_field_outer_interrupted = false;
+  bool safety_field_inner_interrupted = false;
+  bool safety_ssm = false;
+  float safety_v_allowed_mm_s = 0.0F;
+  float safety_separation_mm = 0.0F;
 };
 
 // One cycle of the black box: what the cycle read and what it wrote.
 struct BlackBoxRecord {
   std::uint64_t t = 0;
-  std::uint16_t contacts = 0;  // bit i = Contact i closed
+  std::uint32_t contacts = 0;  // bit i = Contact i closed
   std::uint8_t contactor_fb = 0;
   std::uint8_t brakes_fb = 0;  // bit i = brake i released
   std::uint8_t fieldbus_ok = 0;

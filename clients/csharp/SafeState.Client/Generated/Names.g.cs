@@ -190,6 +190,9 @@ namespace SafeState.Client
         SPEED_LIMIT = 210,
         CONFIG_NOT_VALIDATED = 304,
         REDUCED_SPEED = 305,
+        FIELD_DISCREPANCY = 108,
+        SEPARATION_VIOLATED = 211,
+        PERSON_IN_FIELD = 307,
     }
 
     public static partial class Alarms
@@ -272,6 +275,15 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.REDUCED_SPEED, 305, Severity.info, AlarmLatch.Condition,
                 "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
                 "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."),
+            new AlarmInfo(AlarmName.FIELD_DISCREPANCY, 108, Severity.lockout, AlarmLatch.PowerCycle,
+                "The two OSSD channels of a protective field (area scanner) disagreed for longer than the discrepancy time.",
+                "Check the scanner's OSSD outputs and wiring of the named field and channel, then power-cycle."),
+            new AlarmInfo(AlarmName.SEPARATION_VIOLATED, 211, Severity.fault, AlarmLatch.Reset,
+                "The TCP stayed faster than the speed allowed for the person's separation (SSM, v_allowed + 5 %) for longer than the reaction time; power was cut.",
+                "Check the distance sensor, the drives and the speed scaling of the motion layer, then reset."),
+            new AlarmInfo(AlarmName.PERSON_IN_FIELD, 307, Severity.info, AlarmLatch.Condition,
+                "A person is in the inner protective field during collaborative operation in AUTO: the program pauses.",
+                "Leave the inner field; with auto resume on the program goes on once both fields are clear for the resume delay, else press resume."),
         };
     }
 
@@ -435,6 +447,9 @@ namespace SafeState.Client
             "SPEED_LIMIT",
             "CONFIG_NOT_VALIDATED",
             "REDUCED_SPEED",
+            "FIELD_DISCREPANCY",
+            "SEPARATION_VIOLATED",
+            "PERSON_IN_FIELD",
         };
     }
 }

@@ -39,8 +39,12 @@ enum class AlarmId : std::uint8_t {
   SPEED_LIMIT,
   CONFIG_NOT_VALIDATED,
   REDUCED_SPEED,
+  // SPEC §11 collaborative operation, appended likewise.
+  FIELD_DISCREPANCY,
+  SEPARATION_VIOLATED,
+  PERSON_IN_FIELD,
 };
-inline constexpr std::size_t kAlarmCount = 25;
+inline constexpr std::size_t kAlarmCount = 28;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -141,6 +145,17 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
   {AlarmId::REDUCED_SPEED, "REDUCED_SPEED", 305, Severity::info, Latch::condition,
    "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
    "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."},
+  {AlarmId::FIELD_DISCREPANCY, "FIELD_DISCREPANCY", 108, Severity::lockout, Latch::power_cycle,
+   "The two OSSD channels of a protective field (area scanner) disagreed for longer than the discrepancy time.",
+   "Check the scanner's OSSD outputs and wiring of the named field and channel, then power-cycle."},
+  {AlarmId::SEPARATION_VIOLATED, "SEPARATION_VIOLATED", 211, Severity::fault, Latch::reset,
+   "The TCP stayed faster than the speed allowed for the person's separation (SSM, v_allowed + 5 %) for longer "
+   "than the reaction time; power was cut.",
+   "Check the distance sensor, the drives and the speed scaling of the motion layer, then reset."},
+  {AlarmId::PERSON_IN_FIELD, "PERSON_IN_FIELD", 307, Severity::info, Latch::condition,
+   "A person is in the inner protective field during collaborative operation in AUTO: the program pauses.",
+   "Leave the inner field; with auto resume on the program goes on once both fields are clear for the resume delay, "
+   "else press resume."},
 }};
 // clang-format on
 

@@ -81,6 +81,12 @@ struct MotionRequest {
   // SPEC §10 reduced mode: bring the TCP to the reduced limit within reduced.ramp_ms and
   // keep it there while this is set.
   bool reduced = false;
+  // The reduced TCP limit in force while `reduced` (mm/s): reduced.tcp_max_speed_mm_s, or
+  // lower with SPEC §11's outer field (collaborative.reduced_speed_mm_s, v_pfl).
+  float reduced_limit_mm_s = 0.0F;
+  // SPEC §11 speed and separation monitoring: the TCP stays at or below this (mm/s); at 0
+  // the program holds. Negative: SSM does not act.
+  float v_allowed_mm_s = -1.0F;
   // SPEC §10 recovery (T1, a limit violated): move only in ways that do not make the
   // violation worse.
   bool recovery = false;

@@ -17,6 +17,7 @@
 #include "safestate/core/arm.hpp"
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/safety_limits.hpp"
+#include "safestate/core/signals.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::core {
@@ -56,6 +57,7 @@ struct LimitContext {
   // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   bool powered;             // ARMING, OPERATIONAL, STOPPING
   bool reduced_enforced;    // reduced mode active and its ramp time over
+  float reduced_limit_mm_s; // the reduced TCP limit of the active sources (SPEC §10, §11)
   float orientation_cos;    // cos(orientation max deviation), computed once at configure()
 };
 
@@ -125,16 +127,86 @@ class SpeedLimitMonitor {
 // monitor once `ramp` cycles have passed since it became active.
 class ReducedMode {
  public:
-  void update(std::uint8_t sources, Cycle ramp) noexcept;
+  // `limit`: the reduced TCP limit of these sources; a lower limit than before (a source
+  // that reduces further, SPEC §11's outer field) starts the ramp again.
+  void update(std::uint8_t sources, Cycle ramp, float limit) noexcept;
   [[nodiscard]] bool active() const noexcept { return sources_ != 0U; }
   [[nodiscard]] bool enforced() const noexcept { return active() && (elapsed_ > ramp_); }
   [[nodiscard]] std::uint8_t sources() const noexcept { return sources_; }
+  [[nodiscard]] float limit() const noexcept { return limit_; }
 
  private:
   std::uint8_t sources_ = 0;
   Cycle elapsed_ = 0;
   Cycle ramp_ = 0;
+  float limit_ = 0.0F;
 };
+
+// ---- SPEC §11 collaborative operation (core/src/monitors/fields.cpp, ssm.cpp) ----------
+
+// The reduced TCP limit for a set of kReducedBy* sources: reduced.tcp_max_speed_mm_s, and
+// with the outer field among them the lower of that, collaborative.reduced_speed_mm_s and
+// (pfl on) the PFL cap v_pfl.
+[[nodiscard]] float reduced_limit_mm_s(const SafetyLimits& limits, std::uint8_t sources) noexcept;
+
+// What the protective fields mean this cycle.
+struct FieldReport {
+  bool acting = false;         // collaborative on and mode AUTO: the fields act (SPEC §11)
+  bool outer_reduces = false;  // reduced mode source kReducedByField
+  bool inner_stops = false;    // rule 9's condition (the row says from which leaf)
+  bool blocks_start = false;   // start / resume: FIELD_INTERRUPTED
+  bool resume_due = false;     // both clear for resume_delay_ms and auto_resume on
+  // FIELD_DISCREPANCY (rule 1), whatever the configuration: a hardware fault.
+  bool discrepancy = false;
+  AlarmDetail discrepancy_detail{};
+  AlarmDetail inner_detail{};  // PERSON_IN_FIELD's detail: field.inner and the channel
+};
+
+// Protective fields (SPEC §11): outer -> reduced mode, inner -> rule 9, automatic resume.
+class FieldMonitor {
+ public:
+  void configure(const CollaborativeLimits& c, std::uint32_t cycle_us) noexcept;
+  void check(const SafetyInputs& in, FieldReport& r) noexcept;
+  [[nodiscard]] Cycle clear_cycles() const noexcept { return clear_; }
+
+ private:
+  bool enabled_ = false;
+  bool auto_resume_ = true;
+  Cycle delay_ = 0;
+  Cycle clear_ = 0;  // consecutive cycles with both fields clear (saturating above delay_)
+};
+
+// Speed and separation monitoring's verdict this cycle.
+struct SsmReport {
+  bool acting = false;           // collaborative and ssm on, mode AUTO
+  float separation_mm = 0.0F;    // the separation used (after the plausibility filter)
+  float v_allowed_mm_s = 0.0F;   // v_allowed(separation) clamped to [0, the limit in force]
+  bool over = false;             // TCP above v_allowed + 5 % now (the reset guard's "cause")
+  LimitFinding violated;         // SEPARATION_VIOLATED: over for longer than T_r, power on
+};
+
+// SSM (SPEC §11). A separation that rises faster than a person walking away and the robot
+// moving away together could (kHumanSpeedNearMmS + tcp_max_speed_mm_s) is not believed: the
+// separation used rises at that rate at most. A fall is taken at once (the safe side).
+class SsmMonitor {
+ public:
+  void configure(const SafetyLimits& limits, std::uint32_t cycle_us) noexcept;
+  // `tcp_speed`, `limit`: the core's own TCP speed and the TCP limit in force (LimitReport).
+  void check(const SafetyInputs& in, float tcp_speed, float limit, bool powered, SsmReport& r) noexcept;
+  [[nodiscard]] Cycle reaction_cycles() const noexcept { return reaction_; }
+  [[nodiscard]] float rise_per_cycle_mm() const noexcept { return rise_; }
+
+ private:
+  bool enabled_ = false;
+  SsmParams params_{};
+  Cycle reaction_ = 0;
+  float rise_ = 0.0F;     // mm a cycle
+  float used_ = 0.0F;     // the separation used last cycle
+  Cycle over_ = 0;        // consecutive cycles over v_allowed + 5 %
+};
+
+// The SSM monitor's tolerance: SPEC §11 "above v_allowed + 5 %".
+inline constexpr float kSsmTolerance = 1.05F;
 
 // The monitors together, in the order their alarms are listed in SPEC §4 rule 3.
 class SafeLimitMonitors {

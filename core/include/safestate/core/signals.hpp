@@ -134,6 +134,15 @@ struct RawInputs {
   // SPEC §10 reduced-speed request, NC (1 = normal speed).
   bool reduced_a = true;
   bool reduced_b = true;
+  // SPEC §11 protective fields of the area scanner, OSSD pairs, NC (1 = clear).
+  bool field_outer_a = true;
+  bool field_outer_b = true;
+  bool field_inner_a = true;
+  bool field_inner_b = true;
+  // SPEC §11 distance sensor: the separation person-robot (mm) and whether it is valid.
+  // Without a sensor (the default) the separation is invalid: unknown is unsafe.
+  std::int32_t separation_mm = 0;
+  bool separation_valid = false;
 };
 
 // The validated logical inputs the state machine decides on.
@@ -163,6 +172,18 @@ struct SafetyInputs {
   // asked for and is no lockout: reduced is the safe side.
   bool reduced_requested = false;
   bool reduced_discrepancy = false;
+  // SPEC §11: the protective fields, validated like `gate` (interrupted on either channel;
+  // a discrepancy is FIELD_DISCREPANCY, lockout), and the separation: an invalid or
+  // negative reading counts as 0 (unknown is unsafe).
+  bool field_outer_interrupted = false;
+  Channel field_outer_cause = Channel::none;
+  bool field_outer_discrepancy = false;
+  Channel field_outer_fault_channel = Channel::none;
+  bool field_inner_interrupted = false;
+  Channel field_inner_cause = Channel::none;
+  bool field_inner_discrepancy = false;
+  Channel field_inner_fault_channel = Channel::none;
+  float separation_mm = 0.0F;
 };
 
 // All inputs of §2 together; owns the per-input validators.
@@ -178,6 +199,8 @@ class SignalLayer {
   ModeSelector mode_;
   ResetButton reset_;
   DualChannel reduced_;
+  DualChannel field_outer_;
+  DualChannel field_inner_;
   SafetyInputs out_;
 };
 

@@ -44,6 +44,12 @@ struct SafetyStatus {
   bool outside = false;         // a position limit is violated now
   float speed_limit_mm_s = 0.0F;
   float tcp_speed_mm_s = 0.0F;  // the core's own measure
+  // SPEC §11: the protective fields as validated (whether or not they act), and SSM.
+  bool field_outer_interrupted = false;
+  bool field_inner_interrupted = false;
+  bool ssm = false;              // SSM acts (collaborative and ssm on, mode AUTO)
+  float v_allowed_mm_s = 0.0F;   // meaningful while `ssm`
+  float separation_mm = 0.0F;    // the separation used, while `ssm`
 };
 
 struct SupervisorOut {
@@ -154,6 +160,11 @@ class SystemStateManager {
   // SPEC §10 safe limits.
   SafeLimitMonitors limits_;
   bool config_validated_ = true;
+  // SPEC §11 collaborative operation: the fields, SSM, and whether the current pause (or
+  // the Cat 2 stop leading to it) came from rule 9, so that it may resume by itself.
+  FieldMonitor fields_;
+  SsmMonitor ssm_;
+  bool field_paused_ = false;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.

@@ -26,11 +26,12 @@ enum class Trigger : std::uint8_t {
   // Conditions, checked every cycle in this priority (SPEC §4 rules 1..7).
   lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded
   estop_pressed,       // 2
-  stop_fault,          // 3: drive fault, T1 speed, stop time, brake not engaged, a safe limit (§10)
+  stop_fault,          // 3: drive fault, T1 speed, stop time, brake not engaged, a safe limit (§10), SSM (§11)
   gate_open_in_auto,   // 4, 4b
   enable_left_centre,  // 5, 5b
   mode_changed,        // 6
   jog_timeout,         // 7
+  person_in_field,     // 9: inner protective field interrupted, collaborative on (SPEC §11)
   // Internal events.
   boot_passed,
   estop_released,
@@ -38,6 +39,7 @@ enum class Trigger : std::uint8_t {
   arming_timeout,
   program_finished,
   standstill,
+  fields_clear,        // SPEC §11: both fields clear for resume_delay_ms, auto_resume on
   // Commands, in the order of CommandId.
   reset,
   servo_on,
@@ -52,8 +54,11 @@ enum class Trigger : std::uint8_t {
   set_mode,
   validate_config,
 };
-inline constexpr std::size_t kTriggerCount = 25;
-inline constexpr std::size_t kConditionCount = 7;
+inline constexpr std::size_t kTriggerCount = 27;
+inline constexpr std::size_t kConditionCount = 8;
+// The SPEC §4 rule number of each condition trigger (rule 8, collision, comes with issue 20's
+// collision detection; its number is kept).
+inline constexpr std::array<std::uint8_t, kConditionCount> kConditionRule{1, 2, 3, 4, 5, 6, 7, 9};
 inline constexpr std::size_t kFirstCommandTrigger = static_cast<std::size_t>(Trigger::reset);
 
 [[nodiscard]] constexpr Trigger trigger_of(CommandId c) noexcept {
@@ -83,6 +88,9 @@ struct GuardView {
   bool config_validated;
   std::uint32_t checksum;
   std::uint32_t code;
+  // SPEC §11: the inner protective field is interrupted while collaborative operation acts.
+  bool field_blocks;
+  bool separation_over;  // the TCP above v_allowed + 5 % now (SEPARATION_VIOLATED's cause)
 };
 
 using GuardFn = Result (*)(const GuardView&) noexcept;
@@ -96,7 +104,7 @@ Result guard_boot_done(const GuardView& v) noexcept;
 Result guard_reset_causes_gone(const GuardView& v) noexcept;
 Result guard_servo_on(const GuardView& v) noexcept;
 Result guard_start_auto(const GuardView& v) noexcept;
-Result guard_gate_closed(const GuardView& v) noexcept;
+Result guard_resume(const GuardView& v) noexcept;
 Result guard_enable_held(const GuardView& v) noexcept;
 Result guard_start_manual(const GuardView& v) noexcept;
 Result guard_t2_selected(const GuardView& v) noexcept;
@@ -113,8 +121,9 @@ inline constexpr Guard kServoOn{&guard_servo_on,
                                 "configuration validated (CONFIG_NOT_VALIDATED); AUTO/T2: no safe limit "
                                 "violated (OUTSIDE_LIMITS)"};
 inline constexpr Guard kStartAuto{&guard_start_auto, "gate closed (GATE_OPEN); program loaded (NO_PROGRAM); "
+                                                     "inner field clear (FIELD_INTERRUPTED); "
                                                      "program inside the safe limits (OUTSIDE_LIMITS)"};
-inline constexpr Guard kGateClosed{&guard_gate_closed, "gate closed (GATE_OPEN)"};
+inline constexpr Guard kResume{&guard_resume, "gate closed (GATE_OPEN); inner field clear (FIELD_INTERRUPTED)"};
 inline constexpr Guard kEnableHeld{&guard_enable_held, "enable at centre (ENABLING_NOT_HELD)"};
 inline constexpr Guard kStartManual{&guard_start_manual,
                                     "enable at centre (ENABLING_NOT_HELD); program loaded (NO_PROGRAM); "
@@ -134,6 +143,7 @@ enum class Effect : std::uint8_t {
   jog_keepalive,   // (re)start the jog keep-alive timer, take axis/direction/speed
   set_t2_confirmed,  // T2 confirmed until the mode next changes
   set_validated,     // SPEC §10: the safety configuration is validated
+  field_pause,       // SPEC §11 rule 9: the pause that follows may resume by itself
 };
 const char* to_string(Effect e) noexcept;
 
@@ -186,11 +196,12 @@ inline constexpr auto kTransitions = [] {
   using enum AlarmId;
   using enum Effect;
   constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
-                               bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED);
+                               bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED) |
+                               bit(FIELD_DISCREPANCY);
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
                                bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
-                               bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT);
-  return std::array<Transition, 36>{{
+                               bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT) | bit(SEPARATION_VIOLATED);
+  return std::array<Transition, 38>{{
   // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
   {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1",          "TR-C1"},
@@ -203,6 +214,7 @@ inline constexpr auto kTransitions = [] {
   {kOperationalOrCat2,          mode_changed,       kNoGuard,     IDLE,               CAT1, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6"},
   {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6b"},
   {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7",          "TR-C7"},
+  {only(AUTO_RUNNING),          person_in_field,    kNoGuard,     AUTO_PAUSED,        CAT2, bit(PERSON_IN_FIELD),  field_pause,      "9",          "TR-C9"},
   // ---- events and commands (SPEC §4, second table) --------------------------------------------------------------------------------------
   {only(BOOT),                  boot_passed,        kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "boot",       "TR-BOOT"},
   {only(ESTOP_ACTIVE),          estop_released,     kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "estop",      "TR-ESTOP-RELEASED"},
@@ -218,7 +230,8 @@ inline constexpr auto kTransitions = [] {
   {only(AUTO_RUNNING),          pause,              kNoGuard,     AUTO_PAUSED,        CAT2, 0,                     none,             "pause",      "TR-PAUSE-AUTO"},
   {only(AUTO_RUNNING),          stop,               kNoGuard,     AUTO_IDLE,          CAT2, 0,                     abort_program,    "stop",       "TR-STOP-RUNNING"},
   {only(AUTO_PAUSED),           stop,               kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "stop",       "TR-STOP-PAUSED"},
-  {only(AUTO_PAUSED),           resume,             kGateClosed,  AUTO_RUNNING,       NONE, 0,                     resume_program,   "resume",     "TR-RESUME"},
+  {only(AUTO_PAUSED),           resume,             kResume,      AUTO_RUNNING,       NONE, 0,                     resume_program,   "resume",     "TR-RESUME"},
+  {only(AUTO_PAUSED),           fields_clear,       kNoGuard,     AUTO_RUNNING,       NONE, 0,                     resume_program,   "fields",     "TR-AUTO-RESUME"},
   {only(AUTO_RUNNING),          program_finished,   kNoGuard,     AUTO_IDLE,          NONE, 0,                     abort_program,    "program",    "TR-FINISHED-AUTO"},
   {only(MANUAL_IDLE),           jog,                kEnableHeld,  MANUAL_JOGGING,     NONE, 0,                     jog_keepalive,    "jog",        "TR-JOG"},
   {only(MANUAL_JOGGING),        jog,                kEnableHeld,  SAME,               NONE, 0,                     jog_keepalive,    "jog",        "TR-JOG-KEEPALIVE"},

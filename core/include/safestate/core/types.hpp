@@ -120,9 +120,12 @@ struct Reply {
 // Which physical contact a cause refers to.
 // SPEC §10 adds the safe limits' subjects: a joint (`axis.N`), the TCP (`tcp`), a zone
 // (`code` = its index in the configuration, named by its name) and the reduced input.
+// SPEC §11 adds the protective fields (`field.outer`, `field.inner`, dual channel) and the
+// distance sensor (`separation`).
 enum class Signal : std::uint8_t {
   none, estop, gate, enable, mode, reset_button, drive, contactor, brake, fieldbus, command, internal,
   axis, tcp, zone, reduced,
+  field_outer, field_inner, separation,
 };
 enum class Channel : std::uint8_t { none, a, b, both, panic };
 

@@ -116,6 +116,8 @@ class MotionController {
   // The TCP speed (mm/s) the planner allows this cycle: 0.95 x the normal limit, or the
   // reduced-mode ramp towards 0.95 x the reduced limit; +inf when nothing caps it.
   [[nodiscard]] float tcp_allowed_mm_s() const noexcept { return tcp_allow_; }
+  // The same with SPEC §11's v_allowed applied (0.95 x v_allowed while SSM acts).
+  [[nodiscard]] float tcp_cap_mm_s() const noexcept { return tcp_cap_; }
 
   // Before the supervisor runs: the measured speeds of the TCP and every link origin,
   // from measured joint positions (this cycle's and the last), and the program status.
@@ -140,7 +142,7 @@ class MotionController {
   void limit_t1() noexcept;
   void limit_tcp() noexcept;
   void check_program() noexcept;
-  void update_tcp_allow(bool reduced) noexcept;
+  void update_tcp_allow(const core::MotionRequest& r) noexcept;
   [[nodiscard]] bool stop_path_clear() const noexcept;
   void integrate(bool bounded) noexcept;
   void drive_control(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
@@ -172,6 +174,8 @@ class MotionController {
   float tcp_allow_;                 // TCP speed allowed this cycle, mm/s (+inf: no cap)
   float tcp_ramp_down_ = 0.0F;      // mm/s per s, set at the onset of reduced mode
   bool reduced_prev_ = false;
+  float red_prev_ = 0.0F;           // the reduced cap of the last cycle (a lower one ramps again)
+  float tcp_cap_;                   // tcp_allow_, and SPEC §11's v_allowed: what limits this cycle
   std::span<const Waypoint> prog_{};  // the loaded program (owned by the caller)
   std::uint8_t prog_count_ = 0;
   bool program_ok_ = true;          // waypoints and paths between them

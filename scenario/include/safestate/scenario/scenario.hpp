@@ -43,6 +43,10 @@ enum class Contact : std::uint8_t {
   reset_button,
   reduced_a,  // SPEC §10 reduced-speed request, NC
   reduced_b,
+  field_outer_a,  // SPEC §11 protective fields, OSSD, NC (1 = clear)
+  field_outer_b,
+  field_inner_a,
+  field_inner_b,
 };
 
 struct ContactWrite {
@@ -54,6 +58,10 @@ struct ContactWrite {
 // contacts it sets).
 struct InputStep {
   std::vector<ContactWrite> writes;
+  // SPEC §11 distance sensor: `separation_mm=N` (also makes the reading valid unless the
+  // same line sets `separation_valid`), `separation_valid=0|1`.
+  std::optional<std::int32_t> separation_mm;
+  std::optional<bool> separation_valid;
 };
 
 // `cmd [from=pendant|remote] NAME ARGS...`: the binary record handed to the core, and
@@ -103,6 +111,7 @@ enum class ExpectKey : std::uint8_t {
   reduced,           // value 1 = yes
   recovery,          // value 1 = yes
   joint,             // axis, cmp, limit (degrees, measured position)
+  v_allowed,         // cmp, limit (mm/s, SPEC §11 SSM; fails while SSM does not act)
 };
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };

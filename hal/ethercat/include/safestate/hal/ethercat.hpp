@@ -18,8 +18,9 @@ namespace safestate::hal::ethercat {
 enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive };
 
 // Named bits of the safety I/O terminals, in the order of the names below.
-// SPEC §2 contacts, contactor/brake feedbacks, then the SPEC §10 reduced-speed input.
-inline constexpr std::size_t kInputBits = 20;
+// SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, then the
+// SPEC §11 protective fields' OSSD pairs.
+inline constexpr std::size_t kInputBits = 24;
 inline constexpr std::size_t kOutputBits = 3;
 extern const char* const kInputBitNames[kInputBits];
 extern const char* const kOutputBitNames[kOutputBits];

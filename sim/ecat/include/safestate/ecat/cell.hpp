@@ -29,15 +29,16 @@ inline constexpr std::size_t kPosFirstDrive = 2;
 inline constexpr std::size_t kSubdevices = 8;
 
 // Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
-// Bits 20..23 are kept free for the protective-field scanner's four channels
-// (field.outer.a/b, field.inner.a/b, SPEC §11); 24..31 are spare. docs/ethercat.md.
+// Bits 20..23 are the protective-field scanner's four OSSD channels (field.outer.a/b,
+// field.inner.a/b, SPEC §11, NC: 1 = clear); 24..31 are spare. docs/ethercat.md.
 enum class DiBit : std::uint8_t {
   estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic,
   mode_auto, mode_t1, mode_t2, reset_button, contactor_fb,
   brake_fb1, brake_fb2, brake_fb3, brake_fb4, brake_fb5, brake_fb6,
   reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
+  field_outer_a, field_outer_b, field_inner_a, field_inner_b,  // SPEC §11, NC (1 = clear)
 };
-inline constexpr std::size_t kDiBytes = 4;  // 20 contacts, padded to 32 bits
+inline constexpr std::size_t kDiBytes = 4;  // 24 contacts, padded to 32 bits
 // Bits of the digital output terminal's RxPDO (0x7000:01..).
 enum class DoBit : std::uint8_t { contactor, brakes_release, reset_lamp };
 inline constexpr std::size_t kDoBytes = 2;
