@@ -138,6 +138,14 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       break;
     case AlarmId::CONFIG_NOT_VALIDATED: t.s("Safety configuration not validated"); break;
     case AlarmId::REDUCED_SPEED: t.s("Reduced speed active"); break;
+    case AlarmId::BRAKE_TEST_DUE: t.s("Brake test due"); break;
+    case AlarmId::BRAKE_TEST_FAILED: {
+      // code: the drift in millidegrees (SPEC §12 names the axis and its drift).
+      const unsigned frac = d.code % 1000U;
+      t.s("Brake ").u(axis).s(" slipped in the brake test: drift ").u(d.code / 1000U).s(".");
+      t.s((frac < 100U) ? "0" : "").s((frac < 10U) ? "0" : "").u(frac).s(" deg");
+      break;
+    }
   }
   return t.c_str();
 }

@@ -55,6 +55,8 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"SPEED_LIMIT", Severity::fault, Latch::reset},
       {"CONFIG_NOT_VALIDATED", Severity::warning, Latch::condition},
       {"REDUCED_SPEED", Severity::info, Latch::condition},
+      {"BRAKE_TEST_DUE", Severity::warning, Latch::condition},
+      {"BRAKE_TEST_FAILED", Severity::fault, Latch::reset},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

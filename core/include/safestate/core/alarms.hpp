@@ -39,8 +39,11 @@ enum class AlarmId : std::uint8_t {
   SPEED_LIMIT,
   CONFIG_NOT_VALIDATED,
   REDUCED_SPEED,
+  // SPEC §12 brake test, appended likewise.
+  BRAKE_TEST_DUE,
+  BRAKE_TEST_FAILED,
 };
-inline constexpr std::size_t kAlarmCount = 25;
+inline constexpr std::size_t kAlarmCount = 27;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -141,6 +144,14 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
   {AlarmId::REDUCED_SPEED, "REDUCED_SPEED", 305, Severity::info, Latch::condition,
    "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
    "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."},
+  {AlarmId::BRAKE_TEST_DUE, "BRAKE_TEST_DUE", 320, Severity::warning, Latch::condition,
+   "The last passed brake test is older than brake_test.interval_h: the brakes must be tested again.",
+   "Run the brake test (pendant, servos on, at standstill) before the grace time runs out; after it AUTO is refused."},
+  {AlarmId::BRAKE_TEST_FAILED, "BRAKE_TEST_FAILED", 220, Severity::fault, Latch::reset,
+   "A holding brake let the named axis drift further than brake_test.max_drift_deg under the test torque; "
+   "the robot was stopped and AUTO is refused until a brake test passes.",
+   "Secure the named axis against falling, replace or adjust its brake, reset, then run the brake test again "
+   "(T1 or T2 stay allowed)."},
 }};
 // clang-format on
 
