@@ -110,6 +110,21 @@ void Publisher::publish() noexcept {
     e.cause = o.cause;
     event(e);
   }
+  // @req BT-PERSIST
+  // SPEC §12: a finished brake test becomes a `brake_test` event of the log (found again
+  // at the next start by run.cpp).
+  if (o.brake_test.finished != core::BrakeTestResult::none) {
+    bridge::EventRecord e{};
+    e.t = t;
+    e.kind = bridge::EventKind::brake_test;
+    e.brake_result = static_cast<std::uint8_t>(o.brake_test.finished);
+    e.brake_axis = (o.brake_test.finished == core::BrakeTestResult::failed)
+                       ? alarms.detail(core::AlarmId::BRAKE_TEST_FAILED).axis
+                       : std::uint8_t{0U};
+    e.brake_drift_deg = o.brake_test.drift_deg;
+    e.cause = o.cause;
+    event(e);
+  }
   for (std::size_t a = 0; a < core::kAlarmCount; ++a) {
     const auto id = static_cast<core::AlarmId>(a);
     const bool raised = (o.alarms_raised & core::bit(id)) != 0U;
@@ -163,6 +178,15 @@ void Publisher::publish() noexcept {
   s.safety_reduced_by = o.safety.reduced_by;
   s.safety_recovery = o.safety.recovery;
   s.safety_speed_limit_mm_s = o.safety.speed_limit_mm_s;
+  s.brake_test_last = static_cast<std::uint8_t>(o.brake_test.last);
+  s.brake_test_due_known = o.brake_test.due_known;
+  s.brake_test_due = o.brake_test.due;
+  s.brake_test_required = o.brake_test.required;
+  s.brake_test_running = o.brake_test.running;
+  s.brake_test_axis = o.brake_test.axis;
+  s.brake_test_progress = o.brake_test.progress;
+  s.brake_test_due_in_h = o.brake_test.due_in_h;
+  s.brake_test_drift_deg = o.brake_test.drift_deg;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};

@@ -87,6 +87,8 @@ void BrakeTest::finish(bool passed, Cycle now) noexcept {
   running_ = false;
   last_ = passed ? BrakeTestResult::passed : BrakeTestResult::failed;
   since_start_ = last_;
+  finished_ = true;
+  finished_at_ = now;
   if (passed) {
     passed_ever_ = true;
     pass_at_ = static_cast<std::int64_t>(now);
@@ -172,6 +174,7 @@ void BrakeTest::status(Cycle now, BrakeTestStatus& out) const noexcept {
                           : 0U;
   out.last = last_;
   out.since_start = since_start_;
+  out.finished = (finished_ && (finished_at_ == now)) ? since_start_ : BrakeTestResult::none;
   out.due_known = limits_.configured && passed_ever_;
   out.due_in_h = out.due_known ? static_cast<float>(interval_ - age(now)) * (static_cast<float>(cycle_us_) / 3.6e9F)
                                : 0.0F;

@@ -96,6 +96,7 @@ struct BrakeTestStatus {
   std::uint8_t progress = 0;                          // percent of the whole test
   BrakeTestResult last = BrakeTestResult::none;       // latest on record (log + this run)
   BrakeTestResult since_start = BrakeTestResult::none;
+  BrakeTestResult finished = BrakeTestResult::none;  // a test ended in this cycle, so
   bool due_known = false;                             // false: never passed, or none required
   float due_in_h = 0.0F;                              // interval_h - age (negative: overdue)
   bool due = false;                                   // BRAKE_TEST_DUE
@@ -145,6 +146,8 @@ class BrakeTest {
   std::int64_t pass_at_ = 0;
   BrakeTestResult last_ = BrakeTestResult::none;
   BrakeTestResult since_start_ = BrakeTestResult::none;
+  bool finished_ = false;
+  Cycle finished_at_ = 0;
   // Sequencer.
   bool running_ = false;
   std::uint8_t axis_ = 0;  // 0-based
