@@ -147,6 +147,7 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
       a.v = v_cmd;  // CSP: follows the set-point within its limits
     }
   } else if (torque) {
+    // @req BT-SIM
     // Against the engaged brake: a CSP drive off its set-point pushes with its torque limit
     // (0x6072); the brake holds unless that is more than its holding torque (SPEC §12).
     const std::uint16_t holds = a.brake_weak ? kWeakBrakeHoldingPermille : kBrakeHoldingPermille;

@@ -218,6 +218,7 @@ struct Harness {
     }
   }
   std::mt19937 brake_rng{4242U};
+  bool brake_tests = true;  // SPEC §12: brake_test commands in the history
   std::array<bool, kAxes> weak{};
   std::array<float, kAxes> slip{};
   // SPEC §12: a configuration that requires the brake test every 0.002 h (7.2 s) with a
@@ -277,9 +278,11 @@ struct Harness {
     }
     const int k = chance(25) ? 1 + static_cast<int>(rng() % 2U) : 0;
     for (int i = 0; i < k; ++i) {
-      Command c = valid(static_cast<CommandId>(rng() % kCommandCount));
+      // brake_test (the last command) comes from its own stream below: a test lasts seconds,
+      // and drawn as often as the others it would crowd out the rest of the histories.
+      Command c = valid(static_cast<CommandId>(rng() % (kCommandCount - 1U)));
       if (chance(30)) {  // malformed now and then
-        c.id = static_cast<std::uint8_t>(rng() % (kCommandCount + 2U));
+        c.id = static_cast<std::uint8_t>(rng() % (kCommandCount + 1U));
         c.source = static_cast<std::uint8_t>(rng() % (kSourceCount + 1U));
         c.axis = static_cast<std::int8_t>(rng() % 9U);
         c.dir = static_cast<std::int8_t>(static_cast<int>(rng() % 3U) - 1);
@@ -287,6 +290,14 @@ struct Harness {
         c.mode = static_cast<std::uint8_t>(rng() % 5U);
       }
       log << t << ":cmd " << static_cast<int>(c.id) << " src " << static_cast<int>(c.source) << "\n";
+      cmds[n++] = c;
+    }
+    if (brake_tests && brake_rng() % 1000U < 3U && n < cmds.size()) {  // SPEC §12, from the pendant or a remote client
+      Command c{};
+      c.seq = ++seq;
+      c.id = static_cast<std::uint8_t>(CommandId::brake_test);
+      c.source = static_cast<std::uint8_t>((brake_rng() % 4U == 0U) ? Source::remote : Source::pendant);
+      log << t << ":cmd brake_test src " << static_cast<int>(c.source) << "\n";
       cmds[n++] = c;
     }
     return n;
@@ -482,6 +493,7 @@ TEST(Differential, TheComparisonCanFail) {
   // A reference with other timeouts must disagree: the harness compares what it claims.
   Harness h(7);
   h.safety = false;  // the history this test was written on (no SPEC §10 perturbation)
+  h.brake_tests = false;  // ... nor SPEC §12's commands
   h.ref_timing.jog_timeout = 30;
   h.ref_timing.max_stop = 50;
   h.reference = ref::Supervisor{h.ref_timing};

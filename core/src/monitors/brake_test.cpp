@@ -98,6 +98,7 @@ void BrakeTest::finish(bool passed, Cycle now) noexcept {
 // @req BT-SEQUENCE BT-DRIFT
 void BrakeTest::step(bool active, const Feedback& fb, Cycle now, BrakeTestVerdict& out) noexcept {
   out = BrakeTestVerdict{};
+  // @req BT-ABORT
   if (!active) {
     running_ = false;  // any stop aborts the test: no result
     return;
