@@ -181,6 +181,7 @@ inline constexpr LeafMask kPowered = join(mask_of(Leaf::ARMING), kOperational, k
 inline constexpr LeafMask kOperationalOrCat2 = join(kOperational, mask_of(Leaf::STOPPING_CAT2));
 inline constexpr LeafMask kAnyButLockout = without(kAnyLeaf, mask_of(Leaf::ERROR_LOCKOUT));
 inline constexpr LeafMask kIdleOrPowered = join(mask_of(Leaf::IDLE), kPowered);
+inline constexpr LeafMask kOpIdle = any_of(Leaf::AUTO_IDLE, Leaf::MANUAL_IDLE);  // SPEC §12: where a brake test starts
 
 struct Transition {
   LeafMask from;
@@ -247,7 +248,7 @@ inline constexpr auto kTransitions = [] {
   {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill", "TR-STANDSTILL"},
   {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2", "TR-CONFIRM-T2"},
   {only(IDLE),                  validate_config,    kValidate,    SAME,               NONE, 0,                     set_validated,    "validate_config", "TR-VALIDATE"},
-  {any_of(AUTO_IDLE, MANUAL_IDLE), brake_test,      kBrakeTest,   BRAKE_TEST,         NONE, 0,                     begin_brake_test, "brake_test", "TR-BRAKE-TEST"},
+  {kOpIdle,                     brake_test,         kBrakeTest,   BRAKE_TEST,         NONE, 0,                     begin_brake_test, "brake_test", "TR-BRAKE-TEST"},
   {only(BRAKE_TEST),            brake_test_passed,  kNoGuard,     OP_IDLE,            NONE, 0,                     none,             "brake_test", "TR-BRAKE-TEST-PASSED"},
   }};
 }();
