@@ -241,7 +241,8 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       apply_contacts(rec.set_mask, rec.set_values, cell.inputs());
       break;
     case bridge::RecordKind::sim_fault:
-      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all)) {
+      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all) ||
+          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::brake_weak)) {
         cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis});
       }
       break;

@@ -66,7 +66,8 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
     try:
         st = get_json(s.port, "/api/status")
         bt = st["safety"]["brake_test"]
-        assert bt["last"] == "passed" and 7.9 <= bt["due_in_h"] < 8.0, bt
+        # Aged by the seconds between the pass and now (due_in_h is shown to 1/1000 h).
+        assert bt["last"] == "passed" and 7.9 <= bt["due_in_h"] <= 8.0, bt
         assert "BRAKE_TEST_DUE" not in st["alarms"]
 
         async def auto():
