@@ -47,14 +47,16 @@ struct SeqRun {
   Feedback fb{};
   BrakeTestVerdict v{};
   core::Cycle now = 0;
-  int run(std::uint8_t slip_axis, int limit = 20000) {
+  // slip_dir 0: the brake slips both ways; -1 / +1: only under that push.
+  int run(std::uint8_t slip_axis, int slip_dir = 0, int limit = 20000) {
     t.begin(now);
     for (int k = 1; k <= limit; ++k) {
       t.step(true, fb, now++, v);
       if (v.passed || v.failed) return k;
       for (std::size_t i = 0; i < core::kAxes; ++i) {
         fb.brake_released[i] = v.brake_engaged_axis != i + 1U;
-        if (slip_axis == i + 1U && v.motion.axis == slip_axis && v.motion.dir != 0) {
+        if (slip_axis == i + 1U && v.motion.axis == slip_axis && v.motion.dir != 0 &&
+            (slip_dir == 0 || slip_dir == v.motion.dir)) {
           fb.drive[i].position_rad = static_cast<float>(v.motion.dir) * v.motion.offset_rad;
         }
       }
@@ -123,6 +125,20 @@ TEST(BrakeTestCore, ASlippingBrakeFailsOnItsAxisWithItsDrift) {
     EXPECT_EQ(st.last, BrakeTestResult::failed);
     EXPECT_TRUE(st.required) << "a failed test blocks AUTO until one passes";
   }
+}
+
+// A brake that holds one way but not the other (a worn ratchet, a load on one side): the
+// drift is measured both ways, so the second push finds it.
+TEST(BrakeTestCore, ABrakeThatSlipsOnlyUnderTheNegativePushFails) {
+  SeqRun r;
+  ASSERT_GT(r.run(2, -1), 0);
+  EXPECT_TRUE(r.v.failed);
+  EXPECT_EQ(r.v.fail_axis, 2U);
+  EXPECT_NEAR(r.v.fail_drift_deg, 1.0F, 1e-3F);
+  SeqRun q;
+  ASSERT_GT(q.run(5, +1), 0);
+  EXPECT_TRUE(q.v.failed);
+  EXPECT_EQ(q.v.fail_axis, 5U);
 }
 
 TEST(BrakeTestCore, AStopAbortsWithoutAResult) {
