@@ -43,6 +43,7 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   motion_.step(status_, in.drive, out.drive);
   out.contactor = status_.contactor;
   out.brakes_release = status_.brakes_release;
+  out.brake_test_axis = status_.brake_test_axis;
   out.reset_lamp = status_.reset_lamp;
   return taken;
 }

@@ -145,6 +145,14 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       t.s("TCP faster than allowed for the separation (").u(d.code).s(" mm/s)");
       break;
     case AlarmId::PERSON_IN_FIELD: t.s("Person in the inner protective field"); break;
+    case AlarmId::BRAKE_TEST_DUE: t.s("Brake test due"); break;
+    case AlarmId::BRAKE_TEST_FAILED: {
+      // code: the drift in millidegrees (SPEC §12 names the axis and its drift).
+      const unsigned frac = d.code % 1000U;
+      t.s("Brake ").u(axis).s(" slipped in the brake test: drift ").u(d.code / 1000U).s(".");
+      t.s((frac < 100U) ? "0" : "").s((frac < 10U) ? "0" : "").u(frac).s(" deg");
+      break;
+    }
   }
   return t.c_str();
 }

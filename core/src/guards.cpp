@@ -69,6 +69,11 @@ Result guard_servo_on(const GuardView& v) noexcept {
   if (auto_or_t2 && (v.limits != nullptr) && v.limits->outside) {
     return Result::OUTSIDE_LIMITS;
   }
+  // @req BT-REQUIRED
+  // SPEC §12: T1 and T2 stay allowed, to move to a service position and test again.
+  if ((v.in.mode == Mode::AUTO) && v.brake_test_required) {
+    return Result::BRAKE_TEST_REQUIRED;
+  }
   return Result::OK;
 }
 
@@ -126,6 +131,15 @@ Result guard_validate_config(const GuardView& v) noexcept {
     return Result::MODE_INVALID;
   }
   return (v.code == v.checksum) ? Result::OK : Result::CHECKSUM_MISMATCH;
+}
+
+// @req BT-COMMAND
+// SPEC §4: `brake_test` in AUTO_IDLE or MANUAL_IDLE at standstill with a valid mode.
+Result guard_brake_test(const GuardView& v) noexcept {
+  if (!v.at_standstill) {
+    return Result::WRONG_STATE;
+  }
+  return (v.in.mode == Mode::NONE) ? Result::MODE_INVALID : Result::OK;
 }
 
 }  // namespace safestate::core

@@ -35,8 +35,8 @@ bool parse_in(const std::array<const char*, N>& names, const char* s, E& out) no
 
 constexpr std::array<const char*, kStateCount> kStateNames{
     "BOOT", "ERROR_LOCKOUT", "ESTOP_ACTIVE", "ESTOP_RESET_NEEDED", "IDLE", "ARMING", "OPERATIONAL", "STOPPING"};
-constexpr std::array<const char*, 7> kSubNames{"-",           "AUTO_IDLE",      "AUTO_RUNNING",  "AUTO_PAUSED",
-                                               "MANUAL_IDLE", "MANUAL_JOGGING", "MANUAL_RUNNING"};
+constexpr std::array<const char*, 8> kSubNames{"-",           "AUTO_IDLE",      "AUTO_RUNNING",  "AUTO_PAUSED",
+                                               "MANUAL_IDLE", "MANUAL_JOGGING", "MANUAL_RUNNING", "BRAKE_TEST"};
 constexpr std::array<const char*, 4> kModeNames{"NONE", "AUTO", "T1", "T2"};
 constexpr std::array<const char*, 4> kStopNames{"-", "CAT0", "CAT1", "CAT2"};
 constexpr std::array<const char*, kResultCount> kResultNames{
@@ -47,7 +47,7 @@ constexpr std::array<const char*, kResultCount> kResultNames{
     "OUTSIDE_LIMITS", "FIELD_INTERRUPTED",   "BRAKE_TEST_REQUIRED"};
 constexpr std::array<const char*, kCommandCount> kCommandNames{
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
-    "validate_config"};
+    "validate_config", "brake_test"};
 constexpr std::array<const char*, kSourceCount> kSourceNames{"pendant", "remote", "observer", "reset_button"};
 constexpr std::array<const char*, 19> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
                                                    "drive",     "contactor", "brake", "fieldbus", "command", "internal",
@@ -55,10 +55,10 @@ constexpr std::array<const char*, 19> kSignalNames{"none",      "estop", "gate",
                                                    "field.outer", "field.inner", "separation"};
 constexpr std::array<const char*, 5> kChannelNames{"none", "a", "b", "both", "panic"};
 constexpr std::array<const char*, 3> kStepNames{"CONTACTOR", "DRIVES", "BRAKES"};
-constexpr std::array<const char*, 17> kLeafNames{
+constexpr std::array<const char*, 18> kLeafNames{
     "BOOT",         "ERROR_LOCKOUT", "ESTOP_ACTIVE",   "ESTOP_RESET_NEEDED", "IDLE",          "ARMING",
     "AUTO_IDLE",    "AUTO_RUNNING",  "AUTO_PAUSED",    "MANUAL_IDLE",        "MANUAL_JOGGING", "MANUAL_RUNNING",
-    "STOPPING_CAT1", "STOPPING_CAT2", "(same)",        "OPERATIONAL (AUTO_IDLE or MANUAL_IDLE by mode)",
+    "STOPPING_CAT1", "STOPPING_CAT2", "BRAKE_TEST",    "(same)",        "OPERATIONAL (AUTO_IDLE or MANUAL_IDLE by mode)",
     "(the stop's target)"};
 constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "discrepancy > limit (also of the protective fields), fieldbus lost, integrity check failed, boot failed",
@@ -70,6 +70,7 @@ constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "mode changes (including to NONE)",
     "jog keep-alive older than jog_timeout_ms",
     "inner protective field interrupted while collaborative operation is on (AUTO)",
+    "a brake test fails (an axis drifted more than max_drift_deg)",
     "self-test passed, fieldbus up, all drives answer",
     "estop released on both channels",
     "all arming steps done (CONTACTOR, DRIVES, BRAKES)",
@@ -77,15 +78,17 @@ constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "program finished",
     "standstill reached (Cat 1: and brakes engaged)",
     "paused by rule 9; both fields clear for resume_delay_ms, auto_resume on",
+    "brake test: every axis tested and held",
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
-    "validate_config"};
-constexpr std::array<const char*, 10> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
+    "validate_config", "brake_test"};
+constexpr std::array<const char*, 11> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
                                                   "arm from step CONTACTOR", "start program from first waypoint",
                                                   "resume program, re-planned from measured position",
                                                   "discard program", "restart jog keep-alive",
                                                   "T2 confirmed until the mode changes",
                                                   "configuration validated (written to the event log)",
-                                                  "the pause may resume by itself (auto_resume)"};
+                                                  "the pause may resume by itself (auto_resume)",
+                                                  "brake test from axis 1 (SPEC §12)"};
 constexpr std::array<const char*, kAlarmCount> kAlarmNames = [] {
   std::array<const char*, kAlarmCount> n{};
   for (std::size_t i = 0; i < kAlarmCount; ++i) {

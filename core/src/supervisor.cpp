@@ -41,6 +41,7 @@ constexpr std::array<LeafOutputs, kLeafCount> kLeafOutputs{{
     {true, true, true, false, MotionMode::Program},   // MANUAL_RUNNING
     {true, true, true, false, MotionMode::QuickStop}, // STOPPING_CAT1
     {true, true, true, false, MotionMode::Ramp2},     // STOPPING_CAT2
+    {true, true, true, false, MotionMode::Hold},      // BRAKE_TEST (the tested brake: brake_test_axis)
 }};
 
 // Priority of a cause for the first-out display: a cause is replaced only by a more
@@ -113,6 +114,7 @@ struct SystemStateManager::CycleCtx {
   LimitReport limits{};  // SPEC §10 monitors' verdict this cycle
   FieldReport fields{};  // SPEC §11 protective fields
   SsmReport ssm{};       // SPEC §11 speed and separation monitoring
+  BrakeTestVerdict brake_test{};  // SPEC §12 sequencer's verdict this cycle
 };
 
 SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(timing) {
@@ -125,6 +127,7 @@ SystemStateManager::SystemStateManager(const Timing& timing) noexcept : timing_(
     ok = ok && (static_cast<std::size_t>(kAlarms[i].id) == i);
   }
   self_test_ok_ = ok;
+  brake_test_.configure(BrakeTestLimits{}, 1000U, timing_.brake_confirm, timing_.brakes_timeout);
 }
 
 void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
@@ -133,13 +136,15 @@ void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmG
   fields_.configure(limits.collaborative, cycle_us);
   ssm_.configure(limits, cycle_us);
   config_validated_ = validated;
+  brake_test_.configure(limits.brake_test, cycle_us, timing_.brake_confirm, timing_.brakes_timeout);
 }
 
 GuardView SystemStateManager::view(const CycleCtx& c, std::uint32_t code) const noexcept {
   return GuardView{c.in,           c.fb,           alarms_,           timing_,
                    t2_confirmed_,  boot_pending_,  reset_pending_,    c.at_standstill,
                    c.brake_axis != 0U, &c.limits,  config_validated_, limits_.limits().checksum,
-                   code,           c.fields.blocks_start,             c.ssm.over};
+                   code,           c.fields.blocks_start,             c.ssm.over,
+                   brake_test_.required(now_)};
 }
 
 void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
@@ -174,20 +179,21 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   fields_.check(in, c.fields);
   limits_.evaluate(fb, powered, in.reduced_requested, c.fields.outer_reduces ? kReducedByField : 0U, c.limits);
   ssm_.check(in, c.limits.tcp_speed_mm_s, c.limits.speed_limit_mm_s, powered, c.ssm);
+  brake_test_.step(leaf_ == Leaf::BRAKE_TEST, fb, now_, c.brake_test);
 
   // @req AL-LIFETIME
   // Alarms that are active while their condition lasts.
-  constexpr std::size_t kCond = 6U;
+  constexpr std::size_t kCond = 7U;
   const std::array<AlarmId, kCond> cond{AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID,
                                         AlarmId::RESET_BUTTON_STUCK, AlarmId::CONFIG_NOT_VALIDATED,
-                                        AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD};
+                                        AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD, AlarmId::BRAKE_TEST_DUE};
   const std::array<bool, kCond> holds{in.estop_pressed, in.mode_invalid, in.reset_stuck, !config_validated_,
-                                      limits_.reduced().active(), c.fields.inner_stops};
+                                      limits_.reduced().active(), c.fields.inner_stops, brake_test_.due(now_)};
   const std::array<AlarmDetail, kCond> what{detail_of(Signal::estop, in.estop_cause), detail_of(Signal::mode),
                                             detail_of(Signal::reset_button), detail_of(Signal::internal),
                                             detail_of(Signal::reduced, Channel::none, c.limits.reduced_zone,
                                                       limits_.reduced().sources()),
-                                            c.fields.inner_detail};
+                                            c.fields.inner_detail, detail_of(Signal::internal)};
   for (std::size_t i = 0; i < kCond; ++i) {
     if (holds[i]) {
       alarms_.raise(cond[i], what[i], now_);
@@ -293,10 +299,12 @@ void SystemStateManager::update_feedback_monitors(CycleCtx& c) noexcept {
   // without a break; until then its time runs from the first released reading, so a
   // feedback that chatters is still released when the brake time is over.
   for (std::size_t i = 0; i < kAxes; ++i) {
-    const bool stuck_now = !brakes_release_cmd_ && c.fb.brake_released[i];
-    const bool engaged_now = !brakes_release_cmd_ && !c.fb.brake_released[i];
+    // The brake test engages one brake while the others stay released (SPEC §12).
+    const bool release_cmd = brakes_release_cmd_ && (brake_test_axis_cmd_ != (i + 1U));
+    const bool stuck_now = !release_cmd && c.fb.brake_released[i];
+    const bool engaged_now = !release_cmd && !c.fb.brake_released[i];
     brake_engaged_run_[i] = engaged_now ? brake_engaged_run_[i] + 1U : 0U;
-    if (brakes_release_cmd_ || (brake_engaged_run_[i] >= timing_.brake_confirm)) {
+    if (release_cmd || (brake_engaged_run_[i] >= timing_.brake_confirm)) {
       brake_cycles_[i] = 0U;
     } else if (stuck_now || (brake_cycles_[i] != 0U)) {
       ++brake_cycles_[i];
@@ -442,6 +450,15 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::PERSON_IN_FIELD, c.fields.inner_detail);
         }
         break;
+      // @req BT-RULE10
+      case Trigger::brake_test_failed:
+        if (c.brake_test.failed) {
+          // Names the axis and its drift (code: millidegrees, saturated).
+          const float mdeg = c.brake_test.fail_drift_deg * 1000.0F;
+          const auto code = static_cast<std::uint16_t>((mdeg < 65535.0F) ? mdeg : 65535.0F);
+          hit(AlarmId::BRAKE_TEST_FAILED, detail_of(Signal::axis, Channel::none, c.brake_test.fail_axis, code));
+        }
+        break;
       default:
         break;
     }
@@ -522,6 +539,9 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
   } else if (leaf_ == Leaf::AUTO_PAUSED) {
     trig = Trigger::fields_clear;  // SPEC §11: only a pause of rule 9 resumes by itself
     fired = field_paused_ && c.fields.resume_due;
+  } else if (leaf_ == Leaf::BRAKE_TEST) {
+    trig = Trigger::brake_test_passed;
+    fired = c.brake_test.passed;
   } else if (auto* s = std::get_if<StStopping>(&state_)) {
     trig = Trigger::standstill;
     if (!s->braking) {
@@ -730,6 +750,9 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     case Effect::begin_arming:
       armed_mode_ = c.in.mode;
       break;
+    case Effect::begin_brake_test:
+      brake_test_.begin(now_);
+      break;
     case Effect::none:
       break;
   }
@@ -904,6 +927,11 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   st.ssm = c.ssm.acting;
   st.v_allowed_mm_s = c.ssm.v_allowed_mm_s;
   st.separation_mm = c.ssm.separation_mm;
+  // SPEC §12: the tested brake and the test's offset and torque, only while testing.
+  const bool testing = (leaf_ == Leaf::BRAKE_TEST) && c.brake_test.running;
+  o.brake_test_axis = testing ? c.brake_test.brake_engaged_axis : 0U;
+  o.motion.brake_test = testing ? c.brake_test.motion : BrakeTestRequest{};
+  brake_test_.status(now_, o.brake_test);
 }
 
 bool SystemStateManager::outputs_consistent(const CycleCtx& c) const noexcept {
@@ -971,6 +999,7 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
   }
   contactor_cmd_ = out.contactor;
   brakes_release_cmd_ = out.brakes_release;
+  brake_test_axis_cmd_ = out.brake_test_axis;
   ++now_;
   return taken;
 }

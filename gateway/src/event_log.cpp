@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
+#include <ctime>
 
 #include <nlohmann/json.hpp>
 
@@ -251,19 +253,74 @@ bool latest_confirmation(EventLog& log, Confirmation& out, bool& found, std::str
   return !found || confirmation_of(time, data, out, error);
 }
 
-bool latest_confirmation(const std::string& path, Confirmation& out, bool& found, std::string& error) {
-  found = false;
+namespace {
+// The log at `path` opened as the gateway opens it (the schema is created when missing, so an
+// empty log answers "none"), by this process alone: the gateway starts after `safestate run`
+// has read what it needs. No file: nothing to read (`none` set).
+std::unique_ptr<EventLog> open_for_start(const std::string& path, bool& none, std::string& error) {
+  none = false;
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0 && errno == ENOENT) {
-    return true;  // no log yet: nothing was ever confirmed
+    none = true;
+    return nullptr;
   }
-  // Opened as the gateway opens it (the schema is created when missing, so an empty log
-  // answers "none"), by this process alone: the gateway starts after this returns.
-  std::unique_ptr<EventLog> log = EventLog::open(path, error);
+  return EventLog::open(path, error);
+}
+}  // namespace
+
+bool latest_confirmation(const std::string& path, Confirmation& out, bool& found, std::string& error) {
+  found = false;
+  bool none = false;
+  std::unique_ptr<EventLog> log = open_for_start(path, none, error);
   if (!log) {
-    return false;
+    return none;  // no log yet: nothing was ever confirmed
   }
   return latest_confirmation(*log, out, found, error);
+}
+
+// @req BT-PERSIST
+bool latest_brake_test(const std::string& path, BrakeTestRecord& out, bool& found, std::string& error) {
+  found = false;
+  bool none = false;
+  std::unique_ptr<EventLog> log = open_for_start(path, none, error);
+  if (!log) {
+    return none;  // no log yet: no brake test on record
+  }
+  std::string data;
+  if (!log->latest("brake_test", out.time, data, found, error) || !found) {
+    return !found && error.empty();
+  }
+  const nlohmann::json j = nlohmann::json::parse(data, nullptr, false);
+  const auto it = j.is_object() ? j.find("result") : j.end();
+  if (it == j.end() || !it->is_string() || (*it != "passed" && *it != "failed")) {
+    error = "the latest brake_test event has no result passed or failed";
+    return false;
+  }
+  out.result = it->get<std::string>();
+  return true;
+}
+
+bool age_ms_of(const std::string& iso_time, std::chrono::system_clock::time_point now, std::uint64_t& age_ms) {
+  std::tm tm{};
+  int ms = 0;
+  char z = 0;
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-vararg): fixed format, as iso8601_utc writes it
+  if (std::sscanf(iso_time.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d.%3d%c", &tm.tm_year, &tm.tm_mon, &tm.tm_mday, &tm.tm_hour,
+                  &tm.tm_min, &tm.tm_sec, &ms, &z) != 8 || z != 'Z') {
+    return false;
+  }
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  const std::time_t secs = timegm(&tm);
+  if (secs == static_cast<std::time_t>(-1)) {
+    return false;
+  }
+  const auto then = std::chrono::system_clock::from_time_t(secs) + std::chrono::milliseconds(ms);
+  if (then > now) {
+    return false;
+  }
+  age_ms = static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(now - then).count());
+  return true;
 }
 
 }  // namespace safestate::gateway

@@ -476,13 +476,16 @@ std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) 
   if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], axis)) {
     return set(sim::FaultKind::brake_stuck, axis);
   }
+  if (a.size() == 3 && a[0] == "brake" && a[2] == "weak" && axis_1_to_6(a[1], axis)) {
+    return set(sim::FaultKind::brake_weak, axis);  // SPEC §12: holds less than the test torque
+  }
   if (a.size() == 2 && a[0] == "fieldbus" && a[1] == "lost") return set(sim::FaultKind::fieldbus_lost, 0);
   if (a.size() == 2 && a[0] == "contactor" && a[1] == "stuck_open") {
     return set(sim::FaultKind::contactor_stuck_open, 0);
   }
   if (a.size() == 2 && a[0] == "clear" && a[1] == "all") return set(sim::FaultKind::clear_all, 0);
   return "bad fault \"" + std::string(line) +
-         "\" (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck,"
+         "\" (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck|weak,"
          " clear all; N 1..6)";
 }
 

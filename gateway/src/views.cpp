@@ -365,10 +365,13 @@ Json status_safety_json(const bridge::Status& s) {
   fields["inner"] = s.safety_field_inner_interrupted ? "interrupted" : "clear";
   j["fields"] = std::move(fields);
   j["separation_mm"] = s.safety_ssm ? Json(rounded(static_cast<double>(s.safety_separation_mm), 1.0)) : Json(nullptr);
-  // SPEC §12 comes with a later issue: its fields are here, at their idle values.
+  // @req BT-STATUS
+  // SPEC §12: hours until the brake test is due (negative: overdue; null when no pass is on
+  // record or none is required) and the latest result on record.
   Json brake;
-  brake["due_in_h"] = nullptr;
-  brake["last"] = "none";
+  brake["due_in_h"] = s.brake_test_due_known ? Json(rounded(static_cast<double>(s.brake_test_due_in_h), 1000.0))
+                                             : Json(nullptr);
+  brake["last"] = core::to_string(static_cast<core::BrakeTestResult>(s.brake_test_last));
   j["brake_test"] = std::move(brake);
   return j;
 }
@@ -448,6 +451,7 @@ const char* kind_name(bridge::EventKind k) noexcept {
     case bridge::EventKind::transition: return "transition";
     case bridge::EventKind::alarm: return "alarm";
     case bridge::EventKind::alarm_cleared: return "alarm_cleared";
+    case bridge::EventKind::brake_test: return "brake_test";
     case bridge::EventKind::command: break;
   }
   return "command";
@@ -469,6 +473,17 @@ Json event_data(const bridge::EventRecord& e, const std::string& name, const Jso
     }
     case bridge::EventKind::alarm: j = alarm_object(e.alarm, e.detail); break;
     case bridge::EventKind::alarm_cleared: j["name"] = core::to_string(e.alarm); break;
+    case bridge::EventKind::brake_test: {
+      // SPEC §12: the result with each axis' drift (read again at start by run.cpp).
+      j["result"] = core::to_string(static_cast<core::BrakeTestResult>(e.brake_result));
+      j["axis"] = (e.brake_axis != 0U) ? Json(e.brake_axis) : Json(nullptr);
+      Json drift = Json::array();
+      for (const float d : e.brake_drift_deg) {
+        drift.push_back(rounded(static_cast<double>(d), 1000.0));
+      }
+      j["drift_deg"] = std::move(drift);
+      break;
+    }
     case bridge::EventKind::command: {
       const bool known = e.reply.cmd < core::kCommandCount;
       j["cmd"] = known ? std::string(core::to_string(static_cast<core::CommandId>(e.reply.cmd)))

@@ -265,7 +265,10 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   fb.following_error_axis = 0;
   for (std::size_t i = 0; i < kJoints; ++i) {
     lagging_[i] = !(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad);
-    if (watch_following_ && lagging_[i] && (fb.following_error_axis == 0U)) {
+    // The axis under brake test is meant to be pushed off its set-point (SPEC §12): its
+    // drift is the brake test's to judge.
+    const bool tested = static_cast<std::size_t>(test_axis_) == (i + 1U);
+    if (watch_following_ && lagging_[i] && !tested && (fb.following_error_axis == 0U)) {
       fb.following_error_axis = static_cast<std::uint8_t>(i + 1U);
     }
   }
@@ -479,6 +482,15 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
   if (r.v_allowed_mm_s >= 0.0F) {
     tcp_cap_ = minf(tcp_cap_, kSpeedFactor * r.v_allowed_mm_s);
   }
+  // SPEC §12: when an axis' brake test ends (next axis, pass, or any stop) its set-point is
+  // taken from where it stands, so that a brake that slipped is not pulled back: no motion
+  // that nobody commanded (SPEC §3).
+  if ((test_axis_ != 0U) && (r.brake_test.axis != test_axis_)) {
+    const std::size_t k = static_cast<std::size_t>(test_axis_ - 1U) % kJoints;
+    q_sp_[k] = q_meas_[k];
+    v_sp_[k] = 0.0F;
+  }
+  test_axis_ = r.brake_test.axis;
   switch (r.program) {
     case core::ProgramCmd::Start:
       // A second barrier behind the supervisor's OUTSIDE_LIMITS: never start outside.
@@ -574,6 +586,17 @@ void MotionController::drive_control(const core::SupervisorOut& so,
     last_cw_[i] = cw;
     out[i].controlword = cw;
     out[i].target_position_rad = q_sp_[i];
+    out[i].max_torque_permille = hal::kDriveMaxTorquePermille;
+    // @req BT-CSP-TORQUE
+    // SPEC §12 on a CSP drive: the torque limited to the test torque (0x6072) and the
+    // set-point moved by the offset, so the saturated position loop pushes the brake.
+    const core::BrakeTestRequest& bt = so.motion.brake_test;
+    if ((static_cast<std::size_t>(bt.axis) == (i + 1U)) && so.drives_enable) {
+      out[i].target_position_rad = q_sp_[i] + (static_cast<float>(bt.dir) * bt.offset_rad);
+      if (bt.torque_permille != 0U) {
+        out[i].max_torque_permille = bt.torque_permille;
+      }
+    }
   }
 }
 

@@ -120,6 +120,21 @@ void Publisher::publish() noexcept {
     e.cause = o.cause;
     event(e);
   }
+  // @req BT-PERSIST
+  // SPEC §12: a finished brake test becomes a `brake_test` event of the log (found again
+  // at the next start by run.cpp).
+  if (o.brake_test.finished != core::BrakeTestResult::none) {
+    bridge::EventRecord e{};
+    e.t = t;
+    e.kind = bridge::EventKind::brake_test;
+    e.brake_result = static_cast<std::uint8_t>(o.brake_test.finished);
+    e.brake_axis = (o.brake_test.finished == core::BrakeTestResult::failed)
+                       ? alarms.detail(core::AlarmId::BRAKE_TEST_FAILED).axis
+                       : std::uint8_t{0U};
+    e.brake_drift_deg = o.brake_test.drift_deg;
+    e.cause = o.cause;
+    event(e);
+  }
   for (std::size_t a = 0; a < core::kAlarmCount; ++a) {
     const auto id = static_cast<core::AlarmId>(a);
     const bool raised = (o.alarms_raised & core::bit(id)) != 0U;
@@ -178,6 +193,15 @@ void Publisher::publish() noexcept {
   s.safety_ssm = o.safety.ssm;
   s.safety_v_allowed_mm_s = o.safety.v_allowed_mm_s;
   s.safety_separation_mm = o.safety.separation_mm;
+  s.brake_test_last = static_cast<std::uint8_t>(o.brake_test.last);
+  s.brake_test_due_known = o.brake_test.due_known;
+  s.brake_test_due = o.brake_test.due;
+  s.brake_test_required = o.brake_test.required;
+  s.brake_test_running = o.brake_test.running;
+  s.brake_test_axis = o.brake_test.axis;
+  s.brake_test_progress = o.brake_test.progress;
+  s.brake_test_due_in_h = o.brake_test.due_in_h;
+  s.brake_test_drift_deg = o.brake_test.drift_deg;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};
@@ -232,7 +256,8 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       apply_contacts(rec, cell.inputs());
       break;
     case bridge::RecordKind::sim_fault:
-      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all)) {
+      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all) ||
+          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::brake_weak)) {
         cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis});
       }
       break;

@@ -345,6 +345,44 @@ bool load_safety(const RunOptions& opt, ActiveSafety& out) {
   return true;
 }
 
+// SPEC §12 at start-up: the latest brake test in the event log, and for a pass how long ago
+// (the core counts on from there in cycles). An unreadable log, a malformed event or a time
+// in the future count as no pass on record: the safe side (AUTO then needs a test when the
+// configuration asks for one).
+// @req BT-PERSIST
+core::BrakeTestHistory brake_test_history(const RunOptions& opt) {
+  core::BrakeTestHistory h{};
+  gateway::BrakeTestRecord r;
+  bool found = false;
+  std::string error;
+  if (!gateway::latest_brake_test(opt.db, r, found, error)) {
+    std::fprintf(stderr, "safestate run: event log %s: %s; no brake test counts as passed\n", opt.db.c_str(),
+                 error.c_str());
+    return h;
+  }
+  if (!found) {
+    std::fprintf(stderr, "safestate run: brake test: none on record\n");
+    return h;
+  }
+  if (r.result == "failed") {
+    h.last = core::BrakeTestResult::failed;
+    std::fprintf(stderr, "safestate run: brake test: FAILED %s (AUTO refused until one passes)\n", r.time.c_str());
+    return h;
+  }
+  std::uint64_t age_ms = 0;
+  if (!gateway::age_ms_of(r.time, std::chrono::system_clock::now(), age_ms)) {
+    std::fprintf(stderr, "safestate run: brake test: passed at %s, a time that cannot be aged (clock?); counts as none\n",
+                 r.time.c_str());
+    return h;
+  }
+  h.last = core::BrakeTestResult::passed;
+  h.passed_ever = true;
+  h.pass_age_ms = age_ms;
+  std::fprintf(stderr, "safestate run: brake test: passed %s (%.2f h ago)\n", r.time.c_str(),
+               static_cast<double>(age_ms) / 3.6e6);
+  return h;
+}
+
 void publish_safety(const ActiveSafety& s, bridge::SafetyInfo& info) {
   bridge::copy_text(info.source, s.source.c_str());
   const std::size_t n = std::min(s.config.canonical.size(), info.canonical.size() - 1U);
@@ -415,6 +453,7 @@ int run_main(const RunOptions& opt) {
   sim::Cell cell(cfg, bus.get());
   // Before the first cycle, on the simulated cell and on EtherCAT alike.
   cell.configure_limits(safety.config.limits, safety.validated);
+  cell.configure_brake_test(brake_test_history(opt));
   publish_safety(safety, seg->header().safety);
   // The HMI's sim panel on an emulated segment: records to ecat-sim's control socket.
   SimForward forward;

@@ -62,6 +62,7 @@ std::string sim_line(const bridge::CommandRecord& r) {
     case sim::FaultKind::clear_all: return "fault clear all";
     case sim::FaultKind::contactor_welded: return "fault contactor welded";
     case sim::FaultKind::brake_stuck_released: return "fault brake " + n + " stuck_released";
+    case sim::FaultKind::brake_weak: return "fault brake " + n + " weak";
     // The record has no value field (statusword, ms), and the rest act on the core's side
     // of the cell, not on the segment: the gateway does not send them (rt_loop refuses them).
     case sim::FaultKind::integrity:

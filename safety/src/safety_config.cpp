@@ -681,6 +681,13 @@ Result parse_safety(std::string_view text) {
   if (cfg.collaborative) {
     to_core(*cfg.collaborative, lim.payload_kg, lim.collaborative);
   }
+  // SPEC §12 into the core (the defaults when the file has no `brake_test` key).
+  lim.brake_test.configured = cfg.brake_test_configured;
+  lim.brake_test.interval_h = static_cast<float>(cfg.brake_test.interval_h);
+  lim.brake_test.grace_h = static_cast<float>(cfg.brake_test.grace_h);
+  lim.brake_test.test_torque_pct = static_cast<float>(cfg.brake_test.test_torque_pct);
+  lim.brake_test.hold_ms = cfg.brake_test.hold_ms;
+  lim.brake_test.max_drift_deg = static_cast<float>(cfg.brake_test.max_drift_deg);
   cfg.canonical = *canonical;
   cfg.checksum = checksum_text(cfg.canonical);
   lim.checksum = checksum_value(cfg.canonical);

@@ -57,6 +57,7 @@
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
 #include "parse_util.hpp"
+#include "brake_keys.hpp"
 #include "safety_keys.hpp"
 
 namespace safestate::scenario {
@@ -426,7 +427,7 @@ bool parse_drive_word_fault(const Tokens& a, sim::Fault& f) noexcept {
 }
 
 bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
-  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f)) {
+  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f) || brake_keys::parse_fault(a, f)) {
     return true;
   }
   if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck_released" && axis_1_to_6(a[1], f.axis)) {
@@ -474,7 +475,7 @@ Problem parse_fault(const Tokens& args, FaultStep& out) {
   }
   return "bad fault " + quoted(written) +
          " (expected drive N fault|clear|runaway|nostop, drive N statusword 0xHHHH, drive N slow_enable MS,"
-         " fieldbus lost, contactor stuck_open|welded, brake N stuck|stuck_released, integrity, selftest fail,"
+         " fieldbus lost, contactor stuck_open|welded, brake N stuck|stuck_released|weak, integrity, selftest fail,"
          " program unload, jog_link drop, clear all; N 1..6, MS 1..60000)";
 }
 
@@ -763,7 +764,7 @@ bool parse_more_key(std::string_view key, std::string_view value, Expectation& e
 Problem parse_expectation(std::string_view tok, Expectation& e) {
   e.text = std::string(tok);
   Problem speed;
-  if (safety_keys::parse_expect(tok, e, speed) || parse_speed(tok, e, speed)) {
+  if (safety_keys::parse_expect(tok, e, speed) || brake_keys::parse_expect(tok, e, speed) || parse_speed(tok, e, speed)) {
     return speed;
   }
   std::string_view key;
@@ -906,7 +907,8 @@ class Parser {
       Problem safety;
       if (!split_pair(tokens[i], key, value)) {
         fail(number, "config: expected NAME=VALUE, found " + quoted(tokens[i]));
-      } else if (safety_keys::set_config(key, value, number, safety_lines_, safety)) {
+      } else if (safety_keys::set_config(key, value, number, safety_lines_, safety) ||
+                 brake_keys::set_config(key, value, result_.scenario, safety)) {
         if (!safety.empty()) {
           fail(number, std::move(safety));
         }

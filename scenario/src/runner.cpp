@@ -19,6 +19,7 @@
 #include "safestate/core/describe.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
+#include "brake_keys.hpp"
 #include "safety_keys.hpp"
 #include "trace.hpp"
 
@@ -109,6 +110,9 @@ bool holds_more(const Expectation& e, const Observed& o) noexcept {
     default:
       if (safety_keys::is_safety_key(e.key)) {
         return safety_keys::holds(e, out, v);
+      }
+      if (brake_keys::is_brake_key(e.key)) {
+        return brake_keys::holds(e, out);
       }
       break;  // replies: counted by the runner over the window
   }
@@ -228,6 +232,9 @@ std::string found_more(const Expectation& e, const Observed& o) {
       if (safety_keys::is_safety_key(e.key)) {
         return safety_keys::found(e, out, v);
       }
+      if (brake_keys::is_brake_key(e.key)) {
+        return brake_keys::found(e, out);
+      }
       break;
   }
   return "?";
@@ -277,6 +284,7 @@ class Runner {
   Runner(const Scenario& s, const RunOptions& o)
       : s_(s), opts_(o), cell_(s.config, o.bus), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     cell_.configure_limits(safety_limits(s), s.safety_validated);
+    cell_.configure_brake_test(s.brake_test);
     open_.reserve(count_ranges(s));
     if (o.trace && o.trace_out != nullptr) {
       tracer_.emplace(s, *o.trace_out);

@@ -122,6 +122,10 @@ void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) no
   impl_->controller.configure_limits(limits, validated);
 }
 
+void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {
+  impl_->controller.configure_brake_test(history);
+}
+
 const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
 const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->in.safety; }

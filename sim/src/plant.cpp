@@ -39,6 +39,7 @@ void SimPlant::inject(const Fault& f) noexcept {
     case FaultKind::fieldbus_lost: fieldbus_ok_ = false; break;
     case FaultKind::contactor_stuck_open: contactor_stuck_open_ = true; break;
     case FaultKind::brake_stuck: axis_[i].brake_stuck = true; break;
+    case FaultKind::brake_weak: axis_[i].brake_weak = true; break;
     case FaultKind::clear_all:
       for (Axis& a : axis_) {
         a.fault_cause = false;
@@ -46,6 +47,7 @@ void SimPlant::inject(const Fault& f) noexcept {
         a.nostop = false;
         a.brake_stuck = false;
         a.brake_stuck_released = false;
+        a.brake_weak = false;
         a.sw_override = false;
         a.slow_cycles = 0;
       }
@@ -126,7 +128,8 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
   a.last_cw = cw;
 }
 
-void SimPlant::physics(Axis& a, std::size_t i, float target) noexcept {
+void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept {
+  const float target = d.target_position_rad;
   const float vmax = model_.qd_max_rad_s[i];
   const float amax = model_.qdd_max_rad_s2[i];
   const bool torque = (a.ds == c402::DriveState::OperationEnabled) && contactor_closed_;
@@ -144,7 +147,16 @@ void SimPlant::physics(Axis& a, std::size_t i, float target) noexcept {
       a.v = v_cmd;  // CSP: follows the set-point within its limits
     }
   } else if (torque) {
-    a.v = 0.0F;  // holding against the engaged brake
+    // @req BT-SIM
+    // Against the engaged brake: a CSP drive off its set-point pushes with its torque limit
+    // (0x6072); the brake holds unless that is more than its holding torque (SPEC §12).
+    const std::uint16_t holds = a.brake_weak ? kWeakBrakeHoldingPermille : kBrakeHoldingPermille;
+    const bool pushes = std::fabs(target - a.q) > 1.0e-6F;
+    if (pushes && (d.max_torque_permille > holds)) {
+      a.v = clampf((target - a.q) / dt_, -kBrakeSlipRadS, kBrakeSlipRadS);  // slips toward the set-point
+    } else {
+      a.v = 0.0F;  // held by the brake
+    }
   } else {
     a.v = toward_zero(a.v, 2.0F * amax * dt_);  // no torque: the holding brake stops the axis
   }
@@ -173,8 +185,9 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
   }
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     Axis& a = axis_[i];
-    if (out.brakes_release != a.brake_cmd) {
-      a.brake_cmd = out.brakes_release;
+    const bool release = out.brakes_release && (static_cast<std::size_t>(out.brake_test_axis) != (i + 1U));
+    if (release != a.brake_cmd) {
+      a.brake_cmd = release;
       a.brake_timer = 0;
     }
     ++a.brake_timer;
@@ -188,7 +201,7 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
       a.brake_released = true;
     }
     drive_state(a, out.drive[i].controlword, contactor_closed_);
-    physics(a, i, out.drive[i].target_position_rad);
+    physics(a, i, out.drive[i]);
   }
 }
 

@@ -59,7 +59,8 @@ struct Plant {
     contactor_count = (o.contactor && !contactor_stuck_open) ? contactor_count + 1 : 0;
     contactor_fb = (contactor_count >= contactor_delay) || contactor_welded;
     for (std::size_t i = 0; i < kAxes; ++i) {
-      brake_count[i] = (o.brakes_release && !brake_stuck[i]) ? brake_count[i] + 1 : 0;
+      const bool release = o.brakes_release && (o.brake_test_axis != i + 1U);  // SPEC §12: one engaged by the test
+      brake_count[i] = (release && !brake_stuck[i]) ? brake_count[i] + 1 : 0;
       brake_fb[i] = (brake_count[i] >= brake_delay) || (brake_stuck_released && brake_fb[i]) || brake_welded_released[i];
       auto& s = ds[i];
       if (age < boot_cycles) {

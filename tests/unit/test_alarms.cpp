@@ -60,6 +60,8 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"FIELD_DISCREPANCY", Severity::lockout, Latch::power_cycle},
       {"SEPARATION_VIOLATED", Severity::fault, Latch::reset},
       {"PERSON_IN_FIELD", Severity::info, Latch::condition},
+      {"BRAKE_TEST_DUE", Severity::warning, Latch::condition},
+      {"BRAKE_TEST_FAILED", Severity::fault, Latch::reset},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

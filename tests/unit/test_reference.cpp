@@ -124,6 +124,12 @@ ref::Limits ref_limits(const SafetyLimits& l, bool validated) {
   r.ssm_params = c.ssm;
   r.reaction = static_cast<Cycle>(c.ssm.reaction_s * 1000.0F + 0.5F);
   r.rise_mm = (2000.0F + l.tcp_max_speed_mm_s) * 0.001F;
+  // SPEC §12 in cycles at 1 ms, computed here from the hours (not by core/'s brake test).
+  r.bt_required = l.brake_test.configured;
+  r.bt_interval = std::llround(static_cast<double>(l.brake_test.interval_h) * 3.6e6);
+  r.bt_overdue = std::llround(static_cast<double>(l.brake_test.interval_h + l.brake_test.grace_h) * 3.6e6);
+  r.bt_hold = l.brake_test.hold_ms;
+  r.bt_max_drift_deg = l.brake_test.max_drift_deg;
   return r;
 }
 
@@ -213,6 +219,13 @@ struct Harness {
     if (rare_feedback(2)) { fb.self_test_ok = !fb.self_test_ok; log << t << ":self-test " << fb.self_test_ok << "\n"; }
     if (rare(5)) { const auto i = rng() % 6U; plant.brake_stuck[i] = !plant.brake_stuck[i]; }
     if (rare(10)) { const auto i = rng() % 6U; plant.drive_nostop[i] = !plant.drive_nostop[i]; }
+    // SPEC §12: a brake becomes weak (slips under the test torque) or is replaced, from its
+    // own stream so that the other perturbations keep their coverage.
+    if (static_cast<int>(brake_rng() % 100000U) < 10) {
+      const auto i = brake_rng() % 6U;
+      weak[i] = !weak[i];
+      log << t << ":brake weak " << i << " " << weak[i] << "\n";
+    }
     const bool moving = out.motion.mode == MotionMode::Program || out.motion.mode == MotionMode::Jog;
     if (chance(moving ? 30 : 0)) { plant.vel[rng() % 6U] = static_cast<float>(rng() % 200U) / 100.0F - 1.0F; }
     fb.integrity_ok = !rare(3);
@@ -249,6 +262,13 @@ struct Harness {
   }
   bool collab = false;  // SPEC §11 configured and perturbed
   std::mt19937 collab_rng{12345U};
+  std::mt19937 brake_rng{4242U};
+  bool brake_tests = true;  // SPEC §12: brake_test commands in the history
+  std::array<bool, kAxes> weak{};
+  std::array<float, kAxes> slip{};
+  // SPEC §12: a configuration that requires the brake test every 0.002 h (7.2 s) with a
+  // 0.001 h grace and 100 ms pushes, so that histories see it due, overdue, pass and fail.
+  bool brake_cfg = false;
   bool safety = true;  // SPEC §10 monitored (configure_limits) and perturbed
   Pose pose = kHome;
   bool within_limits = true;
@@ -257,8 +277,22 @@ struct Harness {
 
   void configure() {
     if (!safety) return;
+    if (brake_cfg) {
+      lim.brake_test.configured = true;
+      lim.brake_test.interval_h = 0.002F;
+      lim.brake_test.grace_h = 0.001F;
+      lim.brake_test.hold_ms = 100;
+    }
     core.configure_limits(lim, geometry(), 1000U, validated_at_start);
-    reference = ref::Supervisor{ref_timing, ref_limits(lim, validated_at_start)};
+    BrakeTestHistory h{};
+    h.last = BrakeTestResult::passed;
+    h.passed_ever = true;
+    h.pass_age_ms = 1000;  // a second ago, at every (re)start
+    core.configure_brake_test(h);
+    ref::Limits rl = ref_limits(lim, validated_at_start);
+    rl.bt_passed_ever = true;
+    rl.bt_pass_age = 1000;
+    reference = ref::Supervisor{ref_timing, rl};
   }
 
   // Per 10^5: rarer than chance().
@@ -297,9 +331,11 @@ struct Harness {
     }
     const int k = chance(25) ? 1 + static_cast<int>(rng() % 2U) : 0;
     for (int i = 0; i < k; ++i) {
-      Command c = valid(static_cast<CommandId>(rng() % kCommandCount));
+      // brake_test (the last command) comes from its own stream below: a test lasts seconds,
+      // and drawn as often as the others it would crowd out the rest of the histories.
+      Command c = valid(static_cast<CommandId>(rng() % (kCommandCount - 1U)));
       if (chance(30)) {  // malformed now and then
-        c.id = static_cast<std::uint8_t>(rng() % (kCommandCount + 2U));
+        c.id = static_cast<std::uint8_t>(rng() % (kCommandCount + 1U));
         c.source = static_cast<std::uint8_t>(rng() % (kSourceCount + 1U));
         c.axis = static_cast<std::int8_t>(rng() % 9U);
         c.dir = static_cast<std::int8_t>(static_cast<int>(rng() % 3U) - 1);
@@ -307,6 +343,14 @@ struct Harness {
         c.mode = static_cast<std::uint8_t>(rng() % 5U);
       }
       log << t << ":cmd " << static_cast<int>(c.id) << " src " << static_cast<int>(c.source) << "\n";
+      cmds[n++] = c;
+    }
+    if (brake_tests && brake_rng() % 1000U < 3U && n < cmds.size()) {  // SPEC §12, from the pendant or a remote client
+      Command c{};
+      c.seq = ++seq;
+      c.id = static_cast<std::uint8_t>(CommandId::brake_test);
+      c.source = static_cast<std::uint8_t>((brake_rng() % 4U == 0U) ? Source::remote : Source::pendant);
+      log << t << ":cmd brake_test src " << static_cast<int>(c.source) << "\n";
       cmds[n++] = c;
     }
     return n;
@@ -336,7 +380,7 @@ struct Harness {
   Timing ref_timing = timing;
 
   std::array<long, kStateCount> state_cycles{};
-  std::array<long, 7> sub_cycles{};
+  std::array<long, 8> sub_cycles{};
   std::array<long, kAlarmCount> alarm_cycles{};
   std::array<long, kResultCount> results{};
   long ssm_cycles = 0;   // SSM acting (collaborative histories in AUTO)
@@ -360,8 +404,13 @@ struct Harness {
       signals.update(raw, local, timing);
       plant.fill(fb);
       ref::Geometry geo{};
+      // SPEC §12: a weak brake lets the axis under test follow the offset set-point.
+      const BrakeTestRequest& bt = out.motion.brake_test;
+      if (bt.axis >= 1U && bt.axis <= kAxes && bt.dir != 0 && weak[bt.axis - 1U]) {
+        slip[bt.axis - 1U] += static_cast<float>(bt.dir) * 0.0005F;
+      }
+      for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = (safety ? kPose[pose][i] : 0.0F) + slip[i];
       if (safety) {
-        for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = kPose[pose][i];
         fb.program_within_limits = within_limits;
         geo = geometry_of(lim, fb);
       }
@@ -377,6 +426,9 @@ struct Harness {
       if (out.drives_enable != rout.drives) d << " drives";
       if (out.brakes_release != rout.brakes_release) d << " brakes";
       if (out.reset_lamp != rout.reset_lamp) d << " lamp";
+      if (out.brake_test_axis != rout.brake_test_axis) {
+        d << " brake_test_axis " << int(out.brake_test_axis) << "/" << int(rout.brake_test_axis);
+      }
       if (out.motion.fault_reset != rout.fault_reset) d << " fault_reset";
       if (out.alarms != rout.alarms) d << " alarms " << std::hex << out.alarms << "/" << rout.alarms << std::dec;
       if (out.reply_count != rout.reply_count) {
@@ -426,7 +478,7 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   constexpr int kSeeds = 40;
   constexpr Cycle kCycles = 30000;
   std::array<long, kStateCount> states{};
-  std::array<long, 7> subs{};
+  std::array<long, 8> subs{};
   std::array<long, kAlarmCount> alarms{};
   std::array<long, kResultCount> results{};
   std::array<long, 3> ssm{};
@@ -447,6 +499,7 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
       h.raw.separation_mm = 5000;  // the sensor sees the person far away at first
       h.raw.separation_valid = true;
     }
+    h.brake_cfg = seed % 2 == 1;
     h.configure();
     if (seed % 8 == 0) {
       h.fieldbus_down_until = 3500;  // the bus never comes up in time: BOOT_FAILED
@@ -473,11 +526,12 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
   for (std::size_t i = 1; i < subs.size(); ++i) {
     EXPECT_GT(subs[i], 100) << "sub-state never reached: " << to_string(static_cast<Sub>(i));
   }
-  // The reference models SPEC §10 (safe limits, validation, reduced mode, recovery) and §11's
-  // fields, rule 9, the automatic resume, FIELD_INTERRUPTED and SSM, but not yet §12 (brake
-  // test): its results are left out of this coverage check until it is built.
+  // The reference models SPEC §10 (safe limits, validation, reduced mode, recovery), §11's
+  // fields, rule 9, the automatic resume, FIELD_INTERRUPTED and SSM, and §12 (brake test,
+  // abstractly: its sequence on the measured positions and brake feedback, due and required
+  // in cycles): every alarm and result is covered.
   const auto not_modelled_alarm = [](std::size_t i) { return i >= kAlarmCount; };
-  const auto not_modelled_result = [](Result r) { return r == Result::BRAKE_TEST_REQUIRED; };
+  const auto not_modelled_result = [](Result) { return false; };
   for (std::size_t i = 0; i < alarms.size(); ++i) {
     if (not_modelled_alarm(i)) continue;
     EXPECT_GT(alarms[i], 0) << "alarm never raised: " << to_string(static_cast<AlarmId>(i));
@@ -514,6 +568,7 @@ TEST(Differential, TheComparisonCanFail) {
   // A reference with other timeouts must disagree: the harness compares what it claims.
   Harness h(7);
   h.safety = false;  // the history this test was written on (no SPEC §10 perturbation)
+  h.brake_tests = false;  // ... nor SPEC §12's commands
   h.ref_timing.jog_timeout = 30;
   h.ref_timing.max_stop = 50;
   h.reference = ref::Supervisor{h.ref_timing};

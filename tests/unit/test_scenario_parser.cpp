@@ -541,3 +541,30 @@ TEST(ScenarioParser, BadExpectsAreMalformed) {
 TEST(ScenarioParser, TheFirstProblemIsReported) {
   expect_malformed("@0 expect state=IDLE\n@1 in door=open\n@0 cmd reset\n", 2, "door");
 }
+
+// @req BT-SCENARIO
+TEST(ScenarioParser, BrakeTestKeys) {
+  // config brake_test_age_h: hours (fractions too) or never; the default is never.
+  EXPECT_FALSE(parse_text("@0 expect state=BOOT\n").scenario.brake_test.passed_ever);
+  const ParseResult r = parse_text("config brake_test_age_h=7.5\n@0 expect state=BOOT\n");
+  ASSERT_TRUE(r.ok()) << r.error->text();
+  EXPECT_TRUE(r.scenario.brake_test.passed_ever);
+  EXPECT_EQ(r.scenario.brake_test.pass_age_ms, 27000000U);
+  EXPECT_EQ(r.scenario.brake_test.last, core::BrakeTestResult::passed);
+  EXPECT_FALSE(parse_text("config brake_test_age_h=never\n@0 expect state=BOOT\n").scenario.brake_test.passed_ever);
+  expect_malformed("config brake_test_age_h=-1\n", 1, "brake_test_age_h");
+  expect_malformed("config brake_test_age_h=soon\n", 1, "brake_test_age_h");
+  expect_malformed("config brake_test_age_h=\n", 1, "brake_test_age_h");
+  // cmd brake_test, sub=BRAKE_TEST, fault brake N weak, expect brake_test=.
+  EXPECT_EQ(command("@0 cmd brake_test\n").id, static_cast<std::uint8_t>(core::CommandId::brake_test));
+  EXPECT_EQ(first_check("@0 expect sub=BRAKE_TEST\n").value, static_cast<std::uint8_t>(core::Sub::BRAKE_TEST));
+  const sim::Fault f = only<FaultStep>("@0 fault brake 4 weak\n").fault;
+  EXPECT_EQ(f.kind, sim::FaultKind::brake_weak);
+  EXPECT_EQ(f.axis, 4U);
+  expect_malformed("@0 fault brake 7 weak\n", 1, "fault");
+  expect_malformed("@0 fault brake 1 feeble\n", 1, "fault");
+  const Expectation e = first_check("@0 expect brake_test=failed\n");
+  EXPECT_EQ(e.key, ExpectKey::brake_test);
+  EXPECT_EQ(e.value, static_cast<std::uint8_t>(core::BrakeTestResult::failed));
+  expect_malformed("@0 expect brake_test=ok\n", 1, "brake_test");
+}

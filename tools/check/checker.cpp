@@ -38,6 +38,8 @@ const std::vector<std::string>& action_texts() {
       "fault drive 1 fault", "fault drive 1 clear", "fault drive 2 runaway", "fault drive 3 nostop",
       "fault fieldbus lost", "fault contactor stuck_open", "fault brake 1 stuck", "fault clear all",
       "fault contactor welded", "fault brake 2 stuck_released",
+      // SPEC §12: the brake test, and a brake that slips under its torque.
+      "cmd brake_test", "fault brake 3 weak",
       // SPEC §10, abstractly: reduced mode asked for (both channels, one channel), the
       // configuration validated (the right code, a wrong one), a jog toward and away from
       // the limited axes' ranges (limit violated or not, recovery), a runaway into them.
@@ -54,7 +56,7 @@ const std::vector<std::string>& action_texts() {
   };
   return k;
 }
-constexpr std::size_t kFirstLimitAction = 44;  // "in reduced=reduced"
+constexpr std::size_t kFirstLimitAction = 46;  // "in reduced=reduced"
 constexpr std::size_t kLimitActionsEverywhere = 1;
 constexpr std::size_t kFirstCollabAction = 50;  // "in field.inner=interrupted"
 constexpr std::size_t kValidateRight = 999;  // action id: validate_config with the active checksum
@@ -215,6 +217,11 @@ const std::vector<Seed>& seeds() {
       {"MANUAL_IDLE (T2)",
        "@0 in mode=T2\n@100 cmd reset\n@101 cmd confirm_t2\n@105 in enable=centre\n@110 cmd servo_on\n@400 in reset_button=0\n"},
       {"ESTOP_ACTIVE", "@100 cmd reset\n@110 cmd servo_on\n@400 in estop=pressed\n@401 in reset_button=0\n"},
+      // SPEC §12: in the brake test, brake 2 weak: axis 1 holds, axis 2 slips about 1.2 s on.
+      {"BRAKE_TEST (AUTO), brake 2 weak",
+       "@100 cmd reset\n@110 cmd servo_on\n@300 fault brake 2 weak\n@400 cmd brake_test\n@401 in reset_button=0\n"},
+      {"BRAKE_TEST (T1), healthy brakes",
+       "@0 in mode=T1\n@100 cmd reset\n@105 in enable=centre\n@110 cmd servo_on\n@400 cmd brake_test\n@401 in reset_button=0\n"},
       // SPEC §10: a configuration not validated yet, axis 1 within 2 deg.
       {"IDLE (T1), not validated", "@0 in mode=T1\n@100 cmd reset\n@101 in reset_button=0\n", 1},
       {"MANUAL_JOGGING (T1) toward axis 1's limit, not validated",
@@ -258,6 +265,11 @@ std::string key_of(const sim::Cell& c) {
   put(o.arming_step);
   put(v.injected);
   put(o.safety.checksum);
+  put(o.brake_test.axis);  // SPEC §12: which axis is tested, the latest result, due/required
+  put(o.brake_test.since_start);
+  put(o.brake_test.last);
+  k.push_back(o.brake_test.required ? '1' : '0');
+  k.push_back(o.brake_test.due ? '1' : '0');
   for (bool b : {o.t2_confirmed, o.motion.fault_reset, o.brakes_release, r.estop_a, r.estop_b, r.gate_a, r.gate_b,
                  r.enable_a, r.enable_b, r.enable_panic, r.mode_auto, r.mode_t1, r.mode_t2, r.reset_button,
                  in.estop_pressed, in.gate_open, in.enable_ok, in.mode_invalid, in.estop_discrepancy,
@@ -347,7 +359,8 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     return false;
   }
   for (std::size_t i = 0; i < core::kAxes; ++i) {
-    n.watch.brake[i] = (!before.brakes_release && fb.brake_released[i]) ? n.watch.brake[i] + 1U : 0U;
+    const bool engage_cmd = !before.brakes_release || before.brake_test_axis == i + 1U;  // SPEC §12: one by the test
+    n.watch.brake[i] = (engage_cmd && fb.brake_released[i]) ? n.watch.brake[i] + 1U : 0U;
     const bool alarmed = (o.alarms & core::bit(core::AlarmId::BRAKE_NOT_ENGAGED)) != 0U;
     if (n.watch.brake[i] > tm.brakes_timeout && (!alarmed || powered_state)) {
       v = {"brake feedback released > 300 ms after engage was commanded => BRAKE_NOT_ENGAGED, power removed",
@@ -403,6 +416,24 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   if (!collaborative(n, before, reset_ok, v)) {
     return false;
   }
+  // SPEC §12: 16. a brake test that fails (BRAKE_TEST_FAILED raised in a cycle begun in
+  // BRAKE_TEST) ends OPERATIONAL in that cycle (rule 10's Cat 1, or a higher rule's stop);
+  // 17. never armed in AUTO while the brake test is required (overdue, never passed, failed);
+  // 18. the brake test starts only at standstill.
+  const bool bt_failed_now = (o.alarms_raised & core::bit(core::AlarmId::BRAKE_TEST_FAILED)) != 0U;
+  if (bt_failed_now && (before.sub != Sub::BRAKE_TEST || o.state == State::OPERATIONAL)) {
+    v = {"BRAKE_TEST_FAILED only from BRAKE_TEST, and a stop in that cycle (rule 10)", to_string(o.state),
+         "state=STOPPING stop=CAT1", t};
+    return false;
+  }
+  if (before.state == State::IDLE && o.state == State::ARMING && in.mode == core::Mode::AUTO && before.brake_test.required) {
+    v = {"never armed in AUTO while the brake test is required", "ARMING", "reply=BRAKE_TEST_REQUIRED state=IDLE", t};
+    return false;
+  }
+  if (o.sub == Sub::BRAKE_TEST && before.sub != Sub::BRAKE_TEST && !o.at_standstill) {
+    v = {"the brake test starts only at standstill", "BRAKE_TEST", "sub=" + std::string(to_string(before.sub)), t};
+    return false;
+  }
   // Exactly one result per command.
   for (std::size_t i = 0; i < o.reply_count; ++i) {
     const std::uint32_t s = o.replies[i].seq;
@@ -444,7 +475,7 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   // Differential oracle: the independent reference supervisor.
   bool agree = r.state == o.state && r.sub == o.sub && r.stop == o.stop && r.contactor == o.contactor &&
                r.drives == o.drives_enable && r.brakes_release == o.brakes_release && r.reset_lamp == o.reset_lamp &&
-               r.alarms == o.alarms && r.reply_count == o.reply_count;
+               r.alarms == o.alarms && r.reply_count == o.reply_count && r.brake_test_axis == o.brake_test_axis;
   for (std::size_t i = 0; agree && i < o.reply_count; ++i) {
     agree = r.replies[i].seq == o.replies[i].seq && r.replies[i].result == o.replies[i].result;
   }
@@ -455,6 +486,7 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     if (r.stop != o.stop) d << " stop " << to_string(o.stop) << "/" << to_string(r.stop);
     if (r.contactor != o.contactor || r.drives != o.drives_enable || r.brakes_release != o.brakes_release) d << " outputs";
     if (r.reset_lamp != o.reset_lamp) d << " reset_lamp " << o.reset_lamp << "/" << r.reset_lamp;
+    if (r.brake_test_axis != o.brake_test_axis) d << " brake_test_axis " << int(o.brake_test_axis) << "/" << int(r.brake_test_axis);
     for (std::size_t a = 0; a < core::kAlarmCount; ++a) {
       const core::AlarmMask b = core::bit(static_cast<core::AlarmId>(a));
       if ((r.alarms & b) != (o.alarms & b)) d << " alarm " << to_string(static_cast<core::AlarmId>(a)) << " " << ((o.alarms & b) != 0U) << "/" << ((r.alarms & b) != 0U);

@@ -183,6 +183,65 @@ void Supervisor::judge_limits(const core::SafetyInputs& in, const core::Feedback
   }
 }
 
+bool Supervisor::bt_due() const noexcept {
+  return lim_.bt_required && (!bt_passed_ever_ || static_cast<std::int64_t>(now_) - bt_pass_at_ > lim_.bt_interval);
+}
+
+bool Supervisor::bt_needed() const noexcept {
+  if (bt_failed_) return true;
+  return lim_.bt_required && (!bt_passed_ever_ || static_cast<std::int64_t>(now_) - bt_pass_at_ > lim_.bt_overdue);
+}
+
+// SPEC §12, read as a list: for axis 1..6, engage its brake (wait for the feedback to say so
+// for brake_confirm cycles, take the position), push hold cycles one way and hold cycles the
+// other (drift above max_drift_deg fails), release (the feedback must say so within the
+// brake time, else it fails too). All six: a pass.
+void Supervisor::brake_test(const core::Feedback& fb) noexcept {
+  bt_pass_now_ = bt_fail_now_ = false;
+  bt_out_axis_ = 0;
+  if (!(st_ == St::OP && sub_ == Sub::BRAKE_TEST)) {
+    bt_on_ = false;
+    return;
+  }
+  if (!bt_on_) return;
+  const auto a = static_cast<std::size_t>(bt_axis_);
+  const bool released = fb.brake_released[a];
+  const float q = fb.drive[a].position_rad;
+  ++bt_n_;
+  bool next = false;
+  if (bt_phase_ == 0) {
+    bt_held_ = released ? 0U : bt_held_ + 1U;
+    next = bt_held_ >= t_.brake_confirm;
+    if (next) bt_q0_ = q;
+  } else if (bt_phase_ == 1 || bt_phase_ == 2) {
+    const float d = (q > bt_q0_ ? q - bt_q0_ : bt_q0_ - q) * (180.0F / 3.14159265358979F);
+    if (!(d <= bt_drift_)) bt_drift_ = d;
+    bt_fail_now_ = !(d <= lim_.bt_max_drift_deg);
+    next = bt_n_ >= lim_.bt_hold;
+  } else {
+    next = released;
+    bt_fail_now_ = !released && bt_n_ > t_.brakes_timeout;
+  }
+  if (bt_fail_now_) {
+    bt_on_ = false;
+    bt_failed_ = true;
+    return;
+  }
+  bt_out_axis_ = (bt_phase_ != 3) ? static_cast<std::uint8_t>(bt_axis_ + 1) : std::uint8_t{0U};
+  if (!next) return;
+  bt_n_ = 0;
+  bt_held_ = 0;
+  if (++bt_phase_ < 4) return;
+  bt_phase_ = 0;
+  bt_drift_ = 0.0F;
+  if (++bt_axis_ < static_cast<int>(core::kAxes)) return;
+  bt_on_ = false;
+  bt_pass_now_ = true;
+  bt_failed_ = false;
+  bt_passed_ever_ = true;
+  bt_pass_at_ = static_cast<std::int64_t>(now_);
+}
+
 void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
   static_cast<void>(out);
   const St s0 = st_;
@@ -283,6 +342,14 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
       field_paused_ = true;
     }
   }
+  // Rule 10: a brake slipped in the brake test (SPEC §12).
+  if (bt_fail_now_) {
+    raise(AlarmId::BRAKE_TEST_FAILED);
+    if (!done) {
+      done = true;
+      stop_to(StopCat::CAT1, St::IDLE, Sub::NONE);
+    }
+  }
   changed_ = done;
 }
 
@@ -321,6 +388,8 @@ void Supervisor::events(const core::SafetyInputs& in, const core::Feedback& fb) 
       if (sub_ == Sub::AUTO_PAUSED && field_paused_ && collab_acts(in) && lim_.auto_resume &&
           fields_clear_ > lim_.resume_delay) {
         go(St::OP, Sub::AUTO_RUNNING);  // both fields clear for resume_delay_ms (SPEC §11)
+      } else if (bt_pass_now_) {
+        go(St::OP, in.mode == Mode::AUTO ? Sub::AUTO_IDLE : Sub::MANUAL_IDLE);
       } else if (fb.program_finished && sub_ == Sub::AUTO_RUNNING) {
         go(St::OP, Sub::AUTO_IDLE);
       } else if (fb.program_finished && sub_ == Sub::MANUAL_RUNNING) {
@@ -416,6 +485,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
           // stays allowed (commissioning, recovery).
           if ((in.mode == Mode::AUTO || in.mode == Mode::T2) && !validated_) return Result::CONFIG_NOT_VALIDATED;
           if ((in.mode == Mode::AUTO || in.mode == Mode::T2) && outside_) return Result::OUTSIDE_LIMITS;
+          if (in.mode == Mode::AUTO && bt_needed()) return Result::BRAKE_TEST_REQUIRED;  // SPEC §12
           armed_mode_ = in.mode;
           arming_step_ = 0;
           arming_elapsed_ = 0;
@@ -505,6 +575,18 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
     case CommandId::jog_stop:
       if (sub_ == Sub::MANUAL_JOGGING) { stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE); return Result::OK; }
       break;
+    case CommandId::brake_test:
+      if (sub_ == Sub::AUTO_IDLE || sub_ == Sub::MANUAL_IDLE) {
+        if (!standstill()) return Result::WRONG_STATE;
+        if (in.mode == Mode::NONE) return Result::MODE_INVALID;
+        go(St::OP, Sub::BRAKE_TEST);
+        bt_on_ = true;
+        bt_axis_ = bt_phase_ = 0;
+        bt_n_ = bt_held_ = 0;
+        bt_drift_ = 0.0F;
+        return Result::OK;
+      }
+      break;
     default:
       break;
   }
@@ -531,6 +613,7 @@ void Supervisor::write(Out& out) const noexcept {
   out.reset_lamp = st_ == St::ESTOP_RESET || (st_ == St::IDLE && ((alarms_ & core::kLatchedAlarms) != 0U || pending_reset_));
   out.fault_reset = pending_reset_;
   out.alarms = alarms_;
+  out.brake_test_axis = (st_ == St::OP && sub_ == Sub::BRAKE_TEST) ? bt_out_axis_ : std::uint8_t{0U};
 }
 
 std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command* cmds,
@@ -548,9 +631,12 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   judge_limits(in, fb, g);
   const bool clear = !in.field_outer_interrupted && !in.field_inner_interrupted;
   fields_clear_ = clear ? (fields_clear_ <= lim_.resume_delay ? fields_clear_ + 1U : fields_clear_) : 0U;
+  brake_test(fb);
   const AlarmId conds[] = {AlarmId::ESTOP_PRESSED, AlarmId::MODE_SELECTOR_INVALID, AlarmId::RESET_BUTTON_STUCK,
-                           AlarmId::CONFIG_NOT_VALIDATED, AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD};
-  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_, person_in_inner(in)};
+                           AlarmId::CONFIG_NOT_VALIDATED, AlarmId::REDUCED_SPEED, AlarmId::PERSON_IN_FIELD,
+                           AlarmId::BRAKE_TEST_DUE};
+  const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_, person_in_inner(in),
+                        bt_due()};
   for (int i = 0; i < 6; ++i) {
     if (holds[i]) raise(conds[i]); else drop(conds[i]);
   }
@@ -570,7 +656,8 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   contactor_welded_ = welded_for_ > t_.contactor_timeout;
   brake_not_engaged_ = false;
   for (std::size_t i = 0; i < core::kAxes; ++i) {
-    brake_for_[i] = (!last_brakes_release_ && fb.brake_released[i]) ? brake_for_[i] + 1U : 0U;
+    const bool engage_cmd = !last_brakes_release_ || bt_cmd_axis_ == i + 1U;
+    brake_for_[i] = (engage_cmd && fb.brake_released[i]) ? brake_for_[i] + 1U : 0U;
     brake_not_engaged_ = brake_not_engaged_ || brake_for_[i] > t_.brakes_timeout;
   }
   if (brake_not_engaged_) raise(AlarmId::BRAKE_NOT_ENGAGED);
@@ -628,6 +715,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   write(out);
   last_contactor_ = out.contactor;
   last_brakes_release_ = out.brakes_release;
+  bt_cmd_axis_ = out.brake_test_axis;
   ++now_;
   return taken;
 }

@@ -29,6 +29,7 @@ struct Out {
   core::AlarmMask alarms = 0;
   std::array<core::Reply, 20> replies{};
   std::uint8_t reply_count = 0;
+  std::uint8_t brake_test_axis = 0;  // SPEC §12: the brake the test holds engaged
 };
 
 // SPEC §10 as the supervisor sees it, abstractly: the limits that the reference judges
@@ -60,6 +61,16 @@ struct Limits {
   core::SsmParams ssm_params{};
   core::Cycle reaction = 0;
   float rise_mm = 0.0F;
+  // SPEC §12 brake test (the defaults when no configuration: none required, 500 ms, 0.5 deg)
+  // and what the event log says at start.
+  bool bt_required = false;          // the configuration has a `brake_test` key
+  std::int64_t bt_interval = 0;      // cycles
+  std::int64_t bt_overdue = 0;       // interval + grace, cycles
+  core::Cycle bt_hold = 500;         // cycles per direction
+  float bt_max_drift_deg = 0.5F;
+  bool bt_passed_ever = false;
+  std::int64_t bt_pass_age = 0;      // cycles before start
+  bool bt_last_failed = false;
 };
 
 struct Geometry {
@@ -76,7 +87,8 @@ struct Geometry {
 class Supervisor {
  public:
   explicit Supervisor(const core::Timing& t, const Limits& l = Limits{}) noexcept
-      : t_(t), lim_(l), validated_(!l.configured || l.validated) {}
+      : t_(t), lim_(l), validated_(!l.configured || l.validated), bt_passed_ever_(l.bt_passed_ever),
+        bt_pass_at_(-l.bt_pass_age), bt_failed_(l.bt_last_failed) {}
   std::size_t step(const core::SafetyInputs& in, const core::Feedback& fb, const core::Command* cmds, std::size_t n,
                    Out& out, const Geometry& g = Geometry{}) noexcept;
   [[nodiscard]] bool validated() const noexcept { return validated_; }
@@ -109,6 +121,10 @@ class Supervisor {
   [[nodiscard]] bool person_in_inner(const core::SafetyInputs& in) const noexcept {
     return collab_acts(in) && in.field_inner_interrupted;
   }
+  // SPEC §12: one cycle of the brake test (on the state the cycle began in).
+  void brake_test(const core::Feedback& fb) noexcept;
+  [[nodiscard]] bool bt_due() const noexcept;
+  [[nodiscard]] bool bt_needed() const noexcept;
 
   // One position limit (a joint's range, a zone, the orientation cone): SPEC §10 recovery.
   struct Track {
@@ -140,6 +156,22 @@ class Supervisor {
   core::Cycle ssm_over_ = 0;      // cycles the TCP has been over v_allowed + 5 %
   bool ssm_over_now_ = false;
   bool ssm_hit_ = false;
+  // SPEC §12 brake test: which axis (0..5), which phase (0 engage, 1 push +, 2 push -,
+  // 3 release), cycles in the phase, engaged run, position held, this cycle's outcome.
+  bool bt_on_ = false;
+  int bt_axis_ = 0;
+  int bt_phase_ = 0;
+  core::Cycle bt_n_ = 0;
+  core::Cycle bt_held_ = 0;
+  float bt_q0_ = 0.0F;
+  float bt_drift_ = 0.0F;
+  bool bt_pass_now_ = false;
+  bool bt_fail_now_ = false;
+  std::uint8_t bt_out_axis_ = 0;  // the brake engaged by the test this cycle
+  std::uint8_t bt_cmd_axis_ = 0;  // ... as written last cycle
+  bool bt_passed_ever_ = false;
+  std::int64_t bt_pass_at_ = 0;
+  bool bt_failed_ = false;
 
   St st_ = St::BOOT;
   core::Sub sub_ = core::Sub::NONE;

@@ -11,6 +11,10 @@ Mutant families (issue 6):
             check dropped, a threshold given slack, recovery's "not worse" loosened, the
             reduced limit or its ramp lost, the wrong axis or zone named; and each of the
             supervisor's rule-3 entries for them dropped
+  brake     weaken the brake test of SPEC §12 (core/src/monitors/brake_test.cpp): the drift
+            comparison given slack, made one-sided or dropped, the pushes shortened; the due
+            logic's interval, grace, never-tested and failed cases loosened; the servo_on
+            guard's BRAKE_TEST_REQUIRED dropped
   margin    remove each planning margin of the motion layer (motion/limits.hpp: 1 deg,
             10 mm, 5 %, 1 deg), so that a jog holds at the limit itself
   collab    SPEC §11: the v_allowed formula (each term: v_h, a·T_r, C, Z, the 500 mm switch,
@@ -53,8 +57,8 @@ MARGINS = "motion/include/safestate/motion/limits.hpp"
 # The suites that judge core/: the unit tests of the state machine and signal layer, the
 # differential test, the scenario suite and the exhaustive checker. Only their binaries
 # are rebuilt for each mutant.
-TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative safestate"
-SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
+TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative test_brake_test safestate"
+SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|BrakeTestCore|BrakeTestCell|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
 
 
 def read(rel):
@@ -245,6 +249,24 @@ def mutants():
     ]
     for rel, old, new, desc in collab:
         out.append(("collab", desc, rel, old, new))
+    # --- brake test: the drift comparison and the due logic (SPEC §12) -------------------
+    BT = MON + "brake_test.cpp"
+    for old, new, desc in [
+        ("return !(drift_deg <= max_drift_deg);", "return !(drift_deg <= (max_drift_deg + 0.5F));", "drift: 0.5 deg of slack"),
+        ("return !(drift_deg <= max_drift_deg);", "return drift_deg > max_drift_deg;", "drift: NaN no longer a slip"),
+        ("return !(drift_deg <= max_drift_deg);", "return false;", "drift: never a slip"),
+        ("const float drift = absf(d.position_rad - q0_) * kRadToDeg;", "const float drift = (d.position_rad - q0_) * kRadToDeg;", "drift: one direction only"),
+        ("done = elapsed_ >= hold_;", "done = elapsed_ >= (hold_ / 2U);", "pushes: half of hold_ms"),
+        ("return limits_.configured && (!passed_ever_ || (age(now) > interval_));", "return limits_.configured && (!passed_ever_ || (age(now) > overdue_));", "due: only after the grace"),
+        ("return limits_.configured && (!passed_ever_ || (age(now) > interval_));", "return limits_.configured && (age(now) > interval_);", "due: never-tested not due"),
+        ("return limits_.configured && (!passed_ever_ || (age(now) > overdue_));", "return limits_.configured && (!passed_ever_ || (age(now) > (overdue_ + interval_)));", "required: grace doubled by the interval"),
+        ("return limits_.configured && (!passed_ever_ || (age(now) > overdue_));", "return limits_.configured && (age(now) > overdue_);", "required: never-tested allowed"),
+        ("  if (last_ == BrakeTestResult::failed) {\n    return true;", "  if (false) {\n    return true;", "required: a failed test no longer blocks AUTO"),
+        ("    pass_at_ = static_cast<std::int64_t>(now);", "    pass_at_ = pass_at_;", "due: a pass does not restart the interval"),
+    ]:
+        out.append(("brake", desc, BT, old, new))
+    out.append(("brake", "servo_on: BRAKE_TEST_REQUIRED dropped", GUARDS,
+                "if ((v.in.mode == Mode::AUTO) && v.brake_test_required) {", "if (false && v.brake_test_required) {"))
     # --- margins of the motion layer ----------------------------------------------------
     for old, new, desc in [("kJointMarginRad = deg(1.0F);", "kJointMarginRad = deg(0.0F);", "joint margin 1 deg removed"),
                            ("kZoneMarginMm = 10.0F;", "kZoneMarginMm = 0.0F;", "zone margin 10 mm removed"),
@@ -287,7 +309,7 @@ def judge():
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab)")
+    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab, brake)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
     ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()

@@ -101,11 +101,11 @@ namespace SafeState.Tests
         public void EveryGeneratedNameRoundTrips()
         {
             AssertRoundTrip<State>(8);
-            AssertRoundTrip<SubState>(6);
+            AssertRoundTrip<SubState>(7);  // SPEC §12 adds BRAKE_TEST
             AssertRoundTrip<Mode>(4);
             AssertRoundTrip<StopCategory>(3);
             AssertRoundTrip<Result>(23);
-            AssertRoundTrip<CommandName>(12);
+            AssertRoundTrip<CommandName>(13);  // SPEC §12 adds brake_test
             AssertRoundTrip<Role>(3);
             AssertRoundTrip<Severity>(4);
             AssertRoundTrip<AxisState>(8);

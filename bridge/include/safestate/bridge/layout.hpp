@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 5U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM
+inline constexpr std::uint32_t kLayoutVersion = 5U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -73,7 +73,7 @@ struct ReplyRecord {
   std::uint64_t t = 0;  // cycle of the answer
 };
 
-enum class EventKind : std::uint8_t { transition, alarm, alarm_cleared, command };
+enum class EventKind : std::uint8_t { transition, alarm, alarm_cleared, command, brake_test };
 struct EventRecord {
   std::uint64_t t = 0;  // cycle
   EventKind kind = EventKind::transition;
@@ -91,6 +91,11 @@ struct EventRecord {
   core::Reply reply{};
   // the first-out cause in force after the event
   core::Cause cause{};
+  // brake_test (SPEC §12): the result (core::BrakeTestResult), the axis that slipped (0 on
+  // a pass) and every axis' drift, degrees
+  std::uint8_t brake_result = 0;
+  std::uint8_t brake_axis = 0;
+  std::array<float, 6> brake_drift_deg{};
 };
 
 // Everything the gateway shows, rewritten every cycle.
@@ -135,6 +140,16 @@ struct Status {
   bool safety_ssm = false;
   float safety_v_allowed_mm_s = 0.0F;
   float safety_separation_mm = 0.0F;
+  // SPEC §12, as the core reports it (core::BrakeTestStatus).
+  std::uint8_t brake_test_last = 0;  // core::BrakeTestResult
+  bool brake_test_due_known = false;
+  bool brake_test_due = false;
+  bool brake_test_required = false;
+  bool brake_test_running = false;
+  std::uint8_t brake_test_axis = 0;
+  std::uint8_t brake_test_progress = 0;
+  float brake_test_due_in_h = 0.0F;
+  std::array<float, 6> brake_test_drift_deg{};
 };
 
 // One cycle of the black box: what the cycle read and what it wrote.

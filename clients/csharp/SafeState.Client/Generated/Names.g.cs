@@ -27,6 +27,7 @@ namespace SafeState.Client
         MANUAL_IDLE = 3,
         MANUAL_JOGGING = 4,
         MANUAL_RUNNING = 5,
+        BRAKE_TEST = 6,
     }
 
     /// <summary>SPEC.md §2 mode selector (`mode`).</summary>
@@ -89,6 +90,7 @@ namespace SafeState.Client
         confirm_t2 = 9,
         set_mode = 10,
         validate_config = 11,
+        brake_test = 12,
     }
 
     /// <summary>Who sent a command (the `from` of a command event).</summary>
@@ -190,9 +192,8 @@ namespace SafeState.Client
         SPEED_LIMIT = 210,
         CONFIG_NOT_VALIDATED = 304,
         REDUCED_SPEED = 305,
-        FIELD_DISCREPANCY = 108,
-        SEPARATION_VIOLATED = 211,
-        PERSON_IN_FIELD = 307,
+        BRAKE_TEST_DUE = 320,
+        BRAKE_TEST_FAILED = 220,
     }
 
     public static partial class Alarms
@@ -275,15 +276,12 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.REDUCED_SPEED, 305, Severity.info, AlarmLatch.Condition,
                 "Reduced mode is active: the TCP is held to the reduced speed limit (reduced zone or reduced input).",
                 "None needed; the robot returns to normal speed when the TCP leaves the zone and the input clears."),
-            new AlarmInfo(AlarmName.FIELD_DISCREPANCY, 108, Severity.lockout, AlarmLatch.PowerCycle,
-                "The two OSSD channels of a protective field (area scanner) disagreed for longer than the discrepancy time.",
-                "Check the scanner's OSSD outputs and wiring of the named field and channel, then power-cycle."),
-            new AlarmInfo(AlarmName.SEPARATION_VIOLATED, 211, Severity.fault, AlarmLatch.Reset,
-                "The TCP stayed faster than the speed allowed for the person's separation (SSM, v_allowed + 5 %) for longer than the reaction time; power was cut.",
-                "Check the distance sensor, the drives and the speed scaling of the motion layer, then reset."),
-            new AlarmInfo(AlarmName.PERSON_IN_FIELD, 307, Severity.info, AlarmLatch.Condition,
-                "A person is in the inner protective field during collaborative operation in AUTO: the program pauses.",
-                "Leave the inner field; with auto resume on the program goes on once both fields are clear for the resume delay, else press resume."),
+            new AlarmInfo(AlarmName.BRAKE_TEST_DUE, 320, Severity.warning, AlarmLatch.Condition,
+                "The last passed brake test is older than brake_test.interval_h: the brakes must be tested again.",
+                "Run the brake test (pendant, servos on, at standstill) before the grace time runs out; after it AUTO is refused."),
+            new AlarmInfo(AlarmName.BRAKE_TEST_FAILED, 220, Severity.fault, AlarmLatch.Reset,
+                "A holding brake let the named axis drift further than brake_test.max_drift_deg under the test torque; the robot was stopped and AUTO is refused until a brake test passes.",
+                "Secure the named axis against falling, replace or adjust its brake, reset, then run the brake test again (T1 or T2 stay allowed)."),
         };
     }
 
@@ -308,6 +306,7 @@ namespace SafeState.Client
             "MANUAL_IDLE",
             "MANUAL_JOGGING",
             "MANUAL_RUNNING",
+            "BRAKE_TEST",
         };
         internal static readonly string[] ModeNames =
         {
@@ -362,6 +361,7 @@ namespace SafeState.Client
             "confirm_t2",
             "set_mode",
             "validate_config",
+            "brake_test",
         };
         internal static readonly string[] SourceNames =
         {
@@ -447,9 +447,8 @@ namespace SafeState.Client
             "SPEED_LIMIT",
             "CONFIG_NOT_VALIDATED",
             "REDUCED_SPEED",
-            "FIELD_DISCREPANCY",
-            "SEPARATION_VIOLATED",
-            "PERSON_IN_FIELD",
+            "BRAKE_TEST_DUE",
+            "BRAKE_TEST_FAILED",
         };
     }
 }

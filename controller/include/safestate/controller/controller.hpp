@@ -26,6 +26,10 @@ class Controller {
   // kinematics of `model`) and the motion layer plans within, and whether the event log
   // holds a confirmation of their checksum.
   void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;
+  // SPEC §12, before the first cycle: the event log's last brake test.
+  void configure_brake_test(const core::BrakeTestHistory& history) noexcept {
+    supervisor_.configure_brake_test(history);
+  }
 
   // The robot's DH table in the core's own form.
   static core::ArmGeometry arm_geometry(const motion::RobotModel& model) noexcept;

@@ -43,8 +43,11 @@ enum class AlarmId : std::uint8_t {
   FIELD_DISCREPANCY,
   SEPARATION_VIOLATED,
   PERSON_IN_FIELD,
+  // SPEC §12 brake test, appended likewise.
+  BRAKE_TEST_DUE,
+  BRAKE_TEST_FAILED,
 };
-inline constexpr std::size_t kAlarmCount = 28;
+inline constexpr std::size_t kAlarmCount = 30;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -156,6 +159,14 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
    "A person is in the inner protective field during collaborative operation in AUTO: the program pauses.",
    "Leave the inner field; with auto resume on the program goes on once both fields are clear for the resume delay, "
    "else press resume."},
+  {AlarmId::BRAKE_TEST_DUE, "BRAKE_TEST_DUE", 320, Severity::warning, Latch::condition,
+   "The last passed brake test is older than brake_test.interval_h: the brakes must be tested again.",
+   "Run the brake test (pendant, servos on, at standstill) before the grace time runs out; after it AUTO is refused."},
+  {AlarmId::BRAKE_TEST_FAILED, "BRAKE_TEST_FAILED", 220, Severity::fault, Latch::reset,
+   "A holding brake let the named axis drift further than brake_test.max_drift_deg under the test torque; "
+   "the robot was stopped and AUTO is refused until a brake test passes.",
+   "Secure the named axis against falling, replace or adjust its brake, reset, then run the brake test again "
+   "(T1 or T2 stay allowed)."},
 }};
 // clang-format on
 

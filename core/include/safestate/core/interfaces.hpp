@@ -71,6 +71,16 @@ struct JogTarget {
   std::uint8_t speed = 0;  // percent
 };
 
+// SPEC §12 brake test, for the axis under test: its set-point is moved by dir x offset and
+// its drive's torque limited (CiA 402 0x6072, per mille of rated), so that the CSP drive
+// pushes the engaged brake with the test torque. axis 0: no test.
+struct BrakeTestRequest {
+  std::uint8_t axis = 0;   // 1..6
+  std::int8_t dir = 0;     // +1 / -1 while pushing, 0 otherwise
+  float offset_rad = 0.0F;
+  std::uint16_t torque_permille = 0;  // 0: not limited by the test
+};
+
 struct MotionRequest {
   MotionMode mode = MotionMode::Track;
   ProgramCmd program = ProgramCmd::None;
@@ -90,6 +100,8 @@ struct MotionRequest {
   // SPEC §10 recovery (T1, a limit violated): move only in ways that do not make the
   // violation worse.
   bool recovery = false;
+  // SPEC §12: the axis under test (its following error is not watched: it is meant to lag).
+  BrakeTestRequest brake_test{};
 };
 
 }  // namespace safestate::core

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "safestate/core/brake_test.hpp"
 #include "safestate/core/collaborative.hpp"
 #include "safestate/core/types.hpp"
 
@@ -68,6 +69,7 @@ struct SafetyLimits {
   std::array<Zone, kMaxZones> zones{};
   std::uint32_t max_stop_ms = 1000;  // stop.max_time_ms: SPEC §3 max_stop_ms
   CollaborativeLimits collaborative{};
+  BrakeTestLimits brake_test{};  // SPEC §12 (defaults when the file has no `brake_test` key)
 };
 
 }  // namespace safestate::core

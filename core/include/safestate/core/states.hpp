@@ -27,12 +27,13 @@ enum class Leaf : std::uint8_t {
   MANUAL_RUNNING,
   STOPPING_CAT1,
   STOPPING_CAT2,
+  BRAKE_TEST,  // OPERATIONAL, sub BRAKE_TEST (SPEC §12); appended so older leaves keep their place
   // Targets only (never a current state):
   SAME,         // stay: the row only acts (keep-alive, confirmation, acknowledgement)
   OP_IDLE,      // OPERATIONAL, AUTO_IDLE or MANUAL_IDLE by the mode
   STOP_TARGET,  // the target the current STOPPING was started with
 };
-inline constexpr std::size_t kLeafCount = 14;  // real leaves, BOOT..STOPPING_CAT2
+inline constexpr std::size_t kLeafCount = 15;  // real leaves, BOOT..BRAKE_TEST
 
 // Why the current stop (or lockout) happened: the first-out cause shown to operators.
 enum class CauseKind : std::uint8_t { none, alarm, command, event };
@@ -97,6 +98,7 @@ using StateVariant = std::variant<StBoot, StErrorLockout, StEstopActive, StEstop
     case Leaf::MANUAL_IDLE: return Sub::MANUAL_IDLE;
     case Leaf::MANUAL_JOGGING: return Sub::MANUAL_JOGGING;
     case Leaf::MANUAL_RUNNING: return Sub::MANUAL_RUNNING;
+    case Leaf::BRAKE_TEST: return Sub::BRAKE_TEST;
     default: return Sub::NONE;
   }
 }
@@ -108,6 +110,7 @@ using StateVariant = std::variant<StBoot, StErrorLockout, StEstopActive, StEstop
     case Sub::MANUAL_IDLE: return Leaf::MANUAL_IDLE;
     case Sub::MANUAL_JOGGING: return Leaf::MANUAL_JOGGING;
     case Sub::MANUAL_RUNNING: return Leaf::MANUAL_RUNNING;
+    case Sub::BRAKE_TEST: return Leaf::BRAKE_TEST;
     default: return Leaf::AUTO_IDLE;
   }
 }

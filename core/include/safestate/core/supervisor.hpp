@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "safestate/core/alarms.hpp"
+#include "safestate/core/brake_test.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/monitors.hpp"
@@ -81,6 +82,10 @@ struct SupervisorOut {
   std::array<TransitionEvent, kMaxTransitionsPerCycle> transitions{};
   std::uint8_t transition_count = 0;
   SafetyStatus safety{};
+  // SPEC §12: the axis whose brake the brake test holds engaged (1..6; 0 none) while
+  // brakes_release keeps the others released, and the test's status.
+  std::uint8_t brake_test_axis = 0;
+  BrakeTestStatus brake_test{};
 };
 
 class SystemStateManager {
@@ -94,6 +99,10 @@ class SystemStateManager {
                         bool validated) noexcept;
   [[nodiscard]] const SafeLimitMonitors& limit_monitors() const noexcept { return limits_; }
   [[nodiscard]] bool config_validated() const noexcept { return config_validated_; }
+  // SPEC §12, before the first cycle (after configure_limits): what the event log says
+  // about the last brake test. Without it: none on record.
+  void configure_brake_test(const BrakeTestHistory& history) noexcept { brake_test_.set_history(history); }
+  [[nodiscard]] const BrakeTest& brake_test() const noexcept { return brake_test_; }
 
   // One scan cycle. Takes at most `max_commands_per_cycle` of `cmds` (the caller keeps
   // the rest queued) and returns how many it took.
@@ -165,6 +174,9 @@ class SystemStateManager {
   FieldMonitor fields_;
   SsmMonitor ssm_;
   bool field_paused_ = false;
+  // SPEC §12 brake test, and the brake it held engaged last cycle (feedback monitoring).
+  BrakeTest brake_test_;
+  std::uint8_t brake_test_axis_cmd_ = 0;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.
@@ -182,6 +194,7 @@ class Supervisor {
                         bool validated) noexcept {
     ssm_.configure_limits(limits, arm, cycle_us, validated);
   }
+  void configure_brake_test(const BrakeTestHistory& history) noexcept { ssm_.configure_brake_test(history); }
 
  private:
   Timing timing_;

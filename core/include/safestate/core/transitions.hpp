@@ -32,6 +32,7 @@ enum class Trigger : std::uint8_t {
   mode_changed,        // 6
   jog_timeout,         // 7
   person_in_field,     // 9: inner protective field interrupted, collaborative on (SPEC §11)
+  brake_test_failed,   // 10: a brake slipped during the brake test (SPEC §12)
   // Internal events.
   boot_passed,
   estop_released,
@@ -40,6 +41,7 @@ enum class Trigger : std::uint8_t {
   program_finished,
   standstill,
   fields_clear,        // SPEC §11: both fields clear for resume_delay_ms, auto_resume on
+  brake_test_passed,  // SPEC §12: every axis tested and held
   // Commands, in the order of CommandId.
   reset,
   servo_on,
@@ -53,12 +55,13 @@ enum class Trigger : std::uint8_t {
   confirm_t2,
   set_mode,
   validate_config,
+  brake_test,
 };
-inline constexpr std::size_t kTriggerCount = 27;
-inline constexpr std::size_t kConditionCount = 8;
+inline constexpr std::size_t kTriggerCount = 30;
+inline constexpr std::size_t kConditionCount = 9;
 // The SPEC §4 rule number of each condition trigger (rule 8, collision, comes with issue 20's
 // collision detection; its number is kept).
-inline constexpr std::array<std::uint8_t, kConditionCount> kConditionRule{1, 2, 3, 4, 5, 6, 7, 9};
+inline constexpr std::array<std::uint8_t, kConditionCount> kConditionRule{1, 2, 3, 4, 5, 6, 7, 9, 10};
 inline constexpr std::size_t kFirstCommandTrigger = static_cast<std::size_t>(Trigger::reset);
 
 [[nodiscard]] constexpr Trigger trigger_of(CommandId c) noexcept {
@@ -91,6 +94,8 @@ struct GuardView {
   // SPEC §11: the inner protective field is interrupted while collaborative operation acts.
   bool field_blocks;
   bool separation_over;  // the TCP above v_allowed + 5 % now (SEPARATION_VIOLATED's cause)
+  // SPEC §12: a brake test is overdue, never passed (when one is required) or failed.
+  bool brake_test_required;
 };
 
 using GuardFn = Result (*)(const GuardView&) noexcept;
@@ -109,6 +114,7 @@ Result guard_enable_held(const GuardView& v) noexcept;
 Result guard_start_manual(const GuardView& v) noexcept;
 Result guard_t2_selected(const GuardView& v) noexcept;
 Result guard_validate_config(const GuardView& v) noexcept;
+Result guard_brake_test(const GuardView& v) noexcept;
 
 inline constexpr Guard kNoGuard{nullptr, "-"};
 inline constexpr Guard kBootDone{&guard_boot_done, "start-up self-test finished (BUSY)"};
@@ -119,7 +125,8 @@ inline constexpr Guard kServoOn{&guard_servo_on,
                                 "AUTO: gate closed (GATE_OPEN); T1/T2: enable at centre "
                                 "(ENABLING_NOT_HELD); T2: confirmed (T2_NOT_CONFIRMED); AUTO/T2: safety "
                                 "configuration validated (CONFIG_NOT_VALIDATED); AUTO/T2: no safe limit "
-                                "violated (OUTSIDE_LIMITS)"};
+                                "violated (OUTSIDE_LIMITS); AUTO: brake test not overdue or failed "
+                                "(BRAKE_TEST_REQUIRED)"};
 inline constexpr Guard kStartAuto{&guard_start_auto, "gate closed (GATE_OPEN); program loaded (NO_PROGRAM); "
                                                      "inner field clear (FIELD_INTERRUPTED); "
                                                      "program inside the safe limits (OUTSIDE_LIMITS)"};
@@ -131,6 +138,7 @@ inline constexpr Guard kStartManual{&guard_start_manual,
 inline constexpr Guard kT2Selected{&guard_t2_selected, "mode is T2 (MODE_INVALID)"};
 inline constexpr Guard kValidate{&guard_validate_config,
                                  "mode T1 or T2 (MODE_INVALID); CODE is the active checksum (CHECKSUM_MISMATCH)"};
+inline constexpr Guard kBrakeTest{&guard_brake_test, "standstill (WRONG_STATE); mode != NONE (MODE_INVALID)"};
 
 // What a row does to the state's own data besides changing state.
 enum class Effect : std::uint8_t {
@@ -144,6 +152,7 @@ enum class Effect : std::uint8_t {
   set_t2_confirmed,  // T2 confirmed until the mode next changes
   set_validated,     // SPEC §10: the safety configuration is validated
   field_pause,       // SPEC §11 rule 9: the pause that follows may resume by itself
+  begin_brake_test,  // SPEC §12: the brake test from axis 1
 };
 const char* to_string(Effect e) noexcept;
 
@@ -168,13 +177,15 @@ template <typename... M>
 
 inline constexpr LeafMask kAnyLeaf = static_cast<LeafMask>((1U << kLeafCount) - 1U);
 inline constexpr LeafMask kOperational = any_of(Leaf::AUTO_IDLE, Leaf::AUTO_RUNNING, Leaf::AUTO_PAUSED,
-                                                Leaf::MANUAL_IDLE, Leaf::MANUAL_JOGGING, Leaf::MANUAL_RUNNING);
+                                                Leaf::MANUAL_IDLE, Leaf::MANUAL_JOGGING, Leaf::MANUAL_RUNNING,
+                                                Leaf::BRAKE_TEST);
 inline constexpr LeafMask kStopping = any_of(Leaf::STOPPING_CAT1, Leaf::STOPPING_CAT2);
 inline constexpr LeafMask kPowered = join(mask_of(Leaf::ARMING), kOperational, kStopping);
 // @req ST-CAT1-COMPLETES
 inline constexpr LeafMask kOperationalOrCat2 = join(kOperational, mask_of(Leaf::STOPPING_CAT2));
 inline constexpr LeafMask kAnyButLockout = without(kAnyLeaf, mask_of(Leaf::ERROR_LOCKOUT));
 inline constexpr LeafMask kIdleOrPowered = join(mask_of(Leaf::IDLE), kPowered);
+inline constexpr LeafMask kOpIdle = any_of(Leaf::AUTO_IDLE, Leaf::MANUAL_IDLE);  // SPEC §12: where a brake test starts
 
 struct Transition {
   LeafMask from;
@@ -201,7 +212,7 @@ inline constexpr auto kTransitions = [] {
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
                                bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
                                bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT) | bit(SEPARATION_VIOLATED);
-  return std::array<Transition, 38>{{
+  return std::array<Transition, 41>{{
   // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
   {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1",          "TR-C1"},
@@ -215,6 +226,7 @@ inline constexpr auto kTransitions = [] {
   {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6b"},
   {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7",          "TR-C7"},
   {only(AUTO_RUNNING),          person_in_field,    kNoGuard,     AUTO_PAUSED,        CAT2, bit(PERSON_IN_FIELD),  field_pause,      "9",          "TR-C9"},
+  {only(BRAKE_TEST),            brake_test_failed,  kNoGuard,     IDLE,               CAT1, bit(BRAKE_TEST_FAILED), none,            "10",         "TR-C10"},
   // ---- events and commands (SPEC §4, second table) --------------------------------------------------------------------------------------
   {only(BOOT),                  boot_passed,        kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "boot",       "TR-BOOT"},
   {only(ESTOP_ACTIVE),          estop_released,     kNoGuard,     ESTOP_RESET_NEEDED, NONE, 0,                     none,             "estop",      "TR-ESTOP-RELEASED"},
@@ -243,6 +255,8 @@ inline constexpr auto kTransitions = [] {
   {kStopping,                   standstill,         kNoGuard,     STOP_TARGET,        NONE, 0,                     none,             "standstill", "TR-STANDSTILL"},
   {kIdleOrPowered,              confirm_t2,         kT2Selected,  SAME,               NONE, 0,                     set_t2_confirmed, "confirm_t2", "TR-CONFIRM-T2"},
   {only(IDLE),                  validate_config,    kValidate,    SAME,               NONE, 0,                     set_validated,    "validate_config", "TR-VALIDATE"},
+  {kOpIdle,                     brake_test,         kBrakeTest,   BRAKE_TEST,         NONE, 0,                     begin_brake_test, "brake_test", "TR-BRAKE-TEST"},
+  {only(BRAKE_TEST),            brake_test_passed,  kNoGuard,     OP_IDLE,            NONE, 0,                     none,             "brake_test", "TR-BRAKE-TEST-PASSED"},
   }};
 }();
 // clang-format on
@@ -347,6 +361,7 @@ inline constexpr std::array<LeafPolicy, kLeafCount> kLeafPolicy{{
     {Result::WRONG_STATE, false},     // MANUAL_RUNNING
     {Result::BUSY, false},            // STOPPING_CAT1
     {Result::BUSY, false},            // STOPPING_CAT2
+    {Result::WRONG_STATE, false},     // BRAKE_TEST
 }};
 
 }  // namespace safestate::core

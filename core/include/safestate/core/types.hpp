@@ -36,6 +36,7 @@ enum class Sub : std::uint8_t {
   MANUAL_IDLE,
   MANUAL_JOGGING,
   MANUAL_RUNNING,
+  BRAKE_TEST,  // SPEC §12 (appended: the older values keep their place)
 };
 
 // SPEC §2 mode selector.
@@ -87,8 +88,9 @@ enum class CommandId : std::uint8_t {
   confirm_t2,
   set_mode,
   validate_config,  // SPEC §10: the operator confirms the safety configuration's checksum
+  brake_test,       // SPEC §12: test the six holding brakes in turn
 };
-inline constexpr std::size_t kCommandCount = 12;
+inline constexpr std::size_t kCommandCount = 13;
 
 // Who sent a command (single point of control, ISO 10218-1 5.3.5).
 enum class Source : std::uint8_t { pendant, remote, observer, reset_button };

@@ -4,6 +4,7 @@
 // power cut; ids are SQLite rowids and continue across restarts.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -74,5 +75,16 @@ struct Confirmation {
 bool latest_confirmation(const std::string& path, Confirmation& out, bool& found, std::string& error);
 // The same from an open log (GET /api/safety).
 bool latest_confirmation(EventLog& log, Confirmation& out, bool& found, std::string& error);
+
+// SPEC §12: the latest `brake_test` event (written from the core's ring when a brake test
+// ends), read before the core starts, by the same mechanism as latest_confirmation.
+struct BrakeTestRecord {
+  std::string result;  // "passed" or "failed"
+  std::string time;    // ISO-8601 UTC
+};
+bool latest_brake_test(const std::string& path, BrakeTestRecord& out, bool& found, std::string& error);
+// Milliseconds from the ISO-8601 UTC time the log writes to `now`; false when the text is
+// not such a time or lies in the future (a clock set back: the age is then unknown).
+bool age_ms_of(const std::string& iso_time, std::chrono::system_clock::time_point now, std::uint64_t& age_ms);
 
 }  // namespace safestate::gateway

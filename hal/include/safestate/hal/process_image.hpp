@@ -25,14 +25,23 @@ struct ProcessImageIn {
   bool self_test_ok = true;                          // the platform's start-up self-test
 };
 
+// CiA 402 0x6072 max torque, per mille of rated torque, outside the brake test: the drives'
+// own peak (300 %). The brake test of SPEC §12 lowers it to test_torque_pct on the axis under
+// test so that the CSP position loop pushes the engaged brake with exactly that torque.
+inline constexpr std::uint16_t kDriveMaxTorquePermille = 3000;
+
 struct DriveOut {
   std::uint16_t controlword = 0;     // CiA 402 0x6040
   float target_position_rad = 0.0F; // CSP 0x607A
+  std::uint16_t max_torque_permille = kDriveMaxTorquePermille;  // CiA 402 0x6072
 };
 
 struct ProcessImageOut {
   bool contactor = false;        // close the main contactor
   bool brakes_release = false;   // release the holding brakes
+  // SPEC §12 brake test: 1..6, that axis' brake stays engaged although brakes_release is
+  // set (the drives hold the others); 0 = none.
+  std::uint8_t brake_test_axis = 0;
   bool reset_lamp = false;
   std::array<DriveOut, kAxes> drive{};
 };

@@ -167,6 +167,7 @@ class MotionController {
   std::array<bool, kJoints> lagging_{};           // measured position outside the window
   std::array<bool, kJoints> quick_stopped_{};     // we commanded the drive's own quick stop
   bool watch_following_ = false;                  // last cycle commanded hold, jog or program
+  std::uint8_t test_axis_ = 0;                    // SPEC §12: the axis under brake test (1..6)
   // SPEC §10
   LimitPlanner lim_{};
   bool limits_set_ = false;

@@ -112,6 +112,7 @@ enum class ExpectKey : std::uint8_t {
   recovery,          // value 1 = yes
   joint,             // axis, cmp, limit (degrees, measured position)
   v_allowed,         // cmp, limit (mm/s, SPEC §11 SSM; fails while SSM does not act)
+  brake_test,        // value: core::BrakeTestResult, the latest result since start (SPEC §12)
 };
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
@@ -175,6 +176,9 @@ struct Scenario {
   // (`config validated=CHECKSUM`; the built-in configuration counts as validated).
   std::optional<core::SafetyLimits> safety;
   bool safety_validated = true;
+  // SPEC §12: what the event log says about the last brake test at start
+  // (`config brake_test_age_h=X|never`; default never).
+  core::BrakeTestHistory brake_test{};
 };
 
 struct ParseError {

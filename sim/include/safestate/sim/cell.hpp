@@ -35,6 +35,8 @@ enum class FaultKind : std::uint8_t {
   brake_stuck_released,  // brake N's feedback stays released (and it does not hold)
   program_unload,        // the program is unloaded (the cell's own, not the plant's)
   jog_link_drop,         // the pendant's jog commands are lost on the way (cell)
+  // SPEC §12 (appended likewise).
+  brake_weak,            // brake N holds less than the brake test's torque (it slips under it)
 };
 
 struct Fault {
@@ -76,6 +78,8 @@ class Cell {
 
   // SPEC §10, before the first step: the safe limits and whether they are validated.
   void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;
+  // SPEC §12, before the first step and after configure_limits: the event log's last test.
+  void configure_brake_test(const core::BrakeTestHistory& history) noexcept;
 
   // The physical contacts of SPEC §2; change them between cycles.
   core::RawInputs& inputs() noexcept;

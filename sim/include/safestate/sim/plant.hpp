@@ -15,6 +15,15 @@
 
 namespace safestate::sim {
 
+// The holding brakes (docs/robot.md, an assumption: ABB publishes no brake torques). A
+// healthy brake holds the drive's peak torque, 300 % of rated (hal::kDriveMaxTorquePermille),
+// so its own drive can never turn the axis against it; `brake N weak` holds only 100 %, less
+// than the brake test's default 130 %. An engaged brake slips when the drive pushes harder
+// than it holds; the axis then follows the set-point at no more than kBrakeSlipRadS.
+inline constexpr std::uint16_t kBrakeHoldingPermille = 3000;
+inline constexpr std::uint16_t kWeakBrakeHoldingPermille = 1000;
+inline constexpr float kBrakeSlipRadS = 0.2F;
+
 struct PlantTiming {
   std::uint32_t contactor_cycles = 10;  // SPEC §6
   std::uint32_t brake_cycles = 60;      // SPEC §6
@@ -42,7 +51,7 @@ class SimPlant final : public hal::Backend {
   // Injected causes as bits: per axis i, bit 4i fault, 4i+1 runaway, 4i+2 nostop,
   // 4i+3 brake stuck; bit 24 fieldbus lost, 25 contactor stuck open, 26 contactor welded,
   // 27 integrity failed, 28 self-test failed; per axis i, bit 32+4i brake stuck released,
-  // 33+4i raw statusword, 34+4i slow enable.
+  // 33+4i raw statusword, 34+4i slow enable, 35+4i brake weak.
   [[nodiscard]] std::uint64_t injected() const noexcept {
     std::uint64_t m = 0;
     const auto b = [](bool v, std::size_t at) { return static_cast<std::uint64_t>(v ? 1U : 0U) << at; };
@@ -51,7 +60,7 @@ class SimPlant final : public hal::Backend {
       m |= b(a.fault_cause, 4U * i) | b(a.runaway, 4U * i + 1U) | b(a.nostop, 4U * i + 2U) |
            b(a.brake_stuck, 4U * i + 3U);
       m |= b(a.brake_stuck_released, 32U + 4U * i) | b(a.sw_override, 33U + 4U * i) |
-           b(a.slow_cycles != 0U, 34U + 4U * i);
+           b(a.slow_cycles != 0U, 34U + 4U * i) | b(a.brake_weak, 35U + 4U * i);
     }
     m |= b(!fieldbus_ok_, 24U) | b(contactor_stuck_open_, 25U) | b(contactor_welded_, 26U) |
          b(!integrity_ok_, 27U) | b(!self_test_ok_, 28U);
@@ -77,6 +86,7 @@ class SimPlant final : public hal::Backend {
     bool brake_released = false;
     bool brake_stuck = false;
     bool brake_stuck_released = false;
+    bool brake_weak = false;  // holds kWeakBrakeHoldingPermille instead of kBrakeHoldingPermille
     bool sw_override = false;     // reports sw_value instead of its state's statusword
     std::uint16_t sw_value = 0;
     std::uint32_t slow_cycles = 0;  // 0: one enabling step per cycle
@@ -84,7 +94,7 @@ class SimPlant final : public hal::Backend {
   };
   [[nodiscard]] std::uint32_t cycles_of_ms(std::uint16_t ms) const noexcept;
   void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
-  void physics(Axis& a, std::size_t i, float target) noexcept;
+  void physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept;
 
   const motion::RobotModel& model_;
   float dt_;
