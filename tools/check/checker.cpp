@@ -58,7 +58,7 @@ const std::vector<std::string>& action_texts() {
 }
 constexpr std::size_t kFirstLimitAction = 46;  // "in reduced=reduced"
 constexpr std::size_t kLimitActionsEverywhere = 1;
-constexpr std::size_t kFirstCollabAction = 50;  // "in field.inner=interrupted"
+constexpr std::size_t kFirstCollabAction = 52;  // "in field.inner=interrupted"
 constexpr std::size_t kValidateRight = 999;  // action id: validate_config with the active checksum
 constexpr std::size_t kWaitOne = 1000;     // action id: let one cycle pass
 constexpr std::size_t kWaitChange = 1001;  // let time pass until something changes

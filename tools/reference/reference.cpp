@@ -637,7 +637,8 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
                            AlarmId::BRAKE_TEST_DUE};
   const bool holds[] = {in.estop_pressed, in.mode_invalid, in.reset_stuck, !validated_, reduced_, person_in_inner(in),
                         bt_due()};
-  for (int i = 0; i < 6; ++i) {
+  static_assert(std::size(conds) == std::size(holds));
+  for (std::size_t i = 0; i < std::size(conds); ++i) {
     if (holds[i]) raise(conds[i]); else drop(conds[i]);
   }
   if (in.enable_panic_edge) raise(AlarmId::ENABLING_PANIC);
