@@ -105,8 +105,9 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
     std::cerr << "safestate replay: cannot reach ecat-sim's control socket " << control << '\n';
     return 2;
   }
-  const std::uint32_t lost_max = 100U * 1000U / parsed.scenario.config.cycle_us;
-  hal::ethercat::Backend bus(bc, ifname, lost_max);
+  // Every exchange waits for its frame (up to the frame timeout): a replay is not paced in
+  // real time, and a frame late on a busy host must not change the scenario's outcome.
+  hal::ethercat::Backend bus(bc, ifname, parsed.scenario.config.cycle_us, 0);
   if (!bus.booted()) {
     std::cerr << "safestate replay: " << bus.boot_error() << '\n';
   }

@@ -401,8 +401,17 @@ int run_main(const RunOptions& opt) {
       return 2;
     }
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
-    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us,
+    // One exchange never holds the loop past its cycle: a frame not back 150 us before the
+    // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
+    const std::uint32_t budget_us =
+        (opt.rt.cycle_us >= 600U) ? opt.rt.cycle_us - 150U : opt.rt.cycle_us * 3U / 4U;
+    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.cycle_us, budget_us,
                                                    std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
+    std::fprintf(stderr,
+                 "safestate run: EtherCAT exchange timeout %u us, FIELDBUS_LOST after %u stale cycles; "
+                 "process-data watchdog %u cycles (0x0400 = %u, 0x0420 = %u)\n",
+                 bus->exchange_timeout_us(), bc.stale_cycles, bc.watchdog_cycles, bus->watchdog_divider(),
+                 bus->watchdog_time());
     if (!bus->booted()) {
       std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
     }
@@ -466,6 +475,10 @@ int run_main(const RunOptions& opt) {
                                : "subdevice " + std::to_string(pos) + " (" + bus->subdevice_name(pos) + ")" +
                                      (loss.silent ? " and every one after it" : "");
       std::fprintf(stderr, "safestate run: FIELDBUS_LOST: %s: %s\n", whom.c_str(), why);
+      if (bus->lost_after_cycles() > 0U) {
+        std::fprintf(stderr, "safestate run: FIELDBUS_LOST after %u stale cycles, %.3f ms after the last answered frame\n",
+                     bus->lost_after_cycles(), static_cast<double>(bus->lost_after_ns()) * 1e-6);
+      }
       bus_loss_reported = true;
     }
     int status = 0;

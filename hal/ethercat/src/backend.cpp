@@ -7,6 +7,9 @@
 #include <cstring>
 #include <thread>
 
+#include <pthread.h>
+#include <sched.h>
+
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/hal/pdo_bytes.hpp"
 
@@ -25,9 +28,10 @@ SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std
                            int tx_rx_priority, char* err, std::size_t errlen);
 const char* ss_ecat_error(const SsEcatMaster* m);
 int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
+int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
-                     std::size_t in_len, SsEcatCycle* cycle);
+                     std::size_t in_len, SsEcatCycle* cycle, std::uint32_t timeout_us);
 std::uint64_t ss_ecat_stray_frames();
 }
 
@@ -62,9 +66,13 @@ std::uint64_t mono_ns() noexcept {
 
 }  // namespace
 
-Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max,
-                 std::uint64_t watchdog_ns)
-    : cfg_(cfg), lost_frames_max_(lost_frames_max), watchdog_ns_(watchdog_ns) {
+Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t cycle_us,
+                 std::uint32_t exchange_timeout_us, std::uint64_t watchdog_ns)
+    : cfg_(cfg),
+      cycle_us_(cycle_us),
+      exchange_timeout_us_((exchange_timeout_us == 0U || exchange_timeout_us > cfg.frame_timeout_us) ? cfg.frame_timeout_us
+                                                                                                  : exchange_timeout_us),
+      watchdog_ns_(watchdog_ns) {
   std::size_t in = 0;
   std::size_t out = 0;
   for (const Subdevice& s : cfg_.subdevices) {
@@ -81,7 +89,33 @@ Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t 
   }
 }
 
-Backend::~Backend() { delete master_; }
+Backend::~Backend() {
+  hand_over();
+  delete master_;
+}
+
+void Backend::keep_alive() noexcept {
+  // As punctual as the real-time loop it stands in for (when permitted): a late exchange
+  // here lets the 10-cycle watchdogs expire before the loop starts.
+  sched_param sp{};
+  sp.sched_priority = 80;
+  static_cast<void>(pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp));
+  SsEcatCycle c{};
+  while (!handover_.load(std::memory_order_acquire)) {
+    static_cast<void>(ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
+                                       exchange_timeout_us_));
+    std::this_thread::sleep_for(std::chrono::microseconds(cycle_us_));
+  }
+}
+
+// The real-time loop takes over the exchanges (once, in its first cycle, in BOOT: at most
+// one keep-alive exchange and one cycle's sleep to wait for).
+void Backend::hand_over() noexcept {
+  if (keepalive_.joinable()) {
+    handover_.store(true, std::memory_order_release);
+    keepalive_.join();
+  }
+}
 
 // BOOT (SPEC §4 rule 1): every expected subdevice found, in order, with its identity and
 // PDO sizes, and in OP; otherwise the first that is wrong or missing is named.
@@ -143,8 +177,33 @@ void Backend::boot(const std::string& ifname) {
                   "): the configuration lists " + std::to_string(cfg_.subdevices.size());
     return;
   }
+  // Every subdevice's outputs go safe by themselves when this master stops writing them
+  // (killed, hung): its process-data watchdog, written before OP, where it starts counting.
+  if (!watchdog_registers(cfg_.watchdog_cycles, cycle_us_, wd_divider_, wd_time_)) {
+    boot_error_ = "watchdog_cycles: " + std::to_string(cfg_.watchdog_cycles) + " cycles of " + std::to_string(cycle_us_) +
+                  " us do not fit the process-data watchdog (at most 65535 ms)";
+    return;
+  }
+  if (ss_ecat_set_watchdog(m, wd_divider_, wd_time_) != 0) {
+    boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+    return;
+  }
+  // From the OP request until the keep-alive thread's first exchange the watchdogs run
+  // without process data: this stretch at real-time priority (when permitted; the thread
+  // inherits it), so that a busy host does not let them expire before the cycle starts.
+  int policy = SCHED_OTHER;
+  sched_param before{};
+  const bool restore = pthread_getschedparam(pthread_self(), &policy, &before) == 0;
+  sched_param rt{};
+  rt.sched_priority = 80;
+  static_cast<void>(pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt));
   if (ss_ecat_to_op(m) != 0) {
     boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+  } else {
+    keepalive_ = std::thread([this] { keep_alive(); });
+  }
+  if (restore) {
+    static_cast<void>(pthread_setschedparam(pthread_self(), policy, &before));
   }
 }
 
@@ -171,19 +230,29 @@ void Backend::read(ProcessImageIn& in) noexcept {
     }
     return;
   }
+  hand_over();
   SsEcatCycle& c = master_->cycle;
-  const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c);
+  const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
+                                  exchange_timeout_us_);
   ++exchanges_;
   const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
+  in.stale = rc != 0;
   if (rc != 0) {
-    // A lost frame is tolerated up to the fieldbus watchdog, on the last good inputs.
+    // A stale cycle: the frame is late or lost, the inputs stay those of the last answered
+    // frame. Tolerated for fewer than stale_cycles cycles in a row (and the time watchdog).
+    ++stale_in_row_;
+    stale_total_.fetch_add(1, std::memory_order_relaxed);
     const bool too_long = watchdog_ns_ > 0U && last_good_ns_ > 0U && now - last_good_ns_ > watchdog_ns_;
-    if (++lost_in_row_ > lost_frames_max_ || too_long) {
+    if (health_.ok && (stale_in_row_ >= cfg_.stale_cycles || too_long)) {
+      lost_after_cycles_.store(stale_in_row_, std::memory_order_relaxed);
+      lost_after_ns_.store(last_good_ns_ > 0U ? now - last_good_ns_ : 0U, std::memory_order_relaxed);
       // On a line nothing answers from the first subdevice on (a cut cable, a dead segment).
-      lose(1, "no frame came back for longer than the fieldbus watchdog", true);
+      lose(1, too_long ? "no frame came back for longer than the fieldbus watchdog"
+                       : "no frame came back for stale_cycles cycles in a row",
+           true);
     }
   } else {
-    lost_in_row_ = 0;
+    stale_in_row_ = 0;
     last_good_ns_ = now;
     for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
       if (i >= c.count || c.al_state[i] != 8U) {

@@ -195,7 +195,9 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     return true;
   };
   if (!setting("frame_timeout_us", 100, 100000, out.frame_timeout_us) ||
-      !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms)) {
+      !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms) ||
+      !setting("stale_cycles", 1, 1000, out.stale_cycles) ||
+      !setting("watchdog_cycles", 2, 10000, out.watchdog_cycles)) {
     err = c.err;
     return false;
   }
@@ -233,6 +235,20 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     return false;
   }
   return true;
+}
+
+bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept {
+  const std::uint64_t us = static_cast<std::uint64_t>(cycles) * cycle_us;
+  // (divider + 2) x 40 ns: 2498 = 100 us (the ESC's default), 24998 = 1 ms.
+  for (const auto& [div, tick_us] : {std::pair<std::uint16_t, std::uint64_t>{2498, 100}, {24998, 1000}}) {
+    const std::uint64_t ticks = (us + tick_us - 1U) / tick_us;  // never shorter than asked
+    if (ticks >= 1U && ticks <= 0xFFFFU) {
+      divider = div;
+      time = static_cast<std::uint16_t>(ticks);
+      return true;
+    }
+  }
+  return false;
 }
 
 bool load_bus_config(const std::string& path, BusConfig& out, std::string& err) {

@@ -135,7 +135,7 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
       segment_(devices) {
   segment_.on_process_data([this] {
     free_running_ = false;
-    step();
+    plant_cycle(true);
   });
   latch_inputs();
 }
@@ -151,7 +151,44 @@ void EmulatedCell::latch_inputs() noexcept {
   }
 }
 
-void EmulatedCell::step() noexcept {
+void EmulatedCell::step() noexcept { plant_cycle(false); }
+
+bool EmulatedCell::any_enabled() const noexcept {
+  for (const hal::DriveOut& d : out_.drive) {
+    if ((d.controlword & 0x0008U) != 0U) {  // CiA 402 enable operation
+      return true;
+    }
+  }
+  return false;
+}
+
+// A subdevice whose outputs the plant still holds active has put them in the safe state
+// (its process-data watchdog expired: it left OP).
+bool EmulatedCell::outputs_went_safe() const noexcept {
+  if (out_.contactor && segment_.esc(kPosDigitalOut).state() != AlState::op) {
+    return true;
+  }
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    if (out_.drive[a].controlword != 0U && segment_.esc(kPosFirstDrive + a).state() != AlState::op) {
+      return true;
+    }
+  }
+  return false;
+}
+
+void EmulatedCell::time_output_drop(bool was_closed, bool was_enabled) noexcept {
+  const std::uint64_t since = (now_ns_ > last_exchange_ns_) ? now_ns_ - last_exchange_ns_ : 0U;
+  if (was_closed && !out_.contactor && !drop_.contactor) {
+    drop_.contactor = true;
+    drop_.contactor_ns = since;
+  }
+  if (was_enabled && !any_enabled() && !drop_.enable) {
+    drop_.enable = true;
+    drop_.enable_ns = since;
+  }
+}
+
+void EmulatedCell::plant_cycle(bool exchange) noexcept {
   std::uint8_t rx[hal::kAxes][kDriveRxBytes];
   const std::span<const std::uint8_t> dout = segment_.esc(kPosDigitalOut).outputs();
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
@@ -159,8 +196,17 @@ void EmulatedCell::step() noexcept {
     std::memcpy(rx[a], o.data(), kDriveRxBytes);
   }
   const bool was_closed = out_.contactor;
+  const bool was_enabled = any_enabled();
   unpack_outputs(dout.data(), rx, out_);
   time_reaction(was_closed);
+  if (exchange) {
+    last_exchange_ns_ = now_ns_;
+    if (out_.contactor) {
+      drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
+    }
+  } else {
+    time_output_drop(was_closed, was_enabled);
+  }
   plant_.write(out_);
   ++cycles_;
   last_step_ns_ = now_ns_;
@@ -196,9 +242,11 @@ void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   segment_.poll(now_ns);
   // Physics does not wait for the master: after 20 silent cycles it runs on by itself,
   // one cycle per period, with whatever outputs the subdevices hold (safe ones once
-  // their watchdogs have expired).
+  // their watchdogs have expired); at once when a subdevice's watchdog has put outputs the
+  // plant still holds active in their safe state (the contactor drops when the terminal
+  // lets go of it, not 20 cycles later).
   const std::uint64_t period = static_cast<std::uint64_t>(cycle_us_) * 1000U;
-  if (!free_running_ && now_ns - last_step_ns_ > 20U * period) {
+  if (!free_running_ && (now_ns - last_step_ns_ > 20U * period || outputs_went_safe())) {
     free_running_ = true;
     next_free_ns_ = now_ns;
   }

@@ -221,8 +221,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
       fds.push_back({c.fd, POLLIN, 0});
     }
     poll(fds.data(), fds.size(), 1);
-    cell.poll(now_ns());
+    // Frames first, then the watchdogs: a frame that reached the socket while this process
+    // waited to be scheduled was on time for a real ESC (which takes it in hardware on
+    // arrival); judging the watchdog before taking it would expire it falsely.
     serve_frames(cell, raw);
+    cell.poll(now_ns());
     for (std::size_t i = 0; i < clients.size(); ++i) {
       if ((fds[(ctl >= 0 ? 2U : 1U) + i].revents & (POLLIN | POLLHUP)) != 0) {
         serve_client(cell, clients[i]);

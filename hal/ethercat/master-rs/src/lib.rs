@@ -226,6 +226,53 @@ pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub
     n as i32
 }
 
+/// The process-data watchdog of every subdevice (ETG.1000.4 6.3): `divider` into 0x0400
+/// (ticks of (divider + 2) x 40 ns) and `time` ticks into 0x0420. A subdevice whose outputs
+/// are not written for that long puts them in their safe state by itself: the contactor
+/// opens and the drives lose their enable when this master dies. Written in SAFE-OP,
+/// before OP (where the watchdog starts counting), and read back. 0 or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_set_watchdog(m: *mut SsEcatMaster, divider: u16, time: u16) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let Some(group) = m.safe.as_ref() else { return m.fail("not scanned") };
+    let mut failed: Option<String> = None;
+    for (i, sd) in group.iter(md).enumerate() {
+        let r = block_on(async {
+            sd.register_write(0x0400u16, divider).await?;
+            sd.register_write(0x0420u16, time).await?;
+            let d: u16 = sd.register_read(0x0400u16).await?;
+            let t: u16 = sd.register_read(0x0420u16).await?;
+            Ok::<(u16, u16), ethercrab::error::Error>((d, t))
+        });
+        match r {
+            Ok((d, t)) if d == divider && t == time => {}
+            Ok((d, t)) => {
+                failed = Some(format!(
+                    "subdevice {}: process-data watchdog reads back divider {} time {}, written {} {}",
+                    i + 1,
+                    d,
+                    t,
+                    divider,
+                    time
+                ));
+                break;
+            }
+            Err(e) => {
+                failed = Some(format!("subdevice {}: writing the process-data watchdog: {}", i + 1, e));
+                break;
+            }
+        }
+    }
+    match failed {
+        Some(msg) => m.fail(&msg),
+        None => 0,
+    }
+}
+
 /// SAFE-OP -> OP for every subdevice. 0 or -1.
 ///
 /// # Safety
@@ -248,6 +295,11 @@ pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
 /// it, and copies the inputs (concatenated likewise) into `inputs`. Returns 0, or -1 when
 /// the frame did not come back in time or could not be sent. No allocation.
 ///
+/// `timeout_us` > 0 bounds the wait for this exchange below the PDU timeout (the scan
+/// cycle's budget): when it passes, the frame in flight is given up (its slot is released;
+/// an answer coming later is a stray frame, dropped by the frame thread) and the inputs
+/// stay as they were (a stale cycle). 0: wait up to the PDU timeout.
+///
 /// # Safety
 /// `m` comes from `ss_ecat_open`; the buffers hold `out_len` / `in_len` bytes.
 #[no_mangle]
@@ -258,6 +310,7 @@ pub unsafe extern "C" fn ss_ecat_exchange(
     inputs: *mut u8,
     in_len: usize,
     cycle: *mut SsEcatCycle,
+    timeout_us: u32,
 ) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
@@ -270,7 +323,17 @@ pub unsafe extern "C" fn ss_ecat_exchange(
         o[..k].copy_from_slice(&outs[off..off + k]);
         off += o.len();
     }
-    let result = block_on(group.tx_rx(md));
+    let result = if timeout_us == 0 {
+        block_on(group.tx_rx(md))
+    } else {
+        // Dropping tx_rx's future releases its frame (ethercrab's ReceiveFrameFut::drop) and
+        // the PDI lock; the PDI (our inputs) is only written from a frame that came back.
+        let deadline = std::time::Instant::now() + Duration::from_micros(u64::from(timeout_us));
+        block_on(futures_lite::future::or(group.tx_rx(md), async move {
+            async_io::Timer::at(deadline).await;
+            Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu))
+        }))
+    };
     let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
     let mut off = 0usize;
     for sd in group.iter(md) {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -47,7 +48,18 @@ struct BusConfig {
   // How long the start-up scan is repeated while it times out or finds fewer subdevices
   // than configured (drives still powering up); 0 = one scan.
   std::uint32_t scan_timeout_ms = 5000;
+  // A cycle whose frame is late or lost is stale (inputs held from the last answered
+  // frame); this many stale cycles in a row is FIELDBUS_LOST.
+  std::uint32_t stale_cycles = 3;
+  // Each subdevice's process-data watchdog (0x0400/0x0420), in scan cycles: outputs not
+  // written for that long go to their safe state by themselves (the master died).
+  std::uint32_t watchdog_cycles = 10;
 };
+
+// The process-data watchdog registers for `cycles` scan cycles of `cycle_us`: the divider
+// (0x0400, ticks of (divider + 2) x 40 ns) and the time in ticks (0x0420). 100 us ticks
+// while the time fits 16 bits, else 1 ms ticks; false if it fits neither.
+bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept;
 
 // Parses and validates a configuration (JSON text). On error returns false and names
 // the field that is wrong in `err`; `out` is then unspecified.
@@ -65,14 +77,17 @@ struct Health {
 
 class Backend final : public hal::Backend {
  public:
-  // Opens the interface, scans, checks every identity against `cfg`, maps, goes to OP.
-  // Never throws; on failure the backend reports the fieldbus down (BOOT then fails) and
-  // boot_error() names the subdevice.
-  // The fieldbus watchdog: more than `lost_frames_max` exchanges in a row without a frame
-  // back, or (when `watchdog_ns` > 0) that long on the monotonic clock since the last good
-  // one, is FIELDBUS_LOST. The time bound matters because a lost frame waits for the whole
-  // frame timeout, which can be many cycles.
-  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max, std::uint64_t watchdog_ns = 0);
+  // Opens the interface, scans, checks every identity against `cfg`, writes every
+  // subdevice's process-data watchdog (`cfg.watchdog_cycles` of `cycle_us`), maps, goes to
+  // OP. Never throws; on failure the backend reports the fieldbus down (BOOT then fails)
+  // and boot_error() names the subdevice.
+  // One exchange waits at most `exchange_timeout_us` (0: the frame timeout, as a replay
+  // that must not lose a frame to a busy host does); a frame not back by then makes the
+  // cycle stale: inputs held, counted. `cfg.stale_cycles` stale cycles in a row, or (when
+  // `watchdog_ns` > 0) that long on the monotonic clock since the last answered frame, is
+  // FIELDBUS_LOST.
+  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t cycle_us, std::uint32_t exchange_timeout_us,
+          std::uint64_t watchdog_ns = 0);
   ~Backend() override;
   Backend(const Backend&) = delete;
   Backend& operator=(const Backend&) = delete;
@@ -86,6 +101,16 @@ class Backend final : public hal::Backend {
   // Latched: the first loss of the bus and whom it concerns.
   [[nodiscard]] const Health& health() const noexcept { return health_; }
   [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
+  // Cycles whose frame did not come back within the exchange timeout (inputs held).
+  [[nodiscard]] std::uint64_t stale_cycles() const noexcept { return stale_total_.load(std::memory_order_relaxed); }
+  // When the bus was lost for want of answers: the stale cycles in a row and the time since
+  // the last answered frame at that moment (0 when it was lost otherwise or not at all).
+  [[nodiscard]] std::uint32_t lost_after_cycles() const noexcept { return lost_after_cycles_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::uint64_t lost_after_ns() const noexcept { return lost_after_ns_.load(std::memory_order_relaxed); }
+  // The exchange timeout in use (us) and the watchdog written to the subdevices.
+  [[nodiscard]] std::uint32_t exchange_timeout_us() const noexcept { return exchange_timeout_us_; }
+  [[nodiscard]] std::uint16_t watchdog_divider() const noexcept { return wd_divider_; }
+  [[nodiscard]] std::uint16_t watchdog_time() const noexcept { return wd_time_; }
   // Frames that came back matching no frame in flight (late after the frame timeout, or
   // corrupted): dropped by the master's frame thread, which carries on.
   [[nodiscard]] static std::uint64_t stray_frames() noexcept;
@@ -110,6 +135,8 @@ class Backend final : public hal::Backend {
   void boot(const std::string& ifname);
   void decode(ProcessImageIn& in) const noexcept;
   void lose(std::uint8_t position, const char* why, bool silent = false) noexcept;
+  void keep_alive() noexcept;
+  void hand_over() noexcept;
 
   BusConfig cfg_;
   struct Master;
@@ -123,11 +150,21 @@ class Backend final : public hal::Backend {
   std::atomic<std::uint8_t> lost_position_{0};
   std::atomic<bool> lost_silent_{false};
   std::atomic<const char*> lost_why_{nullptr};
-  std::uint32_t lost_frames_max_;
-  std::uint32_t lost_in_row_ = 0;
+  std::uint32_t cycle_us_;
+  std::uint32_t exchange_timeout_us_;
+  std::uint32_t stale_in_row_ = 0;
+  std::atomic<std::uint64_t> stale_total_{0};
+  std::atomic<std::uint32_t> lost_after_cycles_{0};
+  std::atomic<std::uint64_t> lost_after_ns_{0};
+  std::uint16_t wd_divider_ = 0;
+  std::uint16_t wd_time_ = 0;
   std::uint64_t watchdog_ns_;
   std::uint64_t last_good_ns_ = 0;
   std::uint64_t exchanges_ = 0;
+  // From OP until the real-time loop's first read(): the process-data watchdogs count from
+  // OP, so a thread exchanges the (safe, all-zero) outputs every cycle meanwhile.
+  std::thread keepalive_;
+  std::atomic<bool> handover_{false};
 };
 
 }  // namespace safestate::hal::ethercat

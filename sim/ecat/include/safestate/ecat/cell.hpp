@@ -92,9 +92,25 @@ class EmulatedCell {
   };
   void mark_input_change() noexcept;
   [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
+  // Outputs dropped by the subdevices themselves (issue 22 item 3): while no process data
+  // arrives (the master died), the time from the last exchange to the plant seeing the
+  // contactor output open and the last drive's enable (controlword bit 3) gone, as the
+  // subdevices' process-data watchdogs put their outputs in the safe state. Cleared when
+  // an exchange closes the contactor again.
+  struct OutputDrop {
+    bool contactor = false;
+    bool enable = false;
+    std::uint64_t contactor_ns = 0;  // after the last exchange
+    std::uint64_t enable_ns = 0;
+  };
+  [[nodiscard]] const OutputDrop& output_drop() const noexcept { return drop_; }
 
  private:
   void time_reaction(bool was_closed) noexcept;
+  void time_output_drop(bool was_closed, bool was_enabled) noexcept;
+  [[nodiscard]] bool outputs_went_safe() const noexcept;
+  [[nodiscard]] bool any_enabled() const noexcept;
+  void plant_cycle(bool exchange) noexcept;
 
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
@@ -106,7 +122,9 @@ class EmulatedCell {
   std::uint64_t now_ns_ = 0;
   bool free_running_ = false;
   Reaction reaction_{};
+  OutputDrop drop_{};
   std::uint64_t next_free_ns_ = 0;
+  std::uint64_t last_exchange_ns_ = 0;
 };
 
 }  // namespace safestate::ecat
