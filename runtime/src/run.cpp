@@ -408,7 +408,7 @@ int run_main(const RunOptions& opt) {
     bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.cycle_us, budget_us,
                                                    std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
     std::fprintf(stderr,
-                 "safestate run: EtherCAT exchange timeout %u us, FIELDBUS_LOST after %u stale cycles; "
+                 "safestate run: EtherCAT exchange timeout %u us, the bus is lost after %u stale cycles in a row; "
                  "process-data watchdog %u cycles (0x0400 = %u, 0x0420 = %u)\n",
                  bus->exchange_timeout_us(), bc.stale_cycles, bc.watchdog_cycles, bus->watchdog_divider(),
                  bus->watchdog_time());
