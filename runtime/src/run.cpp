@@ -403,8 +403,7 @@ int run_main(const RunOptions& opt) {
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
     // One exchange never holds the loop past its cycle: a frame not back 150 us before the
     // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
-    const std::uint32_t budget_us =
-        (opt.rt.cycle_us >= 600U) ? opt.rt.cycle_us - 150U : opt.rt.cycle_us * 3U / 4U;
+    const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(opt.rt.cycle_us);
     bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.cycle_us, budget_us,
                                                    std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
     std::fprintf(stderr,

@@ -2,7 +2,8 @@
 //! `ethercat` backend of hal/. One master per process (ethercrab's PDU storage is static).
 //!
 //! Open and scan allocate and may take seconds (they run in BOOT); the cyclic exchange does
-//! not allocate and blocks only for the frame round trip, bounded by the PDU timeout.
+//! not allocate (after a thread's first) and waits only for the frame round trip, bounded by
+//! its deadline, woken by the frame thread (txrx.rs): real-time threads only, no executor.
 
 mod txrx;
 
@@ -12,9 +13,13 @@ use ethercrab::{
     subdevice_group::{Op, SafeOp},
     MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
 };
+use core::future::Future;
+use core::pin::pin;
+use core::task::{Context, Poll, Waker};
 use futures_lite::future::block_on;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 const MAX_SUBDEVICES: usize = 16;
 const MAX_PDI: usize = 1024;
@@ -57,6 +62,7 @@ pub struct SsEcatMaster {
     safe: Option<SafeGroup>,
     op: Option<OpGroup>,
     expected_wkc: u16,
+    pdu_timeout: Duration,
     error: [u8; 256],
 }
 
@@ -93,16 +99,62 @@ fn write_err(err: *mut c_char, errlen: usize, msg: &str) {
 }
 
 /// The frame thread answers within the cycle only if it is not queued behind ordinary
-/// work: SCHED_FIFO when permitted (as the real-time loop of `safestate run`).
+/// work: SCHED_FIFO when permitted (as the real-time loop of `safestate run`), else a
+/// warning on stderr and ordinary scheduling.
 fn realtime(priority: i32) {
     if priority <= 0 {
         return;
     }
     let param = libc::sched_param { sched_priority: priority };
     // SAFETY: plain libc call on the current thread with a valid parameter.
-    unsafe {
-        libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param);
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc != 0 {
+        eprintln!(
+            "safestate: warning: EtherCAT frame thread: SCHED_FIFO not permitted ({}), running with normal \
+             scheduling: on a busy host frames may come back late (stale cycles)",
+            std::io::Error::from_raw_os_error(rc)
+        );
     }
+}
+
+/// Wakes the thread that waits in `run_until` (std's park/unpark: a futex).
+struct ThreadWaker(std::thread::Thread);
+
+impl std::task::Wake for ThreadWaker {
+    fn wake(self: Arc<Self>) {
+        self.0.unpark();
+    }
+    fn wake_by_ref(self: &Arc<Self>) {
+        self.0.unpark();
+    }
+}
+
+thread_local! {
+    // One per thread that exchanges (the real-time loop, the keep-alive): allocated at its
+    // first exchange, never after.
+    static WAKER: Waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
+}
+
+/// Polls `fut` on this thread until it is ready (Some) or `deadline` passes (None, the
+/// future dropped by the caller). In between the thread parks with a timeout, woken by the
+/// frame thread when an answer came back: no executor, no reactor, and no ordinary thread
+/// on the path (futures_lite's and async-io's `block_on` fall back on async-io's helper
+/// thread, which a loaded host schedules late; see txrx.rs).
+fn run_until<F: Future>(fut: F, deadline: Instant) -> Option<F::Output> {
+    WAKER.with(|waker| {
+        let mut cx = Context::from_waker(waker);
+        let mut fut = pin!(fut);
+        loop {
+            if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                return Some(v);
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return None;
+            }
+            std::thread::park_timeout(deadline - now); // spurious wake-ups: polled again
+        }
+    })
 }
 
 /// Opens the interface (raw socket, needs CAP_NET_RAW) and starts the frame thread.
@@ -147,23 +199,22 @@ pub unsafe extern "C" fn ss_ecat_open(
     };
     let spawned = std::thread::Builder::new().name("ecat-txrx".into()).spawn(move || {
         realtime(tx_rx_priority);
-        // async-io's block_on drives the socket reactor on this (real-time) thread itself,
-        // instead of waking it from async-io's ordinary background thread.
-        async_io::block_on(task);
+        task.run();
     });
     if spawned.is_err() {
         write_err(err, errlen, "cannot start the frame thread");
         return core::ptr::null_mut();
     }
+    let pdu_timeout = Duration::from_micros(u64::from(pdu_timeout_us.max(100)));
     let timeouts = Timeouts {
-        pdu: Duration::from_micros(u64::from(pdu_timeout_us.max(100))),
+        pdu: pdu_timeout,
         state_transition: Duration::from_millis(u64::from(state_timeout_ms.max(100))),
         wait_loop_delay: Duration::from_millis(1),
         ..Timeouts::default()
     };
     let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, error: [0; 256] }))
+    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, pdu_timeout, error: [0; 256] }))
 }
 
 /// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
@@ -298,7 +349,8 @@ pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
 /// `timeout_us` > 0 bounds the wait for this exchange below the PDU timeout (the scan
 /// cycle's budget): when it passes, the frame in flight is given up (its slot is released;
 /// an answer coming later is a stray frame, dropped by the frame thread) and the inputs
-/// stay as they were (a stale cycle). 0: wait up to the PDU timeout.
+/// stay as they were (a stale cycle). 0: wait up to the PDU timeout. The wait is the
+/// calling thread's own (parked until the frame thread wakes it or the deadline passes).
 ///
 /// # Safety
 /// `m` comes from `ss_ecat_open`; the buffers hold `out_len` / `in_len` bytes.
@@ -323,17 +375,12 @@ pub unsafe extern "C" fn ss_ecat_exchange(
         o[..k].copy_from_slice(&outs[off..off + k]);
         off += o.len();
     }
-    let result = if timeout_us == 0 {
-        block_on(group.tx_rx(md))
-    } else {
-        // Dropping tx_rx's future releases its frame (ethercrab's ReceiveFrameFut::drop) and
-        // the PDI lock; the PDI (our inputs) is only written from a frame that came back.
-        let deadline = std::time::Instant::now() + Duration::from_micros(u64::from(timeout_us));
-        block_on(futures_lite::future::or(group.tx_rx(md), async move {
-            async_io::Timer::at(deadline).await;
-            Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu))
-        }))
-    };
+    // Past the deadline the future is dropped, which releases its frame (ethercrab's
+    // ReceiveFrameFut::drop) and the PDI lock; the PDI (our inputs) is only written from a
+    // frame that came back.
+    let wait = if timeout_us == 0 { m.pdu_timeout } else { Duration::from_micros(u64::from(timeout_us)) };
+    let result = run_until(group.tx_rx(md), Instant::now() + wait)
+        .unwrap_or(Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu)));
     let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
     let mut off = 0usize;
     for sd in group.iter(md) {

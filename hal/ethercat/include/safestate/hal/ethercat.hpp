@@ -61,6 +61,13 @@ struct BusConfig {
 // while the time fits 16 bits, else 1 ms ticks; false if it fits neither.
 bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept;
 
+// How long one exchange of `safestate run` may wait for its frame in a cycle of `cycle_us`:
+// until 150 us before the cycle ends (3/4 of cycles shorter than 600 us). Past it the cycle
+// is stale (docs/ethercat.md).
+constexpr std::uint32_t exchange_budget_us(std::uint32_t cycle_us) noexcept {
+  return (cycle_us >= 600U) ? cycle_us - 150U : cycle_us * 3U / 4U;
+}
+
 // Parses and validates a configuration (JSON text). On error returns false and names
 // the field that is wrong in `err`; `out` is then unspecified.
 bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err);
