@@ -1,6 +1,7 @@
 // The `ethercat` backend. The cycle does one exchange (one LRW with the AL status checks in
 // the same frame) in read(): the outputs written in the previous cycle go out, the inputs
 // come back; nothing else blocks, nothing allocates.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -31,7 +32,7 @@ int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
 int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
-                     std::size_t in_len, SsEcatCycle* cycle, std::uint32_t timeout_us);
+                     std::size_t in_len, SsEcatCycle* cycle, std::uint32_t timeout_us, std::uint32_t drive);
 std::uint64_t ss_ecat_stray_frames();
 }
 
@@ -58,6 +59,7 @@ using pdo::put32;
 using pdo::set_bit;
 
 constexpr int kScanPauseMs = 200;
+
 
 std::uint64_t mono_ns() noexcept {
   return static_cast<std::uint64_t>(
@@ -103,7 +105,7 @@ void Backend::keep_alive() noexcept {
   SsEcatCycle c{};
   while (!handover_.load(std::memory_order_acquire)) {
     static_cast<void>(ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
-                                       exchange_timeout_us_));
+                                       exchange_timeout_us_, 0));
     std::this_thread::sleep_for(std::chrono::microseconds(cycle_us_));
   }
 }
@@ -232,8 +234,12 @@ void Backend::read(ProcessImageIn& in) noexcept {
   }
   hand_over();
   SsEcatCycle& c = master_->cycle;
+  // The cycle sends its frame and sleeps on the socket for the answer itself: one wake-up
+  // of a real-time thread per exchange on our side, not three through the frame thread (on
+  // a kernel that does not preempt kernel code each can wait milliseconds for an ordinary
+  // process; docs/ethercat.md).
   const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
-                                  exchange_timeout_us_);
+                                  exchange_timeout_us_, 1U);
   ++exchanges_;
   const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
   in.stale = rc != 0;

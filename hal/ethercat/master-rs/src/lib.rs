@@ -18,7 +18,7 @@ use core::pin::pin;
 use core::task::{Context, Poll, Waker};
 use futures_lite::future::block_on;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 const MAX_SUBDEVICES: usize = 16;
@@ -63,6 +63,7 @@ pub struct SsEcatMaster {
     op: Option<OpGroup>,
     expected_wkc: u16,
     pdu_timeout: Duration,
+    io: Arc<Mutex<txrx::TxRx<'static>>>,
     error: [u8; 256],
 }
 
@@ -136,14 +137,55 @@ thread_local! {
 }
 
 /// Polls `fut` on this thread until it is ready (Some) or `deadline` passes (None, the
-/// future dropped by the caller). In between the thread parks with a timeout, woken by the
-/// frame thread when an answer came back: no executor, no reactor, and no ordinary thread
-/// on the path (futures_lite's and async-io's `block_on` fall back on async-io's helper
-/// thread, which a loaded host schedules late; see txrx.rs).
-fn run_until<F: Future>(fut: F, deadline: Instant) -> Option<F::Output> {
+/// future dropped by the caller).
+///
+/// With `io` (the real-time cycle's exchanges) this thread drives the socket itself: it sends
+/// the frame its future staged and sleeps in ppoll(2) on the socket until the answer or the
+/// deadline. The exchange then needs one wake-up on our side (this thread's, by the answer)
+/// instead of three (the frame thread's to send, its own by the answer, then this thread's).
+/// Each wake-up of a real-time thread can wait for an ordinary process to reach a preemption
+/// point on a kernel that does not preempt kernel code (Linux's `preempt=none`, the default of
+/// this CI VM's kernel): measured on the 2-core VM, 29 wake-ups of the frame thread delayed
+/// by more than 0.3 ms in 10 s, up to 3.7 ms behind pip, with the other core idle. The frame
+/// thread is kept out meanwhile (the mutex is held, the PDU loop's waker is a no-op).
+/// Spinning instead of sleeping was tried: no better in 8-s runs under load, and on 2 cores
+/// it takes the core the emulator's answer needs.
+///
+/// Without `io`, or when the frame thread holds the loop at that moment, the thread parks
+/// with a timeout, woken by the frame thread when an answer came back. No executor, no
+/// reactor, and no ordinary thread on the path in either case (futures_lite's and
+/// async-io's `block_on` fall back on async-io's helper thread; see txrx.rs).
+fn run_until<F: Future>(fut: F, deadline: Instant, io: Option<&Mutex<txrx::TxRx<'static>>>) -> Option<F::Output> {
     WAKER.with(|waker| {
         let mut cx = Context::from_waker(waker);
         let mut fut = pin!(fut);
+        if let Some(Ok(mut g)) = io.map(Mutex::try_lock) {
+            let t = &mut *g;
+            t.tx.replace_waker(Waker::noop()); // staging our frame wakes nobody: sent below
+            let mut done = None;
+            loop {
+                if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                    done = Some(v);
+                    break;
+                }
+                t.send_all();
+                t.receive_all();
+                if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                    done = Some(v);
+                    break;
+                }
+                let now = Instant::now();
+                if now >= deadline {
+                    break;
+                }
+                t.wait_readable(deadline - now);
+            }
+            t.tx.replace_waker(&t.waker);
+            if done.is_none() {
+                t.kick(); // anything left to send or receive is the frame thread's again
+            }
+            return done;
+        }
         loop {
             if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
                 return Some(v);
@@ -190,16 +232,17 @@ pub unsafe extern "C" fn ss_ecat_open(
         write_err(err, errlen, "PDU storage already in use");
         return core::ptr::null_mut();
     };
-    let task = match txrx::TxRx::new(&name, tx, rx) {
-        Ok(t) => t,
+    let io = match txrx::TxRx::new(&name, tx, rx) {
+        Ok(t) => Arc::new(Mutex::new(t)),
         Err(e) => {
             write_err(err, errlen, &format!("cannot open {}: {} (needs CAP_NET_RAW)", name, e));
             return core::ptr::null_mut();
         }
     };
+    let thread_io = Arc::clone(&io);
     let spawned = std::thread::Builder::new().name("ecat-txrx".into()).spawn(move || {
         realtime(tx_rx_priority);
-        task.run();
+        txrx::run(thread_io);
     });
     if spawned.is_err() {
         write_err(err, errlen, "cannot start the frame thread");
@@ -214,7 +257,7 @@ pub unsafe extern "C" fn ss_ecat_open(
     };
     let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, pdu_timeout, error: [0; 256] }))
+    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
 }
 
 /// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
@@ -349,8 +392,10 @@ pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
 /// `timeout_us` > 0 bounds the wait for this exchange below the PDU timeout (the scan
 /// cycle's budget): when it passes, the frame in flight is given up (its slot is released;
 /// an answer coming later is a stray frame, dropped by the frame thread) and the inputs
-/// stay as they were (a stale cycle). 0: wait up to the PDU timeout. The wait is the
-/// calling thread's own (parked until the frame thread wakes it or the deadline passes).
+/// stay as they were (a stale cycle). 0: wait up to the PDU timeout.
+///
+/// `drive` != 0: the calling thread sends and receives itself, sleeping on the socket
+/// (`run_until`); 0: it parks until the frame thread wakes it or the deadline passes.
 ///
 /// # Safety
 /// `m` comes from `ss_ecat_open`; the buffers hold `out_len` / `in_len` bytes.
@@ -363,6 +408,7 @@ pub unsafe extern "C" fn ss_ecat_exchange(
     in_len: usize,
     cycle: *mut SsEcatCycle,
     timeout_us: u32,
+    drive: u32,
 ) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
@@ -379,7 +425,8 @@ pub unsafe extern "C" fn ss_ecat_exchange(
     // ReceiveFrameFut::drop) and the PDI lock; the PDI (our inputs) is only written from a
     // frame that came back.
     let wait = if timeout_us == 0 { m.pdu_timeout } else { Duration::from_micros(u64::from(timeout_us)) };
-    let result = run_until(group.tx_rx(md), Instant::now() + wait)
+    let io = (drive != 0).then_some(&*m.io);
+    let result = run_until(group.tx_rx(md), Instant::now() + wait, io)
         .unwrap_or(Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu)));
     let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
     let mut off = 0usize;

@@ -23,7 +23,7 @@ use ethercrab::{error::Error, PduRx, PduTx};
 use std::io;
 use std::os::fd::RawFd;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Frames received that matched no PDU in flight (late or corrupted), and sends that failed.
 pub static STRAY_FRAMES: AtomicU64 = AtomicU64::new(0);
@@ -102,13 +102,15 @@ impl std::task::Wake for EventFd {
     }
 }
 
-/// Sends every frame the PDU loop has ready and hands every frame received to it, for as
-/// long as the master lives. Never ends on a bad frame.
+/// The socket and the two halves of ethercrab's PDU loop, behind one mutex: the frame
+/// thread drives them, and so does the real-time cycle for its own exchange (it sends its
+/// frame and sleeps on the socket itself: lib.rs `run_until`).
 pub struct TxRx<'a> {
     socket: RawSocket,
     wake_fd: RawFd,
-    waker: Waker,
-    tx: PduTx<'a>,
+    /// Wakes the frame thread (the eventfd): the PDU loop's waker while the thread drives it.
+    pub waker: Waker,
+    pub tx: PduTx<'a>,
     rx: PduRx<'a>,
     buf: [u8; FRAME_BUF],
 }
@@ -125,58 +127,90 @@ impl<'a> TxRx<'a> {
         Ok(TxRx { socket, wake_fd, waker, tx, rx, buf: [0; FRAME_BUF] })
     }
 
-    /// The loop of the frame thread (never returns while the master lives).
-    pub fn run(mut self) {
+    /// Sends every frame ready; false when the kernel refused one (link down: the frame
+    /// stays sendable, and the exchange waiting for it becomes stale at its deadline).
+    pub fn send_all(&mut self) -> bool {
         let fd = self.socket.fd;
+        while let Some(frame) = self.tx.next_sendable_frame() {
+            let sent = frame.send_blocking(|data| {
+                // SAFETY: `data` is readable for its length.
+                let n = unsafe { libc::send(fd, data.as_ptr().cast(), data.len(), 0) };
+                if n < 0 {
+                    Err(Error::SendFrame)
+                } else {
+                    Ok(n as usize)
+                }
+            });
+            if sent.is_err() {
+                SEND_ERRORS.fetch_add(1, Ordering::Relaxed);
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Hands every frame waiting in the socket to the PDU loop (which wakes its exchange).
+    pub fn receive_all(&mut self) {
         loop {
+            // SAFETY: `buf` is writable for its length.
+            let n = unsafe { libc::recv(self.socket.fd, self.buf.as_mut_ptr().cast(), self.buf.len(), libc::MSG_DONTWAIT) };
+            if n < 0 {
+                if last_error().kind() == io::ErrorKind::Interrupted {
+                    continue;
+                }
+                return; // nothing more (EAGAIN), or the link went down (read once, cleared)
+            }
+            if self.rx.receive_frame(&self.buf[..n as usize]).is_err() {
+                STRAY_FRAMES.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    /// Sleeps until a frame can be read from the socket or `timeout` passes (ppoll(2): no
+    /// millisecond rounding).
+    pub fn wait_readable(&self, timeout: std::time::Duration) {
+        let ts = libc::timespec { tv_sec: timeout.as_secs() as libc::time_t, tv_nsec: timeout.subsec_nanos() as libc::c_long };
+        let mut fds = [libc::pollfd { fd: self.socket.fd, events: libc::POLLIN, revents: 0 }];
+        // SAFETY: one valid pollfd entry and a valid timespec; no signal mask change.
+        unsafe { libc::ppoll(fds.as_mut_ptr(), 1, &ts, core::ptr::null()) };
+    }
+
+    /// Wakes the frame thread (after the cycle drove the loop itself and gives it back).
+    pub fn kick(&self) {
+        self.waker.wake_by_ref();
+    }
+}
+
+/// The loop of the frame thread (never returns while the master lives). It holds the mutex
+/// only while it sends and receives, never while it waits.
+pub fn run(io: Arc<Mutex<TxRx<'static>>>) {
+    let (fd, wake_fd) = {
+        let g = io.lock().unwrap_or_else(|e| e.into_inner());
+        (g.socket.fd, g.wake_fd)
+    };
+    loop {
+        let sent = {
+            let mut g = io.lock().unwrap_or_else(|e| e.into_inner());
+            let t = &mut *g;
             // Registered before looking for frames: one staged after the look wakes the poll.
-            self.tx.replace_waker(&self.waker);
-            if self.tx.should_exit() {
+            t.tx.replace_waker(&t.waker);
+            if t.tx.should_exit() {
                 return;
             }
-            let mut send_failed = false;
-            while let Some(frame) = self.tx.next_sendable_frame() {
-                let sent = frame.send_blocking(|data| {
-                    // SAFETY: `data` is readable for its length.
-                    let n = unsafe { libc::send(fd, data.as_ptr().cast(), data.len(), 0) };
-                    if n < 0 {
-                        Err(Error::SendFrame)
-                    } else {
-                        Ok(n as usize)
-                    }
-                });
-                if sent.is_err() {
-                    // A link down refuses the send; the frame stays sendable and the exchange
-                    // waiting for it becomes stale at its deadline. Tried again shortly.
-                    SEND_ERRORS.fetch_add(1, Ordering::Relaxed);
-                    send_failed = true;
-                    break;
-                }
-            }
-            loop {
-                // SAFETY: `buf` is writable for its length.
-                let n = unsafe { libc::recv(fd, self.buf.as_mut_ptr().cast(), self.buf.len(), libc::MSG_DONTWAIT) };
-                if n < 0 {
-                    if last_error().kind() == io::ErrorKind::Interrupted {
-                        continue;
-                    }
-                    break; // nothing more (EAGAIN), or the link went down (read once, cleared)
-                }
-                if self.rx.receive_frame(&self.buf[..n as usize]).is_err() {
-                    STRAY_FRAMES.fetch_add(1, Ordering::Relaxed);
-                }
-            }
-            let mut fds = [
-                libc::pollfd { fd, events: libc::POLLIN, revents: 0 },
-                libc::pollfd { fd: self.wake_fd, events: libc::POLLIN, revents: 0 },
-            ];
-            // SAFETY: two valid pollfd entries.
-            unsafe { libc::poll(fds.as_mut_ptr(), 2, if send_failed { RETRY_MS } else { -1 }) };
-            if fds[1].revents & libc::POLLIN != 0 {
-                let mut count: u64 = 0;
-                // SAFETY: reads 8 bytes into a live u64 (resets the eventfd's counter).
-                unsafe { libc::read(self.wake_fd, (&mut count as *mut u64).cast(), 8) };
-            }
+            let sent = t.send_all();
+            t.receive_all();
+            sent
+        };
+        let mut fds = [
+            libc::pollfd { fd, events: libc::POLLIN, revents: 0 },
+            libc::pollfd { fd: wake_fd, events: libc::POLLIN, revents: 0 },
+        ];
+        // SAFETY: two valid pollfd entries.
+        unsafe { libc::poll(fds.as_mut_ptr(), 2, if sent { -1 } else { RETRY_MS }) };
+        if fds[1].revents & libc::POLLIN != 0 {
+            let mut count: u64 = 0;
+            // SAFETY: reads 8 bytes into a live u64 (resets the eventfd's counter).
+            unsafe { libc::read(wake_fd, (&mut count as *mut u64).cast(), 8) };
         }
     }
 }
