@@ -33,7 +33,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from ecat_reaction import Control, Pendant, arm, figures, free_port, wait_http  # noqa: E402
+from ecat_reaction import PIN, Control, Pendant, arm, figures, free_port, wait_http  # noqa: E402
 
 LOST = re.compile(r"FIELDBUS_LOST after (\d+) stale cycles, ([0-9.]+) ms after the last answered frame")
 
@@ -64,11 +64,11 @@ class Cell:
     def __init__(self, a, d):
         self.ctl_path = os.path.join(d, "ctl.sock")
         self.run_log = os.path.join(d, "run.log")
-        self.sim = subprocess.Popen([a.bin, "ecat-sim", "--ifname", "ecs", "--control", self.ctl_path],
+        self.sim = subprocess.Popen([a.bin, "ecat-sim", "--ifname", "ecs", "--control", self.ctl_path, "--cpu", PIN],
                                     stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
         wait(lambda: os.path.exists(self.ctl_path), "the emulator's control socket", 10)
         self.port = free_port()
-        self.run = subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--ecat-sim-control",
+        self.run = subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN, "--ecat-sim-control",
                                      self.ctl_path, "--port", str(self.port), "--no-opcua", "--db",
                                      os.path.join(d, "ev.db")],
                                     stdout=open(self.run_log, "w"), stderr=subprocess.STDOUT, cwd=d,

@@ -146,10 +146,12 @@ def ecat():
         subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
         for dev in ("ecm", "ecs", "lo"):
             subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
-        sim = subprocess.Popen(["ip", "netns", "exec", ns, os.path.join(BIN, "safestate"), "ecat-sim", "--ifname", "ecs"],
+        pin = str(os.cpu_count() - 1)  # the loop and the emulator on one CPU (docs/ethercat.md)
+        sim = subprocess.Popen(["ip", "netns", "exec", ns, os.path.join(BIN, "safestate"), "ecat-sim", "--ifname", "ecs",
+                                "--cpu", pin],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        res = json.loads(run(["ip", "netns", "exec", ns, os.path.join(BIN, "safestate"), "ecat-bench", "--ifname",
-                              "ecm", "--cycles", str(RT_SECONDS * 1000), "--json"]))
+        res = json.loads(run(["ip", "netns", "exec", ns, "taskset", "-c", pin, os.path.join(BIN, "safestate"),
+                              "ecat-bench", "--ifname", "ecm", "--cycles", str(RT_SECONDS * 1000), "--json"]))
     finally:
         if sim is not None:
             sim.terminate()

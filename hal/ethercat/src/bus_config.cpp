@@ -197,7 +197,7 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
   if (!setting("frame_timeout_us", 100, 100000, out.frame_timeout_us) ||
       !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms) ||
       !setting("stale_cycles", 1, 1000, out.stale_cycles) ||
-      !setting("watchdog_cycles", 2, 10000, out.watchdog_cycles)) {
+      !setting("watchdog_cycles", kMinWatchdogCycles, kMaxWatchdogCycles, out.watchdog_cycles)) {
     err = c.err;
     return false;
   }

@@ -42,6 +42,10 @@ struct Subdevice {
   std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0;  // TxPDO byte offsets
 };
 
+// The range of `watchdog_cycles` in a bus configuration.
+inline constexpr std::uint32_t kMinWatchdogCycles = 2;
+inline constexpr std::uint32_t kMaxWatchdogCycles = 10000;
+
 struct BusConfig {
   std::vector<Subdevice> subdevices;  // in bus order
   std::uint32_t frame_timeout_us = 900;

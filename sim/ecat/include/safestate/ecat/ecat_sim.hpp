@@ -16,6 +16,9 @@ struct EcatSimOptions {
   std::string control;      // Unix socket path; empty = no control channel
   std::uint32_t cycle_us = 1000;
   int priority = 70;  // SCHED_FIFO when permitted; 0 = ordinary scheduling
+  // Pin the frame loop to this CPU (-1: no pinning). The tests put it on the CPU of
+  // `safestate run --cpu`: see docs/ethercat.md, "Timing on a shared host".
+  int cpu = -1;
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
   std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
 };
