@@ -238,8 +238,12 @@ void Backend::read(ProcessImageIn& in) noexcept {
   // of a real-time thread per exchange on our side, not three through the frame thread (on
   // a kernel that does not preempt kernel code each can wait milliseconds for an ordinary
   // process; docs/ethercat.md).
+  // Once the bus is lost (latched) there is no answer worth waiting for: the exchange only
+  // looks (1 us), so that the cycle does not sleep to the end of its budget every period and
+  // wake late from it (the lockout stands whatever comes back).
+  const std::uint32_t wait_us = health_.ok ? exchange_timeout_us_ : 1U;
   const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
-                                  exchange_timeout_us_, 1U);
+                                  wait_us, 1U);
   ++exchanges_;
   const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
   in.stale = rc != 0;

@@ -155,6 +155,13 @@ thread_local! {
 /// with a timeout, woken by the frame thread when an answer came back. No executor, no
 /// reactor, and no ordinary thread on the path in either case (futures_lite's and
 /// async-io's `block_on` fall back on async-io's helper thread; see txrx.rs).
+/// The last part of a driven exchange's wait is spent awake (polling the socket) instead of
+/// asleep: a thread that sleeps to its deadline wakes late from it when its CPU went idle
+/// (a hypervisor wakes an idle vCPU in up to ~1 ms here) or runs an ordinary process in
+/// kernel code, and the cycle overran its period in the stale cycles before a lockout.
+/// Answers take ~0.1 ms; one that comes this late is stale anyway.
+const SPIN_TAIL: Duration = Duration::from_micros(200);
+
 fn run_until<F: Future>(fut: F, deadline: Instant, io: Option<&Mutex<txrx::TxRx<'static>>>) -> Option<F::Output> {
     WAKER.with(|waker| {
         let mut cx = Context::from_waker(waker);
@@ -178,7 +185,11 @@ fn run_until<F: Future>(fut: F, deadline: Instant, io: Option<&Mutex<txrx::TxRx<
                 if now >= deadline {
                     break;
                 }
-                t.wait_readable(deadline - now);
+                if deadline - now > SPIN_TAIL {
+                    t.wait_readable(deadline - now - SPIN_TAIL);
+                } else {
+                    core::hint::spin_loop(); // the deadline itself is kept awake: see SPIN_TAIL
+                }
             }
             t.tx.replace_waker(&t.waker);
             if done.is_none() {
