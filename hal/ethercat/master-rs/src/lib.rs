@@ -151,8 +151,7 @@ thread_local! {
 /// Spinning instead of sleeping was tried: no better in 8-s runs under load, and on 2 cores
 /// it takes the core the emulator's answer needs.
 ///
-/// Without `io`, or when the frame thread holds the loop at that moment, the thread parks
-/// with a timeout, woken by the frame thread when an answer came back. No executor, no
+/// Without `io` (the start-up's keep-alive), the thread parks with a timeout, woken by the frame thread when an answer came back. No executor, no
 /// reactor, and no ordinary thread on the path in either case (futures_lite's and
 /// async-io's `block_on` fall back on async-io's helper thread; see txrx.rs).
 /// The last part of a driven exchange's wait is spent awake (polling the socket) instead of
@@ -166,7 +165,12 @@ fn run_until<F: Future>(fut: F, deadline: Instant, io: Option<&Mutex<txrx::TxRx<
     WAKER.with(|waker| {
         let mut cx = Context::from_waker(waker);
         let mut fut = pin!(fut);
-        if let Some(Ok(mut g)) = io.map(Mutex::try_lock) {
+        // lock(), not try_lock(): the frame thread holds the loop only while it sends and
+        // receives (microseconds, at a higher priority than the cycle's), and falling back to
+        // waiting for it when it held the loop at that moment (it is woken by every answer
+        // too, and a late wake-up made it take the loop just as the next exchange began)
+        // put its wake-ups back on the path: sporadic stale cycles.
+        if let Some(mut g) = io.map(|m| m.lock().unwrap_or_else(|e| e.into_inner())) {
             let t = &mut *g;
             t.tx.replace_waker(Waker::noop()); // staging our frame wakes nobody: sent below
             let mut done = None;
