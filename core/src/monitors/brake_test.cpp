@@ -2,6 +2,8 @@
 // counts the age of the last passed test in cycles from the age given at start-up.
 #include "safestate/core/brake_test.hpp"
 
+#include <cmath>
+
 #include "safestate/core/config.hpp"
 
 namespace safestate::core {
@@ -15,7 +17,7 @@ constexpr double kUsPerHour = 3600.0 * 1.0e6;
 std::int64_t hours_to_cycles(float h, std::uint32_t cycle_us) noexcept {
   // Start-up only (soft double on a Cortex-M4 is fine here, never in the cycle).
   const double c = (static_cast<double>(h) * kUsPerHour) / static_cast<double>(cycle_us);
-  return static_cast<std::int64_t>(c + 0.5);
+  return static_cast<std::int64_t>(std::llround(c));  // safety/ bounds the hours: no overflow
 }
 
 float absf(float x) noexcept { return (x < 0.0F) ? -x : x; }
@@ -46,7 +48,7 @@ void BrakeTest::configure(const BrakeTestLimits& limits, std::uint32_t cycle_us,
   overdue_ = hours_to_cycles(limits.interval_h + limits.grace_h, cycle_us_);
   offset_rad_ = kBrakeTestOffsetFactor * limits.max_drift_deg / kRadToDeg;
   const float pm = limits.test_torque_pct * 10.0F;
-  torque_permille_ = (pm >= 65535.0F) ? std::uint16_t{65535U} : static_cast<std::uint16_t>(pm + 0.5F);
+  torque_permille_ = (pm >= 65535.0F) ? std::uint16_t{65535U} : static_cast<std::uint16_t>(std::lround(pm));
 }
 
 void BrakeTest::set_history(const BrakeTestHistory& h) noexcept {
