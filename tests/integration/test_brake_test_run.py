@@ -11,7 +11,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_gateway import ROOT, get_json, pendant, run  # noqa: E402
-from test_safety_run import checksum, logged, start, stop, t1_idle  # noqa: E402
+from test_safety_run import arm_in_auto, checksum, logged, start, stop, t1_idle  # noqa: E402
 
 CFG = ROOT / "tests" / "scenarios" / "configs" / "brake-test.json"  # interval 8 h, grace 1 h
 TEST_S = 15.0  # the test takes about 6.8 s of cycles
@@ -70,15 +70,7 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
         assert bt["last"] == "passed" and 7.9 <= bt["due_in_h"] <= 8.0, bt
         assert "BRAKE_TEST_DUE" not in st["alarms"]
 
-        async def auto():
-            p = await pendant(s)
-            await p.state("ESTOP_RESET_NEEDED")
-            assert await p.command("reset") == "OK"
-            await p.state("IDLE")
-            assert await p.command("servo_on") == "OK"
-            await p.state("OPERATIONAL", "AUTO_IDLE")
-            await p.close()
-        run(auto())
+        run(arm_in_auto(s))
     finally:
         stop(s)
 

@@ -57,6 +57,17 @@ async def t1_idle(p):
     await p.state("IDLE")
 
 
+async def arm_in_auto(s):
+    """From boot: reset, servo_on in AUTO, OPERATIONAL/AUTO_IDLE (each answer OK)."""
+    p = await pendant(s)
+    await p.state("ESTOP_RESET_NEEDED")
+    assert await p.command("reset") == "OK"
+    await p.state("IDLE")
+    assert await p.command("servo_on") == "OK"
+    await p.state("OPERATIONAL", "AUTO_IDLE")
+    await p.close()
+
+
 def run_refused(db, path):
     """`safestate run --safety path`, expected to exit at once: (exit code, stdout, stderr).
     One that starts instead is stopped (Cat 1, SIGINT) and reported."""
@@ -201,15 +212,7 @@ def test_validate_config_is_kept_across_a_restart(tmp_path):
         assert st["safety"]["validated"] is True and "CONFIG_NOT_VALIDATED" not in st["alarms"], st
         assert get_json(s.port, "/api/safety")["confirmation"]["checksum"] == code
 
-        async def auto():
-            p = await pendant(s)
-            await p.state("ESTOP_RESET_NEEDED")
-            assert await p.command("reset") == "OK"
-            await p.state("IDLE")
-            assert await p.command("servo_on") == "OK"
-            await p.state("OPERATIONAL", "AUTO_IDLE")
-            await p.close()
-        run(auto())
+        run(arm_in_auto(s))
     finally:
         stop(s)
 
