@@ -394,7 +394,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         if ((in.mode == Mode::T1) && (armed_mode_ == Mode::T1) &&
             !(fb.max_point_speed_mm_s <= timing_.t1_speed_limit_mm_s)) {
           hit(AlarmId::T1_SPEED_EXCEEDED, detail_of(Signal::drive, Channel::none, fb.fastest_axis,
-                                                    static_cast<std::uint16_t>(fb.max_point_speed_mm_s)));
+                                                    detail_code(fb.max_point_speed_mm_s)));
         }
         // @req ST-STOP-TIME
         const auto* s = std::get_if<StStopping>(&state_);
@@ -455,8 +455,7 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
         if (c.brake_test.failed) {
           // Names the axis and its drift (code: millidegrees, saturated).
           const float mdeg = c.brake_test.fail_drift_deg * 1000.0F;
-          const auto code = static_cast<std::uint16_t>((mdeg < 65535.0F) ? mdeg : 65535.0F);
-          hit(AlarmId::BRAKE_TEST_FAILED, detail_of(Signal::axis, Channel::none, c.brake_test.fail_axis, code));
+          hit(AlarmId::BRAKE_TEST_FAILED, detail_of(Signal::axis, Channel::none, c.brake_test.fail_axis, detail_code(mdeg)));
         }
         break;
       default:

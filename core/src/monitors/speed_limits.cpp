@@ -24,7 +24,7 @@ void SpeedLimitMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   if (!f.hit && !(r.tcp_speed_mm_s <= r.speed_limit_mm_s)) {
     f.hit = true;
     f.detail.signal = Signal::tcp;
-    f.detail.code = static_cast<std::uint16_t>((r.tcp_speed_mm_s < 65535.0F) ? r.tcp_speed_mm_s : 65535.0F);
+    f.detail.code = detail_code(r.tcp_speed_mm_s);
   }
   r.speed_over = f.hit;
   if (c.powered) {

@@ -48,7 +48,7 @@ void SsmMonitor::check(const SafetyInputs& in, float tcp_speed, float limit, boo
   if (powered && (over_ > reaction_)) {
     r.violated.hit = true;
     r.violated.detail.signal = Signal::separation;
-    r.violated.detail.code = static_cast<std::uint16_t>((tcp_speed < 65535.0F) && (tcp_speed >= 0.0F) ? tcp_speed : 65535.0F);
+    r.violated.detail.code = detail_code(tcp_speed);
   }
 }
 

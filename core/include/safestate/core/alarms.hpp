@@ -196,6 +196,16 @@ struct AlarmDetail {
   std::uint16_t code = 0;  // e.g. the drive statusword, or the command id
 };
 
+// A measured value as an alarm detail's code, saturated to 0..65535: NaN (unknown) and
+// values above as 65535, negatives as 0. A plain cast of NaN or of an out-of-range float
+// to an integer is undefined behaviour (found by clang's UBSan: a NaN T1 speed).
+[[nodiscard]] constexpr std::uint16_t detail_code(float v) noexcept {
+  if (!(v < 65535.0F)) {
+    return 65535U;
+  }
+  return (v > 0.0F) ? static_cast<std::uint16_t>(v) : std::uint16_t{0U};
+}
+
 // The set of active alarms with since-when and cause detail. Fixed size, no heap.
 class AlarmSet {
  public:
