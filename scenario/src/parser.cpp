@@ -855,9 +855,12 @@ class Parser {
     if (ok()) {
       end_config();
     }
-    // Ranges may be written after later lines: order by first cycle, file order kept.
-    std::stable_sort(result_.scenario.steps.begin(), result_.scenario.steps.end(),
-                     [](const Step& a, const Step& b) { return a.t < b.t; });
+    // Ranges may be written after later lines: order by first cycle, file order kept (one
+    // step per line, so (t, line) is the stable order; std::stable_sort's temporary buffer
+    // is deprecated in libstdc++ 12 and refused by clang's -Werror).
+    std::sort(result_.scenario.steps.begin(), result_.scenario.steps.end(), [](const Step& a, const Step& b) {
+      return (a.t < b.t) || ((a.t == b.t) && (a.line < b.line));
+    });
     std::size_t at = 0;
     if (ok()) {
       if (Problem p = safety_keys::check_details(result_.scenario, at); !p.empty()) {

@@ -138,7 +138,6 @@ class Esc {
   std::array<std::uint8_t, kEscMemory> mem_{};
   std::array<std::uint8_t, 512> zeros_{};
   std::uint64_t last_output_ns_ = 0;
-  bool outputs_valid_ = false;
 };
 
 }  // namespace safestate::ecat
