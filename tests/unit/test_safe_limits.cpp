@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 
 #include "safestate/controller/controller.hpp"
@@ -213,6 +214,72 @@ TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
   EXPECT_TRUE(r.outside);
 }
 
+// The zone monitor skips a zone while the arm provably cannot have reached it (conservative
+// advancement, zones.cpp). Over a random walk that keeps crossing zone faces, with jumps,
+// its verdict must equal a test of every zone on every point every cycle.
+TEST(Zones, SkippingFarZonesNeverMissesAZoneOnARandomWalk) {
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  l.orientation_enabled = false;
+  for (auto& j : l.joints) {
+    j = core::JointLimit{-10.0F, 10.0F, 100.0F};  // only the zones make `outside`
+  }
+  const core::ArmGeometry arm = controller::Controller::arm_geometry(motion::kRobot);
+  std::mt19937 rng(20261126U);
+  std::uniform_real_distribution<float> ang(-1.5F, 1.5F);
+  std::uniform_real_distribution<float> unit(0.0F, 1.0F);
+  std::normal_distribution<float> jitter(0.0F, 0.01F);
+  // Zones around points the arm passes: boxes about the TCP or a link origin of random poses.
+  for (std::size_t i = 0; i < core::kMaxZones; ++i) {
+    core::ArmPose p{};
+    core::arm_forward(arm, {ang(rng), ang(rng), ang(rng), ang(rng), ang(rng), ang(rng)}, l.tcp_mm, p);
+    const core::Vec3 c = (i % 2U == 0U) ? p.tcp : p.origin[3U + (i % 4U)];
+    core::Zone z{};
+    std::snprintf(z.name.data(), z.name.size(), "z%zu", i);
+    z.kind = (i < 13U) ? core::ZoneKind::keep_out : (i < 14U) ? core::ZoneKind::keep_in : core::ZoneKind::reduced;
+    const float half = 20.0F + (60.0F * unit(rng));
+    for (std::size_t k = 0; k < 3U; ++k) {
+      // The keep_in box: the cell about the base, which the stretched arm leaves.
+      z.min_mm[k] = (z.kind == core::ZoneKind::keep_in) ? ((k == 2U) ? -300.0F : -650.0F) : c[k] - half;
+      z.max_mm[k] = (z.kind == core::ZoneKind::keep_in) ? ((k == 2U) ? 900.0F : 650.0F) : c[k] + half;
+    }
+    l.zones[i] = z;
+  }
+  l.zone_count = static_cast<std::uint8_t>(core::kMaxZones);
+  SafeLimitMonitors m = monitors(l);
+  std::array<float, 6> q{};
+  int changes = 0;
+  int out_cycles = 0;
+  bool was_outside = false;
+  for (int cycle = 0; cycle < 20000; ++cycle) {
+    for (float& v : q) {
+      v = std::clamp(v + jitter(rng) + ((cycle % 997 == 0) ? 0.5F : 0.0F), -1.6F, 1.6F);
+    }
+    LimitReport r{};
+    m.evaluate(at(q), false, false, 0, r);
+    const core::ArmPose& pose = m.pose();
+    bool outside = false;
+    std::uint8_t reduced = 0;
+    for (std::size_t i = 0; i < core::kMaxZones; ++i) {
+      const core::Zone& z = l.zones[i];
+      if (z.kind != core::ZoneKind::reduced) {
+        outside = outside || (core::ZoneMonitor::outside_mm(z, pose, l.tool_radius_mm) > 0.0F);
+      } else if ((reduced == 0U) && (pose.tcp[0] >= z.min_mm[0]) && (pose.tcp[0] <= z.max_mm[0]) &&
+                 (pose.tcp[1] >= z.min_mm[1]) && (pose.tcp[1] <= z.max_mm[1]) && (pose.tcp[2] >= z.min_mm[2]) &&
+                 (pose.tcp[2] <= z.max_mm[2])) {
+        reduced = static_cast<std::uint8_t>(i + 1U);
+      }
+    }
+    ASSERT_EQ(r.outside, outside) << "cycle " << cycle;
+    ASSERT_EQ(r.reduced_zone, reduced) << "cycle " << cycle;
+    changes += (outside != was_outside) ? 1 : 0;
+    out_cycles += outside ? 1 : 0;
+    was_outside = outside;
+  }
+  std::printf("zones: %d changes, %d of 20000 cycles outside\n", changes, out_cycles);
+  EXPECT_GT(changes, 20) << "the walk must cross zone faces often for the comparison to mean anything";
+}
+
 // @req LIM-RECOVERY
 TEST(Recovery, WorseThanTheBestSinceTrackingTripsWithinTolerance) {
   core::RecoveryTrack t{};
@@ -247,4 +314,16 @@ TEST(SpeedLimit, ResetIsRefusedWhileAJointIsStillFasterThanItsLimit) {
   b.cycle();
   EXPECT_EQ(b.command(core::CommandId::reset), core::Result::OK);
   EXPECT_FALSE(b.ssm().alarms().active(core::AlarmId::SPEED_LIMIT));
+}
+
+// An alarm detail's code from a measured float: saturated, never a cast of NaN or of an
+// out-of-range value (undefined behaviour; clang's UBSan stopped on a NaN T1 speed).
+TEST(AlarmDetail, CodeFromAFloatIsSaturatedAndNaNIsTheTop) {
+  EXPECT_EQ(core::detail_code(std::nanf("")), 65535U);
+  EXPECT_EQ(core::detail_code(1.0e9F), 65535U);
+  EXPECT_EQ(core::detail_code(65535.0F), 65535U);
+  EXPECT_EQ(core::detail_code(-3.0F), 0U);
+  EXPECT_EQ(core::detail_code(-std::numeric_limits<float>::infinity()), 0U);
+  EXPECT_EQ(core::detail_code(12.7F), 12U);
+  EXPECT_EQ(core::detail_code(65534.5F), 65534U);
 }

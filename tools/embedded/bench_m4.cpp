@@ -5,6 +5,9 @@
 //   0  not configured: the cycle without the monitors (the landed baseline)
 //   1  configured like the built-in configuration: no zone, no orientation limit
 //   2  sixteen zones (14 keep_out, 1 keep_in, 1 reduced) and an orientation cone
+//   3  as 2, but joint 1 jumps by 1 rad every cycle: more than the zone monitor's
+//      kMaxStepMm, so no zone is ever skipped as provably far (every zone tested every
+//      cycle: the worst case of the zones that the arm does not reach)
 // Two runs of different lengths give the cost per cycle without start-up. Exits through
 // ARM semihosting (SYS_EXIT). Bench only: never linked into a product image.
 #include <cstdint>
@@ -69,7 +72,7 @@ core::SafetyLimits limits(int zones) {
 
 void bench() {
   if (BENCH_LIMITS > 0) {
-    g_controller.configure_limits(limits(BENCH_LIMITS == 2 ? 16 : 0), true);
+    g_controller.configure_limits(limits(BENCH_LIMITS >= 2 ? 16 : 0), true);
   }
   for (auto& d : g_in.drive) {
     d.statusword = 0x0040U;  // Switch on disabled
@@ -81,6 +84,9 @@ void bench() {
     for (std::size_t i = 0; i < 6; ++i) {
       g_in.drive[i].velocity_rad_s = 0.05F;
       g_in.drive[i].position_rad = home[i] + (0.00005F * static_cast<float>(c));
+    }
+    if ((BENCH_LIMITS == 3) && ((c % 2U) == 1U)) {
+      g_in.drive[0].position_rad += 1.0F;
     }
     g_controller.step(g_in, nullptr, 0, g_out);
   }

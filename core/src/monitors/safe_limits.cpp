@@ -10,6 +10,7 @@ namespace safestate::core {
 void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept {
   limits_ = limits;
   arm_ = prepare_arm(arm);
+  zones_.reset(arm_, limits_.tcp_mm);  // other zones: nothing the last cycles proved holds for them
   Vec3& a = limits_.orientation_axis;
   const float len = std::sqrt((a[0] * a[0]) + (a[1] * a[1]) + (a[2] * a[2]));
   if (len > 0.0F) {
@@ -28,8 +29,10 @@ void SafeLimitMonitors::evaluate(const Feedback& fb, bool powered, bool input_re
   if (!configured_) {
     return;
   }
-  JointArray q{};
-  JointArray qd{};
+  // Written whole by the loop: no value-initialisation first (two byte-wise newlib-nano
+  // memsets per cycle on the Cortex-M4).
+  JointArray q;   // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init)
+  JointArray qd;  // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init)
   for (std::size_t i = 0; i < kAxes; ++i) {
     q[i] = fb.drive[i].position_rad;
     qd[i] = fb.drive[i].velocity_rad_s;

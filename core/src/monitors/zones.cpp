@@ -2,7 +2,9 @@
 // tool.radius_mm, the link-frame origins 2..6 are points. A keep_in box must contain
 // every sphere and point whole; a keep_out box must touch none -> else ZONE_VIOLATION
 // naming the zone. A `reduced` box only makes reduced mode active while the TCP is in it.
+#include <bit>
 #include <cmath>
+#include <limits>
 
 #include "safestate/core/monitors.hpp"
 
@@ -18,6 +20,7 @@ bool inside(const Zone& z, const Vec3& p) noexcept {
 }
 
 float max_of(float a, float b) noexcept { return (a > b) ? a : b; }
+float min_of(float a, float b) noexcept { return (a < b) ? a : b; }
 
 // Keep-in: how far a sphere of radius r about p reaches beyond the box (<= 0 inside).
 float beyond(const Zone& z, const Vec3& p, float r) noexcept {
@@ -58,38 +61,62 @@ struct Bounds {
 };
 
 Bounds bounds_of(const ArmPose& p, float r) noexcept {
-  Bounds b;  // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init): each member written below
-  float sum = 0.0F;  // NaN if any coordinate is (one test instead of eighteen)
-  for (std::size_t k = 0; k < 3U; ++k) {
-    b.lo[k] = p.tcp[k] - r;
-    b.hi[k] = p.tcp[k] + r;
-    sum += p.tcp[k];
-  }
+  // In six named scalars: on a Cortex-M4F at -Os the box stays in FPU registers instead of
+  // a load, compare, store per coordinate (docs/performance.md, M4 instructions per cycle).
+  float lx = p.tcp[0] - r;  // NOLINT(readability-isolate-declaration)
+  float ly = p.tcp[1] - r;
+  float lz = p.tcp[2] - r;
+  float hx = p.tcp[0] + r;
+  float hy = p.tcp[1] + r;
+  float hz = p.tcp[2] + r;
+  float sum = p.tcp[0] + p.tcp[1] + p.tcp[2];  // NaN if any coordinate is (one test instead of eighteen)
   for (std::size_t i = kFirstLinkPoint; i < kArmFrames; ++i) {
-    for (std::size_t k = 0; k < 3U; ++k) {
-      const float v = p.origin[i][k];
-      b.lo[k] = (v < b.lo[k]) ? v : b.lo[k];
-      b.hi[k] = (v > b.hi[k]) ? v : b.hi[k];
-      sum += v;
-    }
+    const float x = p.origin[i][0];
+    const float y = p.origin[i][1];
+    const float z = p.origin[i][2];
+    lx = min_of(x, lx);
+    hx = max_of(x, hx);
+    ly = min_of(y, ly);
+    hy = max_of(y, hy);
+    lz = min_of(z, lz);
+    hz = max_of(z, hz);
+    sum += x + y + z;
   }
+  Bounds b;  // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init): each member written below
+  b.lo = {lx, ly, lz};
+  b.hi = {hx, hy, hz};
   b.known = !std::isnan(sum);  // an infinity too can make it NaN: then per point, as for NaN
   return b;
 }
 
-// True when the zone is respected by every point in `b` for certain: a keep_out box that
-// the bounds do not reach, a keep_in box that holds them whole. Then no per-point distance
-// is needed: how far a zone is violated matters only when it is (recovery, SPEC §10).
-bool clearly_respected(const Zone& z, const Bounds& b) noexcept {
+// How far the zone is clear of the box `b` for certain, mm (<= 0: not clear for certain;
+// then the per-point distances decide). For a keep_out box the first axis along which they
+// are apart, by how much (one separating axis is proof; a smaller gap than the largest only
+// means the zone is tested again sooner), for a keep_in box the smallest slack inside it.
+// NaN bounds: never clear.
+float clearance(const Zone& z, const Bounds& b) noexcept {
   if (!b.known) {
-    return false;
+    return -1.0F;
   }
   if (z.kind == ZoneKind::keep_out) {
-    return (b.hi[0] < z.min_mm[0]) || (b.lo[0] > z.max_mm[0]) || (b.hi[1] < z.min_mm[1]) ||
-           (b.lo[1] > z.max_mm[1]) || (b.hi[2] < z.min_mm[2]) || (b.lo[2] > z.max_mm[2]);
+    for (std::size_t k = 0; k < 3U; ++k) {
+      const float below = z.min_mm[k] - b.hi[k];
+      if (below > 0.0F) {
+        return below;
+      }
+      const float above = b.lo[k] - z.max_mm[k];
+      if (above > 0.0F) {
+        return above;
+      }
+    }
+    return -1.0F;
   }
-  return (b.lo[0] >= z.min_mm[0]) && (b.hi[0] <= z.max_mm[0]) && (b.lo[1] >= z.min_mm[1]) &&
-         (b.hi[1] <= z.max_mm[1]) && (b.lo[2] >= z.min_mm[2]) && (b.hi[2] <= z.max_mm[2]);
+  float s = b.lo[0] - z.min_mm[0];
+  s = min_of(s, z.max_mm[0] - b.hi[0]);
+  s = min_of(s, b.lo[1] - z.min_mm[1]);
+  s = min_of(s, z.max_mm[1] - b.hi[1]);
+  s = min_of(s, b.lo[2] - z.min_mm[2]);
+  return min_of(s, z.max_mm[2] - b.hi[2]);
 }
 
 }  // namespace
@@ -108,6 +135,28 @@ float ZoneMonitor::outside_mm(const Zone& z, const ArmPose& p, float radius_mm) 
   return worst;
 }
 
+void ZoneMonitor::restart() noexcept {
+  travel_ = 0.0F;
+  next_due_ = -1.0F;
+  for (float& t : clear_until_) {
+    t = -1.0F;  // below any travel: tested
+  }
+}
+
+void ZoneMonitor::reset(const PreparedArm& arm, const Vec3& tcp_flange_mm) noexcept {
+  // reach_k: |a| + |d| of every DH row from k on, plus the TCP offset (L1 norms, above the
+  // straight-line distances): no point after joint k is further from its axis, in any pose.
+  float tail = std::fabs(tcp_flange_mm[0]) + std::fabs(tcp_flange_mm[1]) + std::fabs(tcp_flange_mm[2]);
+  for (std::size_t k = kAxes; k > 0U; --k) {
+    const DhParam& p = arm.geometry.dh[k - 1U];
+    tail += std::fabs(p.a_mm) + std::fabs(p.d_mm);
+    reach_[k - 1U] = tail;
+  }
+  cull_ = !std::isnan(tail) && !std::isinf(tail);
+  restart();
+  have_last_ = false;
+}
+
 // @req LIM-ZONE
 void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;
@@ -115,23 +164,59 @@ void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
   if (n == 0U) {
     return;
   }
+  float step = 0.0F;
+  for (std::size_t k = 0; k < kAxes; ++k) {
+    step += reach_[k] * std::fabs(c.q[k] - last_q_[k]);  // NaN q: NaN step
+    last_q_[k] = c.q[k];
+  }
+  travel_ += step + kTravelFloorMm;
+  if (!cull_ || !have_last_ || !(step <= kMaxStepMm) || !(travel_ <= kRebaseMm)) {
+    restart();  // not set up, unknown, implausible or long: every zone is tested this cycle
+  }
+  have_last_ = true;
+  const float travel = travel_;
+  if (travel < next_due_) {
+    // No keep_in / keep_out zone can have been reached: only the reduced ones are looked at.
+    for (std::uint32_t m = reduced_mask_; m != 0U; m &= (m - 1U)) {  // each set bit, lowest first
+      const auto i = static_cast<std::size_t>(std::countr_zero(m));
+      if (inside(c.limits.zones[i], c.pose.tcp)) {
+        r.in_reduced_zone = true;
+        r.reduced_zone = static_cast<std::uint8_t>(i + 1U);  // REDUCED_SPEED names it
+        break;
+      }
+    }
+    return;
+  }
   const Bounds b = bounds_of(c.pose, c.limits.tool_radius_mm);
+  float next = std::numeric_limits<float>::max();
+  std::uint16_t reduced = 0U;
   // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
   for (std::size_t i = 0; i < n; ++i) {
     const Zone& z = c.limits.zones[i];
     if (z.kind == ZoneKind::reduced) {
+      reduced = static_cast<std::uint16_t>(reduced | (1U << i));
       if (!r.in_reduced_zone && inside(z, c.pose.tcp)) {
         r.in_reduced_zone = true;
         r.reduced_zone = static_cast<std::uint8_t>(i + 1U);  // REDUCED_SPEED names it
       }
       continue;
     }
-    // Far from the arm (the common case): respected, without the per-point distances. What
-    // track_violation() would do with a respected zone: it is a limit again, not recovered.
-    if (clearly_respected(z, b)) {
+    // Far from the arm (the common case): respected, without the per-point distances, while
+    // the points cannot have travelled the gap found when the zone was last tested.
+    if (travel < clear_until_[i]) {
+      next = min_of(next, clear_until_[i]);
+      continue;  // track_[i].recovering was cleared when the gap was found
+    }
+    // What track_violation() would do with a respected zone: it is a limit again, not recovered.
+    const float gap = clearance(z, b) - kGapMarginMm;
+    if (gap > 0.0F) {
+      clear_until_[i] = travel + gap;
+      next = min_of(next, clear_until_[i]);
       track_[i].recovering = false;
       continue;
     }
+    clear_until_[i] = -1.0F;
+    next = -1.0F;
     const float outside = outside_mm(z, c.pose, c.limits.tool_radius_mm);
     const bool trips = track_violation(track_[i], outside, c.powered, kWorseZoneMm);
     r.outside = r.outside || !(outside <= 0.0F);
@@ -142,6 +227,8 @@ void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
       r.zone.detail.code = static_cast<std::uint16_t>(i);
     }
   }
+  next_due_ = next;
+  reduced_mask_ = reduced;
 }
 
 }  // namespace safestate::core

@@ -102,12 +102,37 @@ class JointLimitMonitor {
 class ZoneMonitor {
  public:
   void check(const LimitContext& c, LimitReport& r) noexcept;
+  // The arm the zones are checked for (a new configuration: other zones, another tool):
+  // forgets what the last cycles proved and allows zones to be skipped while provably far.
+  // Until then every zone is tested every cycle.
+  void reset(const PreparedArm& arm, const Vec3& tcp_flange_mm) noexcept;
   // How far the TCP sphere and the link points 2..6 are outside a keep_in box / into a
   // keep_out box, mm (<= 0: the zone is respected). Public for tests.
   [[nodiscard]] static float outside_mm(const Zone& z, const ArmPose& p, float radius_mm) noexcept;
 
+  // Conservative advancement (zones.cpp): between two cycles no checked point (link origin,
+  // TCP) moves further than step = sum_k reach_k |dq_k| (joint k turns every point after it
+  // about its axis; reach_k bounds their distance from that axis over all poses), so the box
+  // around them moves by at most that along any axis. `travel_` sums the steps. A zone found
+  // clear of the box by a gap g at travel T stays clear while travel < T + g: no test needed
+  // until then. It only saves work: a restart makes every zone be tested again.
+  static constexpr float kMaxStepMm = 1000.0F;      // a larger step (or NaN/inf) restarts
+  static constexpr float kRebaseMm = 8192.0F;       // travel is restarted beyond this
+  static constexpr float kTravelFloorMm = 1.0e-3F;  // added per cycle: > float rounding below kRebaseMm
+  static constexpr float kGapMarginMm = 0.01F;      // taken off each gap: > its rounding
+
  private:
+  void restart() noexcept;
+
   std::array<RecoveryTrack, kMaxZones> track_{};
+  std::array<float, kMaxZones> clear_until_{};  // travel below which zone i is respected
+  JointArray reach_{};                          // mm: see above
+  JointArray last_q_{};
+  float travel_ = 0.0F;
+  float next_due_ = -1.0F;         // the smallest clear_until_ of a keep_in/keep_out zone
+  std::uint16_t reduced_mask_ = 0;  // the reduced zones (bit i), from the last full pass
+  bool cull_ = false;               // reset() with an arm: skipping allowed
+  bool have_last_ = false;
 };
 
 class OrientationMonitor {
