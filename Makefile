@@ -32,7 +32,7 @@ $(VENV)/.stamp: tests/integration/requirements.txt
 # The operator HMI (TypeScript, Vite, three.js), served by the gateway from hmi/dist.
 # Needs Node.js >= 20.19 with npm; `npm ci` runs only when node_modules is missing or the
 # lock file changed (stamp).
-HMI_SRC := $(shell find hmi/src -type f 2>/dev/null) hmi/index.html hmi/vite.config.ts hmi/tsconfig.json
+HMI_SRC := $(shell find hmi/src -type f 2>/dev/null) adapters/opcua/src/backoff.ts hmi/index.html hmi/vite.config.ts hmi/tsconfig.json
 
 hmi/node_modules/.stamp: hmi/package-lock.json hmi/package.json
 	@node -e 'const [a,b]=process.versions.node.split(".").map(Number); process.exit(a>20||(a==20&&b>=19)?0:1)' || \

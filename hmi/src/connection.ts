@@ -3,7 +3,9 @@
 // messages, status and event pushes, and reconnection. A command that cannot be sent, or
 // that gets no reply, is reported like a refusal: nothing is dropped silently.
 import type { HmiEvent, ServerMessage, Status } from './api';
-import { retryDelayMs } from './backoff';
+// One reconnect schedule for every gateway client of this repository (the OPC UA adapter's
+// file: its tsc build takes sources from its own src/ only; Vite takes this path as it is).
+import { retryDelayMs } from '../../adapters/opcua/src/backoff';
 
 export type LinkState = 'connecting' | 'open' | 'closed';
 export type Role = 'pendant' | 'observer' | null;

@@ -28,9 +28,10 @@ the unit tests, the scenario suite, the differential test and the exhaustive che
 A mutant is killed when a test fails, stillborn when it does not compile. Writes
 build-mut/mutation.json and build-mut/mutation.md (score and every survivor).
 
-Each mutant is judged in two phases to keep the run short: first only the differential
-test (one small binary to rebuild, fails at the first cycle where core and reference
-differ); a mutant that survives it is rebuilt in full and meets every selected suite.
+Each mutant is judged in phases to keep the run short: first only the differential test
+(one small binary to rebuild, fails at the first cycle where core and reference differ),
+then for the monitor, margin, collab and brake families the unit tests of that code (one
+binary); a mutant that survives those is rebuilt in full and meets every selected suite.
 Outcomes are appended to build-mut/progress.jsonl as they come; `--resume` skips the
 mutants already judged there (the run takes over an hour on two cores).
 """
@@ -289,8 +290,14 @@ def sh(cmd, cwd, timeout):
         return 124, "timeout"
 
 
-def judge():
-    """Phase 1: the differential test alone; phase 2: every selected suite."""
+# Phase 1b: the one unit-test binary written for a family's code, small to rebuild (the
+# full phase 2 relinks `safestate`, minutes per mutant on two cores).
+FAMILY_UNIT = {"monitor": "test_safe_limits", "margin": "test_motion_limits", "collab": "test_collaborative",
+               "brake": "test_brake_test"}
+
+
+def judge(family=""):
+    """Phase 1: the differential test alone; 1b: the family's own unit tests; phase 2: every selected suite."""
     rc, _ = sh(f"cmake --build {BUILD} --target test_reference", ROOT, 900)
     if rc != 0:
         return "stillborn", "does not compile"
@@ -298,6 +305,15 @@ def judge():
     if rc != 0:
         failed = re.findall(r"\d+ - (\S+) \(", log)
         return "killed", ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else "")
+    unit = FAMILY_UNIT.get(family)
+    if unit:
+        rc, _ = sh(f"cmake --build {BUILD} --target {unit}", ROOT, 900)
+        if rc != 0:
+            return "stillborn", "does not compile"
+        rc, log = sh(f"{os.path.join(BUILD, 'bin', unit)} --gtest_brief=1", ROOT, 900)
+        if rc != 0:
+            failed = re.findall(r"\[  FAILED  \] (\S+) \(", log)
+            return "killed", ", ".join(failed[:3]) if failed else ("timeout" if rc == 124 else unit)
     rc, _ = sh(f"cmake --build {BUILD} --target {TARGETS}", ROOT, 900)
     if rc != 0:
         return "stillborn", "does not compile"
@@ -360,7 +376,7 @@ def main():
             continue
         with open(path, "w") as f:
             f.write(orig.replace(old, new, 1))
-        outcome, by = judge()
+        outcome, by = judge(family)
         with open(path, "w") as f:
             f.write(orig)
         results.append({"family": family, "mutant": desc, "outcome": outcome, "by": by})

@@ -1,4 +1,5 @@
-// The reconnect schedule (issue 23): exponential with jitter, so that every client of a
+// The reconnect schedule (issue 23) of the gateway's clients in this repository, the OPC UA
+// adapter and the HMI (hmi/src/connection.ts imports this file): exponential with jitter, so that every client of a
 // plant does not come back in the same millisecond after a gateway restart, or after the
 // gateway refused it in a burst (HTTP 503 + Retry-After, close 1013 "try again later"),
 // and get refused again.
