@@ -158,7 +158,7 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
       a.v = 0.0F;  // held by the brake
     }
   } else {
-    a.v = toward_zero(a.v, 2.0F * amax * dt_);  // no torque: the holding brake stops the axis
+    a.v = toward_zero(a.v, kBrakeStopDecelFactor * amax * dt_);  // no torque: the holding brake stops the axis
   }
   a.q += a.v * dt_;
   if (a.q > model_.q_max_rad[i] || a.q < model_.q_min_rad[i]) {

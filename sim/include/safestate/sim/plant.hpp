@@ -24,11 +24,31 @@ inline constexpr std::uint16_t kBrakeHoldingPermille = 3000;
 inline constexpr std::uint16_t kWeakBrakeHoldingPermille = 1000;
 inline constexpr float kBrakeSlipRadS = 0.2F;
 
+// SPEC §6: the contactor's feedback follows its command after this long, the brakes'
+// after this long; the drives initialise ("Not ready to switch on") for this long. The
+// cell converts them into cycles (rounded up); `safestate rta` reads the same constants.
+inline constexpr std::uint32_t kContactorFeedbackMs = 10;
+inline constexpr std::uint32_t kBrakeFeedbackMs = 60;
+inline constexpr std::uint32_t kDriveBootMs = 50;
+// Without torque (Cat 0: STO, contactor open) the holding brakes stop an axis at this
+// multiple of its acceleration limit (motion::RobotModel::qdd_max_rad_s2). An assumption
+// of the simulated cell, as the limit itself (docs/robot.md).
+inline constexpr float kBrakeStopDecelFactor = 2.0F;
+
 struct PlantTiming {
-  std::uint32_t contactor_cycles = 10;  // SPEC §6
-  std::uint32_t brake_cycles = 60;      // SPEC §6
-  std::uint32_t drive_boot_cycles = 50; // drives initialise ("Not ready to switch on")
+  std::uint32_t contactor_cycles = kContactorFeedbackMs;  // at 1 ms
+  std::uint32_t brake_cycles = kBrakeFeedbackMs;
+  std::uint32_t drive_boot_cycles = kDriveBootMs;
 };
+
+// The plant's timing at a scan cycle of `cycle_us`: each time rounded up to whole cycles.
+[[nodiscard]] constexpr PlantTiming plant_timing(std::uint32_t cycle_us) noexcept {
+  const auto cycles = [cycle_us](std::uint32_t ms) {
+    const std::uint32_t c = (ms * 1000U + cycle_us - 1U) / cycle_us;  // round up
+    return (c == 0U) ? 1U : c;
+  };
+  return PlantTiming{cycles(kContactorFeedbackMs), cycles(kBrakeFeedbackMs), cycles(kDriveBootMs)};
+}
 
 class SimPlant final : public hal::Backend {
  public:
