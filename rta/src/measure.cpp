@@ -2,6 +2,7 @@
 // counted in cycles (the cell has no clock). tests/unit/test_rta_measured.cpp checks the
 // counts against analyse(); bench/response_time.py puts them beside it in
 // docs/response-time.md.
+// @req RTA-MEASURED
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -95,10 +96,16 @@ struct Run {
 
 // After the change: cycles to the first commanded safe output (`out`), then to the safe
 // state (`safe`: a plant state, seen one cycle late, so one less).
-void count(Run& r, Measured& m, const Pred& out, const Pred& safe) {
+// `second`, when given, is the other channel: it follows kSecondChannelCycles later (within
+// discrepancy_ms, so no discrepancy lockout), as a real two-channel contact does.
+constexpr std::uint64_t kSecondChannelCycles = 5;
+using Change = std::function<void(core::RawInputs&)>;
+
+void count(Run& r, Measured& m, const Pred& out, const Pred& safe, const Change& second = nullptr) {
   std::uint64_t k = 0;
   bool out_seen = false;
   for (int i = 1; i <= kLimit; ++i) {
+    if (second && k == kSecondChannelCycles) second(r.cell->inputs());
     r.cell->step();
     ++k;
     if (!out_seen && out(*r.cell)) {
@@ -114,7 +121,9 @@ void count(Run& r, Measured& m, const Pred& out, const Pred& safe) {
     }
   }
   m.measured = false;
-  m.how += " (timed out)";
+  m.how += std::string(" (timed out: ") + (out_seen ? "no safe state" : "no safe output") + " in " +
+           core::to_string(r.cell->out().state) + "/" + core::to_string(r.cell->out().sub) + ", setup " +
+           (r.ok ? "ok" : "failed") + ")";
 }
 
 bool power_removed(const sim::Cell& c) { return !c.out().contactor && !c.out().drives_enable; }
@@ -145,29 +154,29 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
   const auto cat1_safe = [](const sim::Cell& c) { return c.out().state == State::IDLE && !c.view().contactor_closed; };
 
   {
-    Measured m{"estop", false, "AUTO, demo program at speed: estop.a opens (one channel)", "", 0, 0};
+    Measured m{"estop", false, "AUTO, demo program at speed: estop.a opens, estop.b 5 cycles later", "", 0, 0};
     Run r(cfg, s.limits);
     r.running();
     r.cell->inputs().estop_a = false;
-    count(r, m, power_removed, cat0_safe);
+    count(r, m, power_removed, cat0_safe, [](core::RawInputs& in) { in.estop_b = false; });
     res.push_back(m);
   }
   {
-    Measured m{"guard", false, "AUTO, demo program at speed: gate.a opens", "", 0, 0};
+    Measured m{"guard", false, "AUTO, demo program at speed: gate.a opens, gate.b 5 cycles later", "", 0, 0};
     Run r(cfg, s.limits);
     r.running();
     r.cell->inputs().gate_a = false;
-    count(r, m, stopping, cat1_safe);
+    count(r, m, stopping, cat1_safe, [](core::RawInputs& in) { in.gate_b = false; });
     res.push_back(m);
   }
   {
-    Measured m{"enable", false, "T1, axis 1 jogged at 100 %: enable.a released", "", 0, 0};
+    Measured m{"enable", false, "T1, axis 1 jogged at 100 %: enable.a released, enable.b 5 cycles later", "", 0, 0};
     Run r(cfg, s.limits);
     r.arm(core::Mode::T1);
     r.cmd(CommandId::jog, 1, 1, 100);
     r.cycles(60);  // within jog_timeout_ms: still jogging
     r.cell->inputs().enable_a = false;
-    count(r, m, stopping, cat1_safe);
+    count(r, m, stopping, cat1_safe, [](core::RawInputs& in) { in.enable_b = false; });
     res.push_back(m);
   }
   const char* limit_why =
@@ -184,34 +193,37 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
     };
   };
   {
-    Measured m{"reduced_speed", false, "AUTO, demo program at speed: reduced.a opens", "", 0, 0};
+    Measured m{"reduced_speed", false, "AUTO, demo program at speed: reduced.a opens, reduced.b 5 cycles later", "", 0, 0};
     Run r(cfg, s.limits);
     r.running();
     r.cell->inputs().reduced_a = false;
-    count(r, m, [](const sim::Cell& c) { return c.out().safety.reduced; }, reduced_safe(s.limits));
+    count(r, m, [](const sim::Cell& c) { return c.out().safety.reduced; }, reduced_safe(s.limits),
+          [](core::RawInputs& in) { in.reduced_b = false; });
     res.push_back(m);
   }
   res.push_back(Measured{"zones", false, limit_why, "", 0, 0});
   res.push_back(Measured{"orientation", false, limit_why, "", 0, 0});
   {
-    Measured m{"field_outer", false, "AUTO, collaborative on, demo program at speed: field.outer.a interrupted", "",
+    Measured m{"field_outer", false, "AUTO, collaborative on, demo program at speed: field.outer.a interrupted, .b 5 cycles later", "",
                0, 0};
     const core::SafetyLimits l = with_fields(s.limits);
     Run r(cfg, l);
     r.running();
     r.cell->inputs().field_outer_a = false;
-    count(r, m, [](const sim::Cell& c) { return c.out().safety.reduced; }, reduced_safe(l));
+    count(r, m, [](const sim::Cell& c) { return c.out().safety.reduced; }, reduced_safe(l),
+          [](core::RawInputs& in) { in.field_outer_b = false; });
     res.push_back(m);
   }
   {
-    Measured m{"field_inner", false, "AUTO, collaborative on, demo program at speed: field.inner.a interrupted", "",
+    Measured m{"field_inner", false, "AUTO, collaborative on, demo program at speed: field.inner.a interrupted, .b 5 cycles later", "",
                0, 0};
     Run r(cfg, with_fields(s.limits));
     r.running();
     r.cell->inputs().field_inner_a = false;
-    count(r, m, stopping, [](const sim::Cell& c) {
-      return c.out().state == State::OPERATIONAL && c.out().sub == core::Sub::AUTO_PAUSED;
-    });
+    count(
+        r, m, stopping,
+        [](const sim::Cell& c) { return c.out().state == State::OPERATIONAL && c.out().sub == core::Sub::AUTO_PAUSED; },
+        [](core::RawInputs& in) { in.field_inner_b = false; });
     res.push_back(m);
   }
   res.push_back(Measured{"ssm", false,

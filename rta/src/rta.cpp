@@ -1,4 +1,5 @@
 // SPEC §13 response time analysis: the terms, from the code's own constants.
+// @req RTA-TERMS
 #include "safestate/rta/rta.hpp"
 
 #include <nlohmann/json.hpp>
