@@ -58,9 +58,10 @@ struct Builder {
   // whole cycles, as the plant ramps the velocity down once per cycle.
   [[nodiscard]] std::uint64_t cat0_stop_cycles(std::size_t& axis) const {
     std::uint64_t worst = 0;
+    const float payload_scale = sim::payload_decel_scale(s.limits.payload_kg / motion::kRatedPayloadKg);
     const float dt = static_cast<float>(c) * 1.0e-6F;
     for (std::size_t i = 0; i < motion::kJoints; ++i) {
-      const float per_cycle = sim::kBrakeStopDecelFactor * motion::kRobot.qdd_max_rad_s2[i] * dt;
+      const float per_cycle = sim::kBrakeStopDecelFactor * motion::kRobot.qdd_max_rad_s2[i] * payload_scale * dt;
       const auto n = static_cast<std::uint64_t>(std::ceil((motion::kRobot.qd_max_rad_s[i] / per_cycle) - 1.0e-4F));
       if (n > worst) {
         worst = n;
@@ -109,7 +110,8 @@ struct Builder {
     std::size_t axis = 0;
     const std::uint64_t n = cat0_stop_cycles(axis);
     f.terms.push_back({p + "Cat 0 stop: braked from the axis speed limit", cycles(n),
-                       per_cycle(n, "axis " + num(axis) + ": qd_max / (kBrakeStopDecelFactor x qdd_max), robot.hpp")});
+                       per_cycle(n, "axis " + num(axis) + ": qd_max / (kBrakeStopDecelFactor x qdd_max x payload scale), tool.payload_kg " +
+                                       std::to_string(s.limits.payload_kg).substr(0, 4))});
   }
   void ramp_stop(Function& f, core::StopCat cat) const {
     const std::uint64_t ms = t.max_stop + 1U;

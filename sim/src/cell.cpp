@@ -108,6 +108,12 @@ void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) no
   impl_->controller.configure_limits(limits, validated);
 }
 
+void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payload_fraction(fraction); }
+
+void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
+  impl_->controller.load_program(points, count);
+}
+
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {
   impl_->controller.configure_brake_test(history);
 }

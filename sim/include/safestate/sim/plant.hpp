@@ -35,6 +35,17 @@ inline constexpr std::uint32_t kDriveBootMs = 50;
 // of the simulated cell, as the limit itself (docs/robot.md).
 inline constexpr float kBrakeStopDecelFactor = 2.0F;
 
+// Payload (docs/stopping-data.md, an assumption of the simulated cell: ABB publishes no
+// inertias). A payload adds inertia at the flange; at the rated payload (kRatedPayloadKg)
+// at full extension the moved inertia of every axis is taken to be 1 + kPayloadInertiaRatio
+// times the unloaded arm's, so every deceleration the drives or the brakes can give falls to
+// 1 / (1 + kPayloadInertiaRatio x fraction). Fraction 0 (the default) is the unloaded arm and
+// leaves the plant exactly as without this model.
+inline constexpr float kPayloadInertiaRatio = 0.5F;
+[[nodiscard]] constexpr float payload_decel_scale(float fraction) noexcept {
+  return 1.0F / (1.0F + (kPayloadInertiaRatio * fraction));
+}
+
 struct PlantTiming {
   std::uint32_t contactor_cycles = kContactorFeedbackMs;  // at 1 ms
   std::uint32_t brake_cycles = kBrakeFeedbackMs;
@@ -56,6 +67,11 @@ class SimPlant final : public hal::Backend {
 
   core::RawInputs& inputs() noexcept { return safety_; }
   void inject(const Fault& f) noexcept;
+  // The payload as a fraction of the rated one (0..1): with one, the drives follow their
+  // set-points no faster than their reduced acceleration and every stop is slower.
+  void set_payload_fraction(float fraction) noexcept {
+    payload_ = (fraction > 0.0F) ? ((fraction < 1.0F) ? fraction : 1.0F) : 0.0F;
+  }
 
   void read(hal::ProcessImageIn& in) noexcept override;
   // The controller platform's own checks (integrity, start-up self-test): injected here
@@ -127,6 +143,7 @@ class SimPlant final : public hal::Backend {
   bool contactor_stuck_open_ = false;
   bool fieldbus_ok_ = true;
   std::uint32_t age_ = 0;
+  float payload_ = 0.0F;  // fraction of the rated payload
 };
 
 // The demo program of the simulated cell: a pick-and-place round of joint waypoints.
