@@ -1,3 +1,4 @@
+// @req STOP-DATA
 // SPEC §13, ISO 10218-1 Annex B: stopping time and distance of axes 1, 2 and 3 for Cat 0
 // (E-stop) and Cat 1 (guard in AUTO) at 33/66/100 % of the axis speed and 33/66/100 % of
 // the rated payload, on the SIMULATED cell (sim::Cell: the real controller, the simulated

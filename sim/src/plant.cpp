@@ -147,6 +147,7 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
     if (!(a.nostop && decelerating)) {
       a.v = v_cmd;  // CSP: follows the set-point within its limits
     }
+    // @req STOP-DATA
     if (payload_ > 0.0F) {
       a.v = clampf(a.v, v0 - (amax * dt_), v0 + (amax * dt_));  // the payload's inertia: no faster than amax
     }

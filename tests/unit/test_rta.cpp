@@ -9,7 +9,14 @@
 
 #include <string>
 
+#include <cmath>
+
+#include "safestate/motion/robot.hpp"
 #include "safestate/rta/rta.hpp"
+#include "safestate/safety/stopping_check.hpp"
+#include "safestate/safety/stopping_data.hpp"
+#include "safestate/sim/cell.hpp"
+#include "safestate/sim/plant.hpp"
 
 using namespace safestate;
 
@@ -144,4 +151,96 @@ TEST(Rta, JsonCarriesEveryTermAndTheTotal) {
     EXPECT_EQ(sum, f["total_us"].get<std::uint64_t>()) << f["id"];
   }
   EXPECT_NE(rta::table(a).find("E-stop [estop]"), std::string::npos);
+}
+
+// The generated stopping data against a configuration: a stop time limit below the measured
+// Cat 1 stop warns naming stop.max_time_ms, one above does not; SSM's a above the measured
+// deceleration and T_r below the measured reaction warn naming their keys.
+// @req STOP-CHECK
+TEST(StoppingCheck, WarnsWhenTheConfigurationPromisesAFasterStop) {
+  const auto warns = [](const safety::Loaded& c, const std::string& key) {
+    for (const std::string& w : safety::stopping_warnings(c)) {
+      if (w.rfind(key, 0) == 0) return true;
+    }
+    return false;
+  };
+  nlohmann::json j = nlohmann::json::parse(safety::default_safety_text());
+  const safety::stopping::Level& lv = safety::stopping::kLevels.front();  // payload 0: the first level
+  j["stop"]["max_time_ms"] = static_cast<int>(lv.cat1_stop_ms) - 1;
+  safety::Result r = safety::parse_safety(j.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(warns(*r.config, "stop.max_time_ms"));
+  j["stop"]["max_time_ms"] = static_cast<int>(lv.cat1_stop_ms) + 1;
+  r = safety::parse_safety(j.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_FALSE(warns(*r.config, "stop.max_time_ms"));
+  EXPECT_TRUE(safety::stopping_warnings(safety::default_safety()).empty());
+
+  j["collaborative"] = {{"enabled", true},
+                        {"ssm",
+                         {{"enabled", true},
+                          {"decel_mm_s2", lv.tcp_decel_mm_s2 + 1.0},
+                          {"reaction_ms", safety::stopping::kReactionMs / 2.0},
+                          {"intrusion_mm", 200},
+                          {"uncertainty_mm", 100}}}};
+  r = safety::parse_safety(j.dump());
+  ASSERT_TRUE(r.ok()) << r.errors[0].text();
+  EXPECT_TRUE(warns(*r.config, "collaborative.ssm.decel_mm_s2"));
+  EXPECT_TRUE(warns(*r.config, "collaborative.ssm.reaction_ms"));
+  j["collaborative"]["ssm"]["decel_mm_s2"] = lv.tcp_decel_mm_s2 - 1.0;
+  j["collaborative"]["ssm"]["reaction_ms"] = safety::stopping::kReactionMs * 2.0;
+  r = safety::parse_safety(j.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(safety::stopping_warnings(*r.config).empty());
+}
+
+// The payload model of the simulated cell: an E-stop from speed with the rated payload takes
+// 1 + kPayloadInertiaRatio times as long as without (fraction 0 is the unloaded plant), and
+// rta's Cat 0 term follows tool.payload_kg.
+// @req STOP-DATA
+TEST(StoppingData, PayloadSlowsTheStopByItsScale) {
+  const auto estop_cycles = [](float payload) {
+    sim::Cell cell{core::Config{}};
+    cell.configure_limits(safety::default_safety().limits, true);
+    motion::Waypoint wp{};
+    wp.q = sim::home_pose();
+    wp.q[0] = motion::deg(150.0F);
+    cell.load_program(&wp, 1);
+    std::uint32_t seq = 0;
+    const auto cmd = [&](core::CommandId id) {
+      core::Command c{};
+      c.seq = ++seq;
+      c.id = static_cast<std::uint8_t>(id);
+      EXPECT_EQ(cell.submit(c), core::Result::OK);
+      cell.step();
+    };
+    for (int k = 0; k < 100; ++k) cell.step();
+    cmd(core::CommandId::reset);
+    cmd(core::CommandId::servo_on);
+    for (int k = 0; k < 300 && cell.out().state != core::State::OPERATIONAL; ++k) cell.step();
+    cmd(core::CommandId::start);
+    for (int k = 0; k < 2000 && std::fabs(cell.view().velocities_rad_s[0]) < 3.0F; ++k) cell.step();
+    EXPECT_GE(std::fabs(cell.view().velocities_rad_s[0]), 3.0F);
+    cell.set_payload_fraction(payload);
+    cell.inputs().estop_a = cell.inputs().estop_b = false;
+    for (int k = 1; k < 2000; ++k) {
+      cell.step();
+      if (std::fabs(cell.view().velocities_rad_s[0]) < 0.01F) return k;
+    }
+    return -1;
+  };
+  const int unloaded = estop_cycles(0.0F);
+  const int loaded = estop_cycles(1.0F);
+  ASSERT_GT(unloaded, 0);
+  const double ratio = static_cast<double>(loaded) / unloaded;
+  EXPECT_NEAR(ratio, 1.0 + sim::kPayloadInertiaRatio, 0.05);
+
+  nlohmann::json j = nlohmann::json::parse(safety::default_safety_text());
+  j["tool"]["payload_kg"] = motion::kRatedPayloadKg;
+  const safety::Result r = safety::parse_safety(j.dump());
+  ASSERT_TRUE(r.ok());
+  rta::BusTiming bus;
+  bus.source = "simulated cell";
+  const rta::Analysis a = rta::analyse(core::Config{}, *r.config, bus);
+  EXPECT_EQ(term(fn(a, "estop"), "Cat 0 stop"), 188000U);  // 125 ms x 1.5, rounded up to whole cycles
 }
