@@ -23,6 +23,8 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
                          const std::string& bus_config);
 int safety_check_main(const std::string& file, bool builtin);
 int safety_canonical_main(const std::string& file, bool with_checksum);
+CLI::App* add_rta_command(CLI::App& app);
+int run_rta_command();
 }
 
 namespace {
@@ -173,7 +175,11 @@ int main(int argc, char** argv) {
   auto* safety_canonical = safety->add_subcommand("canonical", "print the RFC 8785 (JCS) form of a JSON file");
   safety_canonical->add_option("FILE", safety_file, "JSON file")->required();
   safety_canonical->add_flag("--checksum", canonical_checksum, "also print its SHA-256 and checksum");
+  auto* rta = safestate::app::add_rta_command(app);
   CLI11_PARSE(app, argc, argv);
+  if (rta->parsed()) {
+    return safestate::app::run_rta_command();
+  }
   if (safety_check->parsed()) {
     return safestate::app::safety_check_main(safety_file, safety_default);
   }

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "safestate/safety/safety_config.hpp"
+#include "safestate/safety/stopping_check.hpp"
 
 namespace safestate::app {
 
@@ -14,6 +15,8 @@ namespace {
 int report(const safety::Result& r, const std::string& what) {
   if (r.ok()) {
     std::printf("%s: valid\n%s", what.c_str(), safety::summary(*r.config).c_str());
+    // @req STOP-CHECK
+    for (const std::string& w : safety::stopping_warnings(*r.config)) std::printf("  warning: %s\n", w.c_str());
     return 0;
   }
   std::printf("%s: %zu error%s\n", what.c_str(), r.errors.size(), r.errors.size() == 1U ? "" : "s");

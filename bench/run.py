@@ -12,11 +12,15 @@
      the SPEC §10 monitors with 16 zones against the cycle without them (issue 19)
   8. EtherCAT exchange round trip and the safety reaction on the wire
                                                  (safestate ecat-bench, bench/ecat_reaction.py; root)
+  9. response time of every safety function, computed and measured (bench/response_time.py,
+     which writes docs/response-time.md and fails when a measured figure is above the computed),
+     and the stopping data of axes 1-3 (bench/stopping.py: docs/stopping-data.md, its SVG plots,
+     the checker's generated safety/include/safestate/safety/stopping_data.hpp)
 
 Measurements, not tests: nothing here fails because a goal is missed; the document says
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
-them without measuring again. `run.py --ws`, `run.py --ecat` and `run.py --m4cycle` measure only
+them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle` and `run.py --rta` measure only
 their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses.
 """
 import datetime
@@ -650,6 +654,10 @@ def main():
     if sys.argv[1:] == ["--ecat"]:  # only the EtherCAT part: measure it and patch its rows in place
         ecat_only()
         return
+    if sys.argv[1:] == ["--rta"]:  # only the response times and stopping data (SPEC §13)
+        response_time()
+        stopping()
+        return
     if sys.argv[1:] == ["--m4cycle"]:  # only the M4 instruction count: measure it and patch its rows in place
         m4cycle_only()
         return
@@ -682,6 +690,20 @@ def main():
     with open(DOC, "w") as f:
         f.write(render(r))
     print(f"bench: wrote {os.path.relpath(DOC, ROOT)}")
+    response_time()  # after the EtherCAT part: it shows the E-stop reaction on the wire beside the analysis
+    stopping()
+
+
+def response_time():
+    """SPEC §13: docs/response-time.md (bench/response_time.py; exits non-zero when a measured
+    response time is above the computed one)."""
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "response_time.py")], check=True, cwd=ROOT)
+
+
+def stopping():
+    """SPEC §13, ISO 10218-1 Annex B: docs/stopping-data.md, docs/stopping/*.svg and the checker's
+    generated safety/include/safestate/safety/stopping_data.hpp (bench/stopping.py)."""
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "stopping.py")], check=True, cwd=ROOT)
 
 
 if __name__ == "__main__":

@@ -7,26 +7,12 @@
 
 namespace safestate::sim {
 
-namespace {
-PlantTiming plant_timing(const core::Config& cfg) {
-  const auto cycles = [&](std::uint32_t ms) {
-    const std::uint32_t c = (ms * 1000U + cfg.cycle_us - 1U) / cfg.cycle_us;  // round up
-    return (c == 0U) ? 1U : c;
-  };
-  PlantTiming t{};
-  t.contactor_cycles = cycles(10);
-  t.brake_cycles = cycles(60);
-  t.drive_boot_cycles = cycles(50);
-  return t;
-}
-}  // namespace
-
 struct Cell::Impl {
   Impl(const core::Config& c, hal::Backend* b)
       : cfg(c),
         bus(b),
         controller(c, motion::kRobot),
-        plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c), home_pose()) {
+        plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()) {
     load_demo();
   }
   void load_demo() noexcept {
@@ -120,6 +106,12 @@ void Cell::step() noexcept {
 
 void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
   impl_->controller.configure_limits(limits, validated);
+}
+
+void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payload_fraction(fraction); }
+
+void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
+  impl_->controller.load_program(points, count);
 }
 
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {

@@ -131,7 +131,7 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
 void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept {
   const float target = d.target_position_rad;
   const float vmax = model_.qd_max_rad_s[i];
-  const float amax = model_.qdd_max_rad_s2[i];
+  const float amax = model_.qdd_max_rad_s2[i] * payload_decel_scale(payload_);
   const bool torque = (a.ds == c402::DriveState::OperationEnabled) && contactor_closed_;
   if (torque && a.runaway) {
     const float dir = (a.v < 0.0F) ? -1.0F : 1.0F;  // accelerates at its limit, ignoring set-points
@@ -141,10 +141,15 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
   } else if (a.ds == c402::DriveState::QuickStopActive && contactor_closed_) {
     // nostop: ignores its own quick-stop ramp too
   } else if (torque && a.brake_released) {
+    const float v0 = a.v;
     const float v_cmd = clampf((target - a.q) / dt_, -vmax, vmax);
     const bool decelerating = std::fabs(v_cmd) < std::fabs(a.v) || (v_cmd * a.v) < 0.0F;
     if (!(a.nostop && decelerating)) {
       a.v = v_cmd;  // CSP: follows the set-point within its limits
+    }
+    // @req STOP-DATA
+    if (payload_ > 0.0F) {
+      a.v = clampf(a.v, v0 - (amax * dt_), v0 + (amax * dt_));  // the payload's inertia: no faster than amax
     }
   } else if (torque) {
     // @req BT-SIM
@@ -158,7 +163,7 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
       a.v = 0.0F;  // held by the brake
     }
   } else {
-    a.v = toward_zero(a.v, 2.0F * amax * dt_);  // no torque: the holding brake stops the axis
+    a.v = toward_zero(a.v, kBrakeStopDecelFactor * amax * dt_);  // no torque: the holding brake stops the axis
   }
   a.q += a.v * dt_;
   if (a.q > model_.q_max_rad[i] || a.q < model_.q_min_rad[i]) {

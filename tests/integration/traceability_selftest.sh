@@ -12,7 +12,7 @@ fails=0
 fresh() {
   rm -rf "$DIR/r" && mkdir -p "$DIR/r"
   (cd "$ROOT" && tar --exclude='build*' --exclude=node_modules --exclude=.venv --exclude=.git -cf - \
-     core motion controller hal sim scenario app runtime bridge gateway tools tests docs) | tar -C "$DIR/r" -xf -
+     core motion controller hal sim scenario app runtime bridge gateway rta tools tests docs) | tar -C "$DIR/r" -xf -
 }
 expect() {  # expect NAME RC TEXT [--check]
   local name=$1 rc=$2 text=$3

@@ -22,7 +22,7 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 CATALOGUE = "tools/trace/requirements.txt"
 TABLE = "core/include/safestate/core/transitions.hpp"
 OUT = "docs/traceability.md"
-CODE_DIRS = ["core", "motion", "controller", "hal", "sim", "scenario", "app", "runtime", "bridge", "gateway",
+CODE_DIRS = ["core", "motion", "controller", "hal", "sim", "scenario", "app", "runtime", "bridge", "gateway", "rta",
              "tools/check", "tools/reference"]
 CODE_EXT = (".cpp", ".hpp", ".h")
 ID = r"[A-Z][A-Z0-9]*(?:-[A-Za-z0-9]+)+"

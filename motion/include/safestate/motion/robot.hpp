@@ -50,6 +50,9 @@ struct RobotModel {
   std::array<const char*, kLinks> link_names;
 };
 
+// [PS] The rated payload (the 3 of "IRB 120-3/0.58").
+inline constexpr float kRatedPayloadKg = 3.0F;
+
 // [ASM] ABB publishes no axis accelerations. We assume every axis can reach its maximum
 // speed from standstill in this time; the supervisor uses the result only as a
 // plausibility bound, so a too-small ramp time is the conservative error.

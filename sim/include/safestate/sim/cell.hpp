@@ -13,6 +13,7 @@
 #include "safestate/core/supervisor.hpp"
 #include "safestate/core/types.hpp"
 #include "safestate/hal/process_image.hpp"
+#include "safestate/motion/motion_controller.hpp"
 
 namespace safestate::sim {
 
@@ -80,6 +81,12 @@ class Cell {
   void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;
   // SPEC §12, before the first step and after configure_limits: the event log's last test.
   void configure_brake_test(const core::BrakeTestHistory& history) noexcept;
+
+  // SPEC §13 stopping data (bench/stopping.cpp): the payload as a fraction of the rated one
+  // (sim::payload_decel_scale), and a program of the caller's instead of the demo (the
+  // points must outlive the cell's use of them).
+  void set_payload_fraction(float fraction) noexcept;
+  void load_program(const motion::Waypoint* points, std::uint8_t count) noexcept;
 
   // The physical contacts of SPEC §2; change them between cycles.
   core::RawInputs& inputs() noexcept;

@@ -24,11 +24,42 @@ inline constexpr std::uint16_t kBrakeHoldingPermille = 3000;
 inline constexpr std::uint16_t kWeakBrakeHoldingPermille = 1000;
 inline constexpr float kBrakeSlipRadS = 0.2F;
 
+// SPEC §6: the contactor's feedback follows its command after this long, the brakes'
+// after this long; the drives initialise ("Not ready to switch on") for this long. The
+// cell converts them into cycles (rounded up); `safestate rta` reads the same constants.
+inline constexpr std::uint32_t kContactorFeedbackMs = 10;
+inline constexpr std::uint32_t kBrakeFeedbackMs = 60;
+inline constexpr std::uint32_t kDriveBootMs = 50;
+// Without torque (Cat 0: STO, contactor open) the holding brakes stop an axis at this
+// multiple of its acceleration limit (motion::RobotModel::qdd_max_rad_s2). An assumption
+// of the simulated cell, as the limit itself (docs/robot.md).
+inline constexpr float kBrakeStopDecelFactor = 2.0F;
+
+// Payload (docs/stopping-data.md, an assumption of the simulated cell: ABB publishes no
+// inertias). A payload adds inertia at the flange; at the rated payload (kRatedPayloadKg)
+// at full extension the moved inertia of every axis is taken to be 1 + kPayloadInertiaRatio
+// times the unloaded arm's, so every deceleration the drives or the brakes can give falls to
+// 1 / (1 + kPayloadInertiaRatio x fraction). Fraction 0 (the default) is the unloaded arm and
+// leaves the plant exactly as without this model.
+inline constexpr float kPayloadInertiaRatio = 0.5F;
+[[nodiscard]] constexpr float payload_decel_scale(float fraction) noexcept {
+  return 1.0F / (1.0F + (kPayloadInertiaRatio * fraction));
+}
+
 struct PlantTiming {
-  std::uint32_t contactor_cycles = 10;  // SPEC §6
-  std::uint32_t brake_cycles = 60;      // SPEC §6
-  std::uint32_t drive_boot_cycles = 50; // drives initialise ("Not ready to switch on")
+  std::uint32_t contactor_cycles = kContactorFeedbackMs;  // at 1 ms
+  std::uint32_t brake_cycles = kBrakeFeedbackMs;
+  std::uint32_t drive_boot_cycles = kDriveBootMs;
 };
+
+// The plant's timing at a scan cycle of `cycle_us`: each time rounded up to whole cycles.
+[[nodiscard]] constexpr PlantTiming plant_timing(std::uint32_t cycle_us) noexcept {
+  const auto cycles = [cycle_us](std::uint32_t ms) {
+    const std::uint32_t c = (ms * 1000U + cycle_us - 1U) / cycle_us;  // round up
+    return (c == 0U) ? 1U : c;
+  };
+  return PlantTiming{cycles(kContactorFeedbackMs), cycles(kBrakeFeedbackMs), cycles(kDriveBootMs)};
+}
 
 class SimPlant final : public hal::Backend {
  public:
@@ -36,6 +67,11 @@ class SimPlant final : public hal::Backend {
 
   core::RawInputs& inputs() noexcept { return safety_; }
   void inject(const Fault& f) noexcept;
+  // The payload as a fraction of the rated one (0..1): with one, the drives follow their
+  // set-points no faster than their reduced acceleration and every stop is slower.
+  void set_payload_fraction(float fraction) noexcept {
+    payload_ = (fraction > 0.0F) ? ((fraction < 1.0F) ? fraction : 1.0F) : 0.0F;
+  }
 
   void read(hal::ProcessImageIn& in) noexcept override;
   // The controller platform's own checks (integrity, start-up self-test): injected here
@@ -107,6 +143,7 @@ class SimPlant final : public hal::Backend {
   bool contactor_stuck_open_ = false;
   bool fieldbus_ok_ = true;
   std::uint32_t age_ = 0;
+  float payload_ = 0.0F;  // fraction of the rated payload
 };
 
 // The demo program of the simulated cell: a pick-and-place round of joint waypoints.

@@ -1,0 +1,50 @@
+// @req STOP-CHECK
+#include "safestate/safety/stopping_check.hpp"
+
+#include <cstdio>
+
+#include "safestate/motion/robot.hpp"
+#include "safestate/safety/stopping_data.hpp"
+
+namespace safestate::safety {
+
+namespace {
+std::string fmt(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.0f", v);
+  return b;
+}
+}  // namespace
+
+std::vector<std::string> stopping_warnings(const Loaded& c) {
+  std::vector<std::string> w;
+  const double fraction = static_cast<double>(c.limits.payload_kg) / static_cast<double>(motion::kRatedPayloadKg);
+  const stopping::Level* lv = &stopping::kLevels.back();
+  for (const stopping::Level& l : stopping::kLevels) {
+    if (l.payload_fraction + 1.0e-9 >= fraction) {
+      lv = &l;
+      break;
+    }
+  }
+  const std::string at = " (stopping data, payload " + fmt(lv->payload_fraction * 100.0) + " %: " + stopping::kSource + ")";
+  if (static_cast<double>(c.limits.max_stop_ms) < lv->cat1_stop_ms) {
+    w.push_back("stop.max_time_ms: " + std::to_string(c.limits.max_stop_ms) + " ms is shorter than the measured Cat 1 stop of " +
+                fmt(lv->cat1_stop_ms) + " ms (axis " + std::to_string(lv->cat1_axis) +
+                "): every Cat 1 stop from full speed would escalate to Cat 0" + at);
+  }
+  if (c.collaborative && c.collaborative->ssm && c.collaborative->ssm->enabled) {
+    const Ssm& s = *c.collaborative->ssm;
+    if (s.decel_mm_s2 > lv->tcp_decel_mm_s2) {
+      w.push_back("collaborative.ssm.decel_mm_s2: " + fmt(s.decel_mm_s2) +
+                  " mm/s² is more than the measured TCP deceleration of " + fmt(lv->tcp_decel_mm_s2) +
+                  " mm/s²: the separation would be too short" + at);
+    }
+    if (s.reaction_ms < stopping::kReactionMs) {
+      w.push_back("collaborative.ssm.reaction_ms: " + fmt(s.reaction_ms) + " ms is less than the measured reaction of " +
+                  fmt(stopping::kReactionMs) + " ms (change -> the arm slows): T_r must cover the whole chain" + at);
+    }
+  }
+  return w;
+}
+
+}  // namespace safestate::safety
