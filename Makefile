@@ -156,6 +156,8 @@ clean:
 ECAT_NS ?= safestate-ecat
 ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
 ECAT_PORT ?= 8080
+# The real-time loop and the emulated segment on one CPU (docs/ethercat.md, "Timing on a shared host").
+ECAT_CPU ?= $(shell echo $$(( $$(nproc) - 1 )))
 .PHONY: run-ethercat
 run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	@[ "$$(id -u)" = 0 ] || { echo "run-ethercat: needs root (a network namespace, a veth pair and raw sockets): sudo make run-ethercat" >&2; exit 1; }
@@ -168,8 +170,8 @@ run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	@trap 'kill $$SIM 2>/dev/null; wait $$SIM 2>/dev/null; ip link del ss-ecm 2>/dev/null; ip netns del $(ECAT_NS) 2>/dev/null; echo "run-ethercat: namespace $(ECAT_NS) and veth pair removed"' EXIT; \
 	  trap 'exit 130' INT TERM; \
 	  rm -f $(ECAT_CONTROL); \
-	  ip netns exec $(ECAT_NS) $(BIN)/safestate ecat-sim --ifname ss-ecs --control $(ECAT_CONTROL) & SIM=$$!; \
+	  ip netns exec $(ECAT_NS) $(BIN)/safestate ecat-sim --ifname ss-ecs --control $(ECAT_CONTROL) --cpu $(ECAT_CPU) & SIM=$$!; \
 	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
 	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
-	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
+	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --cpu $(ECAT_CPU) --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
 	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG)

@@ -153,6 +153,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(250, 4000));
   ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")
       ->check(CLI::Range(0, 99));
+  ecat_sim->add_option("--cpu", ecat_opt.cpu, "pin the frame loop to this CPU (as `run --cpu`)")
+      ->check(CLI::Range(0, 1023));
   ecat_sim->add_option("--product", ecat_opt.product_override, "POS=CODE: give subdevice POS another product code (tests)");
   ecat_sim->add_option("--revision", ecat_opt.revision_override, "POS=REV: give subdevice POS another revision (tests)");
   safestate::check::CheckOptions check_opt;

@@ -105,8 +105,15 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
     std::cerr << "safestate replay: cannot reach ecat-sim's control socket " << control << '\n';
     return 2;
   }
-  const std::uint32_t lost_max = 100U * 1000U / parsed.scenario.config.cycle_us;
-  hal::ethercat::Backend bus(bc, ifname, lost_max);
+  // Every exchange waits for its frame (up to the frame timeout): a replay is not paced in
+  // real time, and a frame late on a busy host must not change the scenario's outcome. For
+  // the same reason the subdevices' process-data watchdogs get their longest time (10000
+  // cycles): a replay pausing between two exchanges (it talks to the emulator's control
+  // socket in between) is not a dead master, and a 10-cycle watchdog expiring in such a pause
+  // took the emulated subdevices out of OP (FIELDBUS_LOST, a scenario failing for nothing
+  // it describes).
+  bc.watchdog_cycles = hal::ethercat::kMaxWatchdogCycles;
+  hal::ethercat::Backend bus(bc, ifname, parsed.scenario.config.cycle_us, 0);
   if (!bus.booted()) {
     std::cerr << "safestate replay: " << bus.boot_error() << '\n';
   }

@@ -593,6 +593,9 @@ std::string metrics_text(const bridge::Metrics& m, const MetricsExtras& x) {
   scalar(s, "safestate_cycles_total", "counter", "Scan cycles run.", u64(m.cycles));
   scalar(s, "safestate_overruns_total", "counter", "Scan cycles that overran their period.", u64(m.overruns));
   scalar(s, "safestate_watchdog_trips_total", "counter", "Watchdog trips.", u64(m.watchdog_trips));
+  scalar(s, "safestate_fieldbus_stale_cycles_total", "counter",
+         "Scan cycles whose fieldbus frame was late or lost (inputs held from the last answered frame).",
+         u64(m.fieldbus_stale_cycles));
   scalar(s, "safestate_events_dropped_total", "counter", "Events dropped because the event ring was full.",
          u64(m.events_dropped));
   scalar(s, "safestate_replies_dropped_total", "counter", "Replies dropped because the reply ring was full.",

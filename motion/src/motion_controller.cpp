@@ -240,23 +240,32 @@ bool MotionController::start_within_limits(const Joints& from) const noexcept {
   return lim_.path_clear(from, prog_[0].q, thr, kLegSamples);
 }
 
-void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb) noexcept {
+void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb,
+                               bool stale) noexcept {
   for (std::size_t i = 0; i < kJoints; ++i) {
     q_meas_[i] = drives[i].position_rad;
   }
-  // ISO 10218-1 5.7.3: the reduced speed is checked on measured positions, differentiated
-  // here rather than taken from the drives' own velocity estimate (a diverse channel).
-  Joints qdot{};
-  if (have_prev_) {
-    for (std::size_t i = 0; i < kJoints; ++i) {
-      qdot[i] = (q_meas_[i] - q_prev_[i]) / cfg_.cycle_s;
-    }
-  }
-  q_prev_ = q_meas_;
-  have_prev_ = true;
+  const bool fresh = !(stale && have_prev_);
   forward(model_, q_meas_, frames_);
-  // @req MO-T1-MONITOR
-  point_speeds(frames_, qdot, speeds_);
+  if (fresh) {
+    // ISO 10218-1 5.7.3: the reduced speed is checked on measured positions, differentiated
+    // here rather than taken from the drives' own velocity estimate (a diverse channel),
+    // over the real time between the two samples (more than one cycle after a stale one).
+    Joints qdot{};
+    if (have_prev_) {
+      const float dt = static_cast<float>(span_) * cfg_.cycle_s;
+      for (std::size_t i = 0; i < kJoints; ++i) {
+        qdot[i] = (q_meas_[i] - q_prev_[i]) / dt;
+      }
+    }
+    q_prev_ = q_meas_;
+    have_prev_ = true;
+    span_ = 1;
+    // @req MO-T1-MONITOR
+    point_speeds(frames_, qdot, speeds_);
+  } else if (span_ < 0xFFFFU) {
+    ++span_;  // the last sample's speeds stand
+  }
   fb.tcp_speed_mm_s = speeds_.speed[kTcpPoint];
   fb.max_point_speed_mm_s = speeds_.max_speed;
   fb.fastest_axis = speeds_.fastest_axis;
@@ -264,7 +273,9 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   // (SS1-t) is the specified measure, and a drive ignoring the ramp must meet it.
   fb.following_error_axis = 0;
   for (std::size_t i = 0; i < kJoints; ++i) {
-    lagging_[i] = !(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad);
+    if (fresh) {  // a held position lags the set-points by the stale cycles: judged on fresh samples
+      lagging_[i] = !(absf(q_sent_[i] - q_meas_[i]) <= cfg_.following_error_rad);
+    }
     // The axis under brake test is meant to be pushed off its set-point (SPEC §12): its
     // drift is the brake test's to judge.
     const bool tested = static_cast<std::size_t>(test_axis_) == (i + 1U);

@@ -323,6 +323,9 @@ void RtLoop::one_cycle() noexcept {
   seg_.metrics().command_queue_depth.store(static_cast<std::uint32_t>(seg_.commands().size()),
                                            std::memory_order_relaxed);
   cell_.step();
+  if (cell_.view().inputs_stale) {
+    seg_.metrics().fieldbus_stale_cycles.fetch_add(1, std::memory_order_relaxed);
+  }
   pub_.publish();
 }
 

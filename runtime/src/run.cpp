@@ -1,4 +1,5 @@
 #include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
@@ -395,6 +396,26 @@ void publish_safety(const ActiveSafety& s, bridge::SafetyInfo& info) {
 
 }  // namespace
 
+namespace {
+
+void keep_loop_cpu_free(int cpu) {
+  if (cpu < 0) {
+    return;
+  }
+  const auto c = static_cast<std::size_t>(cpu);
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0 || !CPU_ISSET(c, &set) || CPU_COUNT(&set) < 2) {
+    return;  // nothing to keep free (one CPU), or the loop will not get that one anyway (said by the loop)
+  }
+  CPU_CLR(c, &set);
+  if (sched_setaffinity(0, sizeof set, &set) != 0) {
+    std::fprintf(stderr, "safestate run: warning: cannot keep CPU %d for the loop (%s)\n", cpu, std::strerror(errno));
+  }
+}
+
+}  // namespace
+
 int run_main(const RunOptions& opt) {
   core::Config cfg = opt.core;
   cfg.cycle_us = opt.rt.cycle_us;
@@ -418,6 +439,12 @@ int run_main(const RunOptions& opt) {
     std::fprintf(stderr, "safestate run: %s\n", error.c_str());
     return 1;
   }
+  // --cpu: the loop's CPU is kept for the loop (and, on EtherCAT, its exchange thread).
+  // Everything else of ours (this thread, the gateway and adapter it spawns, the event log's
+  // writes, the frame thread) runs on the other CPUs: on a kernel that does not preempt
+  // kernel code (preempt=none), a system call of an ordinary thread on the loop's CPU (an
+  // fsync of the event log took 127 ms under load) delays the loop's wake-up until it ends.
+  keep_loop_cpu_free(opt.rt.cpu);
   // Signals are taken by this (main) thread only, with sigtimedwait.
   sigset_t signals;
   sigemptyset(&signals);
@@ -439,8 +466,16 @@ int run_main(const RunOptions& opt) {
       return 2;
     }
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
-    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.watchdog_ms * 1000U / opt.rt.cycle_us,
+    // One exchange never holds the loop past its cycle: a frame not back 150 us before the
+    // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
+    const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(opt.rt.cycle_us);
+    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.cycle_us, budget_us,
                                                    std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
+    std::fprintf(stderr,
+                 "safestate run: EtherCAT exchange timeout %u us, the bus is lost after %u stale cycles in a row; "
+                 "process-data watchdog %u cycles (0x0400 = %u, 0x0420 = %u)\n",
+                 bus->exchange_timeout_us(), bc.stale_cycles, bc.watchdog_cycles, bus->watchdog_divider(),
+                 bus->watchdog_time());
     if (!bus->booted()) {
       std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
     }
@@ -505,6 +540,10 @@ int run_main(const RunOptions& opt) {
                                : "subdevice " + std::to_string(pos) + " (" + bus->subdevice_name(pos) + ")" +
                                      (loss.silent ? " and every one after it" : "");
       std::fprintf(stderr, "safestate run: FIELDBUS_LOST: %s: %s\n", whom.c_str(), why);
+      if (bus->lost_after_cycles() > 0U) {
+        std::fprintf(stderr, "safestate run: FIELDBUS_LOST after %u stale cycles, %.3f ms after the last answered frame\n",
+                     bus->lost_after_cycles(), static_cast<double>(bus->lost_after_ns()) * 1e-6);
+      }
       bus_loss_reported = true;
     }
     int status = 0;

@@ -53,6 +53,7 @@ struct Cell::Impl {
     }
     view.contactor_closed = in.contactor_closed;
     view.fieldbus_ok = in.fieldbus_ok;
+    view.inputs_stale = in.stale;
     view.injected = plant.injected();
     view.program_index = m.program().index();
     view.program_length = m.program().count();

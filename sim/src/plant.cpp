@@ -94,6 +94,7 @@ void SimPlant::read(hal::ProcessImageIn& in) noexcept {
     in.drive[i].position_rad = a.q;
     in.drive[i].velocity_rad_s = a.v;
     in.drive[i].online = true;
+    in.drive[i].torque_permille = a.torque;
     in.brake_released[i] = a.brake_released;
   }
   in.contactor_closed = contactor_closed_;
@@ -128,8 +129,27 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
   a.last_cw = cw;
 }
 
+// Torque actual (0x6077) of a drive, an assumption of this plant (no gravity, no friction:
+// docs/robot.md): rated torque accelerates the axis at its limit, so the torque is the
+// acceleration in per mille of qdd_max, within the drive's limit (0x6072); against the
+// engaged brake a drive off its set-point pushes with its limit, held or slipping; a drive
+// without torque (not enabled, no power) reports 0.
+std::int16_t SimPlant::drive_torque(const Axis& a, const hal::DriveOut& d, float accel, float amax,
+                                    float target) const noexcept {
+  if (a.ds != c402::DriveState::OperationEnabled || !contactor_closed_) {
+    return 0;
+  }
+  const float limit = std::fmin(static_cast<float>(d.max_torque_permille), 32767.0F);
+  float t = 1000.0F * accel / amax;
+  if (!a.brake_released && std::fabs(target - a.q) > 1.0e-6F) {
+    t = (target > a.q) ? limit : -limit;
+  }
+  return static_cast<std::int16_t>(std::lround(clampf(t, -limit, limit)));
+}
+
 void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept {
   const float target = d.target_position_rad;
+  const float v_before = a.v;
   const float vmax = model_.qd_max_rad_s[i];
   const float amax = model_.qdd_max_rad_s2[i] * payload_decel_scale(payload_);
   const bool torque = (a.ds == c402::DriveState::OperationEnabled) && contactor_closed_;
@@ -165,6 +185,7 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
   } else {
     a.v = toward_zero(a.v, kBrakeStopDecelFactor * amax * dt_);  // no torque: the holding brake stops the axis
   }
+  a.torque = drive_torque(a, d, (a.v - v_before) / dt_, model_.qdd_max_rad_s2[i], target);
   a.q += a.v * dt_;
   if (a.q > model_.q_max_rad[i] || a.q < model_.q_min_rad[i]) {
     a.q = clampf(a.q, model_.q_min_rad[i], model_.q_max_rad[i]);  // mechanical hard stop

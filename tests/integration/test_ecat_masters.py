@@ -25,8 +25,8 @@ PROBE = Path(__file__).resolve().parent / "ecat" / "probe.py"
 VENDOR = 0x5AFE
 PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6
 REVISION = 0x10000
-IN_BYTES = [4, 0] + [10] * 6
-OUT_BYTES = [0, 2] + [6] * 6
+IN_BYTES = [4, 0] + [12] * 6  # drives: 0x6041, 0x6064, 0x606C, 0x6077
+OUT_BYTES = [0, 2] + [8] * 6  # drives: 0x6040, 0x607A, 0x6072
 
 
 def sh(*args, check=True):

@@ -42,21 +42,6 @@ TIMING = {
     "collab-rule9-auto-resume.scn": "no distance sensor on the emulated segment yet",
     "collab-field-discrepancy.scn": "no distance sensor on the emulated segment yet",
     "collab-outer-reduced.scn": "no distance sensor on the emulated segment yet",
-    # SPEC §12: the drives' RxPDO has no max torque (0x6072) and the segment no per-axis brake
-    # output yet (docs/brake-test.md "Not covered"): over EtherCAT a brake test fails on axis 1
-    # (safe, but not a test). The scenarios that run one wait for those PDO entries.
-    "bt-abort-estop.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-abort-servo-off.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-due-pass-clears.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis1.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis2.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis3.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis4.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis5.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-fail-axis6.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-overdue.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-pass.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
-    "bt-refused-manual.scn": "brake test: no 0x6072 / per-axis brake output on the emulated segment yet",
 }
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")

@@ -26,6 +26,13 @@ PENDANT = Path(__file__).resolve().parent / "ecat" / "pendant.py"
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")
 
+# The master's real-time loop and the emulated segment on one CPU (`--cpu` of both), as
+# docs/ethercat.md ("Timing on a shared host") says to run them: each exchange then runs
+# send -> emulator -> answer on one running CPU, without waking another. Left free, a
+# wake-up on the other CPU waited for it to leave idle or kernel code (this VM's kernel
+# does not preempt kernel code): up to 4.5 ms, stale cycles in a row on an idle host.
+PIN = str(os.cpu_count() - 1)
+
 
 def sh(*args, check=True):
     return subprocess.run(args, check=check, capture_output=True, text=True, timeout=30)
@@ -34,9 +41,16 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=()):
+    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
+        # The event log in memory: on this VM a synchronous disk write stalls the other CPU
+        # too (`safestate rtbench` pinned to one CPU, a dsync dd on the other: woken up to 10 ms
+        # late, 60 overruns in 20 s; without it 2.9 ms at most), longer than the drives'
+        # 10-cycle process-data watchdog. These tests time the master, not the disk.
+        self.shm = tempfile.TemporaryDirectory(prefix="ssrun-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None)
+        if bus:
+            run_args = (*run_args, "--bus-config", bus_config(self.tmp.name, **bus))
         self.control = os.path.join(self.tmp.name, "ctl.sock")
         self.port = 18000 + (os.getpid() * 7 + int(uuid.uuid4().hex[:4], 16)) % 20000  # own namespace: no clash
         self.procs = []
@@ -46,13 +60,13 @@ class Cell:
             for dev in ("ecm", "ecs", "lo"):
                 sh("ip", "-n", self.ns, "link", "set", dev, "up")
             start_sim = lambda: self.spawn("sim", BIN, "ecat-sim", "--ifname", "ecs", "--control", self.control,
-                                           *sim_args)
+                                           "--cpu", PIN, *sim_args)
             if not sim_late_s:
                 self.sim = start_sim()
                 self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
-            self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm",
+            self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN,
                                   "--ecat-sim-control", self.control, "--port",
-                                  str(self.port), "--db", os.path.join(self.tmp.name, "ev.db"), "--static",
+                                  str(self.port), "--db", os.path.join(self.shm.name, "ev.db"), "--static",
                                   self.tmp.name, *run_args)
             if sim_late_s:  # the segment powers up after the controller
                 time.sleep(sim_late_s)
@@ -88,12 +102,27 @@ class Cell:
         """The active alarm `name` as GET /api/alarms shows it (number, text, since ...)."""
         return next((a for a in self.api("alarms") or [] if a.get("name") == name), None)
 
-    def api(self, what):
+    def get(self, path):
         r = subprocess.run(["ip", "netns", "exec", self.ns, sys.executable, "-c",
                             "import urllib.request,sys;"
-                            f"print(urllib.request.urlopen('http://127.0.0.1:{self.port}/api/{what}',timeout=2).read().decode())"],
+                            f"print(urllib.request.urlopen('http://127.0.0.1:{self.port}{path}',timeout=2).read().decode())"],
                            capture_output=True, text=True, timeout=10)
-        return json.loads(r.stdout) if r.returncode == 0 and r.stdout.strip() else None
+        return r.stdout if r.returncode == 0 and r.stdout.strip() else None
+
+    def api(self, what):
+        text = self.get("/api/" + what)
+        return json.loads(text) if text else None
+
+    def metrics(self, *names):
+        """Several values from one scrape of /metrics."""
+        lines = (self.get("/metrics") or "").splitlines()
+        return [next((float(l.split()[-1]) for l in lines if l.startswith(n + " ")), None) for n in names]
+
+    def metric(self, name):
+        for line in (self.get("/metrics") or "").splitlines():
+            if line.startswith(name + " "):
+                return float(line.split()[1])
+        return None
 
     def wait_state(self, state, timeout=15):
         last = {}
@@ -124,7 +153,24 @@ class Cell:
         assert r.returncode == 0, r.stderr
         return json.loads(r.stdout.strip().splitlines()[-1])
 
+    def children(self, pid):
+        """The direct children of `pid` (for a master killed with -9: its gateway is orphaned)."""
+        try:
+            return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+        except OSError:
+            return []
+
     def close(self):
+        for pid in getattr(self, "orphans", []):
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except ProcessLookupError:
+                continue
+            deadline = time.monotonic() + 5
+            while Path(f"/proc/{pid}").exists() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            if Path(f"/proc/{pid}").exists():
+                os.kill(pid, signal.SIGKILL)
         for p, log in reversed(self.procs):
             if p.poll() is None:
                 p.terminate()
@@ -135,9 +181,24 @@ class Cell:
                     p.wait()
             log.close()
         sh("ip", "netns", "del", self.ns, check=False)
+        keep = os.environ.get("ECAT_KEEP_LOGS")  # a directory: the logs of every cell are kept there
+        if keep:
+            import shutil
+            shutil.copytree(self.tmp.name, os.path.join(keep, self.ns), ignore=shutil.ignore_patterns("*.sock", "ev.db*"))
         self.tmp.cleanup()
+        self.shm.cleanup()
 
 
+def bus_config(tmp, **settings):
+    cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    cfg.update(settings)
+    path = Path(tmp) / "bus.json"
+    path.write_text(json.dumps(cfg))
+    return str(path)
+
+
+# The bus as shipped (FIELDBUS_LOST after 3 stale cycles in a row) for every test, the ones
+# that are not about losing the bus too: a cell that locks out on a loaded host fails them.
 @pytest.fixture
 def cell():
     c = Cell()
@@ -191,6 +252,7 @@ def test_t1_jog_moves_the_emulated_axis(cell):
 @pytest.mark.parametrize("how", ["unplug", "kill", "link_down"])
 def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     cell.wait_state("ESTOP_RESET_NEEDED")
+    overruns = cell.metric("safestate_overruns_total")
     if how == "unplug":
         assert cell.control_line("fault unplug 8") == "OK"  # drive 6, the last on the line
     elif how == "kill":
@@ -200,10 +262,36 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
         sh("ip", "-n", cell.ns, "link", "set", "ecs", "down")
     s = cell.wait_state("ERROR_LOCKOUT", 10)
     if how == "kill":
-        # The watchdog (100 ms) counts time, not frames: each lost frame waits the whole
-        # frame timeout (20 ms here), so 100 frames would take 2 s.
         assert time.monotonic() - killed < 1.0, time.monotonic() - killed
     assert "FIELDBUS_LOST" in s["alarms"]
+    if how != "unplug":
+        # Issue 22 item 2: no exchange waits past its cycle; a frame not back within 3/4 of
+        # the cycle leaves that cycle stale, and the third stale cycle in a row is
+        # FIELDBUS_LOST (goal: within 5 cycles of the last answered frame).
+        line = "FIELDBUS_LOST after 3 stale cycles, "
+        cell.wait(lambda: line in cell.log("run"), "the log counting the stale cycles: " + line, 5)
+        after = next(l for l in cell.log("run").splitlines() if line in l)
+        print(how + ":", after)
+        # "... 3 stale cycles, 3.712 ms after the last answered frame": within 5 cycles of it
+        ms = float(after.split(line, 1)[1].split(" ms ", 1)[0])
+        assert 0 < ms <= 5.0, after
+        assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 3
+        # No exchange held the loop while the bus was gone: the loop keeps cycling in
+        # ERROR_LOCKOUT, and in the next 500 cycles (500 unanswered frames) no cycle's own
+        # work, the exchange included, took as long as its period (the histogram's bucket
+        # from 1.049 ms on: a cycle that overran by itself). An overrun can also come from the
+        # host waking the loop late (safestate_cycle_lateness_seconds): `safestate rtbench`,
+        # with no bus at all, overran 8 times in 30 s on this VM under the same load; those
+        # are printed, not asserted (docs/ethercat.md).
+        def slow():
+            m = cell.metrics("safestate_cycle_exec_seconds_count", 'safestate_cycle_exec_seconds_bucket{le="0.001048576"}')
+            return m[0] - m[1]
+        slow_before = slow()
+        cycles = cell.metric("safestate_cycles_total")
+        cell.wait(lambda: cell.metric("safestate_cycles_total") >= cycles + 500, "500 more cycles without a bus", 10)
+        print(how + ": overruns while the bus was gone:", cell.metric("safestate_overruns_total") - overruns,
+              "(host lateness: max", cell.metric("safestate_cycle_lateness_max_seconds"), "s)")
+        assert slow() == slow_before, ("cycles whose own work overran", slow_before, slow())
     named = ("FIELDBUS_LOST: subdevice 8 (drive axis 6): subdevice left OP" if how == "unplug" else
              "FIELDBUS_LOST: subdevice 1 (DI safety contacts) and every one after it: no frame came back")
     cell.wait(lambda: named in cell.log("run"), "the log naming what was lost: " + named, 5)
@@ -233,12 +321,12 @@ def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
 
 
 def test_late_frames_do_not_end_the_bus():
-    """The emulator stalls 40 ms, longer than the 20 ms frame timeout: the answers to the
-    frames sent meanwhile come back after their PDUs timed out. The frame thread drops them
-    and the bus goes on (ethercrab's own frame task ended on such a frame, and every later
-    exchange timed out: a permanent FIELDBUS_LOST). The watchdog is 1 s here so that only a
-    bus that never comes back can trip it."""
-    c = Cell(run_args=["--watchdog-ms", "1000"])
+    """The emulator stalls 40 ms: the answers to the frames sent meanwhile come back after
+    the master gave them up (each cycle waits 3/4 of a cycle, then it is stale). The frame
+    thread drops them and the bus goes on (ethercrab's own frame task ended on such a frame,
+    and every later exchange timed out: a permanent FIELDBUS_LOST). stale_cycles (1000) and
+    the watchdog (1 s) are long here so that only a bus that never comes back can trip them."""
+    c = Cell(run_args=["--watchdog-ms", "1000"], bus={"stale_cycles": 1000, "watchdog_cycles": 1000})
     try:
         c.wait_state("ESTOP_RESET_NEEDED")
         for _ in range(5):
@@ -251,8 +339,61 @@ def test_late_frames_do_not_end_the_bus():
         s = c.status()
         assert s["state"] == "ESTOP_RESET_NEEDED" and s["alarms"] == [], (s, c.log("run"))
         assert c.wire()["frames"] > before + 500, "the master stopped exchanging frames"
+        assert c.metric("safestate_fieldbus_stale_cycles_total") >= 5 * 30, "the stalls left no stale cycles"
     finally:
         c.close()
+
+
+def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
+    """Issue 22 item 3: the master writes every subdevice's process-data watchdog (10
+    cycles by default: 0x0400 = 2498, 0x0420 = 100, 10 ms); killed with -9 in OPERATIONAL,
+    its outputs stop, and the emulated DO terminal drops the contactor and the drives lose
+    their enable within that time by themselves, measured at the emulator from the last
+    exchange."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
+    assert cell.wire()["watchdog_us"] == [10000] * 8  # as the master wrote them (ESC default: 100000)
+    s = cell.pendant("reset,servo_on", "OPERATIONAL")
+    assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
+    w = cell.wire()
+    assert w["contactor"] is True and all(cw == 0x000F for cw in w["controlword"]), w
+    cell.orphans = cell.children(cell.run.pid)  # the gateway outlives a master killed with -9
+    cell.run.kill()
+    cell.run.wait(timeout=5)
+    cell.wait(lambda: cell.wire()["output_drop"]["enable_us"] is not None, "the outputs dropped at the emulator", 5)
+    w = cell.wire()
+    drop = w["output_drop"]
+    print("output drop after kill -9 of the master:", drop)
+    assert w["contactor"] is False and all(cw == 0 for cw in w["controlword"]), w
+    # within the watchdog, give or take the emulator's 1 ms poll (never before it expired)
+    assert 10000 <= drop["contactor_us"] <= 12000, drop
+    assert 10000 <= drop["enable_us"] <= 12000, drop
+
+
+def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(cell):
+    """Issue 22 item 2: one frame in 100 is processed by the emulated segment (the plant
+    moves) but its answer never comes back: that cycle is stale, its positions held. The
+    motion layer keeps the last speeds and differentiates the next sample over both
+    cycles: a T1 jog at the 250 mm/s cap raises no T1_SPEED_EXCEEDED (it did when the
+    next sample's two cycles of motion were divided by one)."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    assert cell.control_line("in mode=T1") == "OK"
+    cell.pendant("reset", "IDLE")
+    assert cell.control_line("in enable=centre") == "OK"
+    s = cell.pendant("servo_on", "OPERATIONAL")
+    assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
+    assert cell.control_line("fault lose-every 100") == "OK"
+    before = cell.wire()["joints"][0]
+    s = cell.pendant("jog:1:+:100", "OPERATIONAL")
+    w = cell.wire()
+    print("T1 jog with 1 % frames lost:", w["lost_replies"], "answers lost;",
+          cell.metric("safestate_fieldbus_stale_cycles_total"), "stale cycles; status", s)
+    assert w["lost_replies"] >= 10, w
+    assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 10
+    assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
+    assert w["joints"][0] > before + 0.05, (before, w["joints"][0])  # it did jog
+    st = cell.status()
+    assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st
 
 
 def test_a_segment_that_powers_up_after_the_controller_is_scanned_again():

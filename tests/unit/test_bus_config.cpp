@@ -95,8 +95,23 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   EXPECT_NE(refused(j).find("appears twice"), std::string::npos);
 
   j = default_json();
-  j["subdevices"][4]["pdo"]["velocity_actual"] = 8;  // 4 bytes at 8 of a 10-byte image
+  j["subdevices"][4]["pdo"]["velocity_actual"] = 10;  // 4 bytes at 10 of a 12-byte image
   EXPECT_NE(refused(j).find("subdevices[4].pdo.velocity_actual"), std::string::npos);
+
+  // The brake test's objects (SPEC §12) are part of every drive's layout: 0x6072 max torque
+  // out, 0x6077 torque actual in, and the DO terminal's brake output of each axis.
+  j = default_json();
+  j["subdevices"][4]["pdo"].erase("max_torque");
+  EXPECT_NE(refused(j).find("subdevices[4].pdo.max_torque"), std::string::npos);
+  j = default_json();
+  j["subdevices"][4]["pdo"]["torque_actual"] = 11;  // 2 bytes at 11 of a 12-byte image
+  EXPECT_NE(refused(j).find("subdevices[4].pdo.torque_actual"), std::string::npos);
+  j = default_json();
+  j["subdevices"][1]["bits"].erase("brake_hold.4");
+  EXPECT_NE(refused(j).find("subdevices[1].bits.brake_hold.4"), std::string::npos);
+  j = default_json();
+  j["subdevices"][1]["bits"]["brake_hold.6"] = 16;  // past the terminal's 2 bytes
+  EXPECT_NE(refused(j).find("subdevices[1].bits.brake_hold.6"), std::string::npos);
 
   j = default_json();
   j["subdevices"][1]["role"] = "relay";
@@ -115,5 +130,44 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j["scan_timeout_ms"] = "5 s";
   EXPECT_NE(refused(j).find("scan_timeout_ms"), std::string::npos);
 
+  j = default_json();
+  for (const auto& [key, bad] : {std::pair<const char*, Json>{"stale_cycles", 0}, {"stale_cycles", 1001},
+                                 {"stale_cycles", -3}, {"stale_cycles", "3"}, {"watchdog_cycles", 1},
+                                 {"watchdog_cycles", 10001}, {"watchdog_cycles", 2.5}}) {
+    j[key] = bad;
+    EXPECT_NE(refused(j).find(std::string("bus.") + key + ": expected an integer"), std::string::npos) << key << bad;
+    j = default_json();
+  }
+
   EXPECT_EQ(refused(Json::array()), "not a JSON object");
+}
+
+// Issue 22: FIELDBUS_LOST after stale_cycles stale cycles (default 3) and every subdevice's
+// process-data watchdog at watchdog_cycles (default 10), both from the file.
+TEST(BusConfig, StaleCyclesAndWatchdogCycles) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  EXPECT_EQ(c.stale_cycles, 3U);
+  EXPECT_EQ(c.watchdog_cycles, 10U);
+  Json j = default_json();
+  j["stale_cycles"] = 5;
+  j["watchdog_cycles"] = 20;
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.stale_cycles, 5U);
+  EXPECT_EQ(c.watchdog_cycles, 20U);
+}
+
+TEST(BusConfig, WatchdogRegistersNeverShorterThanAsked) {
+  std::uint16_t div = 0;
+  std::uint16_t time = 0;
+  ASSERT_TRUE(watchdog_registers(10, 1000, div, time));  // 10 ms: 100 ticks of 100 us
+  EXPECT_EQ(div, 2498);
+  EXPECT_EQ(time, 100);
+  ASSERT_TRUE(watchdog_registers(3, 250, div, time));  // 750 us: 8 ticks (800 us), not 7
+  EXPECT_EQ(time, 8);
+  ASSERT_TRUE(watchdog_registers(10000, 1000, div, time));  // 10 s: past 16 bits of 100 us, 1 ms ticks
+  EXPECT_EQ(div, 24998);
+  EXPECT_EQ(time, 10000);
+  EXPECT_FALSE(watchdog_registers(10000, 10000, div, time));  // 100 s fits neither
 }

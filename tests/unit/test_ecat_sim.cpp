@@ -465,3 +465,108 @@ TEST(EcatControl, ValidatesEveryLine) {
   EXPECT_EQ(cell.segment().connected(), 8U);
   EXPECT_NE(control_line(cell, "status").find("\"al_state\""), std::string::npos);
 }
+
+// Issue 22 item 3: the master writes every subdevice's process-data watchdog (here 10
+// cycles of 1 ms: 0x0400 = 2498, i.e. 100 us ticks, 0x0420 = 100). When it dies, the DO
+// terminal lets go of the contactor and the drives of their enable within that time, and
+// the plant sees it then, not after 20 silent cycles; the emulator reports the figure.
+TEST(EcatWatchdog, TheWatchdogTheMasterWroteDropsContactorAndEnableInItsTime) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  exchange(cell.segment(), {{Cmd::BWR, 0, 0x0400, le16(2498)}, {Cmd::BWR, 0, 0x0420, le16(100)}});
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).watchdog_ns(), 10'000'000U);
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[0] = 0x01;  // contactor
+  for (std::size_t a = 0; a < 6; ++a) {
+    out[kDoBytes + a * kDriveRxBytes] = 0x0F;  // enable operation
+  }
+  for (std::uint64_t k = 1; k <= 3; ++k) {
+    cell.set_time(k * 1'000'000);
+    exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, k * 1'000'000);
+  }
+  ASSERT_TRUE(cell.last_outputs().contactor);
+  ASSERT_EQ(cell.last_outputs().drive[5].controlword, 0x0F);
+  // The master is gone after the exchange at 3 ms.
+  for (std::uint64_t t = 3'500'000; t <= 12'900'000; t += 100'000) {
+    cell.poll(t);
+  }
+  EXPECT_TRUE(cell.last_outputs().contactor) << "dropped before the watchdog's 10 ms";
+  EXPECT_FALSE(cell.output_drop().contactor);
+  cell.poll(13'100'000);  // 10.1 ms after the last exchange
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::safeop);
+  EXPECT_FALSE(cell.last_outputs().contactor);
+  EXPECT_EQ(cell.last_outputs().drive[0].controlword, 0);
+  const EmulatedCell::OutputDrop d = cell.output_drop();
+  ASSERT_TRUE(d.contactor && d.enable);
+  EXPECT_EQ(d.contactor_ns, 10'100'000U);
+  EXPECT_EQ(d.enable_ns, 10'100'000U);
+  const std::string st = control_line(cell, "status");
+  EXPECT_NE(st.find("\"output_drop\":{\"contactor_us\":10100,\"enable_us\":10100}"), std::string::npos) << st;
+  EXPECT_NE(st.find("\"watchdog_us\":[10000,10000,10000"), std::string::npos) << st;
+  // A master powering the cell again starts a new measurement.
+  cell.set_time(20'000'000);
+  exchange(cell.segment(), {{Cmd::BWR, 0, reg::al_control, le16(0x18)}});  // acknowledge, OP
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, 20'000'000);
+  EXPECT_TRUE(cell.last_outputs().contactor);
+  EXPECT_FALSE(cell.output_drop().contactor);
+}
+
+TEST(EcatWire, OneFrameInNIsProcessedButItsAnswerLost) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  ASSERT_EQ(control_line(cell, "fault lose-every 3"), "OK");
+  const std::uint64_t before = cell.cycles();
+  int answered = 0;
+  for (int k = 0; k < 9; ++k) {
+    bool ok = false;
+    exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes)}}, 0, &ok);
+    answered += ok ? 1 : 0;
+  }
+  EXPECT_EQ(answered, 6);
+  EXPECT_EQ(cell.cycles() - before, 9U);  // every frame reached the subdevices: the plant stepped
+  EXPECT_EQ(cell.segment().lost_replies(), 3U);
+  EXPECT_NE(control_line(cell, "fault lose-every x").rfind("ERROR ", 0), std::string::npos);
+  ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
+  bool ok = false;
+  exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes)}}, 0, &ok);
+  EXPECT_TRUE(ok);
+}
+
+// SPEC §12 over EtherCAT: the brake test's outputs (the DO terminal's brake_hold bit of the
+// axis under test, each drive's 0x6072 max torque) reach the plant, and 0x6077 torque actual
+// comes back in the drives' TxPDO (bytes 10..11, signed, per mille of rated torque).
+TEST(EcatProcessData, BrakeTestObjectsCrossTheWire) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[0] = static_cast<std::uint8_t>(1U << static_cast<unsigned>(DoBit::brake_hold3));
+  for (std::size_t a = 0; a < 6; ++a) {
+    const std::uint16_t limit = (a == 2) ? 1300 : 3000;
+    out[kDoBytes + a * kDriveRxBytes + 6] = static_cast<std::uint8_t>(limit & 0xFF);
+    out[kDoBytes + a * kDriveRxBytes + 7] = static_cast<std::uint8_t>(limit >> 8);
+  }
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_EQ(cell.last_outputs().brake_test_axis, 3);
+  EXPECT_EQ(cell.last_outputs().drive[2].max_torque_permille, 1300);
+  EXPECT_EQ(cell.last_outputs().drive[1].max_torque_permille, 3000);
+  out[0] = 0;
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_EQ(cell.last_outputs().brake_test_axis, 0);
+
+  hal::ProcessImageIn in{};
+  in.drive[4].torque_permille = -1234;
+  std::uint8_t di[kDiBytes];
+  std::uint8_t tx[6][kDriveTxBytes];
+  pack_inputs(in, di, tx);
+  EXPECT_EQ(static_cast<std::int16_t>(tx[4][10] | (tx[4][11] << 8)), -1234);
+  hal::ProcessImageOut o{};
+  o.brake_test_axis = 6;
+  o.drive[5].max_torque_permille = 1300;
+  std::uint8_t dout[kDoBytes];
+  std::uint8_t rx[6][kDriveRxBytes];
+  pack_outputs(o, dout, rx);
+  hal::ProcessImageOut back{};
+  unpack_outputs(dout, rx, back);
+  EXPECT_EQ(back.brake_test_axis, 6);
+  EXPECT_EQ(back.drive[5].max_torque_permille, 1300);
+}

@@ -496,3 +496,30 @@ TEST(SimFaults, ProgramUnloadAndJogLinkAreRestoredByClearAll) {
   EXPECT_GT(r.cell.view().program_length, 0U);
   EXPECT_TRUE(r.cell.jog_link_up());
 }
+
+// Issue 22 item 2: a stale cycle (the frame late or lost, the positions held from the last
+// answered one) keeps the last sample's speeds, and the next fresh sample is differentiated
+// over the two cycles between them: the measured speed is never doubled (no false
+// T1_SPEED_EXCEEDED under frame loss) nor dropped to zero.
+TEST(MotionMeasure, AStaleCycleNeverDoublesAMeasuredSpeed) {
+  motion::MotionController ctl{motion::kRobot, motion::MotionConfig{}};
+  std::array<core::DriveFeedback, 6> drives{};
+  const float dq = 0.0002F;  // axis 1 at 0.2 rad/s (1 ms cycles)
+  core::Feedback fb{};
+  for (int k = 0; k <= 2; ++k) {
+    drives[0].position_rad = static_cast<float>(k) * dq;
+    ctl.measure(drives, fb);
+  }
+  const float v = fb.max_point_speed_mm_s;
+  ASSERT_GT(v, 10.0F);
+  ctl.measure(drives, fb, true);  // stale: the same positions again
+  EXPECT_FLOAT_EQ(fb.max_point_speed_mm_s, v);
+  ctl.measure(drives, fb, true);  // and again
+  EXPECT_FLOAT_EQ(fb.max_point_speed_mm_s, v);
+  drives[0].position_rad = 5.0F * dq;  // fresh, three cycles after the last fresh one
+  ctl.measure(drives, fb);
+  EXPECT_NEAR(fb.max_point_speed_mm_s, v, 0.01F * v);
+  drives[0].position_rad = 6.0F * dq;  // and the next one over one cycle again
+  ctl.measure(drives, fb);
+  EXPECT_NEAR(fb.max_point_speed_mm_s, v, 0.01F * v);
+}

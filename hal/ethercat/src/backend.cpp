@@ -1,11 +1,16 @@
 // The `ethercat` backend. The cycle does one exchange (one LRW with the AL status checks in
 // the same frame) in read(): the outputs written in the previous cycle go out, the inputs
 // come back; nothing else blocks, nothing allocates.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <thread>
+#include <vector>
+
+#include <pthread.h>
+#include <sched.h>
 
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/hal/pdo_bytes.hpp"
@@ -25,9 +30,10 @@ SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std
                            int tx_rx_priority, char* err, std::size_t errlen);
 const char* ss_ecat_error(const SsEcatMaster* m);
 int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
+int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
-                     std::size_t in_len, SsEcatCycle* cycle);
+                     std::size_t in_len, SsEcatCycle* cycle, std::uint32_t timeout_us, std::uint32_t drive);
 std::uint64_t ss_ecat_stray_frames();
 }
 
@@ -36,6 +42,7 @@ namespace safestate::hal::ethercat {
 struct Backend::Master {
   SsEcatMaster* m = nullptr;
   SsEcatCycle cycle{};
+  SsEcatCycle answer{};  // the exchange thread's last answer (under xfer_)
 };
 
 namespace {
@@ -55,6 +62,7 @@ using pdo::set_bit;
 
 constexpr int kScanPauseMs = 200;
 
+
 std::uint64_t mono_ns() noexcept {
   return static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
@@ -62,9 +70,14 @@ std::uint64_t mono_ns() noexcept {
 
 }  // namespace
 
-Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max,
-                 std::uint64_t watchdog_ns)
-    : cfg_(cfg), lost_frames_max_(lost_frames_max), watchdog_ns_(watchdog_ns) {
+Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t cycle_us,
+                 std::uint32_t exchange_timeout_us, std::uint64_t watchdog_ns)
+    : cfg_(cfg),
+      cycle_us_(cycle_us),
+      exchange_timeout_us_((exchange_timeout_us == 0U || exchange_timeout_us > cfg.frame_timeout_us) ? cfg.frame_timeout_us
+                                                                                                  : exchange_timeout_us),
+      watchdog_ns_(watchdog_ns),
+      async_(exchange_timeout_us != 0U) {
   std::size_t in = 0;
   std::size_t out = 0;
   for (const Subdevice& s : cfg_.subdevices) {
@@ -75,13 +88,101 @@ Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t 
   }
   in_buf_.assign(in, 0);
   out_buf_.assign(out, 0);
+  req_out_.assign(out, 0);
+  ans_in_.assign(in, 0);
   boot(ifname);
   if (!boot_error_.empty()) {
     health_ = Health{false, health_.subdevice, false, "boot failed"};
   }
 }
 
-Backend::~Backend() { delete master_; }
+Backend::~Backend() {
+  stop_exchanges();
+  delete master_;
+}
+
+void Backend::keep_alive() noexcept {
+  // As punctual as the real-time loop it stands in for (when permitted): a late exchange
+  // here lets the 10-cycle watchdogs expire before the loop starts. hand_over() then moves
+  // it just below the loop's priority, on the loop's CPU.
+  sched_param sp{};
+  sp.sched_priority = 80;
+  static_cast<void>(pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp));
+  SsEcatCycle c{};
+  std::vector<std::uint8_t> out(out_buf_.size(), 0);
+  std::vector<std::uint8_t> in(in_buf_.size(), 0);
+  std::uint64_t served = 0;
+  while (!handover_.load(std::memory_order_acquire)) {
+    // Until the loop's first request: an exchange every cycle of the (safe, all-zero)
+    // outputs. After it (async_): one exchange per request, none without one, so that a
+    // loop that hangs stops the process data and the subdevices' watchdogs drop their
+    // outputs, as when the whole master dies.
+    const bool requested = wake_.try_acquire_for(std::chrono::microseconds(cycle_us_));
+    while (wake_.try_acquire()) {
+    }
+    std::uint64_t seq = 0;
+    {
+      const std::lock_guard<std::mutex> g(xfer_);
+      seq = req_seq_;
+      std::copy(req_out_.begin(), req_out_.end(), out.begin());
+    }
+    if (seq == 0U ? requested : seq == served) {
+      continue;  // woken for nothing new (a stop, or a request already served)
+    }
+    served = seq;
+    const int rc = ss_ecat_exchange(master_->m, out.data(), out.size(), in.data(), in.size(), &c, exchange_timeout_us_, 1U);
+    if (rc == 0) {
+      const std::uint64_t now = mono_ns();
+      const std::lock_guard<std::mutex> g(xfer_);
+      std::copy(in.begin(), in.end(), ans_in_.begin());
+      master_->answer = c;
+      ans_seq_ = seq;
+      ans_ns_ = now;
+      ++ans_id_;
+    }
+  }
+}
+
+// The real-time loop takes over (once, in its first cycle, in BOOT). Synchronous (a replay,
+// the bench: exchange_timeout 0): the keep-alive stops (at most one exchange and one cycle's
+// wait to wait for) and the loop exchanges itself. Asynchronous (`safestate run`): the
+// keep-alive thread becomes the exchange thread, on the loop's CPU just below its priority.
+void Backend::hand_over() noexcept {
+  if (handed_over_) {
+    return;
+  }
+  handed_over_ = true;
+  if (!async_) {
+    if (keepalive_.joinable()) {
+      handover_.store(true, std::memory_order_release);
+      wake_.release();
+      keepalive_.join();
+    }
+    return;
+  }
+  if (keepalive_.joinable()) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0) {
+      static_cast<void>(pthread_setaffinity_np(keepalive_.native_handle(), sizeof set, &set));
+    }
+    int policy = SCHED_OTHER;
+    sched_param mine{};
+    if (pthread_getschedparam(pthread_self(), &policy, &mine) == 0 && policy == SCHED_FIFO && mine.sched_priority > 1) {
+      sched_param below{};
+      below.sched_priority = mine.sched_priority - 1;
+      static_cast<void>(pthread_setschedparam(keepalive_.native_handle(), SCHED_FIFO, &below));
+    }
+  }
+}
+
+void Backend::stop_exchanges() noexcept {
+  if (keepalive_.joinable()) {
+    handover_.store(true, std::memory_order_release);
+    wake_.release();
+    keepalive_.join();
+  }
+}
 
 // BOOT (SPEC §4 rule 1): every expected subdevice found, in order, with its identity and
 // PDO sizes, and in OP; otherwise the first that is wrong or missing is named.
@@ -143,8 +244,33 @@ void Backend::boot(const std::string& ifname) {
                   "): the configuration lists " + std::to_string(cfg_.subdevices.size());
     return;
   }
+  // Every subdevice's outputs go safe by themselves when this master stops writing them
+  // (killed, hung): its process-data watchdog, written before OP, where it starts counting.
+  if (!watchdog_registers(cfg_.watchdog_cycles, cycle_us_, wd_divider_, wd_time_)) {
+    boot_error_ = "watchdog_cycles: " + std::to_string(cfg_.watchdog_cycles) + " cycles of " + std::to_string(cycle_us_) +
+                  " us do not fit the process-data watchdog (at most 65535 ms)";
+    return;
+  }
+  if (ss_ecat_set_watchdog(m, wd_divider_, wd_time_) != 0) {
+    boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+    return;
+  }
+  // From the OP request until the keep-alive thread's first exchange the watchdogs run
+  // without process data: this stretch at real-time priority (when permitted; the thread
+  // inherits it), so that a busy host does not let them expire before the cycle starts.
+  int policy = SCHED_OTHER;
+  sched_param before{};
+  const bool restore = pthread_getschedparam(pthread_self(), &policy, &before) == 0;
+  sched_param rt{};
+  rt.sched_priority = 80;
+  static_cast<void>(pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt));
   if (ss_ecat_to_op(m) != 0) {
     boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+  } else {
+    keepalive_ = std::thread([this] { keep_alive(); });
+  }
+  if (restore) {
+    static_cast<void>(pthread_setschedparam(pthread_self(), policy, &before));
   }
 }
 
@@ -171,20 +297,57 @@ void Backend::read(ProcessImageIn& in) noexcept {
     }
     return;
   }
+  hand_over();
   SsEcatCycle& c = master_->cycle;
-  const int rc = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c);
-  ++exchanges_;
-  const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
-  if (rc != 0) {
-    // A lost frame is tolerated up to the fieldbus watchdog, on the last good inputs.
-    const bool too_long = watchdog_ns_ > 0U && last_good_ns_ > 0U && now - last_good_ns_ > watchdog_ns_;
-    if (++lost_in_row_ > lost_frames_max_ || too_long) {
-      // On a line nothing answers from the first subdevice on (a cut cable, a dead segment).
-      lose(1, "no frame came back for longer than the fieldbus watchdog", true);
+  bool fresh = false;
+  std::uint64_t answered_ns = 0;
+  if (async_) {
+    // The cycle never waits for the bus (issue 22): the exchange thread sent the outputs of
+    // the last write() and put the answer aside; this cycle takes it if it is there, the
+    // answer to that very request. Not there (late, lost, or the thread busy with its copy
+    // at this moment: try_lock) is a stale cycle.
+    if (xfer_.try_lock()) {
+      if (ans_id_ != taken_id_ && ans_seq_ == req_seq_) {
+        std::copy(ans_in_.begin(), ans_in_.end(), in_buf_.begin());
+        c = master_->answer;
+        taken_id_ = ans_id_;
+        answered_ns = ans_ns_;
+        fresh = true;
+      }
+      xfer_.unlock();
     }
   } else {
-    lost_in_row_ = 0;
-    last_good_ns_ = now;
+    // Synchronous (a replay, the bench): the cycle sends its frame and sleeps on the socket
+    // for the answer itself, up to the frame timeout.
+    fresh = ss_ecat_exchange(master_->m, out_buf_.data(), out_buf_.size(), in_buf_.data(), in_buf_.size(), &c,
+                             exchange_timeout_us_, 1U) == 0;
+    answered_ns = mono_ns();
+  }
+  ++exchanges_;
+  const std::uint64_t now = mono_ns();  // vDSO clock read, no system call
+  in.stale = !fresh;
+  if (!fresh) {
+    // A stale cycle: the frame is late or lost, the inputs stay those of the last answered
+    // frame. Tolerated for fewer than stale_cycles cycles in a row (and the time watchdog).
+    // Counted from the first answer to one of the loop's own requests on: the loop's first
+    // request can meet the keep-alive's last exchange still in flight.
+    stale_total_.fetch_add(1, std::memory_order_relaxed);
+    if (counting_) {
+      ++stale_in_row_;
+    }
+    const bool too_long = watchdog_ns_ > 0U && last_good_ns_ > 0U && now - last_good_ns_ > watchdog_ns_;
+    if (health_.ok && (stale_in_row_ >= cfg_.stale_cycles || too_long)) {
+      lost_after_cycles_.store(stale_in_row_, std::memory_order_relaxed);
+      lost_after_ns_.store(last_good_ns_ > 0U ? now - last_good_ns_ : 0U, std::memory_order_relaxed);
+      // On a line nothing answers from the first subdevice on (a cut cable, a dead segment).
+      lose(1, too_long ? "no frame came back for longer than the fieldbus watchdog"
+                       : "no frame came back for stale_cycles cycles in a row",
+           true);
+    }
+  } else {
+    stale_in_row_ = 0;
+    counting_ = counting_ || !async_ || req_seq_ > 0U;
+    last_good_ns_ = answered_ns;
     for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
       if (i >= c.count || c.al_state[i] != 8U) {
         lose(static_cast<std::uint8_t>(i + 1U), "subdevice left OP");
@@ -221,6 +384,7 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       d.statusword = get16(p + s.statusword);
       d.position_rad = static_cast<float>(get32(p + s.position_actual) / s.counts_per_rad);
       d.velocity_rad_s = static_cast<float>(get32(p + s.velocity_actual) / s.counts_per_rad);
+      d.torque_permille = static_cast<std::int16_t>(get16(p + s.torque_actual));
       const std::size_t pos = i + 1U;  // a silent bus takes every subdevice from its position on
       d.online = health_.ok || (health_.subdevice != 0U && (health_.silent ? pos < health_.subdevice : pos != health_.subdevice));
     }
@@ -235,11 +399,24 @@ void Backend::write(const ProcessImageOut& out) noexcept {
       set_bit(p, s.out_bit[0], out.contactor);
       set_bit(p, s.out_bit[1], out.brakes_release);
       set_bit(p, s.out_bit[2], out.reset_lamp);
+      for (std::size_t a = 0; a < kAxes; ++a) {
+        set_bit(p, s.out_bit[3U + a], out.brake_test_axis == a + 1U);
+      }
     } else if (s.role == Role::drive) {
       const DriveOut& d = out.drive[s.axis - 1U];
       put16(p + s.controlword, d.controlword);
       put32(p + s.target_position, static_cast<std::int32_t>(std::lround(static_cast<double>(d.target_position_rad) * s.counts_per_rad)));
+      put16(p + s.max_torque, d.max_torque_permille);
     }
+  }
+  if (async_ && handed_over_ && booted()) {
+    {
+      // Held by the exchange thread only to copy a few dozen bytes.
+      const std::lock_guard<std::mutex> g(xfer_);
+      std::copy(out_buf_.begin(), out_buf_.end(), req_out_.begin());
+      ++req_seq_;
+    }
+    wake_.release();  // a futex wake: the exchange thread sends at once
   }
 }
 

@@ -17,7 +17,9 @@ const char* const kInputBitNames[kInputBits] = {
     "enable.panic", "mode.auto",    "mode.t1",    "mode.t2",    "reset_button", "contactor_fb",
     "brake_fb.1",   "brake_fb.2",   "brake_fb.3", "brake_fb.4", "brake_fb.5", "brake_fb.6",
     "reduced.a",    "reduced.b",    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
-const char* const kOutputBitNames[kOutputBits] = {"contactor", "brakes_release", "reset_lamp"};
+const char* const kOutputBitNames[kOutputBits] = {"contactor",    "brakes_release", "reset_lamp",
+                                                  "brake_hold.1", "brake_hold.2",   "brake_hold.3",
+                                                  "brake_hold.4", "brake_hold.5",   "brake_hold.6"};
 
 namespace {
 
@@ -112,9 +114,11 @@ bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
     std::uint16_t limit;   // image size
   } objs[] = {{"controlword", &d.controlword, 2, d.out_bytes},
               {"target_position", &d.target_position, 4, d.out_bytes},
+              {"max_torque", &d.max_torque, 2, d.out_bytes},
               {"statusword", &d.statusword, 2, d.in_bytes},
               {"position_actual", &d.position_actual, 4, d.in_bytes},
-              {"velocity_actual", &d.velocity_actual, 4, d.in_bytes}};
+              {"velocity_actual", &d.velocity_actual, 4, d.in_bytes},
+              {"torque_actual", &d.torque_actual, 2, d.in_bytes}};
   for (const auto& o : objs) {
     if (o.limit < o.bytes || !uint_in(*pdo, o.key, p, 0, o.limit - o.bytes, v, c)) {
       return c.fail(p + "." + o.key, "offset outside the PDO image");
@@ -195,7 +199,9 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     return true;
   };
   if (!setting("frame_timeout_us", 100, 100000, out.frame_timeout_us) ||
-      !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms)) {
+      !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms) ||
+      !setting("stale_cycles", 1, 1000, out.stale_cycles) ||
+      !setting("watchdog_cycles", kMinWatchdogCycles, kMaxWatchdogCycles, out.watchdog_cycles)) {
     err = c.err;
     return false;
   }
@@ -233,6 +239,20 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     return false;
   }
   return true;
+}
+
+bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept {
+  const std::uint64_t us = static_cast<std::uint64_t>(cycles) * cycle_us;
+  // (divider + 2) x 40 ns: 2498 = 100 us (the ESC's default), 24998 = 1 ms.
+  for (const auto& [div, tick_us] : {std::pair<std::uint16_t, std::uint64_t>{2498, 100}, {24998, 1000}}) {
+    const std::uint64_t ticks = (us + tick_us - 1U) / tick_us;  // never shorter than asked
+    if (ticks >= 1U && ticks <= 0xFFFFU) {
+      divider = div;
+      time = static_cast<std::uint16_t>(ticks);
+      return true;
+    }
+  }
+  return false;
 }
 
 bool load_bus_config(const std::string& path, BusConfig& out, std::string& err) {

@@ -12,6 +12,7 @@ namespace safestate::ecat {
 namespace {
 
 constexpr std::uint8_t kBool = 0x01;
+constexpr std::uint8_t kInt16 = 0x03;
 constexpr std::uint8_t kInt32 = 0x04;
 constexpr std::uint8_t kUint16 = 0x06;
 
@@ -21,7 +22,9 @@ const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "ga
                                 "brake_fb.4",   "brake_fb.5", "brake_fb.6", "reduced.a",  "reduced.b",
                                 "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
 static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::field_inner_b) + 1U, "one name per DI bit");
-const char* const kDoNames[] = {"contactor", "brakes_release", "reset_lamp"};
+const char* const kDoNames[] = {"contactor",    "brakes_release", "reset_lamp",   "brake_hold.1", "brake_hold.2",
+                                "brake_hold.3", "brake_hold.4",   "brake_hold.5", "brake_hold.6"};
+static_assert(std::size(kDoNames) == static_cast<std::size_t>(DoBit::brake_hold6) + 1U, "one name per DO bit");
 
 SubdeviceDesc digital_in() {
   SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI24 safety contacts", {}, {}};
@@ -51,16 +54,20 @@ SubdeviceDesc drive(std::size_t axis) {
   SubdeviceDesc d{kVendorId, kProductDrive, kRevision, static_cast<std::uint32_t>(10U + axis),
                   "SafeState emu CiA402 CSP drive " + std::to_string(axis), {}, {}};
   d.rx.index = 0x1600;
-  d.rx.entries = {{0x6040, 0, 16, kUint16, "Controlword"}, {0x607A, 0, 32, kInt32, "Target position"}};
+  d.rx.entries = {{0x6040, 0, 16, kUint16, "Controlword"},
+                  {0x607A, 0, 32, kInt32, "Target position"},
+                  {0x6072, 0, 16, kUint16, "Max torque"}};
   d.tx.index = 0x1A00;
   d.tx.entries = {{0x6041, 0, 16, kUint16, "Statusword"},
                   {0x6064, 0, 32, kInt32, "Position actual value"},
-                  {0x606C, 0, 32, kInt32, "Velocity actual value"}};
+                  {0x606C, 0, 32, kInt32, "Velocity actual value"},
+                  {0x6077, 0, 16, kInt16, "Torque actual value"}};
   d.out_address = 0x1000;
   d.in_address = 0x1800;
   return d;
 }
 
+using hal::pdo::get16;
 using hal::pdo::get32;
 using hal::pdo::get_bit;
 using hal::pdo::put16;
@@ -109,6 +116,7 @@ void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (
     put16(&drive_tx[a][0], in.drive[a].statusword);
     put32(&drive_tx[a][2], to_counts(in.drive[a].position_rad));
     put32(&drive_tx[a][6], to_counts(in.drive[a].velocity_rad_s));
+    put16(&drive_tx[a][10], static_cast<std::uint16_t>(in.drive[a].torque_permille));
   }
 }
 
@@ -118,8 +126,10 @@ void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint
   set_bit(dout, bit(DoBit::brakes_release), out.brakes_release);
   set_bit(dout, bit(DoBit::reset_lamp), out.reset_lamp);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    set_bit(dout, bit(DoBit::brake_hold1) + a, out.brake_test_axis == a + 1U);
     put16(&drive_rx[a][0], out.drive[a].controlword);
     put32(&drive_rx[a][2], to_counts(out.drive[a].target_position_rad));
+    put16(&drive_rx[a][6], out.drive[a].max_torque_permille);
   }
 }
 
@@ -128,9 +138,14 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
   out.contactor = get_bit(dout, bit(DoBit::contactor));
   out.brakes_release = get_bit(dout, bit(DoBit::brakes_release));
   out.reset_lamp = get_bit(dout, bit(DoBit::reset_lamp));
+  out.brake_test_axis = 0;
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
-    out.drive[a].controlword = static_cast<std::uint16_t>(drive_rx[a][0] | (drive_rx[a][1] << 8U));
+    if (out.brake_test_axis == 0U && get_bit(dout, bit(DoBit::brake_hold1) + a)) {
+      out.brake_test_axis = static_cast<std::uint8_t>(a + 1U);  // the first held; the master sets one at most
+    }
+    out.drive[a].controlword = get16(&drive_rx[a][0]);
     out.drive[a].target_position_rad = static_cast<float>(get32(&drive_rx[a][2]) / kCountsPerRad);
+    out.drive[a].max_torque_permille = get16(&drive_rx[a][6]);
   }
 }
 
@@ -140,7 +155,7 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
       segment_(devices) {
   segment_.on_process_data([this] {
     free_running_ = false;
-    step();
+    plant_cycle(true);
   });
   latch_inputs();
 }
@@ -156,7 +171,44 @@ void EmulatedCell::latch_inputs() noexcept {
   }
 }
 
-void EmulatedCell::step() noexcept {
+void EmulatedCell::step() noexcept { plant_cycle(false); }
+
+bool EmulatedCell::any_enabled() const noexcept {
+  for (const hal::DriveOut& d : out_.drive) {
+    if ((d.controlword & 0x0008U) != 0U) {  // CiA 402 enable operation
+      return true;
+    }
+  }
+  return false;
+}
+
+// A subdevice whose outputs the plant still holds active has put them in the safe state
+// (its process-data watchdog expired: it left OP).
+bool EmulatedCell::outputs_went_safe() const noexcept {
+  if (out_.contactor && segment_.esc(kPosDigitalOut).state() != AlState::op) {
+    return true;
+  }
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    if (out_.drive[a].controlword != 0U && segment_.esc(kPosFirstDrive + a).state() != AlState::op) {
+      return true;
+    }
+  }
+  return false;
+}
+
+void EmulatedCell::time_output_drop(bool was_closed, bool was_enabled) noexcept {
+  const std::uint64_t since = (now_ns_ > last_exchange_ns_) ? now_ns_ - last_exchange_ns_ : 0U;
+  if (was_closed && !out_.contactor && !drop_.contactor) {
+    drop_.contactor = true;
+    drop_.contactor_ns = since;
+  }
+  if (was_enabled && !any_enabled() && !drop_.enable) {
+    drop_.enable = true;
+    drop_.enable_ns = since;
+  }
+}
+
+void EmulatedCell::plant_cycle(bool exchange) noexcept {
   std::uint8_t rx[hal::kAxes][kDriveRxBytes];
   const std::span<const std::uint8_t> dout = segment_.esc(kPosDigitalOut).outputs();
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
@@ -164,8 +216,17 @@ void EmulatedCell::step() noexcept {
     std::memcpy(rx[a], o.data(), kDriveRxBytes);
   }
   const bool was_closed = out_.contactor;
+  const bool was_enabled = any_enabled();
   unpack_outputs(dout.data(), rx, out_);
   time_reaction(was_closed);
+  if (exchange) {
+    last_exchange_ns_ = now_ns_;
+    if (out_.contactor) {
+      drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
+    }
+  } else {
+    time_output_drop(was_closed, was_enabled);
+  }
   plant_.write(out_);
   ++cycles_;
   last_step_ns_ = now_ns_;
@@ -201,9 +262,11 @@ void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   segment_.poll(now_ns);
   // Physics does not wait for the master: after 20 silent cycles it runs on by itself,
   // one cycle per period, with whatever outputs the subdevices hold (safe ones once
-  // their watchdogs have expired).
+  // their watchdogs have expired); at once when a subdevice's watchdog has put outputs the
+  // plant still holds active in their safe state (the contactor drops when the terminal
+  // lets go of it, not 20 cycles later).
   const std::uint64_t period = static_cast<std::uint64_t>(cycle_us_) * 1000U;
-  if (!free_running_ && now_ns - last_step_ns_ > 20U * period) {
+  if (!free_running_ && (now_ns - last_step_ns_ > 20U * period || outputs_went_safe())) {
     free_running_ = true;
     next_free_ns_ = now_ns;
   }

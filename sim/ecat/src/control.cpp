@@ -41,6 +41,13 @@ std::string wire_fault(EmulatedCell& cell, std::string_view what, std::string_vi
     cell.segment().ignore_process_data(n);
     return "OK";
   }
+  if (what == "lose-every") {
+    if (!parse_count(arg, 0, 1000000, n)) {
+      return "ERROR lose-every needs a frame count 0..1000000 (0 = off)";
+    }
+    cell.segment().lose_every(n);
+    return "OK";
+  }
   if (what == "drop" || what == "corrupt") {
     if (!parse_count(arg, 1, 1000000, n)) {
       return "ERROR " + std::string(what) + " needs a frame count 1..1000000";
@@ -120,12 +127,23 @@ std::string status(EmulatedCell& cell) {
   const hal::ProcessImageIn& in = cell.last_inputs();
   j["cycles"] = cell.cycles();
   j["frames"] = cell.segment().frames();
+  j["lost_replies"] = cell.segment().lost_replies();
   j["connected"] = cell.segment().connected();
   nlohmann::json al = nlohmann::json::array();
   for (std::size_t i = 0; i < cell.segment().size(); ++i) {
     al.push_back(static_cast<int>(cell.segment().esc(i).state()));
   }
   j["al_state"] = al;
+  // Each subdevice's process-data watchdog as its registers hold it (0x0400 divider x
+  // 0x0420 time): what the master wrote at start-up (100000 us, the ESC default, if nothing).
+  nlohmann::json wd = nlohmann::json::array();
+  for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+    wd.push_back(cell.segment().esc(i).watchdog_ns() / 1000U);
+  }
+  j["watchdog_us"] = wd;
+  const EmulatedCell::OutputDrop& d = cell.output_drop();
+  j["output_drop"] = {{"contactor_us", d.contactor ? nlohmann::json(d.contactor_ns / 1000U) : nlohmann::json(nullptr)},
+                      {"enable_us", d.enable ? nlohmann::json(d.enable_ns / 1000U) : nlohmann::json(nullptr)}};
   j["contactor"] = o.contactor;
   j["brakes_release"] = o.brakes_release;
   j["reset_lamp"] = o.reset_lamp;

@@ -169,11 +169,22 @@ bool apply_override(std::vector<SubdeviceDesc>& devs, const std::string& spec, c
 // A real ESC answers within nanoseconds; masters give a frame a few milliseconds at most.
 // On a shared machine the emulator must not wait behind other work: SCHED_FIFO when
 // permitted, as the real-time loop of `safestate run` does.
-void realtime(int priority) {
+void realtime(int priority, int cpu) {
+  if (cpu >= 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<unsigned>(cpu), &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+    if (rc != 0) {
+      std::fprintf(stderr, "ecat-sim: warning: cannot pin to CPU %d (%s)\n", cpu, std::strerror(rc));
+    }
+  }
   if (priority <= 0) {
     return;
   }
-  mlockall(MCL_CURRENT | MCL_FUTURE);
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    std::fprintf(stderr, "ecat-sim: warning: mlockall failed (%s), memory may page\n", std::strerror(errno));
+  }
   sched_param sp{};
   sp.sched_priority = priority;
   const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
@@ -205,7 +216,7 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     close(raw);
     return 1;
   }
-  realtime(opt.priority);
+  realtime(opt.priority, opt.cpu);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   EmulatedCell cell(opt.cycle_us, devs);
@@ -221,8 +232,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
       fds.push_back({c.fd, POLLIN, 0});
     }
     poll(fds.data(), fds.size(), 1);
-    cell.poll(now_ns());
+    // Frames first, then the watchdogs: a frame that reached the socket while this process
+    // waited to be scheduled was on time for a real ESC (which takes it in hardware on
+    // arrival); judging the watchdog before taking it would expire it falsely.
     serve_frames(cell, raw);
+    cell.poll(now_ns());
     for (std::size_t i = 0; i < clients.size(); ++i) {
       if ((fds[(ctl >= 0 ? 2U : 1U) + i].revents & (POLLIN | POLLHUP)) != 0) {
         serve_client(cell, clients[i]);

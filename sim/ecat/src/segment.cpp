@@ -90,6 +90,11 @@ bool Segment::process(std::span<std::uint8_t> frame, std::uint64_t now_ns) noexc
       break;
     }
   }
+  if (lose_every_ > 0U && ++lose_count_ >= lose_every_) {
+    lose_count_ = 0;
+    ++lost_replies_;
+    return false;  // processed, but the answer never reaches the master
+  }
   return true;
 }
 

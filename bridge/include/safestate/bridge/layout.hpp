@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 5U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test
+inline constexpr std::uint32_t kLayoutVersion = 6U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -183,6 +183,7 @@ struct Metrics {
   std::atomic<std::uint32_t> command_queue_depth{0};
   std::atomic<std::uint32_t> cycle_us{0};
   std::atomic<std::uint32_t> rt_priority{0};  // 0: not SCHED_FIFO
+  std::atomic<std::uint64_t> fieldbus_stale_cycles{0};  // cycles whose frame was late or lost (inputs held)
 };
 
 [[nodiscard]] inline std::size_t histogram_bucket(std::uint64_t ns) noexcept {

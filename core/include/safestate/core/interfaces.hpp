@@ -18,6 +18,7 @@ struct DriveFeedback {
   float position_rad = 0.0F;     // measured joint position
   float velocity_rad_s = 0.0F;   // measured joint velocity
   bool online = true;            // the drive answers on the fieldbus
+  std::int16_t torque_permille = 0;  // CiA 402 0x6077 torque actual
 };
 
 struct Feedback {

@@ -2,7 +2,8 @@
 //! `ethercat` backend of hal/. One master per process (ethercrab's PDU storage is static).
 //!
 //! Open and scan allocate and may take seconds (they run in BOOT); the cyclic exchange does
-//! not allocate and blocks only for the frame round trip, bounded by the PDU timeout.
+//! not allocate (after a thread's first) and waits only for the frame round trip, bounded by
+//! its deadline, woken by the frame thread (txrx.rs): real-time threads only, no executor.
 
 mod txrx;
 
@@ -12,9 +13,13 @@ use ethercrab::{
     subdevice_group::{Op, SafeOp},
     MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
 };
+use core::future::Future;
+use core::pin::pin;
+use core::task::{Context, Poll, Waker};
 use futures_lite::future::block_on;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 const MAX_SUBDEVICES: usize = 16;
 const MAX_PDI: usize = 1024;
@@ -57,6 +62,8 @@ pub struct SsEcatMaster {
     safe: Option<SafeGroup>,
     op: Option<OpGroup>,
     expected_wkc: u16,
+    pdu_timeout: Duration,
+    io: Arc<Mutex<txrx::TxRx<'static>>>,
     error: [u8; 256],
 }
 
@@ -93,16 +100,118 @@ fn write_err(err: *mut c_char, errlen: usize, msg: &str) {
 }
 
 /// The frame thread answers within the cycle only if it is not queued behind ordinary
-/// work: SCHED_FIFO when permitted (as the real-time loop of `safestate run`).
+/// work: SCHED_FIFO when permitted (as the real-time loop of `safestate run`), else a
+/// warning on stderr and ordinary scheduling.
 fn realtime(priority: i32) {
     if priority <= 0 {
         return;
     }
     let param = libc::sched_param { sched_priority: priority };
     // SAFETY: plain libc call on the current thread with a valid parameter.
-    unsafe {
-        libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param);
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc != 0 {
+        eprintln!(
+            "safestate: warning: EtherCAT frame thread: SCHED_FIFO not permitted ({}), running with normal \
+             scheduling: on a busy host frames may come back late (stale cycles)",
+            std::io::Error::from_raw_os_error(rc)
+        );
     }
+}
+
+/// Wakes the thread that waits in `run_until` (std's park/unpark: a futex).
+struct ThreadWaker(std::thread::Thread);
+
+impl std::task::Wake for ThreadWaker {
+    fn wake(self: Arc<Self>) {
+        self.0.unpark();
+    }
+    fn wake_by_ref(self: &Arc<Self>) {
+        self.0.unpark();
+    }
+}
+
+thread_local! {
+    // One per thread that exchanges (the real-time loop, the keep-alive): allocated at its
+    // first exchange, never after.
+    static WAKER: Waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
+}
+
+/// Polls `fut` on this thread until it is ready (Some) or `deadline` passes (None, the
+/// future dropped by the caller).
+///
+/// With `io` (the real-time cycle's exchanges) this thread drives the socket itself: it sends
+/// the frame its future staged and sleeps in ppoll(2) on the socket until the answer or the
+/// deadline. The exchange then needs one wake-up on our side (this thread's, by the answer)
+/// instead of three (the frame thread's to send, its own by the answer, then this thread's).
+/// Each wake-up of a real-time thread can wait for an ordinary process to reach a preemption
+/// point on a kernel that does not preempt kernel code (Linux's `preempt=none`, the default of
+/// this CI VM's kernel): measured on the 2-core VM, 29 wake-ups of the frame thread delayed
+/// by more than 0.3 ms in 10 s, up to 3.7 ms behind pip, with the other core idle. The frame
+/// thread is kept out meanwhile (the mutex is held, the PDU loop's waker is a no-op).
+/// Spinning instead of sleeping was tried: no better in 8-s runs under load, and on 2 cores
+/// it takes the core the emulator's answer needs.
+///
+/// Without `io` (the start-up's keep-alive), the thread parks with a timeout, woken by the frame thread when an answer came back. No executor, no
+/// reactor, and no ordinary thread on the path in either case (futures_lite's and
+/// async-io's `block_on` fall back on async-io's helper thread; see txrx.rs).
+/// The last part of a driven exchange's wait is spent awake (polling the socket) instead of
+/// asleep: a thread that sleeps to its deadline wakes late from it when its CPU went idle
+/// (a hypervisor wakes an idle vCPU in up to ~1 ms here) or runs an ordinary process in
+/// kernel code, and the cycle overran its period in the stale cycles before a lockout.
+/// Answers take ~0.1 ms; one that comes this late is stale anyway.
+const SPIN_TAIL: Duration = Duration::from_micros(200);
+
+fn run_until<F: Future>(fut: F, deadline: Instant, io: Option<&Mutex<txrx::TxRx<'static>>>) -> Option<F::Output> {
+    WAKER.with(|waker| {
+        let mut cx = Context::from_waker(waker);
+        let mut fut = pin!(fut);
+        // lock(), not try_lock(): the frame thread holds the loop only while it sends and
+        // receives (microseconds, at a higher priority than the cycle's), and falling back to
+        // waiting for it when it held the loop at that moment (it is woken by every answer
+        // too, and a late wake-up made it take the loop just as the next exchange began)
+        // put its wake-ups back on the path: sporadic stale cycles.
+        if let Some(mut g) = io.map(|m| m.lock().unwrap_or_else(|e| e.into_inner())) {
+            let t = &mut *g;
+            t.tx.replace_waker(Waker::noop()); // staging our frame wakes nobody: sent below
+            let mut done = None;
+            loop {
+                if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                    done = Some(v);
+                    break;
+                }
+                t.send_all();
+                t.receive_all();
+                if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                    done = Some(v);
+                    break;
+                }
+                let now = Instant::now();
+                if now >= deadline {
+                    break;
+                }
+                if deadline - now > SPIN_TAIL {
+                    t.wait_readable(deadline - now - SPIN_TAIL);
+                } else {
+                    core::hint::spin_loop(); // the deadline itself is kept awake: see SPIN_TAIL
+                }
+            }
+            t.tx.replace_waker(&t.waker);
+            if done.is_none() {
+                t.kick(); // anything left to send or receive is the frame thread's again
+            }
+            return done;
+        }
+        loop {
+            if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+                return Some(v);
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return None;
+            }
+            std::thread::park_timeout(deadline - now); // spurious wake-ups: polled again
+        }
+    })
 }
 
 /// Opens the interface (raw socket, needs CAP_NET_RAW) and starts the frame thread.
@@ -138,32 +247,32 @@ pub unsafe extern "C" fn ss_ecat_open(
         write_err(err, errlen, "PDU storage already in use");
         return core::ptr::null_mut();
     };
-    let task = match txrx::TxRx::new(&name, tx, rx) {
-        Ok(t) => t,
+    let io = match txrx::TxRx::new(&name, tx, rx) {
+        Ok(t) => Arc::new(Mutex::new(t)),
         Err(e) => {
             write_err(err, errlen, &format!("cannot open {}: {} (needs CAP_NET_RAW)", name, e));
             return core::ptr::null_mut();
         }
     };
+    let thread_io = Arc::clone(&io);
     let spawned = std::thread::Builder::new().name("ecat-txrx".into()).spawn(move || {
         realtime(tx_rx_priority);
-        // async-io's block_on drives the socket reactor on this (real-time) thread itself,
-        // instead of waking it from async-io's ordinary background thread.
-        async_io::block_on(task);
+        txrx::run(thread_io);
     });
     if spawned.is_err() {
         write_err(err, errlen, "cannot start the frame thread");
         return core::ptr::null_mut();
     }
+    let pdu_timeout = Duration::from_micros(u64::from(pdu_timeout_us.max(100)));
     let timeouts = Timeouts {
-        pdu: Duration::from_micros(u64::from(pdu_timeout_us.max(100))),
+        pdu: pdu_timeout,
         state_transition: Duration::from_millis(u64::from(state_timeout_ms.max(100))),
         wait_loop_delay: Duration::from_millis(1),
         ..Timeouts::default()
     };
     let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, error: [0; 256] }))
+    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
 }
 
 /// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
@@ -226,6 +335,53 @@ pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub
     n as i32
 }
 
+/// The process-data watchdog of every subdevice (ETG.1000.4 6.3): `divider` into 0x0400
+/// (ticks of (divider + 2) x 40 ns) and `time` ticks into 0x0420. A subdevice whose outputs
+/// are not written for that long puts them in their safe state by itself: the contactor
+/// opens and the drives lose their enable when this master dies. Written in SAFE-OP,
+/// before OP (where the watchdog starts counting), and read back. 0 or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_set_watchdog(m: *mut SsEcatMaster, divider: u16, time: u16) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let Some(group) = m.safe.as_ref() else { return m.fail("not scanned") };
+    let mut failed: Option<String> = None;
+    for (i, sd) in group.iter(md).enumerate() {
+        let r = block_on(async {
+            sd.register_write(0x0400u16, divider).await?;
+            sd.register_write(0x0420u16, time).await?;
+            let d: u16 = sd.register_read(0x0400u16).await?;
+            let t: u16 = sd.register_read(0x0420u16).await?;
+            Ok::<(u16, u16), ethercrab::error::Error>((d, t))
+        });
+        match r {
+            Ok((d, t)) if d == divider && t == time => {}
+            Ok((d, t)) => {
+                failed = Some(format!(
+                    "subdevice {}: process-data watchdog reads back divider {} time {}, written {} {}",
+                    i + 1,
+                    d,
+                    t,
+                    divider,
+                    time
+                ));
+                break;
+            }
+            Err(e) => {
+                failed = Some(format!("subdevice {}: writing the process-data watchdog: {}", i + 1, e));
+                break;
+            }
+        }
+    }
+    match failed {
+        Some(msg) => m.fail(&msg),
+        None => 0,
+    }
+}
+
 /// SAFE-OP -> OP for every subdevice. 0 or -1.
 ///
 /// # Safety
@@ -248,6 +404,14 @@ pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
 /// it, and copies the inputs (concatenated likewise) into `inputs`. Returns 0, or -1 when
 /// the frame did not come back in time or could not be sent. No allocation.
 ///
+/// `timeout_us` > 0 bounds the wait for this exchange below the PDU timeout (the scan
+/// cycle's budget): when it passes, the frame in flight is given up (its slot is released;
+/// an answer coming later is a stray frame, dropped by the frame thread) and the inputs
+/// stay as they were (a stale cycle). 0: wait up to the PDU timeout.
+///
+/// `drive` != 0: the calling thread sends and receives itself, sleeping on the socket
+/// (`run_until`); 0: it parks until the frame thread wakes it or the deadline passes.
+///
 /// # Safety
 /// `m` comes from `ss_ecat_open`; the buffers hold `out_len` / `in_len` bytes.
 #[no_mangle]
@@ -258,6 +422,8 @@ pub unsafe extern "C" fn ss_ecat_exchange(
     inputs: *mut u8,
     in_len: usize,
     cycle: *mut SsEcatCycle,
+    timeout_us: u32,
+    drive: u32,
 ) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
@@ -270,7 +436,13 @@ pub unsafe extern "C" fn ss_ecat_exchange(
         o[..k].copy_from_slice(&outs[off..off + k]);
         off += o.len();
     }
-    let result = block_on(group.tx_rx(md));
+    // Past the deadline the future is dropped, which releases its frame (ethercrab's
+    // ReceiveFrameFut::drop) and the PDI lock; the PDI (our inputs) is only written from a
+    // frame that came back.
+    let wait = if timeout_us == 0 { m.pdu_timeout } else { Duration::from_micros(u64::from(timeout_us)) };
+    let io = (drive != 0).then_some(&*m.io);
+    let result = run_until(group.tx_rx(md), Instant::now() + wait, io)
+        .unwrap_or(Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu)));
     let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
     let mut off = 0usize;
     for sd in group.iter(md) {

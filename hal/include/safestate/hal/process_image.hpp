@@ -18,6 +18,7 @@ struct ProcessImageIn {
   bool contactor_closed = false;                     // main contactor auxiliary contact
   std::array<bool, kAxes> brake_released{};          // brake feedback contacts
   bool fieldbus_ok = true;                           // cyclic data valid this cycle
+  bool stale = false;                                // no fresh sample this cycle: the inputs are the last ones held
   std::uint8_t fieldbus_subdevice = 0;               // 1-based position of the first at fault, 0 = bus
   bool fieldbus_silent = false;                      // no frame back: silent from that subdevice on
   bool fieldbus_boot_failed = false;                 // the bus cannot come up as configured

@@ -120,8 +120,12 @@ class MotionController {
   [[nodiscard]] float tcp_cap_mm_s() const noexcept { return tcp_cap_; }
 
   // Before the supervisor runs: the measured speeds of the TCP and every link origin,
-  // from measured joint positions (this cycle's and the last), and the program status.
-  void measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb) noexcept;
+  // from measured joint positions (this sample's and the last one's, over the cycles
+  // between them), and the program status. `stale`: no fresh sample this cycle (a lost or
+  // late frame, the positions are the last ones held): the speeds of the last sample
+  // stand, and the next fresh one is differentiated over both cycles, so a stale cycle
+  // never doubles a measured speed.
+  void measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb, bool stale = false) noexcept;
 
   // After the supervisor ran: set-points and controlwords for this cycle.
   void step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,
@@ -157,6 +161,7 @@ class MotionController {
   Joints q_meas_{};
   Joints q_prev_{};
   bool have_prev_ = false;
+  std::uint32_t span_ = 1;  // cycles from the sample in q_prev_ to the next fresh one
   Frames frames_{};
   PointSpeeds speeds_{};
   std::array<AxisState, kJoints> axis_{};

@@ -61,6 +61,7 @@ struct CellView {
   bool contactor_closed = false;            // feedback
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
+  bool inputs_stale = false;  // this cycle's frame was late or lost: inputs held
   std::uint64_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
   std::uint8_t program_index = 0;           // waypoint the program is heading to
   std::uint8_t program_length = 0;

@@ -127,10 +127,13 @@ class SimPlant final : public hal::Backend {
     std::uint16_t sw_value = 0;
     std::uint32_t slow_cycles = 0;  // 0: one enabling step per cycle
     std::uint32_t slow_timer = 0;
+    std::int16_t torque = 0;  // 0x6077, per mille of rated: see physics()
   };
   [[nodiscard]] std::uint32_t cycles_of_ms(std::uint16_t ms) const noexcept;
   void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
   void physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept;
+  [[nodiscard]] std::int16_t drive_torque(const Axis& a, const hal::DriveOut& d, float accel, float amax,
+                                          float target) const noexcept;
 
   const motion::RobotModel& model_;
   float dt_;

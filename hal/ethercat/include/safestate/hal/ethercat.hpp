@@ -7,7 +7,10 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <semaphore>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -21,7 +24,9 @@ enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive };
 // SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, then the
 // SPEC §11 protective fields' OSSD pairs.
 inline constexpr std::size_t kInputBits = 24;
-inline constexpr std::size_t kOutputBits = 3;
+// Outputs: contactor, brakes_release, reset_lamp, then brake_hold.1..6 (that axis' brake
+// stays engaged although brakes_release is set: the SPEC §12 brake test).
+inline constexpr std::size_t kOutputBits = 9;
 extern const char* const kInputBitNames[kInputBits];
 extern const char* const kOutputBitNames[kOutputBits];
 
@@ -38,9 +43,14 @@ struct Subdevice {
   std::array<std::uint16_t, kOutputBits> out_bit{};  // safety_outputs
   std::uint8_t axis = 0;                             // drive: 1..6
   double counts_per_rad = 0.0;                       // drive: encoder increments per radian
-  std::uint16_t controlword = 0, target_position = 0;                    // RxPDO byte offsets
-  std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0;  // TxPDO byte offsets
+  std::uint16_t controlword = 0, target_position = 0, max_torque = 0;   // RxPDO byte offsets (0x6040, 0x607A, 0x6072)
+  std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0,
+                torque_actual = 0;  // TxPDO byte offsets (0x6041, 0x6064, 0x606C, 0x6077)
 };
+
+// The range of `watchdog_cycles` in a bus configuration.
+inline constexpr std::uint32_t kMinWatchdogCycles = 2;
+inline constexpr std::uint32_t kMaxWatchdogCycles = 10000;
 
 struct BusConfig {
   std::vector<Subdevice> subdevices;  // in bus order
@@ -48,7 +58,25 @@ struct BusConfig {
   // How long the start-up scan is repeated while it times out or finds fewer subdevices
   // than configured (drives still powering up); 0 = one scan.
   std::uint32_t scan_timeout_ms = 5000;
+  // A cycle whose frame is late or lost is stale (inputs held from the last answered
+  // frame); this many stale cycles in a row is FIELDBUS_LOST.
+  std::uint32_t stale_cycles = 3;
+  // Each subdevice's process-data watchdog (0x0400/0x0420), in scan cycles: outputs not
+  // written for that long go to their safe state by themselves (the master died).
+  std::uint32_t watchdog_cycles = 10;
 };
+
+// The process-data watchdog registers for `cycles` scan cycles of `cycle_us`: the divider
+// (0x0400, ticks of (divider + 2) x 40 ns) and the time in ticks (0x0420). 100 us ticks
+// while the time fits 16 bits, else 1 ms ticks; false if it fits neither.
+bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept;
+
+// How long one exchange of `safestate run` may wait for its frame in a cycle of `cycle_us`:
+// until 150 us before the cycle ends (3/4 of cycles shorter than 600 us). Past it the cycle
+// is stale (docs/ethercat.md).
+constexpr std::uint32_t exchange_budget_us(std::uint32_t cycle_us) noexcept {
+  return (cycle_us >= 600U) ? cycle_us - 150U : cycle_us * 3U / 4U;
+}
 
 // Parses and validates a configuration (JSON text). On error returns false and names
 // the field that is wrong in `err`; `out` is then unspecified.
@@ -66,14 +94,17 @@ struct Health {
 
 class Backend final : public hal::Backend {
  public:
-  // Opens the interface, scans, checks every identity against `cfg`, maps, goes to OP.
-  // Never throws; on failure the backend reports the fieldbus down (BOOT then fails) and
-  // boot_error() names the subdevice.
-  // The fieldbus watchdog: more than `lost_frames_max` exchanges in a row without a frame
-  // back, or (when `watchdog_ns` > 0) that long on the monotonic clock since the last good
-  // one, is FIELDBUS_LOST. The time bound matters because a lost frame waits for the whole
-  // frame timeout, which can be many cycles.
-  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t lost_frames_max, std::uint64_t watchdog_ns = 0);
+  // Opens the interface, scans, checks every identity against `cfg`, writes every
+  // subdevice's process-data watchdog (`cfg.watchdog_cycles` of `cycle_us`), maps, goes to
+  // OP. Never throws; on failure the backend reports the fieldbus down (BOOT then fails)
+  // and boot_error() names the subdevice.
+  // One exchange waits at most `exchange_timeout_us` (0: the frame timeout, as a replay
+  // that must not lose a frame to a busy host does); a frame not back by then makes the
+  // cycle stale: inputs held, counted. `cfg.stale_cycles` stale cycles in a row, or (when
+  // `watchdog_ns` > 0) that long on the monotonic clock since the last answered frame, is
+  // FIELDBUS_LOST.
+  Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t cycle_us, std::uint32_t exchange_timeout_us,
+          std::uint64_t watchdog_ns = 0);
   ~Backend() override;
   Backend(const Backend&) = delete;
   Backend& operator=(const Backend&) = delete;
@@ -87,6 +118,16 @@ class Backend final : public hal::Backend {
   // Latched: the first loss of the bus and whom it concerns.
   [[nodiscard]] const Health& health() const noexcept { return health_; }
   [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
+  // Cycles whose frame did not come back within the exchange timeout (inputs held).
+  [[nodiscard]] std::uint64_t stale_cycles() const noexcept { return stale_total_.load(std::memory_order_relaxed); }
+  // When the bus was lost for want of answers: the stale cycles in a row and the time since
+  // the last answered frame at that moment (0 when it was lost otherwise or not at all).
+  [[nodiscard]] std::uint32_t lost_after_cycles() const noexcept { return lost_after_cycles_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::uint64_t lost_after_ns() const noexcept { return lost_after_ns_.load(std::memory_order_relaxed); }
+  // The exchange timeout in use (us) and the watchdog written to the subdevices.
+  [[nodiscard]] std::uint32_t exchange_timeout_us() const noexcept { return exchange_timeout_us_; }
+  [[nodiscard]] std::uint16_t watchdog_divider() const noexcept { return wd_divider_; }
+  [[nodiscard]] std::uint16_t watchdog_time() const noexcept { return wd_time_; }
   // Frames that came back matching no frame in flight (late after the frame timeout, or
   // corrupted): dropped by the master's frame thread, which carries on.
   [[nodiscard]] static std::uint64_t stray_frames() noexcept;
@@ -111,6 +152,9 @@ class Backend final : public hal::Backend {
   void boot(const std::string& ifname);
   void decode(ProcessImageIn& in) const noexcept;
   void lose(std::uint8_t position, const char* why, bool silent = false) noexcept;
+  void keep_alive() noexcept;
+  void hand_over() noexcept;
+  void stop_exchanges() noexcept;
 
   BusConfig cfg_;
   struct Master;
@@ -124,11 +168,37 @@ class Backend final : public hal::Backend {
   std::atomic<std::uint8_t> lost_position_{0};
   std::atomic<bool> lost_silent_{false};
   std::atomic<const char*> lost_why_{nullptr};
-  std::uint32_t lost_frames_max_;
-  std::uint32_t lost_in_row_ = 0;
+  std::uint32_t cycle_us_;
+  std::uint32_t exchange_timeout_us_;
+  std::uint32_t stale_in_row_ = 0;
+  std::atomic<std::uint64_t> stale_total_{0};
+  std::atomic<std::uint32_t> lost_after_cycles_{0};
+  std::atomic<std::uint64_t> lost_after_ns_{0};
+  std::uint16_t wd_divider_ = 0;
+  std::uint16_t wd_time_ = 0;
   std::uint64_t watchdog_ns_;
   std::uint64_t last_good_ns_ = 0;
   std::uint64_t exchanges_ = 0;
+  // From OP until the real-time loop's first read(): the process-data watchdogs count from
+  // OP, so a thread exchanges the (safe, all-zero) outputs every cycle meanwhile.
+  // With an exchange timeout (`safestate run`) it stays as the exchange thread: write()
+  // posts the outputs (req_out_, req_seq_) and wakes it, it sends them at once and puts the
+  // answer aside (ans_*); the next read() takes it if it answers that request, else the
+  // cycle is stale. The loop never waits for the bus.
+  std::thread keepalive_;
+  std::atomic<bool> handover_{false};
+  bool async_;
+  bool handed_over_ = false;
+  bool counting_ = false;  // stale cycles count towards the loss once a request of the loop was answered
+  std::counting_semaphore<1 << 30> wake_{0};
+  std::mutex xfer_;
+  std::vector<std::uint8_t> req_out_;
+  std::uint64_t req_seq_ = 0;
+  std::vector<std::uint8_t> ans_in_;
+  std::uint64_t ans_seq_ = 0;
+  std::uint64_t ans_id_ = 0;
+  std::uint64_t ans_ns_ = 0;
+  std::uint64_t taken_id_ = 0;
 };
 
 }  // namespace safestate::hal::ethercat

@@ -39,14 +39,19 @@ enum class DiBit : std::uint8_t {
   field_outer_a, field_outer_b, field_inner_a, field_inner_b,  // SPEC §11, NC (1 = clear)
 };
 inline constexpr std::size_t kDiBytes = 4;  // 24 contacts, padded to 32 bits
-// Bits of the digital output terminal's RxPDO (0x7000:01..).
-enum class DoBit : std::uint8_t { contactor, brakes_release, reset_lamp };
+// Bits of the digital output terminal's RxPDO (0x7000:01..). brake_hold_1..6: that axis'
+// brake stays engaged although brakes_release is set (the SPEC §12 brake test's axis).
+enum class DoBit : std::uint8_t {
+  contactor, brakes_release, reset_lamp,
+  brake_hold1, brake_hold2, brake_hold3, brake_hold4, brake_hold5, brake_hold6,
+};
 inline constexpr std::size_t kDoBytes = 2;
 // Drive PDOs (CSP): RxPDO 0x1600 = 0x6040 controlword (u16), 0x607A target position
-// (i32); TxPDO 0x1A00 = 0x6041 statusword (u16), 0x6064 position actual (i32), 0x606C
-// velocity actual (i32). Little-endian, as on the wire.
-inline constexpr std::size_t kDriveRxBytes = 6;
-inline constexpr std::size_t kDriveTxBytes = 10;
+// (i32), 0x6072 max torque (u16, per mille of rated); TxPDO 0x1A00 = 0x6041 statusword
+// (u16), 0x6064 position actual (i32), 0x606C velocity actual (i32), 0x6077 torque actual
+// (i16, per mille of rated). Little-endian, as on the wire.
+inline constexpr std::size_t kDriveRxBytes = 8;
+inline constexpr std::size_t kDriveTxBytes = 12;
 // Encoder resolution of the emulated drives: 2^20 increments per revolution.
 inline constexpr double kCountsPerRad = 1048576.0 / 6.283185307179586;
 
@@ -93,9 +98,25 @@ class EmulatedCell {
   };
   void mark_input_change() noexcept;
   [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
+  // Outputs dropped by the subdevices themselves (issue 22 item 3): while no process data
+  // arrives (the master died), the time from the last exchange to the plant seeing the
+  // contactor output open and the last drive's enable (controlword bit 3) gone, as the
+  // subdevices' process-data watchdogs put their outputs in the safe state. Cleared when
+  // an exchange closes the contactor again.
+  struct OutputDrop {
+    bool contactor = false;
+    bool enable = false;
+    std::uint64_t contactor_ns = 0;  // after the last exchange
+    std::uint64_t enable_ns = 0;
+  };
+  [[nodiscard]] const OutputDrop& output_drop() const noexcept { return drop_; }
 
  private:
   void time_reaction(bool was_closed) noexcept;
+  void time_output_drop(bool was_closed, bool was_enabled) noexcept;
+  [[nodiscard]] bool outputs_went_safe() const noexcept;
+  [[nodiscard]] bool any_enabled() const noexcept;
+  void plant_cycle(bool exchange) noexcept;
 
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
@@ -107,7 +128,9 @@ class EmulatedCell {
   std::uint64_t now_ns_ = 0;
   bool free_running_ = false;
   Reaction reaction_{};
+  OutputDrop drop_{};
   std::uint64_t next_free_ns_ = 0;
+  std::uint64_t last_exchange_ns_ = 0;
 };
 
 }  // namespace safestate::ecat

@@ -15,7 +15,14 @@ struct EcatSimOptions {
   std::string ifname;
   std::string control;      // Unix socket path; empty = no control channel
   std::uint32_t cycle_us = 1000;
-  int priority = 70;  // SCHED_FIFO when permitted; 0 = ordinary scheduling
+  // SCHED_FIFO when permitted (0 = ordinary scheduling). Above the master's threads (loop 80,
+  // frame thread 85): it stands in for ESCs, which answer in hardware whatever the master's
+  // CPU does; on the loop's CPU (`--cpu`) a lower priority let a loop spinning out its
+  // deadline keep a late answer from being sent at all.
+  int priority = 90;
+  // Pin the frame loop to this CPU (-1: no pinning). The tests put it on the CPU of
+  // `safestate run --cpu`: see docs/ethercat.md, "Timing on a shared host".
+  int cpu = -1;
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
   std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
 };

@@ -117,6 +117,8 @@ class Esc {
   // longer than its time = outputs safe, and the application falls back to SAFEOP
   // with AL status code 0x001B.
   void poll_watchdog(std::uint64_t now_ns) noexcept;
+  // Its time as the registers hold it: (0x0400 divider + 2) x 40 ns x 0x0420.
+  [[nodiscard]] std::uint64_t watchdog_ns() const noexcept;
 
   [[nodiscard]] AlState state() const noexcept;
   [[nodiscard]] std::uint16_t al_status_code() const noexcept;
@@ -129,7 +131,6 @@ class Esc {
   void on_eeprom_control() noexcept;
   [[nodiscard]] std::uint16_t transition_error(AlState from, std::uint8_t to) const noexcept;
   [[nodiscard]] bool sm_matches(std::uint16_t start, std::size_t bytes) const noexcept;
-  [[nodiscard]] std::uint64_t watchdog_ns() const noexcept;
   [[nodiscard]] std::uint16_t u16(std::uint16_t a) const noexcept;
   void put16(std::uint16_t a, std::uint16_t v) noexcept;
 

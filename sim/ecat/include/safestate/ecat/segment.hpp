@@ -38,6 +38,14 @@ class Segment {
   void cut_before(std::size_t position) noexcept;  // 1-based; 0 = every cable plugged
   void drop_frames(std::uint32_t n) noexcept { drop_ += n; }
   void corrupt_frames(std::uint32_t n) noexcept { corrupt_ += n; }
+  // One frame in every `n` (0 = none) is lost on its way back: the subdevices process it
+  // (outputs taken, the plant steps) but the master never sees the answer, as with a frame
+  // damaged after the last subdevice or one that comes back after the master gave it up.
+  void lose_every(std::uint32_t n) noexcept {
+    lose_every_ = n;
+    lose_count_ = 0;
+  }
+  [[nodiscard]] std::uint64_t lost_replies() const noexcept { return lost_replies_; }
   // The whole bus silent (a cable cut at the master) until clear_wire_faults().
   void go_silent() noexcept { silent_ = true; }
   // Subdevice `position` (1-based; 0 = none) stays in OP and answers every other datagram
@@ -50,6 +58,7 @@ class Segment {
     no_pd_ = 0;
     drop_ = 0;
     corrupt_ = 0;
+    lose_every_ = 0;
   }
   [[nodiscard]] std::size_t connected() const noexcept;
 
@@ -70,6 +79,9 @@ class Segment {
   std::size_t cut_ = 0;
   std::uint32_t drop_ = 0;
   std::uint32_t corrupt_ = 0;
+  std::uint32_t lose_every_ = 0;
+  std::uint32_t lose_count_ = 0;
+  std::uint64_t lost_replies_ = 0;
   bool silent_ = false;
   std::size_t no_pd_ = 0;
   std::uint64_t frames_ = 0;
