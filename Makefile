@@ -103,6 +103,7 @@ coverage: deps
 
 # ThreadSanitizer over the bridge, rings and runtime threads.
 test-tsan: deps
+	@$(DEPS) fuzz
 	cmake --preset tsan
 	cmake --build --preset tsan --target test_bridge
 	ctest --preset tsan -R '^(Ring|SeqLock|Segment|RuntimeBridge)'
