@@ -24,7 +24,7 @@ using nlohmann::json;
 namespace {
 
 // [docs/robot.md] the IRB 120-3/0.58 carries 3 kg; robot.hpp does not hold it (yet).
-constexpr double kRatedPayloadKg = motion::kRatedPayloadKg;
+constexpr double kRatedPayloadKg = static_cast<double>(motion::kRatedPayloadKg);
 // Plausibility bounds where the robot has no published number; they refuse typos (a TCP
 // speed of 150000 mm/s, a box 100 m wide), not settings that make sense for this arm.
 constexpr double kMaxTcpSpeedMmS = 10000.0;
