@@ -1,0 +1,167 @@
+// sim_dynamics: the simulated arm's rigid-body model and torques, for an outside oracle
+// (tests/integration/test_dynamics_vs_pinocchio.py).
+//
+//   sim_dynamics --model   prints core::kIrb120Links, gravity, the rated torques, the joint
+//                          ranges and tool0's rotation in link 6 as JSON (SI units)
+//   sim_dynamics           reads lines of 21 numbers from stdin, q[6] qd[6] qdd[6] f_world[3]
+//                          (rad, rad/s, rad/s^2, N in the base frame, on the TCP = tool0,
+//                          no payload) and prints the 6 joint torques (N m) of
+//                          sim::ArmDynamics::torques() per line, full precision.
+//
+// Exit 0; 1 when a line's torques could not be computed (NaN printed); 2 on a malformed
+// line or option.
+#include <array>
+#include <cstddef>
+#include <exception>
+#include <iomanip>
+#include <iostream>
+#include <span>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "safestate/core/dynamics.hpp"
+#include "safestate/motion/robot.hpp"
+#include "safestate/sim/dynamics.hpp"
+
+namespace {
+
+using safestate::sim::JointVec;
+using safestate::sim::Vec3;
+namespace core = safestate::core;
+
+double d(float v) { return static_cast<double>(v); }
+
+template <std::size_t N>
+std::vector<double> to_vec(const std::array<float, N>& a) {
+  std::vector<double> v;
+  v.reserve(N);
+  for (const float x : a) {
+    v.push_back(d(x));
+  }
+  return v;
+}
+
+const char* axis_name(core::JointAxis a) {
+  switch (a) {
+    case core::JointAxis::x:
+      return "x";
+    case core::JointAxis::y:
+      return "y";
+    case core::JointAxis::z:
+      break;
+  }
+  return "z";
+}
+
+int print_model() {
+  nlohmann::json links = nlohmann::json::array();
+  for (const core::LinkInertial& l : core::kIrb120Links) {
+    links.push_back({{"joint_origin_m", to_vec(l.joint_origin_m)},
+                     {"axis", axis_name(l.axis)},
+                     {"mass_kg", d(l.mass_kg)},
+                     {"com_m", to_vec(l.com_m)},
+                     {"inertia", to_vec(l.inertia)}});
+  }
+  nlohmann::json tool0 = nlohmann::json::array();
+  for (const auto& row : safestate::sim::kTool0InLink6) {
+    tool0.push_back(row);
+  }
+  const nlohmann::json model = {
+      {"source", "core/include/safestate/core/dynamics.hpp (ROS-Industrial irb120_3_58_macro.xacro inertials)"},
+      {"frames", "URDF: joint k at joint_origin_m in link k-1's frame, about axis; com_m and inertia "
+                 "(about the COM: ixx ixy ixz iyy iyz izz) in link k's frame; all frames parallel at q = 0"},
+      {"links", links},
+      {"gravity_m_s2", {0.0, 0.0, -d(core::kGravityM_S2)}},
+      {"rated_torque_nm", to_vec(core::kRatedTorqueNm)},
+      {"q_min_rad", to_vec(safestate::motion::kRobot.q_min_rad)},
+      {"q_max_rad", to_vec(safestate::motion::kRobot.q_max_rad)},
+      {"tool0_rotation_in_link6", tool0},
+  };
+  std::cout << model.dump(2) << '\n';
+  return 0;
+}
+
+int torques_from_stdin() {
+  safestate::sim::ArmDynamics dyn;
+  std::cout << std::setprecision(17);  // round-trip precision
+  const Vec3 tcp{0.0, 0.0, 0.0};
+  int rc = 0;
+  std::string line;
+  long n = 0;
+  while (std::getline(std::cin, line)) {
+    ++n;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) {
+      continue;
+    }
+    std::istringstream in(line);
+    std::array<double, 21> v{};
+    std::size_t got = 0;
+    double x = 0.0;
+    while (in >> x) {
+      if (got < v.size()) {
+        v.at(got) = x;
+      }
+      ++got;
+    }
+    if (!in.eof() || got != v.size()) {
+      std::cerr << "sim_dynamics: line " << n << ": expected 21 numbers (q qd qdd f_world)\n";
+      return 2;
+    }
+    JointVec q{};
+    JointVec qd{};
+    JointVec qdd{};
+    Vec3 f{};
+    for (std::size_t i = 0; i < 6; ++i) {
+      q.at(i) = v.at(i);
+      qd.at(i) = v.at(6 + i);
+      qdd.at(i) = v.at(12 + i);
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+      f.at(i) = v.at(18 + i);
+    }
+    JointVec tau{};
+    if (!dyn.torques(q, qd, qdd, f, tcp, tau)) {
+      rc = 1;
+    }
+    for (std::size_t i = 0; i < tau.size(); ++i) {
+      std::cout << (i == 0 ? "" : " ") << tau.at(i);
+    }
+    std::cout << '\n';
+  }
+  return rc;
+}
+
+int run(std::span<char*> argv) {
+  std::vector<std::string> args;
+  for (const char* a : argv.subspan(1)) {
+    args.emplace_back(a);
+  }
+  if (args.empty()) {
+    return torques_from_stdin();
+  }
+  if (args.size() == 1 && args[0] == "--model") {
+    return print_model();
+  }
+  if (args.size() == 1 && (args[0] == "--help" || args[0] == "-h")) {
+    std::cout << "usage: sim_dynamics [--model]\n"
+                 "  --model  the arm's rigid-body table as JSON\n"
+                 "  (none)   stdin lines 'q[6] qd[6] qdd[6] f_world[3]' -> 6 joint torques (N m) per line\n";
+    return 0;
+  }
+  std::cerr << "sim_dynamics: unknown option (usage: sim_dynamics [--model])\n";
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(std::span<char*>(argv, static_cast<std::size_t>(argc)));
+  } catch (const std::exception& e) {
+    std::cerr << "sim_dynamics: " << e.what() << '\n';
+    return 2;
+  }
+}
