@@ -69,6 +69,7 @@ constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "enable leaves centre while mode is T1/T2",
     "mode changes (including to NONE)",
     "jog keep-alive older than jog_timeout_ms",
+    "collision: the force at the TCP estimated from the drives' torques above the region's F_qs (pfl on)",
     "inner protective field interrupted while collaborative operation is on (AUTO)",
     "a brake test fails (an axis drifted more than max_drift_deg)",
     "self-test passed, fieldbus up, all drives answer",
@@ -81,14 +82,16 @@ constexpr std::array<const char*, kTriggerCount> kTriggerNames{
     "brake test: every axis tested and held",
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
     "validate_config", "brake_test"};
-constexpr std::array<const char*, 11> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
+constexpr std::array<const char*, 13> kEffectNames{"-",           "clear latched alarms, acknowledge drive faults",
                                                   "arm from step CONTACTOR", "start program from first waypoint",
                                                   "resume program, re-planned from measured position",
                                                   "discard program", "restart jog keep-alive",
                                                   "T2 confirmed until the mode changes",
                                                   "configuration validated (written to the event log)",
                                                   "the pause may resume by itself (auto_resume)",
-                                                  "brake test from axis 1 (SPEC §12)"};
+                                                  "brake test from axis 1 (SPEC §12)",
+                                                  "back off 10 mm along the path, then hold (program kept)",
+                                                  "back off 10 mm along the path, then hold; discard program"};
 constexpr std::array<const char*, kAlarmCount> kAlarmNames = [] {
   std::array<const char*, kAlarmCount> n{};
   for (std::size_t i = 0; i < kAlarmCount; ++i) {

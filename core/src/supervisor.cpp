@@ -114,6 +114,7 @@ struct SystemStateManager::CycleCtx {
   LimitReport limits{};  // SPEC §10 monitors' verdict this cycle
   FieldReport fields{};  // SPEC §11 protective fields
   SsmReport ssm{};       // SPEC §11 speed and separation monitoring
+  CollisionReport collision{};  // SPEC §11 collision detection (rule 8)
   BrakeTestVerdict brake_test{};  // SPEC §12 sequencer's verdict this cycle
 };
 
@@ -135,6 +136,7 @@ void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmG
   limits_.configure(limits, arm, cycle_us);
   fields_.configure(limits.collaborative, cycle_us);
   ssm_.configure(limits, cycle_us);
+  collision_.configure(limits, cycle_us);
   config_validated_ = validated;
   brake_test_.configure(limits.brake_test, cycle_us, timing_.brake_confirm, timing_.brakes_timeout);
 }
@@ -179,6 +181,9 @@ void SystemStateManager::update_monitors(CycleCtx& c) noexcept {
   fields_.check(in, c.fields);
   limits_.evaluate(fb, powered, in.reduced_requested, c.fields.outer_reduces ? kReducedByField : 0U, c.limits);
   ssm_.check(in, c.limits.tcp_speed_mm_s, c.limits.speed_limit_mm_s, powered, c.ssm);
+  // The drives hold the arm, brakes released, nothing pushing a brake: their torques follow the model.
+  const bool arm_free = in_mask(kOperationalOrCat2, leaf_) && (leaf_ != Leaf::BRAKE_TEST);
+  collision_.check(fb, arm_free, c.collision);
   brake_test_.step(leaf_ == Leaf::BRAKE_TEST, fb, now_, c.brake_test);
 
   // @req AL-LIFETIME
@@ -444,6 +449,12 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
           hit(AlarmId::JOG_LINK_LOST, detail_of(Signal::command));
         }
         break;
+      // @req COL-COLLISION
+      case Trigger::collision:
+        if (c.collision.hit.hit) {
+          hit(AlarmId::COLLISION, c.collision.hit.detail);
+        }
+        break;
       // @req COL-FIELD-GUARD
       case Trigger::person_in_field:
         if (c.fields.inner_stops) {
@@ -544,7 +555,9 @@ void SystemStateManager::evaluate_events(CycleCtx& c) noexcept {
   } else if (auto* s = std::get_if<StStopping>(&state_)) {
     trig = Trigger::standstill;
     if (!s->braking) {
-      if (c.at_standstill) {
+      // SPEC §11 rule 8: not at the end while the motion layer still backs off (the stop
+      // time monitor bounds it).
+      if (c.at_standstill && !(s->back_off && c.fb.backing_off)) {
         if (s->category == StopCat::CAT2) {
           fired = true;
         } else {
@@ -752,6 +765,10 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     case Effect::begin_brake_test:
       brake_test_.begin(now_);
       break;
+    case Effect::back_off_abort:
+      c.program = ProgramCmd::Abort;
+      break;
+    case Effect::back_off:
     case Effect::none:
       break;
   }
@@ -775,6 +792,7 @@ Result SystemStateManager::apply(CycleCtx& c, const Transition& row, const Cause
     StStopping s{};
     s.category = row.stop;
     s.target = to;
+    s.back_off = (row.effect == Effect::back_off) || (row.effect == Effect::back_off_abort);
     if (const auto* prev = std::get_if<StStopping>(&state_)) {
       s.elapsed = prev->elapsed;  // an escalated stop keeps its original start (SS1-t)
     }
@@ -887,6 +905,7 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   } else if (const auto* s = std::get_if<StStopping>(&state_)) {
     o.stop = s->category;
     o.target = s->target;
+    o.motion.back_off = s->back_off && !s->braking;
     if (s->braking) {
       o.brakes_release = false;
       o.motion.mode = MotionMode::Hold;
@@ -926,6 +945,8 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   st.ssm = c.ssm.acting;
   st.v_allowed_mm_s = c.ssm.v_allowed_mm_s;
   st.separation_mm = c.ssm.separation_mm;
+  st.pfl = c.collision.acting;
+  st.contact_force_n = c.collision.force_n;
   // SPEC §12: the tested brake and the test's offset and torque, only while testing.
   const bool testing = (leaf_ == Leaf::BRAKE_TEST) && c.brake_test.running;
   o.brake_test_axis = testing ? c.brake_test.brake_engaged_axis : 0U;

@@ -13,6 +13,13 @@ namespace {
 float clampf(float x, float lo, float hi) noexcept { return (x < lo) ? lo : ((x > hi) ? hi : x); }
 float absf(float x) noexcept { return (x < 0.0F) ? -x : x; }
 bool finite(float x) noexcept { return std::isfinite(x); }
+bool at_rest(const Joints& v) noexcept {
+  bool still = true;
+  for (const float x : v) {
+    still = still && (x == 0.0F);  // the stop ramp ends on an exact zero
+  }
+  return still;
+}
 float minf(float a, float b) noexcept { return (b < a) ? b : a; }
 float maxf(float a, float b) noexcept { return (b > a) ? b : a; }
 
@@ -266,6 +273,12 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
   } else if (span_ < 0xFFFFU) {
     ++span_;  // the last sample's speeds stand
   }
+  // @req COL-BACKOFF
+  // The path the TCP came, for a collision's back-off (not the retrace itself).
+  if (fresh && !back_off_.started()) {
+    back_off_.record(q_meas_, frames_.tcp);
+  }
+  fb.backing_off = back_off_req_ && !back_off_.done();
   fb.tcp_speed_mm_s = speeds_.speed[kTcpPoint];
   fb.max_point_speed_mm_s = speeds_.max_speed;
   fb.fastest_axis = speeds_.fastest_axis;
@@ -539,10 +552,23 @@ void MotionController::step(const core::SupervisorOut& so, const std::array<core
       break;
     // @req ST-CAT2
     case core::MotionMode::Ramp2:
-      ramp(cfg_.cat2_decel);
-      integrate(false);
+      // @req COL-BACKOFF
+      // SPEC §11 rule 8: stopped, the arm backs off along its path, then holds.
+      if (r.back_off && (back_off_.started() || at_rest(v_sp_))) {
+        if (!back_off_.started()) {
+          back_off_.begin(q_sp_, frames_.tcp);
+        }
+        back_off_.step(cfg_.cycle_s, q_sp_, v_sp_);
+      } else {
+        ramp(cfg_.cat2_decel);
+        integrate(false);
+      }
       break;
   }
+  if (!r.back_off && back_off_.started()) {
+    back_off_.cancel();  // the stop ended (or escalated): the next path is recorded again
+  }
+  back_off_req_ = r.back_off;
   drive_control(so, drives, out);
   axis_states(so, drives);
   q_sent_ = q_sp_;

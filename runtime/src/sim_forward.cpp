@@ -63,8 +63,11 @@ std::string sim_line(const bridge::CommandRecord& r) {
     case sim::FaultKind::contactor_welded: return "fault contactor welded";
     case sim::FaultKind::brake_stuck_released: return "fault brake " + n + " stuck_released";
     case sim::FaultKind::brake_weak: return "fault brake " + n + " weak";
-    // The record has no value field (statusword, ms), and the rest act on the core's side
-    // of the cell, not on the segment: the gateway does not send them (rt_loop refuses them).
+    // The record has no value field (statusword, ms, contact force, torque bias), and the
+    // rest act on the core's side of the cell, not on the segment: the gateway does not send
+    // them (rt_loop refuses them).
+    case sim::FaultKind::contact:
+    case sim::FaultKind::drive_torque_bias:
     case sim::FaultKind::integrity:
     case sim::FaultKind::selftest_fail:
     case sim::FaultKind::drive_statusword:

@@ -58,6 +58,7 @@
 #include "safestate/scenario/scenario.hpp"
 #include "parse_util.hpp"
 #include "brake_keys.hpp"
+#include "collision_keys.hpp"
 #include "safety_keys.hpp"
 
 namespace safestate::scenario {
@@ -427,7 +428,8 @@ bool parse_drive_word_fault(const Tokens& a, sim::Fault& f) noexcept {
 }
 
 bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
-  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f) || brake_keys::parse_fault(a, f)) {
+  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f) || brake_keys::parse_fault(a, f) ||
+      collision_keys::parse_fault(a, f)) {
     return true;
   }
   if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck_released" && axis_1_to_6(a[1], f.axis)) {
@@ -476,7 +478,8 @@ Problem parse_fault(const Tokens& args, FaultStep& out) {
   return "bad fault " + quoted(written) +
          " (expected drive N fault|clear|runaway|nostop, drive N statusword 0xHHHH, drive N slow_enable MS,"
          " fieldbus lost, contactor stuck_open|welded, brake N stuck|stuck_released|weak, integrity, selftest fail,"
-         " program unload, jog_link drop, clear all; N 1..6, MS 1..60000)";
+         " program unload, jog_link drop, contact F, drive N torque_bias X, clear all; N 1..6, MS 1..60000,"
+         " F 0..5000 newtons, X -300..300 percent of rated torque)";
 }
 
 // ---------------------------------------------------------------------------------------

@@ -107,6 +107,7 @@ void Cell::step() noexcept {
 
 void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
   impl_->controller.configure_limits(limits, validated);
+  impl_->plant.set_tool(limits.payload_kg, limits.tcp_mm);  // the simulated arm carries the declared tool
 }
 
 void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payload_fraction(fraction); }

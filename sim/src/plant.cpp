@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "safestate/core/dynamics.hpp"
+
 namespace safestate::sim {
 
 namespace c402 = core::cia402;
@@ -14,10 +16,19 @@ float toward_zero(float v, float dv) noexcept { return (v > dv) ? v - dv : ((v <
 
 SimPlant::SimPlant(const motion::RobotModel& model, float cycle_s, const PlantTiming& t,
                    const motion::Joints& home) noexcept
-    : model_(model), dt_(cycle_s), timing_(t) {
+    : model_(model), dt_(cycle_s), timing_(t), dyn_(std::make_shared<ArmDynamics>()) {
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     axis_[i].q = home[i];
   }
+}
+
+void SimPlant::set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept {
+  for (std::size_t k = 0; k < 3U; ++k) {
+    tcp_m_[k] = static_cast<double>(tcp_tool0_mm[k]) * 1.0e-3;
+  }
+  auto d = std::make_shared<ArmDynamics>();  // copies made before keep the old tool
+  d->set_payload(static_cast<double>(payload_kg), tcp_m_);
+  dyn_ = std::move(d);
 }
 
 void SimPlant::inject(const Fault& f) noexcept {
@@ -40,7 +51,15 @@ void SimPlant::inject(const Fault& f) noexcept {
     case FaultKind::contactor_stuck_open: contactor_stuck_open_ = true; break;
     case FaultKind::brake_stuck: axis_[i].brake_stuck = true; break;
     case FaultKind::brake_weak: axis_[i].brake_weak = true; break;
+    // @req COL-SIM-CONTACT
+    case FaultKind::contact:
+      contact_n_ = static_cast<float>(f.value) * 0.1F;
+      contact_on_ = false;  // placed where the TCP next moves
+      break;
+    case FaultKind::drive_torque_bias: axis_[i].bias = static_cast<std::int16_t>(f.value); break;
     case FaultKind::clear_all:
+      contact_n_ = 0.0F;
+      contact_on_ = false;
       for (Axis& a : axis_) {
         a.fault_cause = false;
         a.runaway = false;
@@ -48,6 +67,7 @@ void SimPlant::inject(const Fault& f) noexcept {
         a.brake_stuck = false;
         a.brake_stuck_released = false;
         a.brake_weak = false;
+        a.bias = 0;
         a.sw_override = false;
         a.slow_cycles = 0;
       }
@@ -185,7 +205,9 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
   } else {
     a.v = toward_zero(a.v, kBrakeStopDecelFactor * amax * dt_);  // no torque: the holding brake stops the axis
   }
-  a.torque = drive_torque(a, d, (a.v - v_before) / dt_, model_.qdd_max_rad_s2[i], target);
+  a.acc = (a.v - v_before) / dt_;
+  a.held_by_drive = torque && (a.brake_released || (a.ds == c402::DriveState::QuickStopActive));
+  a.torque = drive_torque(a, d, a.acc, model_.qdd_max_rad_s2[i], target);  // dynamics() replaces it when held
   a.q += a.v * dt_;
   if (a.q > model_.q_max_rad[i] || a.q < model_.q_min_rad[i]) {
     a.q = clampf(a.q, model_.q_min_rad[i], model_.q_max_rad[i]);  // mechanical hard stop
@@ -228,6 +250,68 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
     }
     drive_state(a, out.drive[i].controlword, contactor_closed_);
     physics(a, i, out.drive[i]);
+  }
+  dynamics();
+}
+
+// @req COL-SIM-DYNAMICS
+// Torque actual (0x6077) of the drives that hold the arm: what its rigid-body dynamics
+// (KDL) need for this cycle's motion under gravity, against the contact's force, in per mille
+// of rated torque (core::kRatedTorqueNm) within the drive's peak, plus an injected bias.
+void SimPlant::dynamics() noexcept {
+  JointVec q{};
+  JointVec qd{};
+  JointVec qdd{};
+  for (std::size_t i = 0; i < hal::kAxes; ++i) {
+    q[i] = static_cast<double>(axis_[i].q);
+    qd[i] = static_cast<double>(axis_[i].v);
+    qdd[i] = static_cast<double>(axis_[i].acc);
+  }
+  contact(q);
+  JointVec tau{};
+  const bool ok = dyn_->torques(q, qd, qdd, contact_f_, tcp_m_, tau);
+  for (std::size_t i = 0; i < hal::kAxes; ++i) {
+    Axis& a = axis_[i];
+    if (!a.held_by_drive) {
+      continue;
+    }
+    const double permille = ok ? (1000.0 * tau[i] / static_cast<double>(core::kRatedTorqueNm[i])) : 0.0;
+    const double limit = static_cast<double>(hal::kDriveMaxTorquePermille);
+    const double t = std::fmin(std::fmax(permille, -limit), limit) + static_cast<double>(a.bias);
+    a.torque = static_cast<std::int16_t>(std::lround(std::fmin(std::fmax(t, -32768.0), 32767.0)));
+  }
+}
+
+// The contact fault (SPEC §11 `contact F`): a surface where the TCP meets it, the first time
+// it moves after the fault; from then on, while the TCP is at or past that surface (along
+// the direction it was moving), the surface pushes it back with F newtons. Backing off
+// behind the surface frees the TCP.
+void SimPlant::contact(const JointVec& q) noexcept {
+  Vec3 p{};
+  dyn_->tcp(q, tcp_m_, p);
+  const Vec3 v{(p[0] - tcp_prev_[0]) / static_cast<double>(dt_), (p[1] - tcp_prev_[1]) / static_cast<double>(dt_),
+               (p[2] - tcp_prev_[2]) / static_cast<double>(dt_)};
+  const double speed = std::sqrt((v[0] * v[0]) + (v[1] * v[1]) + (v[2] * v[2]));
+  const bool moving = have_tcp_prev_ && (speed > 1.0e-3);  // 1 mm/s
+  tcp_prev_ = p;
+  have_tcp_prev_ = true;
+  contact_f_ = Vec3{};
+  if (contact_n_ <= 0.0F) {
+    return;
+  }
+  if (!contact_on_ && moving) {
+    contact_on_ = true;
+    contact_p0_ = p;
+    contact_u_ = {v[0] / speed, v[1] / speed, v[2] / speed};
+  }
+  if (!contact_on_) {
+    return;
+  }
+  const double into = ((p[0] - contact_p0_[0]) * contact_u_[0]) + ((p[1] - contact_p0_[1]) * contact_u_[1]) +
+                      ((p[2] - contact_p0_[2]) * contact_u_[2]);
+  if (into >= -1.0e-6) {
+    const double f = static_cast<double>(contact_n_);
+    contact_f_ = {-f * contact_u_[0], -f * contact_u_[1], -f * contact_u_[2]};
   }
 }
 

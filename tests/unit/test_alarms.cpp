@@ -62,6 +62,8 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"PERSON_IN_FIELD", Severity::info, Latch::condition},
       {"BRAKE_TEST_DUE", Severity::warning, Latch::condition},
       {"BRAKE_TEST_FAILED", Severity::fault, Latch::reset},
+      // SPEC §7/§11: COLLISION latched fault (rule 8).
+      {"COLLISION", Severity::fault, Latch::reset},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

@@ -2,6 +2,7 @@
 // reference implementation (tools/reference), cycle by cycle, over long random but
 // realistic histories. Any difference in state, sub-state, stop category, outputs,
 // alarms or command results fails with the cycle and the history that led to it.
+#include <algorithm>
 #include <random>
 #include <sstream>
 
@@ -10,6 +11,8 @@
 #include "../../tools/reference/reference.hpp"
 #include "bench.hpp"
 #include "safestate/controller/controller.hpp"
+#include "safestate/core/collision.hpp"
+#include "safestate/core/dynamics.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/motion/robot.hpp"
 
@@ -124,6 +127,8 @@ ref::Limits ref_limits(const SafetyLimits& l, bool validated) {
   r.ssm_params = c.ssm;
   r.reaction = static_cast<Cycle>(c.ssm.reaction_s * 1000.0F + 0.5F);
   r.rise_mm = (2000.0F + l.tcp_max_speed_mm_s) * 0.001F;
+  r.pfl = c.enabled && c.pfl_enabled;
+  r.f_qs_n = c.f_qs_n;
   // SPEC §12 in cycles at 1 ms, computed here from the hours (not by core/'s brake test).
   r.bt_required = l.brake_test.configured;
   r.bt_interval = std::llround(static_cast<double>(l.brake_test.interval_h) * 3.6e6);
@@ -145,6 +150,7 @@ void make_collaborative(SafetyLimits& l, bool auto_resume) {
   c.reduced_speed_mm_s = 200.0F;
   c.pfl_enabled = true;
   c.pfl_speed_mm_s = pfl_speed_cap_mm_s(BodyRegion::hand, 25.0F, 1.5F);
+  c.f_qs_n = body_region(BodyRegion::hand).f_qs_n;  // collision detection: the random torques cross it
   c.ssm_enabled = true;
   c.ssm = SsmParams{1600.0F, 2000.0F, 0.02F, 200.0F, 100.0F};  // T_r 20 ms: the random runs are short
 }
@@ -157,6 +163,10 @@ struct Harness {
   Cycle bus_boot_failed_at = 0;
   std::mt19937 feedback_rng;
   std::mt19937 limits_rng;  // SPEC §10 perturbations
+  std::mt19937 torque_rng{20261127U};  // SPEC §11 drive torques (its own stream: the others unchanged)
+  JointArray qd_prev{};     // the core's collision monitor differences velocities: so does the force here
+  bool have_qd_prev = false;
+  unsigned contact_left = 0;  // cycles of the current torque burst
   bool feedback_faults = false;
   bool rare_feedback(int per_100k) {
     return feedback_faults && static_cast<int>(feedback_rng() % 100000U) < per_100k;
@@ -374,6 +384,7 @@ struct Harness {
     fieldbus_down_until = 0;
     button_held_until = 0;
     within_limits = true;
+    have_qd_prev = false;
     configure();
     log << t << ":power cycle\n";
   }
@@ -404,6 +415,11 @@ struct Harness {
       signals.update(raw, local, timing);
       plant.fill(fb);
       ref::Geometry geo{};
+      // SPEC §11: now and then a burst of 1..8 cycles of random torques (a contact, a drive
+      // misreading), so that rule 8 is met and missed; else the torques the model expects.
+      if (contact_left == 0U && std::uniform_int_distribution<int>(0, 299)(torque_rng) == 0) {
+        contact_left = static_cast<unsigned>(std::uniform_int_distribution<int>(1, 8)(torque_rng));
+      }
       // SPEC §12: a weak brake lets the axis under test follow the offset set-point.
       const BrakeTestRequest& bt = out.motion.brake_test;
       if (bt.axis >= 1U && bt.axis <= kAxes && bt.dir != 0 && weak[bt.axis - 1U]) {
@@ -413,7 +429,34 @@ struct Harness {
       if (safety) {
         fb.program_within_limits = within_limits;
         geo = geometry_of(lim, fb);
+        // The force the torques show (the model's agreement with the arm is test_collision's).
+        JointArray q{};
+        JointArray qd{};
+        JointArray qdd{};
+        JointArray residual{};
+        for (std::size_t i = 0; i < kAxes; ++i) {
+          q[i] = fb.drive[i].position_rad;
+          qd[i] = fb.drive[i].velocity_rad_s;
+          qdd[i] = (qd[i] - qd_prev[i]) * 1000.0F;
+        }
+        ArmDynamicsState model{};
+        arm_dynamics(q, qd, have_qd_prev ? qdd : JointArray{}, lim.payload_kg, lim.tcp_mm, model);
+        for (std::size_t i = 0; i < kAxes; ++i) {
+          const float expected = std::round(1000.0F * model.tau_nm[i] / kRatedTorqueNm[i]);
+          const float burst = (contact_left > 0U)
+                                  ? static_cast<float>(std::uniform_int_distribution<int>(-1500, 1500)(torque_rng))
+                                  : 0.0F;
+          fb.drive[i].torque_permille = static_cast<std::int16_t>(std::clamp(expected + burst, -3000.0F, 3000.0F));
+        }
+        contact_left = (contact_left > 0U) ? contact_left - 1U : 0U;
+        for (std::size_t i = 0; i < kAxes; ++i) {
+          residual[i] = (static_cast<float>(fb.drive[i].torque_permille) * 0.001F * kRatedTorqueNm[i]) - model.tau_nm[i];
+        }
+        Vec3 f{};
+        geo.contact_force_n = estimate_tcp_force(model, residual, f);
       }
+      for (std::size_t i = 0; i < kAxes; ++i) qd_prev[i] = fb.drive[i].velocity_rad_s;
+      have_qd_prev = true;
       const std::size_t n = commands(cmds, t);
       const std::size_t a = core.step(signals.inputs(), fb, cmds.data(), n, out);
       const std::size_t b = reference.step(signals.inputs(), fb, cmds.data(), n, rout, geo);

@@ -49,10 +49,10 @@ const std::vector<std::string>& action_texts() {
       "cmd validate_config 00000000", "cmd jog 1 - 50", "fault drive 1 runaway",
       // SPEC §11, abstractly, from the collaborative seeds only: a person in and out of each
       // field, one OSSD channel alone (discrepancy), the distance sensor near, at the 500 mm
-      // switch, far, and failing.
+      // switch, far, and failing; a contact over the hand's F_qs against the TCP, and gone.
       "in field.inner=interrupted", "in field.inner=clear", "in field.outer=interrupted", "in field.outer=clear",
       "in field.inner.a=0", "in separation_mm=300", "in separation_mm=800", "in separation_mm=5000",
-      "in separation_valid=0",
+      "in separation_valid=0", "fault contact 300", "fault contact 0",
   };
   return k;
 }
@@ -177,6 +177,8 @@ reference::Limits ref_limits(const Configuration& c, std::uint32_t cycle_us) {
   r.ssm_params = co.ssm;
   r.reaction = static_cast<core::Cycle>(std::llround(static_cast<double>(co.ssm.reaction_s) * 1.0e6)) / cycle_us;
   r.rise_mm = static_cast<float>((2000.0 + static_cast<double>(l.tcp_max_speed_mm_s)) * cycle_us * 1.0e-6);
+  r.pfl = co.enabled && co.pfl_enabled;
+  r.f_qs_n = co.f_qs_n;
   return r;
 }
 
@@ -329,6 +331,9 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   reference::Out r{};
   reference::Geometry geo{};  // the checker's configurations have no zones and no orientation limit
   geo.tcp_speed_mm_s = o.safety.tcp_speed_mm_s;  // the measured TCP speed, judged by the reference itself
+  // SPEC §11: the force the core's model reads from the drives' torques (its agreement with
+  // the arm's dynamics is test_collision's); what it means, rule 8, the reference judges.
+  geo.contact_force_n = o.safety.contact_force_n;
   n.ref.step(in, n.cell->feedback(), cmds, taken, r, geo);
   stats_.checks += 12;
 

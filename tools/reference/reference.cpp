@@ -81,6 +81,7 @@ void Supervisor::stop_to(StopCat cat, St target, Sub target_sub) noexcept {
   if (st_ != St::STOPPING) {
     stop_elapsed_ = 0;
   }
+  back_off_ = false;  // rule 8 sets it after; any other stop (an escalation) has none
   braking_ = false;
   brake_elapsed_ = 0;
   stop_cat_ = cat;
@@ -130,6 +131,12 @@ bool Supervisor::trips(Track& t, float outside, bool powered, float tolerance) n
 
 void Supervisor::judge_limits(const core::SafetyInputs& in, const core::Feedback& fb, const Geometry& g) noexcept {
   joint_hit_ = zone_hit_ = orientation_hit_ = speed_hit_ = speed_over_ = outside_ = false;
+  // SPEC §11 collision: the arm held by its drives, brakes released, no brake test pushing.
+  const bool arm_free = (st_ == St::OP && sub_ != Sub::BRAKE_TEST) ||
+                        (st_ == St::STOPPING && stop_cat_ == StopCat::CAT2);
+  const bool over = lim_.configured && lim_.pfl && arm_free && !(g.contact_force_n <= lim_.f_qs_n);
+  collision_over_ = over ? collision_over_ + 1 : 0;
+  collision_now_ = collision_over_ >= 2;
   if (!lim_.configured) {
     return;
   }
@@ -245,6 +252,7 @@ void Supervisor::brake_test(const core::Feedback& fb) noexcept {
 void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& fb, Out& out) noexcept {
   static_cast<void>(out);
   const St s0 = st_;
+  const Sub sub0 = sub_;
   const StopCat cat_at_start = stop_cat_;
   const int step_at_start = arming_step_;
   const bool ramping_at_start = !braking_;  // still ramping (not yet braking) when the cycle began
@@ -332,6 +340,19 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
       stop_to(StopCat::CAT2, St::OP, Sub::MANUAL_IDLE);
     }
   }
+  // Rule 8 (SPEC §11): a collision stops moving motion (Cat 2), which ends with a back-off.
+  // Judged on the sub-state the cycle began in (an earlier rule may have changed it: the
+  // alarm is raised all the same).
+  const bool moving = s0 == St::OP && (sub0 == Sub::AUTO_RUNNING || sub0 == Sub::MANUAL_RUNNING ||
+                                        sub0 == Sub::MANUAL_JOGGING);
+  if (moving && collision_now_) {
+    raise(AlarmId::COLLISION);
+    if (!done) {
+      done = true;
+      stop_to(StopCat::CAT2, St::OP, sub0 == Sub::AUTO_RUNNING ? Sub::AUTO_PAUSED : Sub::MANUAL_IDLE);
+      back_off_ = true;
+    }
+  }
   // Rule 9 (SPEC §11): a person in the inner field stops a running AUTO program (Cat 2),
   // and the pause may resume by itself.
   if (s0 == St::OP && sub_ == Sub::AUTO_RUNNING && person_in_inner(in)) {
@@ -398,7 +419,7 @@ void Supervisor::events(const core::SafetyInputs& in, const core::Feedback& fb) 
       break;
     case St::STOPPING:
       if (!braking_) {
-        if (standstill()) {
+        if (standstill() && !(back_off_ && fb.backing_off)) {
           if (stop_cat_ == StopCat::CAT2) {
             go(stop_target_, stop_target_sub_);
           } else {

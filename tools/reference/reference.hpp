@@ -61,6 +61,10 @@ struct Limits {
   core::SsmParams ssm_params{};
   core::Cycle reaction = 0;
   float rise_mm = 0.0F;
+  // Collision detection (pfl on, every mode): the region's F_qs. The force itself needs the
+  // arm's dynamics: handed over each cycle (Geometry::contact_force_n).
+  bool pfl = false;
+  float f_qs_n = 0.0F;
   // SPEC §12 brake test (the defaults when no configuration: none required, 500 ms, 0.5 deg)
   // and what the event log says at start.
   bool bt_required = false;          // the configuration has a `brake_test` key
@@ -82,6 +86,7 @@ struct Geometry {
   float orientation_outside = -1.0F;  // cos(max deviation) - cos(angle): <= 0 inside the cone
   bool in_reduced_zone = false;       // the TCP is in a `reduced` zone
   float tcp_speed_mm_s = 0.0F;        // measured TCP speed
+  float contact_force_n = 0.0F;       // SPEC §11: the external force at the TCP the torques show
 };
 
 class Supervisor {
@@ -156,6 +161,9 @@ class Supervisor {
   core::Cycle ssm_over_ = 0;      // cycles the TCP has been over v_allowed + 5 %
   bool ssm_over_now_ = false;
   bool ssm_hit_ = false;
+  int collision_over_ = 0;        // cycles in a row the force was over F_qs with the arm free
+  bool collision_now_ = false;    // ... two of them: rule 8's condition this cycle
+  bool back_off_ = false;         // the current stop is rule 8's: it ends after the back-off
   // SPEC §12 brake test: which axis (0..5), which phase (0 engage, 1 push +, 2 push -,
   // 3 release), cycles in the phase, engaged run, position held, this cycle's outcome.
   bool bt_on_ = false;

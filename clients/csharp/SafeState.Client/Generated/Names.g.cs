@@ -197,6 +197,7 @@ namespace SafeState.Client
         PERSON_IN_FIELD = 307,
         BRAKE_TEST_DUE = 320,
         BRAKE_TEST_FAILED = 220,
+        COLLISION = 212,
     }
 
     public static partial class Alarms
@@ -294,6 +295,9 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.BRAKE_TEST_FAILED, 220, Severity.fault, AlarmLatch.Reset,
                 "A holding brake let the named axis drift further than brake_test.max_drift_deg under the test torque; the robot was stopped and AUTO is refused until a brake test passes.",
                 "Secure the named axis against falling, replace or adjust its brake, reset, then run the brake test again (T1 or T2 stay allowed)."),
+            new AlarmInfo(AlarmName.COLLISION, 212, Severity.fault, AlarmLatch.Reset,
+                "The force at the TCP estimated from the drives' torques exceeded the body region's quasi-static limit F_qs (power and force limiting): the robot stopped (Cat 2), backed off 10 mm along its path and holds.",
+                "Free the person or the obstacle and check the path and the payload in the safety configuration; then resume (AUTO) or jog on (T1/T2). The alarm stays until a reset with the servos off."),
         };
     }
 
@@ -464,6 +468,7 @@ namespace SafeState.Client
             "PERSON_IN_FIELD",
             "BRAKE_TEST_DUE",
             "BRAKE_TEST_FAILED",
+            "COLLISION",
         };
     }
 }

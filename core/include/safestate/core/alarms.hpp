@@ -46,8 +46,10 @@ enum class AlarmId : std::uint8_t {
   // SPEC §12 brake test, appended likewise.
   BRAKE_TEST_DUE,
   BRAKE_TEST_FAILED,
+  // SPEC §11 collision detection (rule 8), appended likewise.
+  COLLISION,
 };
-inline constexpr std::size_t kAlarmCount = 30;
+inline constexpr std::size_t kAlarmCount = 31;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -167,6 +169,11 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
    "the robot was stopped and AUTO is refused until a brake test passes.",
    "Secure the named axis against falling, replace or adjust its brake, reset, then run the brake test again "
    "(T1 or T2 stay allowed)."},
+  {AlarmId::COLLISION, "COLLISION", 212, Severity::fault, Latch::reset,
+   "The force at the TCP estimated from the drives' torques exceeded the body region's quasi-static limit F_qs "
+   "(power and force limiting): the robot stopped (Cat 2), backed off 10 mm along its path and holds.",
+   "Free the person or the obstacle and check the path and the payload in the safety configuration; then resume "
+   "(AUTO) or jog on (T1/T2). The alarm stays until a reset with the servos off."},
 }};
 // clang-format on
 

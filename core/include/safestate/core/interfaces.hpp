@@ -51,6 +51,9 @@ struct Feedback {
   // of SPEC §10 less the planning margins (checked by the motion layer when the program or
   // the limits change): `start` is OUTSIDE_LIMITS otherwise.
   bool program_within_limits = true;
+  // SPEC §11 collision back-off: the motion layer was asked to back off (MotionRequest::
+  // back_off) and has not finished: the stop is not at its end yet, however slow the arm.
+  bool backing_off = false;
 };
 
 // What motion the core allows this cycle. The motion layer must not move otherwise.
@@ -103,6 +106,9 @@ struct MotionRequest {
   bool recovery = false;
   // SPEC §12: the axis under test (its following error is not watched: it is meant to lag).
   BrakeTestRequest brake_test{};
+  // SPEC §11 rule 8: in this Cat 2 stop, once stopped, back off 10 mm along the path the TCP
+  // came at <= 100 mm/s, then hold (Feedback::backing_off until done).
+  bool back_off = false;
 };
 
 }  // namespace safestate::core

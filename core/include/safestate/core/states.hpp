@@ -70,6 +70,7 @@ struct StStopping {
   Cycle elapsed = 0;        // since the stop began (stop time monitoring, SS1-t)
   bool braking = false;     // Cat 1 at standstill: brakes engaging, drives still holding
   Cycle brake_elapsed = 0;
+  bool back_off = false;    // rule 8 (SPEC §11): back off along the path before holding
 };
 
 // Alternatives in the order of enum State.

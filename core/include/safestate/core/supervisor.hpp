@@ -9,6 +9,7 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/brake_test.hpp"
+#include "safestate/core/collision.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/monitors.hpp"
@@ -51,6 +52,10 @@ struct SafetyStatus {
   bool ssm = false;              // SSM acts (collaborative and ssm on, mode AUTO)
   float v_allowed_mm_s = 0.0F;   // meaningful while `ssm`
   float separation_mm = 0.0F;    // the separation used, while `ssm`
+  // SPEC §11 collision detection: acts (collaborative and pfl on), and the force at the TCP
+  // estimated this cycle (0 while the arm is not free: power off, brakes, brake test).
+  bool pfl = false;
+  float contact_force_n = 0.0F;
 };
 
 struct SupervisorOut {
@@ -173,6 +178,7 @@ class SystemStateManager {
   // the Cat 2 stop leading to it) came from rule 9, so that it may resume by itself.
   FieldMonitor fields_;
   SsmMonitor ssm_;
+  CollisionMonitor collision_;
   bool field_paused_ = false;
   // SPEC §12 brake test, and the brake it held engaged last cycle (feedback monitoring).
   BrakeTest brake_test_;

@@ -23,7 +23,7 @@
 namespace safestate::core {
 
 enum class Trigger : std::uint8_t {
-  // Conditions, checked every cycle in this priority (SPEC §4 rules 1..7).
+  // Conditions, checked every cycle in this priority (SPEC §4 rules 1..10).
   lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded
   estop_pressed,       // 2
   stop_fault,          // 3: drive fault, T1 speed, stop time, brake not engaged, a safe limit (§10), SSM (§11)
@@ -31,6 +31,7 @@ enum class Trigger : std::uint8_t {
   enable_left_centre,  // 5, 5b
   mode_changed,        // 6
   jog_timeout,         // 7
+  collision,           // 8: force at the TCP over the region's F_qs, pfl on (SPEC §11)
   person_in_field,     // 9: inner protective field interrupted, collaborative on (SPEC §11)
   brake_test_failed,   // 10: a brake slipped during the brake test (SPEC §12)
   // Internal events.
@@ -57,11 +58,10 @@ enum class Trigger : std::uint8_t {
   validate_config,
   brake_test,
 };
-inline constexpr std::size_t kTriggerCount = 30;
-inline constexpr std::size_t kConditionCount = 9;
-// The SPEC §4 rule number of each condition trigger (rule 8, collision, comes with issue 20's
-// collision detection; its number is kept).
-inline constexpr std::array<std::uint8_t, kConditionCount> kConditionRule{1, 2, 3, 4, 5, 6, 7, 9, 10};
+inline constexpr std::size_t kTriggerCount = 31;
+inline constexpr std::size_t kConditionCount = 10;
+// The SPEC §4 rule number of each condition trigger.
+inline constexpr std::array<std::uint8_t, kConditionCount> kConditionRule{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
 inline constexpr std::size_t kFirstCommandTrigger = static_cast<std::size_t>(Trigger::reset);
 
 [[nodiscard]] constexpr Trigger trigger_of(CommandId c) noexcept {
@@ -153,6 +153,8 @@ enum class Effect : std::uint8_t {
   set_validated,     // SPEC §10: the safety configuration is validated
   field_pause,       // SPEC §11 rule 9: the pause that follows may resume by itself
   begin_brake_test,  // SPEC §12: the brake test from axis 1
+  back_off,          // SPEC §11 rule 8: the Cat 2 stop ends with a back-off (program kept)
+  back_off_abort,    // the same, and the program is discarded (manual modes)
 };
 const char* to_string(Effect e) noexcept;
 
@@ -186,6 +188,7 @@ inline constexpr LeafMask kOperationalOrCat2 = join(kOperational, mask_of(Leaf::
 inline constexpr LeafMask kAnyButLockout = without(kAnyLeaf, mask_of(Leaf::ERROR_LOCKOUT));
 inline constexpr LeafMask kIdleOrPowered = join(mask_of(Leaf::IDLE), kPowered);
 inline constexpr LeafMask kOpIdle = any_of(Leaf::AUTO_IDLE, Leaf::MANUAL_IDLE);  // SPEC §12: where a brake test starts
+inline constexpr LeafMask kManualMoving = any_of(Leaf::MANUAL_RUNNING, Leaf::MANUAL_JOGGING);  // SPEC §11 rule 8
 
 struct Transition {
   LeafMask from;
@@ -212,7 +215,7 @@ inline constexpr auto kTransitions = [] {
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
                                bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
                                bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT) | bit(SEPARATION_VIOLATED);
-  return std::array<Transition, 41>{{
+  return std::array<Transition, 43>{{
   // from                       trigger             guard         to                  stop  alarm                  effect            rule          id
   // ---- conditions, in priority order (SPEC §4, first table) -----------------------------------------------------------------------------
   {kAnyLeaf,                    lockout_condition,  kNoGuard,     ERROR_LOCKOUT,      CAT0, kRule1,                abort_program,    "1",          "TR-C1"},
@@ -225,6 +228,8 @@ inline constexpr auto kTransitions = [] {
   {kOperationalOrCat2,          mode_changed,       kNoGuard,     IDLE,               CAT1, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6"},
   {only(ARMING),                mode_changed,       kNoGuard,     IDLE,               CAT0, bit(MODE_CHANGED),     abort_program,    "6",          "TR-C6b"},
   {only(MANUAL_JOGGING),        jog_timeout,        kNoGuard,     MANUAL_IDLE,        CAT2, bit(JOG_LINK_LOST),    none,             "7",          "TR-C7"},
+  {only(AUTO_RUNNING),          collision,          kNoGuard,     AUTO_PAUSED,        CAT2, bit(COLLISION),        back_off,         "8",          "TR-C8"},
+  {kManualMoving,               collision,          kNoGuard,     MANUAL_IDLE,        CAT2, bit(COLLISION),        back_off_abort,   "8",          "TR-C8b"},
   {only(AUTO_RUNNING),          person_in_field,    kNoGuard,     AUTO_PAUSED,        CAT2, bit(PERSON_IN_FIELD),  field_pause,      "9",          "TR-C9"},
   {only(BRAKE_TEST),            brake_test_failed,  kNoGuard,     IDLE,               CAT1, bit(BRAKE_TEST_FAILED), none,            "10",         "TR-C10"},
   // ---- events and commands (SPEC §4, second table) --------------------------------------------------------------------------------------

@@ -12,6 +12,7 @@
 #include "safestate/core/supervisor.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/core/safety_limits.hpp"
+#include "safestate/motion/back_off.hpp"
 #include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/limits.hpp"
 #include "safestate/motion/robot.hpp"
@@ -138,6 +139,7 @@ class MotionController {
   [[nodiscard]] const Frames& frames() const noexcept { return frames_; }
   [[nodiscard]] const PointSpeeds& speeds() const noexcept { return speeds_; }
   [[nodiscard]] const ProgramExecutor& program() const noexcept { return program_; }
+  [[nodiscard]] const BackOff& back_off() const noexcept { return back_off_; }
 
  private:
   void follow_program(const core::SupervisorOut& so) noexcept;
@@ -173,6 +175,8 @@ class MotionController {
   std::array<bool, kJoints> quick_stopped_{};     // we commanded the drive's own quick stop
   bool watch_following_ = false;                  // last cycle commanded hold, jog or program
   std::uint8_t test_axis_ = 0;                    // SPEC §12: the axis under brake test (1..6)
+  BackOff back_off_{};                            // SPEC §11 rule 8: the path, and the retrace
+  bool back_off_req_ = false;                     // the last step's MotionRequest::back_off
   // SPEC §10
   LimitPlanner lim_{};
   bool limits_set_ = false;

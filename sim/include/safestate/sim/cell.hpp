@@ -38,12 +38,16 @@ enum class FaultKind : std::uint8_t {
   jog_link_drop,         // the pendant's jog commands are lost on the way (cell)
   // SPEC §12 (appended likewise).
   brake_weak,            // brake N holds less than the brake test's torque (it slips under it)
+  // SPEC §11 collision detection (appended likewise).
+  contact,               // a force of `value` / 10 N pushes against the TCP's motion (0: none)
+  drive_torque_bias,     // drive N reports `value` (int16, per mille of rated) more torque than it applies
 };
 
 struct Fault {
   FaultKind kind = FaultKind::clear_all;
   std::uint8_t axis = 0;    // 1..6 for the drive_* and brake_* kinds
-  std::uint16_t value = 0;  // drive_statusword: the word; drive_slow_enable: ms per step
+  std::uint16_t value = 0;  // drive_statusword: the word; drive_slow_enable: ms per step;
+                            // contact: tenths of a newton; drive_torque_bias: int16 per mille
 };
 
 // What the simulated cell shows after a cycle, besides the supervisor's output.

@@ -6,12 +6,14 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include "safestate/core/cia402.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/sim/cell.hpp"
+#include "safestate/sim/dynamics.hpp"
 
 namespace safestate::sim {
 
@@ -72,6 +74,12 @@ class SimPlant final : public hal::Backend {
   void set_payload_fraction(float fraction) noexcept {
     payload_ = (fraction > 0.0F) ? ((fraction < 1.0F) ? fraction : 1.0F) : 0.0F;
   }
+  // The tool the arm really carries (SPEC §11: its dynamics): a point mass at the TCP
+  // (tool0 frame, mm). Start-up only (rebuilds the dynamics model). The cell sets it from the
+  // safety configuration: the simulated world carries what the configuration declares.
+  void set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept;
+  // The force the contact fault pushes the TCP with this cycle (N, base frame; 0 without).
+  [[nodiscard]] const Vec3& contact_force() const noexcept { return contact_f_; }
 
   void read(hal::ProcessImageIn& in) noexcept override;
   // The controller platform's own checks (integrity, start-up self-test): injected here
@@ -128,7 +136,12 @@ class SimPlant final : public hal::Backend {
     std::uint32_t slow_cycles = 0;  // 0: one enabling step per cycle
     std::uint32_t slow_timer = 0;
     std::int16_t torque = 0;  // 0x6077, per mille of rated: see physics()
+    std::int16_t bias = 0;    // drive_torque_bias: reported on top of the torque, per mille
+    float acc = 0.0F;         // this cycle's acceleration, rad/s^2
+    bool held_by_drive = false;  // powered with its brake released: torque from the dynamics
   };
+  void dynamics() noexcept;
+  void contact(const JointVec& q) noexcept;
   [[nodiscard]] std::uint32_t cycles_of_ms(std::uint16_t ms) const noexcept;
   void drive_state(Axis& a, std::uint16_t cw, bool power) noexcept;
   void physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept;
@@ -147,6 +160,18 @@ class SimPlant final : public hal::Backend {
   bool fieldbus_ok_ = true;
   std::uint32_t age_ = 0;
   float payload_ = 0.0F;  // fraction of the rated payload
+  // SPEC §11: the arm's rigid-body dynamics (KDL), shared by the copies of a plant (the
+  // checker copies cells; a copy is used in its original's thread): torques() keeps no
+  // state between calls.
+  std::shared_ptr<ArmDynamics> dyn_;
+  Vec3 tcp_m_{};             // the TCP in tool0, m
+  float contact_n_ = 0.0F;   // the contact fault's force, 0: none
+  bool contact_on_ = false;  // the surface is placed (the TCP moved once since the fault)
+  Vec3 contact_p0_{};        // where the TCP met it, m
+  Vec3 contact_u_{};         // the direction the TCP was moving then
+  Vec3 tcp_prev_{};
+  bool have_tcp_prev_ = false;
+  Vec3 contact_f_{};
 };
 
 // The demo program of the simulated cell: a pick-and-place round of joint waypoints.

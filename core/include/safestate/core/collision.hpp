@@ -1,0 +1,78 @@
+// SPEC §11 collision detection (ISO 10218-2:2025 power and force limiting): the drives report
+// their torque (CiA 402 0x6077, per mille of rated torque); the core compares it with its own
+// model of the arm's gravity and inertia torques (a recursive Newton-Euler pass over the IRB
+// 120's rigid-body table, core/dynamics.hpp, in float: no heap, no state, builds for the M4)
+// and estimates the external force at the TCP that explains the difference. Above the body
+// region's quasi-static limit F_qs it is rule 8, COLLISION.
+//
+// The estimate: the residual r = tau_measured - tau_model is what an external force F at the
+// TCP would cause, r = -J^T F (J: the TCP's translational Jacobian, 3 x 6). F is its damped
+// least-squares solution, F = -(J J^T + lambda^2 I)^-1 J r: the damping (kDampingM, 1 cm)
+// keeps a residual near a singular pose from being read as a huge force, and a residual on
+// a joint that no force at the TCP can turn (axis 6 with the TCP on its axis) is ignored.
+//
+// The joint accelerations come from the drives' velocities, differenced over one cycle. On
+// the simulated cell the model and the plant agree to float rounding; on a real arm friction,
+// motor inertia and noise would need identification and a filtered observer (docs/collaborative.md).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "safestate/core/arm.hpp"
+#include "safestate/core/interfaces.hpp"
+#include "safestate/core/monitors.hpp"
+#include "safestate/core/safety_limits.hpp"
+#include "safestate/core/types.hpp"
+
+namespace safestate::core {
+
+// The damping of the force estimate, m (see above).
+inline constexpr float kDampingM = 0.01F;
+// Cycles the estimate must stay above F_qs: a single sample (one late frame, one cycle's
+// acceleration differenced over two) never stops the robot; two in a row do.
+inline constexpr std::uint8_t kCollisionConfirmCycles = 2;
+
+struct ArmDynamicsState {
+  JointArray tau_nm{};                  // the model's joint torques, N m
+  std::array<Vec3, kAxes> jacobian{};  // column k: d tcp / d q_k, m/rad (base frame)
+  Vec3 tcp_m{};                         // the TCP, base frame, m
+};
+
+// The model's joint torques for (q, qd, qdd) with `payload_kg` as a point mass at the TCP
+// (`tcp_tool0_mm`, in ABB's tool0 frame), and the TCP's Jacobian.
+void arm_dynamics(const JointArray& q, const JointArray& qd, const JointArray& qdd, float payload_kg,
+                  const Vec3& tcp_tool0_mm, ArmDynamicsState& out) noexcept;
+
+// The external force at the TCP (N, base frame) that explains a torque residual (N m), by
+// the damped least squares above. Returns its magnitude; NaN in, NaN out (over the limit).
+float estimate_tcp_force(const ArmDynamicsState& s, const JointArray& residual_nm, Vec3& force_n) noexcept;
+
+struct CollisionReport {
+  bool acting = false;     // collaborative and pfl on: detection in every mode (SPEC §11)
+  bool evaluated = false;  // this cycle's torques were compared (the arm free, drives on)
+  float force_n = 0.0F;    // the estimated external force at the TCP
+  float limit_n = 0.0F;    // the region's F_qs
+  LimitFinding hit;        // COLLISION: over the limit kCollisionConfirmCycles in a row
+};
+
+class CollisionMonitor {
+ public:
+  void configure(const SafetyLimits& limits, std::uint32_t cycle_us) noexcept;
+  // `arm_free`: the drives hold the arm with its brakes released, no brake test pushing
+  // (OPERATIONAL but BRAKE_TEST): only then do the drives' torques follow the model.
+  void check(const Feedback& fb, bool arm_free, CollisionReport& r) noexcept;
+  [[nodiscard]] bool enabled() const noexcept { return enabled_; }
+
+ private:
+  bool enabled_ = false;
+  float limit_n_ = 0.0F;
+  float payload_kg_ = 0.0F;
+  float inv_dt_ = 0.0F;
+  Vec3 tcp_mm_{};
+  JointArray qd_prev_{};
+  bool have_prev_ = false;
+  std::uint8_t over_ = 0;
+};
+
+}  // namespace safestate::core
