@@ -117,6 +117,18 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
   if (!bus.booted()) {
     std::cerr << "safestate replay: " << bus.boot_error() << '\n';
   }
+  // SPEC §11: the emulated arm carries the tool the safety configuration declares (its
+  // drives' torques are then the arm's the core's collision model expects).
+  {
+    const core::SafetyLimits& lim = scenario::safety_limits(parsed.scenario);
+    std::ostringstream tool;
+    tool << "tool " << lim.payload_kg << ' ' << lim.tcp_mm[0] << ' ' << lim.tcp_mm[1] << ' ' << lim.tcp_mm[2];
+    const std::string answer = ctl.ask(tool.str());
+    if (answer != "OK") {
+      std::cerr << "safestate replay: ecat-sim refused '" << tool.str() << "': " << answer << '\n';
+      return 2;
+    }
+  }
   scenario::RunOptions opts{trace, &std::cout, trace ? &std::cerr : &std::cout, &bus, {}};
   opts.world = [&](const scenario::Step& step) {
     const std::string line = directive(lines, step.line);

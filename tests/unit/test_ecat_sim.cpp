@@ -457,13 +457,17 @@ TEST(EcatControl, ValidatesEveryLine) {
   const core::RawInputs before = cell.inputs();
   for (const char* bad : {"in gate=ajar", "fault unplug 9", "fault drop 0", "fault corrupt x", "fault no-pd 0",
                           "fault no-pd 9", "launch",
-                          R"({"set":{"gate":[1]}})", "{oops", "fault drive 7 fault"}) {
+                          R"({"set":{"gate":[1]}})", "{oops", "fault drive 7 fault",
+                          // SPEC §11 the emulated arm's tool: four numbers, in range
+                          "tool", "tool 1.5", "tool 1.5 0 0", "tool 1.5 0 0 120 7", "tool -1 0 0 0", "tool 101 0 0 0",
+                          "tool 1 0 0 2001", "tool x 0 0 0", "tool nan 0 0 0"}) {
     const std::string r = control_line(cell, bad);
     EXPECT_EQ(r.rfind("ERROR ", 0), 0U) << bad << " -> " << r;
   }
   EXPECT_EQ(cell.inputs().gate_a, before.gate_a);
   EXPECT_EQ(cell.segment().connected(), 8U);
   EXPECT_NE(control_line(cell, "status").find("\"al_state\""), std::string::npos);
+  EXPECT_EQ(control_line(cell, "tool 1.5 0 0 120"), "OK");
 }
 
 // Issue 22 item 3: the master writes every subdevice's process-data watchdog (here 10

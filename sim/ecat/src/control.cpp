@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <sstream>
+#include <array>
 #include <string>
 #include <string_view>
 
@@ -57,6 +58,31 @@ std::string wire_fault(EmulatedCell& cell, std::string_view what, std::string_vi
   }
   handled = false;
   return {};
+}
+
+// `tool KG X Y Z`: the payload (0..100 kg) at the TCP (tool0 frame, |mm| <= 2000) the emulated
+// arm carries, so that its drives' torque (0x6077) is that of the arm the safety
+// configuration declares (`safestate replay --fieldbus ethercat` sends it at start).
+std::string tool_line(EmulatedCell& cell, const std::string& line) {
+  std::istringstream words(line.substr(5));
+  double kg = 0.0;
+  std::array<double, 3> mm{};
+  std::string extra;
+  if (!(words >> kg >> mm[0] >> mm[1] >> mm[2]) || (words >> extra)) {
+    return "ERROR tool needs four numbers: KG X Y Z (payload kg, TCP in tool0 mm)";
+  }
+  if (!(kg >= 0.0 && kg <= 100.0)) {
+    return "ERROR tool payload must be 0..100 kg";
+  }
+  std::array<float, 3> tcp{};
+  for (std::size_t i = 0; i < 3U; ++i) {
+    if (!(mm[i] >= -2000.0 && mm[i] <= 2000.0)) {
+      return "ERROR tool TCP coordinates must be -2000..2000 mm";
+    }
+    tcp[i] = static_cast<float>(mm[i]);
+  }
+  cell.set_tool(static_cast<float>(kg), tcp);
+  return "OK";
 }
 
 std::string scenario_line(EmulatedCell& cell, const std::string& line) {
@@ -191,6 +217,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (!line.empty() && line.front() == '{') {
     return json_line(cell, line);
   }
+  if (line.rfind("tool ", 0) == 0) {
+    return tool_line(cell, line);
+  }
   std::istringstream words(line);
   std::string verb, what, arg, extra;
   words >> verb >> what >> arg >> extra;
@@ -204,7 +233,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (verb == "in" || verb == "fault") {
     return scenario_line(cell, line);
   }
-  return "ERROR unknown line (expected in ..., fault ..., status, or a JSON sim message)";
+  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, status, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

@@ -71,6 +71,11 @@ class EmulatedCell {
   Segment& segment() noexcept { return segment_; }
   core::RawInputs& inputs() noexcept { return plant_.inputs(); }
   void inject(const sim::Fault& f) noexcept { plant_.inject(f); }
+  // The tool the emulated arm carries (SPEC §11 dynamics: the drives' torque), as the
+  // safety configuration declares it: a point mass at the TCP (tool0 frame, mm).
+  void set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept {
+    plant_.set_tool(payload_kg, tcp_tool0_mm);
+  }
   // Idle work: watchdogs, and free-running physics when the master is silent.
   void poll(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
