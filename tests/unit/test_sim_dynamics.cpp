@@ -11,6 +11,7 @@
 #include <random>
 
 #include "safestate/core/dynamics.hpp"
+#include "safestate/motion/kinematics.hpp"
 #include "safestate/sim/dynamics.hpp"
 
 using safestate::sim::ArmDynamics;
@@ -83,6 +84,40 @@ TEST(ArmDynamics, TcpAtHomeIsTheFlangeOfTheTable) {
   EXPECT_NEAR(p[1], o[1] + 0.1, 1e-12);
 }
 
+TEST(ArmDynamics, TheChainIsTheDhModelsArmAtEveryPose) {
+  // The table's header says the joint angles and signs are the DH model's: the KDL chain's
+  // tool0 (position and axes) must be motion::forward()'s frame 6 (= tool0) for any q.
+  ArmDynamics dyn;
+  std::mt19937 rng(4);
+  for (int trial = 0; trial < 200; ++trial) {
+    safestate::motion::Joints qf{};
+    JointVec q{};
+    for (std::size_t i = 0; i < 6; ++i) {
+      const float lo = safestate::motion::kRobot.q_min_rad[i];
+      const float hi = safestate::motion::kRobot.q_max_rad[i];
+      qf[i] = std::uniform_real_distribution<float>(lo, hi)(rng);
+      q[i] = d(qf[i]);
+    }
+    safestate::motion::Frames frames{};
+    safestate::motion::forward(safestate::motion::kRobot, qf, frames);
+    Vec3 p{};
+    dyn.tcp(q, kTool0, p);
+    for (std::size_t c = 0; c < 3; ++c) {
+      EXPECT_NEAR(p[c] * 1000.0, d(frames.origin[6][c]), 5e-3) << "trial " << trial << " coordinate " << c;
+    }
+    // tool0's axis a in the base frame: the TCP moved 1 m along it, minus the flange.
+    for (std::size_t a = 0; a < 3; ++a) {
+      Vec3 off{0.0, 0.0, 0.0};
+      off[a] = 1.0;
+      Vec3 pa{};
+      dyn.tcp(q, off, pa);
+      for (std::size_t c = 0; c < 3; ++c) {
+        EXPECT_NEAR(pa[c] - p[c], d(frames.R[c][a]), 1e-5) << "trial " << trial << " axis " << a;
+      }
+    }
+  }
+}
+
 TEST(ArmDynamics, GravityAtHomeLeavesAxisOneAlone) {
   ArmDynamics dyn;
   const JointVec tau = gravity(dyn, kZero);
@@ -106,7 +141,7 @@ TEST(ArmDynamics, AxisTwoGravityWithTheArmForwardIsSumOfMassTimesLever) {
   for (std::size_t k = 2; k <= 6; ++k) sum += d(core::kIrb120Links[k - 1].mass_kg) * com_in_link2(k)[2];
   const double expected = -g() * sum;
   expect_rel(tau[1], expected, 1e-6, "axis 2");
-  EXPECT_LT(tau[1], -10.0);  // some 13 N m of unloaded arm held forward
+  EXPECT_LT(tau[1], -10.0);  // some 20 N m of unloaded arm held forward
   // Axis 3 holds links 3..6 about joint 3 (base x 0.27 from joint 2's).
   double sum3 = 0.0;
   const double x3 = d(core::kIrb120Links[2].joint_origin_m[2]);
