@@ -15,6 +15,9 @@ Mutant families (issue 6):
             comparison given slack, made one-sided or dropped, the pushes shortened; the due
             logic's interval, grace, never-tested and failed cases loosened; the servo_on
             guard's BRAKE_TEST_REQUIRED dropped
+  collision SPEC §11 rule 8: the collision monitor's threshold, its two-sample count, its
+            gating (pfl, arm free), the model's gravity and the estimate's sign, the torque
+            scaling, the supervisor's rule-8 entry and its wait for the back-off
   margin    remove each planning margin of the motion layer (motion/limits.hpp: 1 deg,
             10 mm, 5 %, 1 deg), so that a jog holds at the limit itself
   collab    SPEC §11: the v_allowed formula (each term: v_h, a·T_r, C, Z, the 500 mm switch,
@@ -58,8 +61,8 @@ MARGINS = "motion/include/safestate/motion/limits.hpp"
 # The suites that judge core/: the unit tests of the state machine and signal layer, the
 # differential test, the scenario suite and the exhaustive checker. Only their binaries
 # are rebuilt for each mutant.
-TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative test_brake_test safestate"
-SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|BrakeTestCore|BrakeTestCell|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
+TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative test_brake_test test_collision safestate"
+SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|CollisionModel|CollisionEstimate|CollisionMonitor|CollisionCell|BrakeTestCore|BrakeTestCell|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
 
 
 def read(rel):
@@ -151,12 +154,15 @@ def mutants():
         (Z, "const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;",
             "const std::size_t n = (c.limits.zone_count < kMaxZones) ? ((c.limits.zone_count > 0U) ? c.limits.zone_count - 1U : 0U) : kMaxZones;",
             "zones: the last zone dropped"),
-        (Z, "    if (z.kind == ZoneKind::reduced) {\n      r.in_reduced_zone", "    if (z.kind != ZoneKind::keep_out) {\n      r.in_reduced_zone", "zones: keep_in boxes not checked"),
-        (Z, "r.in_reduced_zone = r.in_reduced_zone || inside(z, c.pose.tcp);", "r.in_reduced_zone = r.in_reduced_zone;", "zones: reduced zone dropped"),
+        (Z, "    if (z.kind == ZoneKind::reduced) {\n      reduced = ", "    if (z.kind != ZoneKind::keep_out) {\n      reduced = ", "zones: keep_in boxes not checked"),
+        (Z, "      if (!r.in_reduced_zone && inside(z, c.pose.tcp)) {", "      if (false) {", "zones: reduced zone dropped"),
+        (Z, "      if (inside(c.limits.zones[i], c.pose.tcp)) {", "      if (false) {", "zones: reduced zone dropped while the others are skipped"),
+        (Z, "      clear_until_[i] = travel + gap;", "      clear_until_[i] = travel + gap + 50.0F;", "zones: a clear zone skipped 50 mm too long"),
+        (Z, "    if (travel < clear_until_[i]) {", "    if (travel <= clear_until_[i] + 1.0e9F) {", "zones: a zone once clear never tested again"),
         (Z, "track_violation(track_[i], outside, c.powered, kWorseZoneMm)", "track_violation(track_[i], outside - 5.0F, c.powered, kWorseZoneMm)", "zones: 5 mm of slack"),
         (Z, "r.zone.detail.code = static_cast<std::uint16_t>(i);", "r.zone.detail.code = 0U;", "zones: wrong zone named"),
-        (Z, "return (b.hi[0] < z.min_mm[0]) ||", "return (b.hi[0] < (z.min_mm[0] + 50.0F)) ||", "zones: bounding box lets 50 mm into a keep_out box"),
-        (Z, "return (b.lo[0] >= z.min_mm[0]) &&", "return (b.lo[0] >= (z.min_mm[0] - 50.0F)) &&", "zones: bounding box lets 50 mm out of a keep_in box"),
+        (Z, "      const float below = z.min_mm[k] - b.hi[k];", "      const float below = z.min_mm[k] - b.hi[k] + 50.0F;", "zones: bounding box lets 50 mm into a keep_out box"),
+        (Z, "  float s = b.lo[0] - z.min_mm[0];", "  float s = b.lo[0] - z.min_mm[0] + 50.0F;", "zones: bounding box lets 50 mm out of a keep_in box"),
         (O, "  if (!c.limits.orientation_enabled) {", "  if (true) {", "orientation: monitor dropped"),
         (SL, "orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad);",
              "orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad * 1.05F);", "orientation: 5 % slack"),
@@ -165,7 +171,7 @@ def mutants():
         (S, "const float speed = (v < 0.0F) ? -v : v;", "const float speed = v;", "speed: negative direction unchecked"),
         (S, "if (!f.hit && !(r.tcp_speed_mm_s <= r.speed_limit_mm_s)) {", "if (false) {", "speed: TCP check dropped"),
         (S, "if (!f.hit && !(r.tcp_speed_mm_s <= r.speed_limit_mm_s)) {", "if (!f.hit && !(r.tcp_speed_mm_s <= (1.05F * r.speed_limit_mm_s))) {", "speed: TCP 5 % slack"),
-        (S, "c.reduced_enforced ? c.limits.reduced_tcp_max_speed_mm_s : c.limits.tcp_max_speed_mm_s",
+        (S, "c.reduced_enforced ? c.reduced_limit_mm_s : c.limits.tcp_max_speed_mm_s",
             "c.limits.tcp_max_speed_mm_s", "speed: reduced limit never applied"),
         (S, "point_speed(c.pose, c.pose.tcp, kAxes, c.qd)", "point_speed(c.pose, c.pose.tcp, 3U, c.qd)", "speed: TCP speed without the wrist"),
         (S, "  r.speed_over = f.hit;", "  r.speed_over = false;", "speed: reset guard blind to a speed still over"),
@@ -268,6 +274,26 @@ def mutants():
         out.append(("brake", desc, BT, old, new))
     out.append(("brake", "servo_on: BRAKE_TEST_REQUIRED dropped", GUARDS,
                 "if ((v.in.mode == Mode::AUTO) && v.brake_test_required) {", "if (false && v.brake_test_required) {"))
+    # --- collision detection (SPEC §11 rule 8) -------------------------------------------
+    CM = MON + "collision.cpp"
+    for rel, old, new, desc in [
+        (CM, "const bool over = !(r.force_n <= limit_n_);", "const bool over = !(r.force_n <= (limit_n_ * 1.5F));", "threshold: 1.5 F_qs"),
+        (CM, "const bool over = !(r.force_n <= limit_n_);", "const bool over = r.force_n > limit_n_;", "threshold: NaN no longer over"),
+        (CM, "if (over_ >= kCollisionConfirmCycles) {", "if (over_ > kCollisionConfirmCycles) {", "count: three samples"),
+        (CM, "enabled_ = c.enabled && c.pfl_enabled && (cycle_us > 0U);", "enabled_ = c.enabled && (cycle_us > 0U);", "gating: acts without pfl"),
+        (CM, "  if (!enabled_ || !arm_free) {", "  if (!enabled_) {", "gating: judged while the arm is not free"),
+        (CM, "Vec3 a{0.0F, 0.0F, kGravityM_S2};", "Vec3 a{0.0F, 0.0F, 0.0F};", "model: no gravity"),
+        (CM, "  const float k = -1.0F / det;", "  const float k = 1.0F / (det * 4.0F);", "estimate: a quarter of the force"),
+        (CM, "    qdd[k] = have_prev_ ? ((qd[k] - qd_prev_[k]) * inv_dt_) : 0.0F;", "    qdd[k] = 0.0F;", "model: no inertia"),
+        (CM, "* 0.001F * kRatedTorqueNm[k];", "* 0.0005F * kRatedTorqueNm[k];", "torque: half the scale"),
+        (SUPERVISOR, "        if (c.collision.hit.hit) {\n          hit(AlarmId::COLLISION", "        if (false) {\n          hit(AlarmId::COLLISION",
+             "rule 8: the entry dropped"),
+        (SUPERVISOR, "      if (c.at_standstill && !(s->back_off && c.fb.backing_off)) {", "      if (c.at_standstill) {",
+             "rule 8: the stop ends before the back-off"),
+        (SUPERVISOR, "    s.back_off = (row.effect == Effect::back_off) || (row.effect == Effect::back_off_abort);", "    s.back_off = false;",
+             "rule 8: no back-off asked"),
+    ]:
+        out.append(("collision", desc, rel, old, new))
     # --- margins of the motion layer ----------------------------------------------------
     for old, new, desc in [("kJointMarginRad = deg(1.0F);", "kJointMarginRad = deg(0.0F);", "joint margin 1 deg removed"),
                            ("kZoneMarginMm = 10.0F;", "kZoneMarginMm = 0.0F;", "zone margin 10 mm removed"),
@@ -293,7 +319,7 @@ def sh(cmd, cwd, timeout):
 # Phase 1b: the one unit-test binary written for a family's code, small to rebuild (the
 # full phase 2 relinks `safestate`, minutes per mutant on two cores).
 FAMILY_UNIT = {"monitor": "test_safe_limits", "margin": "test_motion_limits", "collab": "test_collaborative",
-               "brake": "test_brake_test"}
+               "brake": "test_brake_test", "collision": "test_collision"}
 
 
 def judge(family=""):
@@ -325,7 +351,7 @@ def judge(family=""):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab, brake)")
+    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab, brake, collision)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
     ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()

@@ -161,8 +161,10 @@ class SimPlant final : public hal::Backend {
   std::uint32_t age_ = 0;
   float payload_ = 0.0F;  // fraction of the rated payload
   // SPEC §11: the arm's rigid-body dynamics (KDL), shared by the copies of a plant (the
-  // checker copies cells; a copy is used in its original's thread): torques() keeps no
-  // state between calls.
+  // checker copies cells by the thousand; building KDL's chain per copy would dominate).
+  // Its results do not depend on earlier calls, but it works in scratch arrays of its own:
+  // copies of a plant must step in the thread of their original (they do: the checker is
+  // single-threaded, every other user holds one plant).
   std::shared_ptr<ArmDynamics> dyn_;
   Vec3 tcp_m_{};             // the TCP in tool0, m
   float contact_n_ = 0.0F;   // the contact fault's force, 0: none
