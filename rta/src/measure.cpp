@@ -231,6 +231,24 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
                          "needs a drive that ignores it, which the following-error monitor catches first",
                          "", 0, 0});
   {
+    // SPEC §11 rule 8: pfl on (the hand's F_qs unless the file names a region), a contact of
+    // twice F_qs against the running program; safe once paused (the back-off comes after).
+    Measured m{"collision", false, "AUTO, pfl on, demo program at speed: a contact of 2 x F_qs against the TCP", "", 0, 0};
+    core::SafetyLimits l = with_fields(s.limits);
+    if (!l.collaborative.pfl_enabled) {
+      l.collaborative.pfl_enabled = true;
+      l.collaborative.f_qs_n = core::body_region(core::BodyRegion::hand).f_qs_n;
+    }
+    Run r(cfg, l);
+    r.running();
+    const auto tenths = static_cast<std::uint16_t>(std::lround(l.collaborative.f_qs_n * 20.0F));
+    r.cell->inject({sim::FaultKind::contact, 0, tenths});
+    count(
+        r, m, stopping,
+        [](const sim::Cell& c) { return c.out().state == State::OPERATIONAL && c.out().sub == core::Sub::AUTO_PAUSED; });
+    res.push_back(m);
+  }
+  {
     Measured m{"bus_loss", false, "AUTO, demo program at speed: fieldbus lost", "", 0, 0};
     Run r(cfg, s.limits);
     r.running();

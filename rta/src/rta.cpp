@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "safestate/core/collision.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/sim/plant.hpp"
@@ -268,6 +269,31 @@ Analysis analyse(const core::Config& cfg_in, const safety::Loaded& s, const BusT
   f.reaction_cycles += persist;
   b.cat0(f);
   f.note = f.active ? "" : "not configured";
+  a.functions.push_back(f);
+
+  // SPEC §11 rule 8: the drives' torque reaches the core with the positions (one
+  // exchange), the force must be over F_qs in kCollisionConfirmCycles samples in a row, then
+  // the Cat 2 stop (its back-off comes after the arm stopped: not part of the reaction).
+  f = b.make("collision", "collision detection", "8", StopKind::cat2);
+  f.active = collab && s.limits.collaborative.pfl_enabled;
+  b.no_filter(f, "torque actual (0x6077)");
+  // The drive measures the torque of the cycle the contact begins in while it moves the
+  // arm: the core reads it with the next exchange.
+  f.terms.push_back({"drive: torque sampled, read with the next exchange", b.cycles(1),
+                     b.per_cycle(1, "CiA 402 0x6077 of the last cycle's motion")});
+  f.reaction_cycles += 1U;
+  b.scan(f);
+  b.io(f);
+  {
+    const std::uint64_t confirm = core::kCollisionConfirmCycles;
+    f.terms.push_back({"collision: force over F_qs in consecutive samples", b.cycles(confirm - 1U),
+                       b.per_cycle(confirm - 1U, "kCollisionConfirmCycles " + num(confirm) +
+                                                     " - 1 (the first sample is the scan's; core::CollisionMonitor)")});
+    f.reaction_cycles += confirm - 1U;
+  }
+  b.ramp_stop(f, core::StopCat::CAT2);
+  b.cat2_end(f);
+  f.note = f.active ? "then a 10 mm back-off at <= 100 mm/s, after the stop" : "not configured (pfl off)";
   a.functions.push_back(f);
 
   f = b.make("bus_loss", "fieldbus loss", "1", StopKind::cat0);

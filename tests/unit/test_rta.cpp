@@ -68,7 +68,8 @@ safety::Loaded changed() {
 TEST(Rta, EveryFunctionOfSpec13IsThere) {
   const rta::Analysis a = builtin();
   for (const char* id : {"estop", "guard", "enable", "t1_speed", "joint_range", "joint_speed", "tcp_speed",
-                         "reduced_speed", "zones", "orientation", "field_outer", "field_inner", "ssm", "bus_loss"}) {
+                         "reduced_speed", "zones", "orientation", "field_outer", "field_inner", "ssm", "collision",
+                         "bus_loss"}) {
     EXPECT_NE(a.find(id), nullptr) << id;
   }
 }
@@ -103,6 +104,15 @@ TEST(Rta, BuiltinConfigurationByHand) {
 
   EXPECT_EQ(fn(a, "bus_loss").total_us(), 137000U);
   EXPECT_EQ(fn(a, "t1_speed").total_us(), 137000U);
+
+  // SPEC §11 rule 8: the drive's torque sample (read the cycle after), the scan, one more
+  // sample (two in a row over F_qs), the Cat 2 ramp and its end as for the inner field.
+  const rta::Function& c = fn(a, "collision");
+  EXPECT_FALSE(c.active);  // pfl off in the built-in configuration
+  EXPECT_EQ(term(c, "drive: torque"), 1000U);
+  EXPECT_EQ(term(c, "collision"), 1000U);
+  EXPECT_EQ(c.reaction_cycles, 3U);
+  EXPECT_EQ(c.total_us(), 1000U + 1000U + 1000U + 1001000U + 125000U);
 }
 
 // 2 ms cycle, stop 600 ms, ramp 300 ms, SSM T_r 100 ms, EtherCAT with a 20 ms frame

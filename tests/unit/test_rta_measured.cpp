@@ -27,7 +27,7 @@ void check(const core::Config& cfg, const safety::Loaded& s) {
     EXPECT_LE(m.safe_cycles * cfg.cycle_us, f->total_us()) << m.id << ": " << m.how;
     EXPECT_GE(m.safe_cycles, m.reaction_cycles - 1U) << m.id;
   }
-  EXPECT_GE(measured, 7);  // estop, guard, enable, reduced, outer, inner, bus loss
+  EXPECT_GE(measured, 8);  // estop, guard, enable, reduced, outer, inner, collision, bus loss
 }
 }  // namespace
 
