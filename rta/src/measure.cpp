@@ -30,6 +30,11 @@ struct Run {
 
   Run(const core::Config& cfg, const core::SafetyLimits& limits) : cell(std::make_unique<sim::Cell>(cfg)) {
     cell->configure_limits(limits, true);
+    // A configuration that requires the brake test (SPEC §12) finds one passed just now.
+    core::BrakeTestHistory h{};
+    h.last = core::BrakeTestResult::passed;
+    h.passed_ever = true;
+    cell->configure_brake_test(h);
   }
   int until(const Pred& p, int limit = kLimit) {
     for (int k = 1; k <= limit; ++k) {
@@ -60,6 +65,9 @@ struct Run {
   // Armed in `m` (AUTO: the demo program running; T1: the enabling device held).
   void arm(core::Mode m) {
     core::RawInputs& in = cell->inputs();
+    // SPEC §11: with SSM on, a distance sensor that sees nobody (invalid would hold the arm).
+    in.separation_mm = 100000;
+    in.separation_valid = true;
     in.mode_auto = m == core::Mode::AUTO;
     in.mode_t1 = m == core::Mode::T1;
     in.mode_t2 = m == core::Mode::T2;

@@ -40,3 +40,16 @@ TEST(RtaMeasured, TwoMillisecondCycleNeverAboveTheAnalysis) {
   cfg.cycle_us = 2000;
   check(cfg, safety::default_safety());
 }
+
+// The collaborative example (fields, SSM, PFL, a brake test required): every function is
+// measured on it too (the fields, SSM holding, the brake test due: the run sets a distant
+// person and a recent pass), never above the analysis.
+// @req RTA-MEASURED
+TEST(RtaMeasured, CollaborativeExampleNeverAboveTheAnalysis) {
+  const safety::Result r = safety::load_safety_file(std::string(SAFESTATE_SOURCE_DIR) + "/examples/safety/collaborative.json");
+  ASSERT_TRUE(r.ok());
+  check(core::Config{}, *r.config);
+  for (const rta::Measured& m : rta::measure(core::Config{}, *r.config)) {
+    EXPECT_EQ(m.how.find("setup failed"), std::string::npos) << m.id << ": " << m.how;
+  }
+}
