@@ -568,3 +568,31 @@ TEST(ScenarioParser, BrakeTestKeys) {
   EXPECT_EQ(e.value, static_cast<std::uint8_t>(core::BrakeTestResult::failed));
   expect_malformed("@0 expect brake_test=ok\n", 1, "brake_test");
 }
+
+// @req COL-SIM-CONTACT
+TEST(ScenarioParser, CollisionFaults) {
+  // fault contact F: newtons (fractions too), stored in tenths; 0 removes it.
+  sim::Fault f = only<FaultStep>("@0 fault contact 150\n").fault;
+  EXPECT_EQ(f.kind, sim::FaultKind::contact);
+  EXPECT_EQ(f.value, 1500U);
+  EXPECT_EQ(only<FaultStep>("@0 fault contact 0\n").fault.value, 0U);
+  EXPECT_EQ(only<FaultStep>("@0 fault contact 12.34\n").fault.value, 123U);
+  EXPECT_EQ(only<FaultStep>("@0 fault contact 5000\n").fault.value, 50000U);
+  for (const char* bad : {"@0 fault contact -1\n", "@0 fault contact 5000.1\n", "@0 fault contact\n",
+                          "@0 fault contact many\n", "@0 fault contact 10 N\n", "@0 fault contact nan\n"}) {
+    expect_malformed(bad, 1, "fault");
+  }
+  // fault drive N torque_bias X: percent of rated torque, signed, stored as int16 per mille.
+  f = only<FaultStep>("@0 fault drive 2 torque_bias 5\n").fault;
+  EXPECT_EQ(f.kind, sim::FaultKind::drive_torque_bias);
+  EXPECT_EQ(f.axis, 2U);
+  EXPECT_EQ(static_cast<std::int16_t>(f.value), 50);
+  EXPECT_EQ(static_cast<std::int16_t>(only<FaultStep>("@0 fault drive 6 torque_bias -12.5\n").fault.value), -125);
+  EXPECT_EQ(static_cast<std::int16_t>(only<FaultStep>("@0 fault drive 1 torque_bias -300\n").fault.value), -3000);
+  for (const char* bad : {"@0 fault drive 7 torque_bias 5\n", "@0 fault drive 0 torque_bias 5\n",
+                          "@0 fault drive 2 torque_bias 301\n", "@0 fault drive 2 torque_bias -300.5\n",
+                          "@0 fault drive 2 torque_bias\n", "@0 fault drive 2 torque_bias x\n",
+                          "@0 fault drive 2 torque 5\n"}) {
+    expect_malformed(bad, 1, "fault");
+  }
+}
