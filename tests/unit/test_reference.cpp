@@ -433,7 +433,6 @@ struct Harness {
         JointArray q{};
         JointArray qd{};
         JointArray qdd{};
-        JointArray residual{};
         for (std::size_t i = 0; i < kAxes; ++i) {
           q[i] = fb.drive[i].position_rad;
           qd[i] = fb.drive[i].velocity_rad_s;
@@ -449,11 +448,8 @@ struct Harness {
           fb.drive[i].torque_permille = static_cast<std::int16_t>(std::clamp(expected + burst, -3000.0F, 3000.0F));
         }
         contact_left = (contact_left > 0U) ? contact_left - 1U : 0U;
-        for (std::size_t i = 0; i < kAxes; ++i) {
-          residual[i] = (static_cast<float>(fb.drive[i].torque_permille) * 0.001F * kRatedTorqueNm[i]) - model.tau_nm[i];
-        }
         Vec3 f{};
-        geo.contact_force_n = estimate_tcp_force(model, residual, f);
+        geo.contact_force_n = tcp_force_from_drives(fb, model, f);
       }
       for (std::size_t i = 0; i < kAxes; ++i) qd_prev[i] = fb.drive[i].velocity_rad_s;
       have_qd_prev = true;

@@ -138,6 +138,15 @@ float estimate_tcp_force(const ArmDynamicsState& s, const JointArray& residual_n
   return std::sqrt(dot(force_n, force_n));
 }
 
+float tcp_force_from_drives(const Feedback& fb, const ArmDynamicsState& s, Vec3& force_n) noexcept {
+  JointArray residual{};
+  for (std::size_t k = 0; k < kAxes; ++k) {
+    const float measured = static_cast<float>(fb.drive[k].torque_permille) * 0.001F * kRatedTorqueNm[k];
+    residual[k] = measured - s.tau_nm[k];
+  }
+  return estimate_tcp_force(s, residual, force_n);
+}
+
 void CollisionMonitor::configure(const SafetyLimits& limits, std::uint32_t cycle_us) noexcept {
   const CollaborativeLimits& c = limits.collaborative;
   enabled_ = c.enabled && c.pfl_enabled && (cycle_us > 0U);
@@ -170,14 +179,9 @@ void CollisionMonitor::check(const Feedback& fb, bool arm_free, CollisionReport&
   }
   ArmDynamicsState model{};
   arm_dynamics(q, qd, qdd, payload_kg_, tcp_mm_, model);
-  JointArray residual{};
-  for (std::size_t k = 0; k < kAxes; ++k) {
-    const float measured = static_cast<float>(fb.drive[k].torque_permille) * 0.001F * kRatedTorqueNm[k];
-    residual[k] = measured - model.tau_nm[k];
-  }
   Vec3 f{};
   r.evaluated = true;
-  r.force_n = estimate_tcp_force(model, residual, f);
+  r.force_n = tcp_force_from_drives(fb, model, f);
   const bool over = !(r.force_n <= limit_n_);  // NaN is over
   over_ = over ? ((over_ < kCollisionConfirmCycles) ? static_cast<std::uint8_t>(over_ + 1U) : over_) : 0U;
   if (over_ >= kCollisionConfirmCycles) {

@@ -48,6 +48,10 @@ void arm_dynamics(const JointArray& q, const JointArray& qd, const JointArray& q
 // the damped least squares above. Returns its magnitude; NaN in, NaN out (over the limit).
 float estimate_tcp_force(const ArmDynamicsState& s, const JointArray& residual_nm, Vec3& force_n) noexcept;
 
+// The same from the drives' torque actual (per mille of kRatedTorqueNm) against the model
+// `s` of this cycle's motion: the residual, then the estimate.
+float tcp_force_from_drives(const Feedback& fb, const ArmDynamicsState& s, Vec3& force_n) noexcept;
+
 struct CollisionReport {
   bool acting = false;     // collaborative and pfl on: detection in every mode (SPEC §11)
   bool evaluated = false;  // this cycle's torques were compared (the arm free, drives on)
