@@ -34,6 +34,7 @@ struct Cell::Impl {
   std::size_t taken = 0;
   Person person;
   PersonSensors person_sensors{};
+  core::RawInputs person_discard{};  // with a bus: the person's devices write here, unread
 
   void update_view() noexcept {
     const motion::MotionController& m = controller.motion();
@@ -103,8 +104,7 @@ void Cell::step() noexcept {
   // The person walks one cycle; the scanner and the distance sensor see it against the
   // arm as the motion layer computed it last cycle (from measured joints, tool included).
   s.person.advance(static_cast<float>(s.cfg.cycle_us) * 1.0e-6F);
-  hal::ProcessImageIn unused{};
-  s.person.sense(s.person_sensors, s.controller.motion().frames(), (s.bus == nullptr) ? s.in.safety : unused.safety,
+  s.person.sense(s.person_sensors, s.controller.motion().frames(), (s.bus == nullptr) ? s.in.safety : s.person_discard,
                  s.view.person);
   const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
   s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
