@@ -17,11 +17,13 @@
      which writes docs/response-time.md and fails when a measured figure is above the computed),
      and the stopping data of axes 1-3 (bench/stopping.py: docs/stopping-data.md, its SVG plots,
      the checker's generated safety/include/safestate/safety/stopping_data.hpp)
+ 10. collaborative operation, SSM against fields only with the simulated person walking in from
+     20 directions (bench/collaborative.py: its section of this document, docs/collaborative/ssm-run.svg)
 
 Measurements, not tests: nothing here fails because a goal is missed; the document says
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
-them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle` and `run.py --rta` measure only
+them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta` and `run.py --collab` measure only
 their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses;
 ECAT_LOSS_TRIALS (default 5): emulators killed, and masters killed with -9.
 """
@@ -703,6 +705,9 @@ def main():
         response_time()
         stopping()
         return
+    if sys.argv[1:] == ["--collab"]:  # only the collaborative benchmark (issue 20 item 6)
+        collaborative()
+        return
     if sys.argv[1:] == ["--m4cycle"]:  # only the M4 instruction count: measure it and patch its rows in place
         m4cycle_only()
         return
@@ -714,6 +719,8 @@ def main():
         with open(DOC, "w") as f:
             f.write(render(r))
         print(f"bench: wrote {os.path.relpath(DOC, ROOT)} from build/bench/results.json")
+        if os.path.exists(os.path.join(OUT, "collab.json")):
+            collaborative("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -737,6 +744,7 @@ def main():
     print(f"bench: wrote {os.path.relpath(DOC, ROOT)}")
     response_time()  # after the EtherCAT part: it shows the E-stop reaction on the wire beside the analysis
     stopping()
+    collaborative()  # after render(): it adds its own section to the document
 
 
 def response_time():
@@ -749,6 +757,12 @@ def stopping():
     """SPEC §13, ISO 10218-1 Annex B: docs/stopping-data.md, docs/stopping/*.svg and the checker's
     generated safety/include/safestate/safety/stopping_data.hpp (bench/stopping.py)."""
     subprocess.run([sys.executable, os.path.join(ROOT, "bench", "stopping.py")], check=True, cwd=ROOT)
+
+
+def collaborative(*args):
+    """SPEC §11, issue 20 item 6: the section "Collaborative operation: SSM against fields only" of
+    docs/performance.md and docs/collaborative/ssm-run.svg (bench/collaborative.py, about a minute)."""
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "collaborative.py"), *args], check=True, cwd=ROOT)
 
 
 if __name__ == "__main__":

@@ -59,6 +59,7 @@
 #include "parse_util.hpp"
 #include "brake_keys.hpp"
 #include "collision_keys.hpp"
+#include "person_keys.hpp"
 #include "safety_keys.hpp"
 
 namespace safestate::scenario {
@@ -914,7 +915,8 @@ class Parser {
       if (!split_pair(tokens[i], key, value)) {
         fail(number, "config: expected NAME=VALUE, found " + quoted(tokens[i]));
       } else if (safety_keys::set_config(key, value, number, safety_lines_, safety) ||
-                 brake_keys::set_config(key, value, result_.scenario, safety)) {
+                 brake_keys::set_config(key, value, result_.scenario, safety) ||
+                 person_keys::set_config(key, value, result_.scenario, safety)) {
         if (!safety.empty()) {
           fail(number, std::move(safety));
         }
@@ -988,7 +990,7 @@ class Parser {
     add(std::move(step));
   }
 
-  static Problem directive(const Tokens& tokens, Step& step) {
+  Problem directive(const Tokens& tokens, Step& step) {
     const std::string_view name = tokens[1];
     const Tokens args(tokens.begin() + 2, tokens.end());
     if (name == "in") {
@@ -1003,10 +1005,13 @@ class Parser {
     if (name == "expect" || name == "expect-once") {
       return parse_expect(args, step.what.emplace<ExpectStep>(), name == "expect-once");
     }
+    if (name == "person") {
+      return person_keys::parse(args, step.what.emplace<PersonStep>(), person_present_);
+    }
     if (name == "config") {
       return "config lines come before the first @ line and take no time";
     }
-    return "unknown directive " + quoted(name) + " (expected in, cmd, fault, expect or expect-once)";
+    return "unknown directive " + quoted(name) + " (expected in, cmd, fault, expect, expect-once or person)";
   }
 
   void add(Step&& step) {
@@ -1028,6 +1033,7 @@ class Parser {
   safety_keys::ConfigLines safety_lines_;
   core::Cycle last_t_ = 0;
   std::size_t last_t_line_ = 0;
+  bool person_present_ = false;  // after the lines so far (person_keys)
 };
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
 #include "brake_keys.hpp"
+#include "person_keys.hpp"
 #include "safety_keys.hpp"
 #include "trace.hpp"
 
@@ -285,6 +286,7 @@ class Runner {
       : s_(s), opts_(o), cell_(s.config, o.bus), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     cell_.configure_limits(safety_limits(s), s.safety_validated);
     cell_.configure_brake_test(s.brake_test);
+    person_ok_ = cell_.configure_person_sensors(s.person_sensors);
     open_.reserve(count_ranges(s));
     if (o.trace && o.trace_out != nullptr) {
       tracer_.emplace(s, *o.trace_out);
@@ -340,6 +342,15 @@ class Runner {
       send(*c);
     } else if (const auto* f = std::get_if<FaultStep>(&step.what)) {
       cell_.inject(f->fault);
+    } else if (const auto* p = std::get_if<PersonStep>(&step.what)) {
+      // The simulated person feeds only the simulated plant: behind a real bus it cannot
+      // act, which fails the run rather than pass it unseen.
+      const bool took = person_ok_ && opts_.bus == nullptr && person_keys::apply(*p, cell_);
+      world_failures_ += took ? 0U : 1U;
+      if (!took && opts_.report != nullptr) {
+        *opts_.report << s_.file << ":" << step.line << ": the simulated person cannot act here"
+                      << (opts_.bus != nullptr ? " (a real fieldbus: it feeds only the simulated plant)\n" : "\n");
+      }
     }
   }
 
@@ -476,6 +487,7 @@ class Runner {
   std::vector<std::size_t> open_;     // ranges being checked
   std::size_t failures_ = 0;
   std::size_t world_failures_ = 0;  // in/fault steps the world behind the bus refused
+  bool person_ok_ = true;  // the scenario's person_fields were taken
   std::optional<Tracer> tracer_;
 };
 

@@ -32,6 +32,9 @@ struct Cell::Impl {
   CellView view{};
   core::Cycle now = 0;
   std::size_t taken = 0;
+  Person person;
+  PersonSensors person_sensors{};
+  core::RawInputs person_discard{};  // with a bus: the person's devices write here, unread
 
   void update_view() noexcept {
     const motion::MotionController& m = controller.motion();
@@ -97,6 +100,12 @@ void Cell::step() noexcept {
   if (s.bus != nullptr) {
     s.plant.read_platform(s.in);
   }
+  // @req COL-SIM-PERSON
+  // The person walks one cycle; the scanner and the distance sensor see it against the
+  // arm as the motion layer computed it last cycle (from measured joints, tool included).
+  s.person.advance(static_cast<float>(s.cfg.cycle_us) * 1.0e-6F);
+  s.person.sense(s.person_sensors, s.controller.motion().frames(), (s.bus == nullptr) ? s.in.safety : s.person_discard,
+                 s.view.person);
   const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
   s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
   s.queue.pop(s.taken);
@@ -115,6 +124,23 @@ void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payl
 void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
   impl_->controller.load_program(points, count);
 }
+
+bool Cell::add_person(float x_mm, float y_mm, float radius_mm) noexcept {
+  return impl_->person.place(x_mm, y_mm, radius_mm);
+}
+bool Cell::set_person_path(const PersonWaypoint* points, std::size_t count) noexcept {
+  return impl_->person.walk(points, count);
+}
+void Cell::person_stand() noexcept { impl_->person.stand(); }
+void Cell::remove_person() noexcept { impl_->person.leave(); }
+bool Cell::configure_person_sensors(const PersonSensors& s) noexcept {
+  if (!valid(s)) {
+    return false;
+  }
+  impl_->person_sensors = s;
+  return true;
+}
+const Person& Cell::person() const noexcept { return impl_->person; }
 
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {
   impl_->controller.configure_brake_test(history);

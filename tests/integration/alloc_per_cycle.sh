@@ -1,15 +1,18 @@
 #!/usr/bin/env bash
 # Nothing allocates per cycle: two replays that differ only in length (program running
-# in both) must make exactly the same number of heap allocations under valgrind.
+# in both, the simulated person walking and seen by its scanner and distance sensor in
+# both) must make exactly the same number of heap allocations under valgrind.
 set -euo pipefail
 bin=${1:?usage: alloc_per_cycle.sh path/to/safestate}
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 write() {  # $1 file, $2 last cycle
   cat > "$1" <<SCN
+@0    person at 4000 0
 @100  cmd reset
 @110  cmd servo_on
 @400  cmd start
+@400  person walk 4000 3000 1000 -4000 3000 1000 stand 100 -4000 -3000 1000
 @$2 expect sub=AUTO_RUNNING
 SCN
 }

@@ -186,6 +186,12 @@ malformed bad_fault 1 "fault" $'@5 fault drive 7 fault\n'
 malformed bad_fault_word 2 "fault" $'@0 expect state=BOOT\n@5 fault fieldbus down\n'
 malformed bad_from 1 "from" $'@5 cmd from=observer reset\n'
 malformed bad_speed 1 "tcp_speed" $'@5 expect tcp_speed=fast\n'
+# the simulated person's keys (docs/collaborative.md "The simulated person")
+malformed person_too_fast 2 "over 2000" $'@0 person at 4000 0\n@5 person walk 1000 0 2500\n'
+malformed person_unknown 1 "unknown person action" $'@0 person jump 0 0\n'
+malformed person_missing 2 "needs X Y SPEED, found 2" $'@0 person at 4000 0\n@5 person walk 1000 0\n'
+malformed person_absent 1 "no person in the cell" $'@0 person walk 1000 0 1600\n'
+malformed person_fields 1 "person_fields" $'config person_fields=900,1000\n@0 expect state=BOOT\n'
 
 # --- 4. unreadable files --------------------------------------------------------------------------
 

@@ -595,4 +595,62 @@ TEST(ScenarioParser, CollisionFaults) {
                           "@0 fault drive 2 torque 5\n"}) {
     expect_malformed(bad, 1, "fault");
   }
+
+// @req COL-SIM-PERSON
+TEST(ScenarioParser, PersonKeys) {
+  // config person_fields=OUTER,INNER; the defaults are 2000 / 1000.
+  EXPECT_FLOAT_EQ(parse_text("@0 expect state=BOOT\n").scenario.person_sensors.outer_mm, 2000.0F);
+  const ParseResult r = parse_text("config person_fields=1500,600.5\n@0 expect state=BOOT\n");
+  ASSERT_TRUE(r.ok()) << r.error->text();
+  EXPECT_FLOAT_EQ(r.scenario.person_sensors.outer_mm, 1500.0F);
+  EXPECT_FLOAT_EQ(r.scenario.person_sensors.inner_mm, 600.5F);
+  expect_malformed("config person_fields=1000,1000\n", 1, "person_fields");
+  expect_malformed("config person_fields=1000\n", 1, "OUTER,INNER");
+  expect_malformed("config person_fields=500,1000\n", 1, "INNER < OUTER");
+  expect_malformed("config person_fields=30000,1000\n", 1, "20000");
+  // person at / walk / stand / leave.
+  const PersonStep at = only<PersonStep>("@0 person at -1500 20.5\n");
+  EXPECT_EQ(at.action, PersonStep::Action::at);
+  EXPECT_FLOAT_EQ(at.x_mm, -1500.0F);
+  EXPECT_FLOAT_EQ(at.y_mm, 20.5F);
+  EXPECT_FLOAT_EQ(at.radius_mm, 250.0F);
+  const ParseResult w = parse_text(
+      "@0 person at 4000 0 radius=300\n@1 person walk 1000 0 1600 stand 2000 0 -3000 2000\n@2 person stand\n"
+      "@3 person leave\n@4 person at 0 3000\n");
+  ASSERT_TRUE(w.ok()) << w.error->text();
+  ASSERT_EQ(w.scenario.steps.size(), 5U);
+  EXPECT_FLOAT_EQ(std::get<PersonStep>(w.scenario.steps[0].what).radius_mm, 300.0F);
+  const PersonStep& walk = std::get<PersonStep>(w.scenario.steps[1].what);
+  EXPECT_EQ(walk.action, PersonStep::Action::walk);
+  ASSERT_EQ(walk.path.size(), 2U);
+  EXPECT_FLOAT_EQ(walk.path[0].x_mm, 1000.0F);
+  EXPECT_FLOAT_EQ(walk.path[0].speed_mm_s, 1600.0F);
+  EXPECT_EQ(walk.path[0].stand_ms, 2000U);
+  EXPECT_FLOAT_EQ(walk.path[1].y_mm, -3000.0F);
+  EXPECT_FLOAT_EQ(walk.path[1].speed_mm_s, 2000.0F);
+  EXPECT_EQ(walk.path[1].stand_ms, 0U);
+  EXPECT_EQ(std::get<PersonStep>(w.scenario.steps[2].what).action, PersonStep::Action::stand);
+  EXPECT_EQ(std::get<PersonStep>(w.scenario.steps[3].what).action, PersonStep::Action::leave);
+  // Each refusal names the line and what is wrong.
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 2000.5\n", 2, "over 2000");
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 0\n", 2, "not above 0");
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 1600 500 0\n", 2, "point 2 needs X Y SPEED, found 2");
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 stand 100\n", 2, "point 1 needs X Y SPEED, found 2");
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 1600 stand\n", 2, "stand needs MS");
+  expect_malformed("@0 person at 0 0\n@5 person walk 1000 0 1600 stand -4\n", 2, "stand needs MS");
+  expect_malformed("@0 person at 0 0\n@5 person walk\n", 2, "at least one point");
+  expect_malformed("@0 person at 0 0\n@5 person walk x 0 1600\n", 2, "not a number");
+  expect_malformed("@0 person at 0 0\n@5 person walk 0 25000 1600\n", 2, "off the floor");
+  expect_malformed("@0 person walk 1000 0 1600\n", 1, "no person in the cell");
+  expect_malformed("@0 person at 0 0\n@1 person leave\n@2 person stand\n", 3, "no person in the cell");
+  expect_malformed("@0 person leave\n", 1, "no person in the cell");
+  expect_malformed("@0 person at 0\n", 1, "needs X Y");
+  expect_malformed("@0 person at 0 0 radius=0\n", 1, "radius");
+  expect_malformed("@0 person at 0 0 size=3\n", 1, "radius=R");
+  expect_malformed("@0 person at 0 0\n@1 person stand 500\n", 2, "takes nothing");
+  expect_malformed("@0 person run 0 0\n", 1, "unknown person action 'run'");
+  expect_malformed("@0 person\n", 1, "person needs");
+  std::string seventeen = "@0 person at 0 0\n@1 person walk";
+  for (int i = 0; i < 17; ++i) seventeen += " 100 100 1000";
+  expect_malformed(seventeen + "\n", 2, "more than 16 points");
 }

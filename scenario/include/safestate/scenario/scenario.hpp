@@ -153,7 +153,18 @@ struct ExpectStep {
   ExpectMode mode = ExpectMode::every;
 };
 
-using Directive = std::variant<InputStep, CommandStep, FaultStep, ExpectStep>;
+// `person ...` (docs/collaborative.md "The simulated person", an extension beyond the shared
+// format): the simulated person enters at a point, walks a path, stands, leaves.
+struct PersonStep {
+  enum class Action : std::uint8_t { at, walk, stand, leave };
+  Action action = Action::stand;
+  float x_mm = 0.0F;  // at
+  float y_mm = 0.0F;
+  float radius_mm = sim::kPersonDefaultRadiusMm;
+  std::vector<sim::PersonWaypoint> path;  // walk (1..16 points)
+};
+
+using Directive = std::variant<InputStep, CommandStep, FaultStep, ExpectStep, PersonStep>;
 
 struct Step {
   std::size_t line = 0;  // 1-based line of the file
@@ -179,6 +190,8 @@ struct Scenario {
   // SPEC §12: what the event log says about the last brake test at start
   // (`config brake_test_age_h=X|never`; default never).
   core::BrakeTestHistory brake_test{};
+  // SPEC §11, the simulated person's scanner fields (`config person_fields=OUTER,INNER`).
+  sim::PersonSensors person_sensors{};
 };
 
 struct ParseError {

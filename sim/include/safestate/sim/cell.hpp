@@ -14,6 +14,7 @@
 #include "safestate/core/types.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/motion/motion_controller.hpp"
+#include "safestate/sim/person.hpp"
 
 namespace safestate::sim {
 
@@ -69,6 +70,9 @@ struct CellView {
   std::uint64_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
   std::uint8_t program_index = 0;           // waypoint the program is heading to
   std::uint8_t program_length = 0;
+  // The simulated person (SPEC §11, docs/collaborative.md "The simulated person"): where it
+  // is, how fast it walks, what the scanner and the distance sensor see of it.
+  PersonView person{};
 };
 
 class Cell {
@@ -95,6 +99,21 @@ class Cell {
 
   // The physical contacts of SPEC §2; change them between cycles.
   core::RawInputs& inputs() noexcept;
+
+  // SPEC §11, the simulated person (sim/person.hpp). While a person is in the cell, the
+  // simulated scanner and distance sensor set the fields (all four channels) and the
+  // separation the controller reads every cycle, over whatever inputs() holds for them;
+  // inputs() keeps the values set from outside, which apply again once the person has
+  // left (or for a device `sensors` turns off). Only on the simulated plant: with a `bus`
+  // the person is shown but feeds nothing. Between cycles; false: refused, nothing changed.
+  bool add_person(float x_mm, float y_mm, float radius_mm = kPersonDefaultRadiusMm) noexcept;
+  bool set_person_path(const PersonWaypoint* points, std::size_t count) noexcept;
+  void person_stand() noexcept;
+  void remove_person() noexcept;
+  // The scanner's field radii and which devices the person feeds (default: both, 2000 /
+  // 1000 mm); false for radii that are not 0 < inner < outer <= 20 m.
+  bool configure_person_sensors(const PersonSensors& s) noexcept;
+  [[nodiscard]] const Person& person() const noexcept;
   void inject(const Fault& f) noexcept;
   // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
   core::Result submit(const core::Command& c) noexcept;
