@@ -595,6 +595,7 @@ TEST(ScenarioParser, CollisionFaults) {
                           "@0 fault drive 2 torque 5\n"}) {
     expect_malformed(bad, 1, "fault");
   }
+}
 
 // @req COL-SIM-PERSON
 TEST(ScenarioParser, PersonKeys) {
