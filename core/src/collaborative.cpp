@@ -45,14 +45,15 @@ float pfl_speed_cap_mm_s(BodyRegion r, float robot_mass_kg, float payload_kg) no
   return v_m_s * 1000.0F;
 }
 
-// @req COL-SSM
-float ssm_allowed_speed_mm_s(float separation_mm, const SsmParams& p, float limit_mm_s) noexcept {
+namespace {
+// v_allowed(d) with the person's speed taken where `vh_at_mm` is (SPEC §11: at d itself).
+float allowed_speed(float separation_mm, float vh_at_mm, const SsmParams& p, float limit_mm_s) noexcept {
   const float limit = (std::isfinite(limit_mm_s) && (limit_mm_s > 0.0F)) ? limit_mm_s : 0.0F;
   if (!std::isfinite(separation_mm) || (separation_mm < 0.0F) || !positive_finite(p.decel_mm_s2) ||
       !positive_finite(p.reaction_s)) {
     return 0.0F;
   }
-  const float v_h = human_speed(separation_mm, p);
+  const float v_h = human_speed(vh_at_mm, p);
   const float a_tr = p.decel_mm_s2 * p.reaction_s;
   const float radicand =
       (v_h * v_h) + (a_tr * a_tr) + (2.0F * p.decel_mm_s2 * (separation_mm - p.intrusion_mm - p.uncertainty_mm));
@@ -64,6 +65,18 @@ float ssm_allowed_speed_mm_s(float separation_mm, const SsmParams& p, float limi
     return 0.0F;
   }
   return (v < limit) ? v : limit;
+}
+}  // namespace
+
+// @req COL-SSM
+float ssm_allowed_speed_mm_s(float separation_mm, const SsmParams& p, float limit_mm_s) noexcept {
+  return allowed_speed(separation_mm, separation_mm, p, limit_mm_s);
+}
+
+// @req COL-SSM-MOTION
+float ssm_planning_speed_mm_s(float separation_mm, const SsmParams& p, float limit_mm_s) noexcept {
+  const float lookahead = kHumanSpeedNearMmS * (positive_finite(p.reaction_s) ? p.reaction_s : 0.0F);
+  return allowed_speed(separation_mm, separation_mm - lookahead, p, limit_mm_s);
 }
 
 float ssm_protective_distance_mm(float speed_mm_s, float separation_mm, const SsmParams& p) noexcept {

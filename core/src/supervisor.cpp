@@ -929,7 +929,7 @@ void SystemStateManager::write_outputs(CycleCtx& c) noexcept {
   o.alarms_cleared = alarms_.cleared();
   o.motion.reduced = limits_.reduced().active();
   o.motion.reduced_limit_mm_s = limits_.reduced().limit();
-  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_allowed_mm_s : -1.0F;
+  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_plan_mm_s : -1.0F;
   o.motion.recovery = c.limits.recovering;
   SafetyStatus& st = o.safety;
   st.checksum = limits_.limits().checksum;

@@ -367,3 +367,34 @@ TEST(SsmMonitor, TrInCyclesFromTheFilesMilliseconds) {
   m.configure(l, 3000U);
   EXPECT_EQ(m.reaction_cycles(), 6U);  // 20 ms / 3 ms, rounded down
 }
+
+// The SSM benchmark found the robot one reaction closer than S_p for a cycle where the
+// person crosses 500 mm (v_h 1600 -> 2000 while the TCP still moved at v_allowed(501)).
+// The motion layer plans with v_h 2000 from 500 mm + 2000 mm/s x T_r on: by hand, SPEC's
+// example (T_r 0.1 s: lookahead 200 mm).
+// @req COL-SSM-MOTION
+TEST(Ssm, PlanningUsesTheNearHumanSpeedBeforeTheSwitch) {
+  const SsmParams p = spec_example();
+  // 800 mm is beyond 700: the same as v_allowed.
+  EXPECT_FLOAT_EQ(ssm_planning_speed_mm_s(800.0F, p, kNoCap), ssm_allowed_speed_mm_s(800.0F, p, kNoCap));
+  // 600 mm: v_h 2000: sqrt(4,000,000 + 40,000 + 4000*300) = sqrt(5,240,000) = 2289.105 - 2200
+  EXPECT_NEAR(ssm_planning_speed_mm_s(600.0F, p, kNoCap), 89.105F, 0.01F);
+  // ... where v_allowed (v_h 1600) is sqrt(2,600,000 + 1,200,000) = 1949.359 - 1800
+  EXPECT_NEAR(ssm_allowed_speed_mm_s(600.0F, p, kNoCap), 149.359F, 0.02F);
+  // 501 mm: 0.9 mm/s planned (v_allowed 44.993): continuous towards 0 at 500.
+  EXPECT_LT(ssm_planning_speed_mm_s(501.0F, p, kNoCap), 1.0F);
+  EXPECT_FLOAT_EQ(ssm_planning_speed_mm_s(500.0F, p, kNoCap), 0.0F);
+  // Never above v_allowed; while it moves, S_p(v_plan) <= d; and a cycle later, with the
+  // person 2 mm closer (2000 mm/s, 1 ms), S_p grows by no more than those 2 mm, also where
+  // d crosses 500 mm (with v_allowed itself it grew by 50 mm there).
+  for (float d = 0.0F; d < 3000.0F; d += 0.5F) {
+    const float v = ssm_planning_speed_mm_s(d, p, kNoCap);
+    ASSERT_LE(v, ssm_allowed_speed_mm_s(d, p, kNoCap)) << d;
+    if (v > 0.0F) {
+      ASSERT_LE(ssm_protective_distance_mm(v, d, p), d + 0.01F) << d;
+      ASSERT_LE(ssm_protective_distance_mm(v, d - 2.0F, p), d + 0.01F) << d;
+    }
+  }
+  const float v501 = ssm_allowed_speed_mm_s(501.0F, p, kNoCap);
+  EXPECT_GT(ssm_protective_distance_mm(v501, 499.0F, p), 540.0F) << "the jump this avoids";
+}

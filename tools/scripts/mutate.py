@@ -245,7 +245,7 @@ def mutants():
              "resume: any pause resumes by itself"),
         (SUPERVISOR, "  field_paused_ = field_paused_ && (to == Leaf::AUTO_PAUSED);", "",
              "resume: a pause of rule 9 is never forgotten"),
-        (SUPERVISOR, "  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_allowed_mm_s : -1.0F;", "  o.motion.v_allowed_mm_s = -1.0F;",
+        (SUPERVISOR, "  o.motion.v_allowed_mm_s = c.ssm.acting ? c.ssm.v_plan_mm_s : -1.0F;", "  o.motion.v_allowed_mm_s = -1.0F;",
              "motion: v_allowed not handed to the motion layer"),
         (SUPERVISOR, "  o.motion.reduced_limit_mm_s = limits_.reduced().limit();", "  o.motion.reduced_limit_mm_s = 0.0F;",
              "motion: the field's reduced limit not handed over"),

@@ -43,6 +43,7 @@ void SsmMonitor::check(const SafetyInputs& in, float tcp_speed, float limit, boo
     return;
   }
   r.v_allowed_mm_s = ssm_allowed_speed_mm_s(used_, params_, limit);
+  r.v_plan_mm_s = ssm_planning_speed_mm_s(used_, params_, limit);
   r.over = !(tcp_speed <= (r.v_allowed_mm_s * kSsmTolerance));  // NaN is over
   over_ = r.over ? over_ + 1U : 0U;
   if (powered && (over_ > reaction_)) {

@@ -77,6 +77,15 @@ inline constexpr float kHumanSpeedNearMmS = 2000.0F;
 // unsafe), as do parameters that are not positive (a, T_r).
 [[nodiscard]] float ssm_allowed_speed_mm_s(float separation_mm, const SsmParams& p, float limit_mm_s) noexcept;
 
+// What the motion layer plans to (SPEC §11 "scales the speed so that the TCP stays at or below
+// v_allowed"): v_allowed(d) with v_h 2000 already within 500 mm + the distance a person
+// covers at 2000 mm/s in T_r. v_allowed itself jumps down where d crosses 500 mm (v_h 1600 ->
+// 2000); a robot still moving at v_allowed(501 mm) would then be one reaction's worth
+// closer than S_p (the SSM benchmark measured 48 mm). Planned so, the speed is already
+// v_allowed with v_h 2000 when the person reaches 500 mm: 0 there, continuously. Never above
+// ssm_allowed_speed_mm_s; the monitor keeps judging against that.
+[[nodiscard]] float ssm_planning_speed_mm_s(float separation_mm, const SsmParams& p, float limit_mm_s) noexcept;
+
 // The protective separation distance S_p for a robot at speed v (SPEC §11 with T_s the
 // stopping time v / a): v_h (T_r + T_s) + v T_r + v^2 / (2a) + C + Z, mm. The inverse of
 // ssm_allowed_speed_mm_s (used by tests and the benchmark).

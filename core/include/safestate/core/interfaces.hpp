@@ -98,8 +98,9 @@ struct MotionRequest {
   // The reduced TCP limit in force while `reduced` (mm/s): reduced.tcp_max_speed_mm_s, or
   // lower with SPEC §11's outer field (collaborative.reduced_speed_mm_s, v_pfl).
   float reduced_limit_mm_s = 0.0F;
-  // SPEC §11 speed and separation monitoring: the TCP stays at or below this (mm/s); at 0
-  // the program holds. Negative: SSM does not act.
+  // SPEC §11 speed and separation monitoring: the TCP stays at or below this (mm/s): v_allowed
+  // as planned (core::ssm_planning_speed_mm_s); at 0 the program holds. Negative: SSM does
+  // not act.
   float v_allowed_mm_s = -1.0F;
   // SPEC §10 recovery (T1, a limit violated): move only in ways that do not make the
   // violation worse.

@@ -206,6 +206,7 @@ struct SsmReport {
   bool acting = false;           // collaborative and ssm on, mode AUTO
   float separation_mm = 0.0F;    // the separation used (after the plausibility filter)
   float v_allowed_mm_s = 0.0F;   // v_allowed(separation) clamped to [0, the limit in force]
+  float v_plan_mm_s = 0.0F;      // what the motion layer plans to (ssm_planning_speed_mm_s)
   bool over = false;             // TCP above v_allowed + 5 % now (the reset guard's "cause")
   LimitFinding violated;         // SEPARATION_VIOLATED: over for longer than T_r, power on
 };
