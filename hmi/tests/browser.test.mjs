@@ -718,7 +718,8 @@ test('collaborative: validated, AUTO, servo on: SSM holds at an unknown separati
   await page.fill('#sim-separation', '800');
   await page.press('#sim-separation', 'Enter');
   await page.locator('#sim-separation').blur();
-  r = await cpUntil('v_allowed at 800 mm', (x, s) => s.safety.separation_mm === 800 && x.limitBy === 'ssm');
+  // The separation the core believes rises at most 3.5 mm a cycle: wait for the section to show 800 mm.
+  r = await cpUntil('v_allowed at 800 mm', (x, s) => s.safety.separation_mm === 800 && x.limitBy === 'ssm' && /separation of 800 mm/.test(x.ssmDetail));
   assert.equal(r.s.safety.v_allowed, 344.8);
   assert.equal(r.c.ssm, '345 mm/s');
   assert.match(r.c.ssmDetail, /separation of 800 mm/);
