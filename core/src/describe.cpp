@@ -145,7 +145,7 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       t.s("TCP faster than allowed for the separation (").u(d.code).s(" mm/s)");
       break;
     case AlarmId::PERSON_IN_FIELD: t.s("Person in the inner protective field"); break;
-    case AlarmId::COLLISION: t.s("Collision: force at the TCP ").u(d.code).s(" N"); break;
+    case AlarmId::COLLISION: t.s("Force at the TCP ").u(d.code).s(" N, over the body region's F_qs"); break;
     case AlarmId::BRAKE_TEST_DUE: t.s("Brake test due"); break;
     case AlarmId::BRAKE_TEST_FAILED: {
       // code: the drift in millidegrees (SPEC §12 names the axis and its drift).

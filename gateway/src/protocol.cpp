@@ -19,6 +19,7 @@
 
 #include <array>
 #include <charconv>
+#include <cmath>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -389,6 +390,22 @@ bool axis_1_to_6(const std::string& s, std::uint8_t& axis) {
   return true;
 }
 
+// A whole-token finite decimal number, as the scenario language's reals (no sign: '-' only).
+bool real(const std::string& s, double& out) {
+  double v = 0.0;
+  const char* end = s.data() + s.size();
+  const auto [p, ec] = std::from_chars(s.data(), end, v);
+  if (s.empty() || ec != std::errc{} || p != end || !std::isfinite(v)) {
+    return false;
+  }
+  out = v;
+  return true;
+}
+
+// SPEC §11 collision detection, as scenario/src/collision_keys.cpp: the limits and units.
+constexpr double kMaxContactN = 5000.0;      // stored in tenths of a newton
+constexpr double kMaxTorqueBiasPct = 300.0;  // the drives' peak; stored as int16 per mille
+
 }  // namespace
 
 const char* to_string(Role r) noexcept {
@@ -467,6 +484,32 @@ std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) 
     return std::string{};
   };
   std::uint8_t axis = 0;
+  double x = 0.0;
+  // SPEC §11: `contact F` (N, 0..5000, 0 removes the surface), `drive N torque_bias X`
+  // (% of rated torque, -300..300). A bad number names itself; nothing is set.
+  if (a.size() == 2 && a[0] == "contact") {
+    if (!real(a[1], x) || x < 0.0 || x > kMaxContactN) {
+      out = bridge::CommandRecord{};
+      return "bad contact force \"" + a[1] + "\" in fault \"" + std::string(line) + "\" (expected a number of newtons 0..5000)";
+    }
+    set(sim::FaultKind::contact, 0);
+    out.fault_value = static_cast<std::uint16_t>(std::lround(x * 10.0));
+    return {};
+  }
+  if (a.size() == 4 && a[0] == "drive" && a[2] == "torque_bias") {
+    if (!axis_1_to_6(a[1], axis)) {
+      out = bridge::CommandRecord{};
+      return "bad drive \"" + a[1] + "\" in fault \"" + std::string(line) + "\" (expected 1..6)";
+    }
+    if (!real(a[3], x) || x < -kMaxTorqueBiasPct || x > kMaxTorqueBiasPct) {
+      out = bridge::CommandRecord{};
+      return "bad torque bias \"" + a[3] + "\" in fault \"" + std::string(line) +
+             "\" (expected a percentage of rated torque -300..300)";
+    }
+    set(sim::FaultKind::drive_torque_bias, axis);
+    out.fault_value = static_cast<std::uint16_t>(static_cast<std::int16_t>(std::lround(x * 10.0)));  // per mille
+    return {};
+  }
   if (a.size() == 3 && a[0] == "drive" && axis_1_to_6(a[1], axis)) {
     if (a[2] == "fault") return set(sim::FaultKind::drive_fault, axis);
     if (a[2] == "clear") return set(sim::FaultKind::drive_clear, axis);
@@ -485,8 +528,8 @@ std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) 
   }
   if (a.size() == 2 && a[0] == "clear" && a[1] == "all") return set(sim::FaultKind::clear_all, 0);
   return "bad fault \"" + std::string(line) +
-         "\" (expected drive N fault|clear|runaway|nostop, fieldbus lost, contactor stuck_open, brake N stuck|weak,"
-         " clear all; N 1..6)";
+         "\" (expected drive N fault|clear|runaway|nostop, drive N torque_bias X, fieldbus lost, contactor stuck_open,"
+         " brake N stuck|weak, contact F, clear all; N 1..6)";
 }
 
 Json make_welcome(Role role, const std::string& version) {

@@ -9,6 +9,10 @@
 //    simulated, max_point_speed, statusword, core/gateway heartbeats and pids,
 //    core_heartbeat_age_ms (wall time since the core's cycle counter last advanced, as
 //    seen by the gateway: a stuck core shows here) and shutting_down.
+//  - The status' `safety` object carries, after its fields of protocol.md: pfl (collision
+//    detection acts), contact_force (N at the TCP, 0.1, null when pfl is off) and, from the
+//    active configuration, contact_force_limit (the body region's F_qs, N) and
+//    pfl_speed_limit (v_pfl, mm/s), both null without pfl.
 //  - The black box of a stopping transition is {first, last, missing, cycles:[...]};
 //    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
 #include "safestate/gateway/views.hpp"
@@ -373,6 +377,17 @@ Json status_safety_json(const bridge::Status& s) {
                                              : Json(nullptr);
   brake["last"] = core::to_string(static_cast<core::BrakeTestResult>(s.brake_test_last));
   j["brake_test"] = std::move(brake);
+  // SPEC §11 collision detection, after the fields of protocol.md: whether it acts
+  // (collaborative and pfl on), the force estimated at the TCP (N, 0.1; null while it does
+  // not act), and from the configuration the gateway holds the region's F_qs (the force
+  // that is COLLISION) and the PFL speed cap v_pfl (null without pfl).
+  j["pfl"] = s.safety_pfl;
+  j["contact_force"] = s.safety_pfl ? Json(rounded(static_cast<double>(s.safety_contact_force_n), 10.0)) : Json(nullptr);
+  const bool pfl_config = g_safety.ok && g_safety.limits.collaborative.enabled && g_safety.limits.collaborative.pfl_enabled;
+  j["contact_force_limit"] =
+      pfl_config ? Json(rounded(static_cast<double>(g_safety.limits.collaborative.f_qs_n), 10.0)) : Json(nullptr);
+  j["pfl_speed_limit"] =
+      pfl_config ? Json(rounded(static_cast<double>(g_safety.limits.collaborative.pfl_speed_mm_s), 10.0)) : Json(nullptr);
   return j;
 }
 

@@ -61,6 +61,11 @@ export interface SafetyStatus {
   fields?: { outer: string; inner: string };
   separation_mm?: number | null;
   brake_test?: { due_in_h: number | null; last: string };
+  // SPEC §11 collision detection (after protocol.md's fields, gateway/src/views.cpp).
+  pfl?: boolean;
+  contact_force?: number | null; // N at the TCP, null when pfl is off
+  contact_force_limit?: number | null; // the body region's F_qs (N), from the configuration
+  pfl_speed_limit?: number | null; // v_pfl (mm/s), from the configuration
 }
 
 export type ZoneKind = 'keep_in' | 'keep_out' | 'reduced';

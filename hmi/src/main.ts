@@ -283,6 +283,7 @@ function applyHighlight(): void {
 }
 alarms.onAlarms = (list) => {
   alarmObjects = list;
+  safety.setAlarms(list);
   applyHighlight();
 };
 

@@ -232,3 +232,77 @@ export function reducedWords(reduced: boolean, by: readonly string[]): string {
   const why = by.map((b) => REDUCED_BY_WORDS[b] ?? b);
   return why.length ? `because ${why.join(' and ')}` : 'reason not reported';
 }
+
+// ------------------------------------------------------------------ collaborative operation (SPEC §11)
+/** What the Collaborative section needs of the status' `safety` object (all optional: a
+ * gateway that predates SPEC §11 or its collision detection leaves them out). */
+export interface CollabInput {
+  reduced: boolean;
+  reduced_by: readonly string[];
+  speed_limit: number;
+  v_allowed: number | null;
+  fields?: { outer: string; inner: string };
+  separation_mm?: number | null;
+  pfl?: boolean;
+  contact_force?: number | null;
+  contact_force_limit?: number | null;
+  pfl_speed_limit?: number | null;
+}
+
+export interface SlowWhy {
+  /** The TCP limit in force now (mm/s): the lower of speed_limit and v_allowed. */
+  limit: number;
+  /** What sets that limit: 'normal', 'reduced', 'ssm', 'ssm-hold' (v_allowed 0), 'pfl'. */
+  by: 'normal' | 'reduced' | 'ssm' | 'ssm-hold' | 'pfl';
+  /** Every reason the robot is slower than normal, or stopped by a field, in words. */
+  reasons: string[];
+}
+
+const mm = (v: number) => `${Math.round(v)}`;
+
+/** Why the robot is slow (or held), in words, from the status' `safety` object. Pure. */
+export function slowWhy(sf: CollabInput): SlowWhy {
+  const reasons: string[] = [];
+  // PFL caps the reduced limit while the outer field is interrupted (v_pfl the lowest of
+  // the reduced limits); the status rounds both to 0.1 mm/s.
+  const pflCap =
+    sf.reduced &&
+    sf.reduced_by.includes('field') &&
+    sf.pfl_speed_limit != null &&
+    Math.abs(sf.speed_limit - sf.pfl_speed_limit) < 0.5;
+  if (sf.reduced) {
+    if (sf.reduced_by.includes('zone')) reasons.push('Reduced speed: the TCP is in a reduced zone.');
+    if (sf.reduced_by.includes('input')) reasons.push('Reduced speed: the reduced-speed input asks for it.');
+    if (sf.reduced_by.includes('field')) {
+      reasons.push(
+        pflCap
+          ? `Reduced speed: the outer protective field is interrupted, and power and force limiting caps the TCP at v_pfl = ${mm(sf.pfl_speed_limit as number)} mm/s (transient contact).`
+          : 'Reduced speed: the outer protective field is interrupted (a person is near).',
+      );
+    }
+    if (sf.reduced_by.length === 0) reasons.push('Reduced speed (reason not reported).');
+  }
+  if (sf.fields?.inner === 'interrupted') reasons.push('The inner protective field is interrupted: the program may not run (rule 9).');
+  let limit = sf.speed_limit;
+  let by: SlowWhy['by'] = pflCap ? 'pfl' : sf.reduced ? 'reduced' : 'normal';
+  if (sf.v_allowed !== null && sf.v_allowed !== undefined) {
+    const sep = sf.separation_mm != null ? `${mm(sf.separation_mm)} mm` : 'unknown';
+    if (sf.v_allowed <= 0) {
+      reasons.push(`Speed and separation monitoring holds the robot: at a separation of ${sep}, v_allowed is 0 mm/s.`);
+      limit = 0;
+      by = 'ssm-hold';
+    } else if (sf.v_allowed < sf.speed_limit) {
+      reasons.push(`Speed and separation monitoring: at a separation of ${sep} the TCP may move at ${mm(sf.v_allowed)} mm/s.`);
+      limit = sf.v_allowed;
+      by = 'ssm';
+    }
+  }
+  return { limit, by, reasons };
+}
+
+/** The contact force in words: "12.3 N of 140 N (F_qs)", or "off" when PFL does not act. */
+export function contactWords(sf: CollabInput): string {
+  if (!sf.pfl || sf.contact_force == null) return 'Collision detection off';
+  const f = `${sf.contact_force.toFixed(1)} N`;
+  return sf.contact_force_limit != null ? `${f} of ${mm(sf.contact_force_limit)} N (F_qs, COLLISION above)` : f;
+}

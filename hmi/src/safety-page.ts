@@ -5,12 +5,18 @@
 // operator types the checksum from the approved configuration record (`validate_config`,
 // pendant only, IDLE, T1/T2: safety-logic.ts says when and why not).
 // Also the strip under the banner that shows checksum, validated and reduced on every page.
-import type { SafetyInfo, Status } from './api';
+// And the Collaborative section (SPEC §11): the protective fields, speed and separation
+// monitoring, the TCP speed against the limit in force and why the robot is slow
+// (safety-logic.ts slowWhy), collision detection with the contact force against F_qs, and a
+// COLLISION alarm with its detail.
+import type { Alarm, SafetyInfo, Status } from './api';
 import type { Link, LinkState, Role } from './connection';
 import { clockTime, deg, h, setAttr, setText, toggleClass } from './dom';
 import {
+  contactWords,
   type Highlight,
   reducedWords,
+  slowWhy,
   typedCode,
   validateGate,
   validateReplyWords,
@@ -33,6 +39,7 @@ export class SafetyPage {
   private hl: Highlight | null = null;
   private pendingSeq: number | null = null;
   private lastKey = '';
+  private alarmObjects: Alarm[] = [];
   private e: Record<string, HTMLElement> = {};
 
   constructor(private readonly link: Link) {
@@ -85,6 +92,7 @@ export class SafetyPage {
         )),
       ),
       el('sp-violations', 'div', 'sp-violations', ''),
+      this.collabSection(el),
       h(
         'div',
         { class: 'sp-now' },
@@ -187,6 +195,150 @@ export class SafetyPage {
     this.render();
   }
 
+  /** The active alarms with their detail (GET /api/alarms): COLLISION's force. */
+  setAlarms(list: Alarm[]): void {
+    this.alarmObjects = list;
+    this.renderCollab();
+  }
+
+  private collabSection(el: (id: string, tag?: keyof HTMLElementTagNameMap, cls?: string, text?: string) => HTMLElement): HTMLElement {
+    const field = (which: 'outer' | 'inner', label: string) =>
+      (this.e[`cb-field-${which}`] = h(
+        'div',
+        { class: 'cb-field', id: `cb-field-${which}`, 'data-state': 'unknown' },
+        h('div', { class: 'sp-label' }, label),
+        el(`cb-field-${which}-word`, 'div', 'cb-field-word', '—'),
+      ));
+    return (this.e['sp-collab'] = h(
+      'section',
+      { class: 'sp-collab', id: 'sp-collab', 'aria-label': 'Collaborative operation' },
+      h('h3', {}, 'Collaborative operation (SPEC §11)', el('cb-enabled', 'span', 'cb-enabled', '')),
+      Object.assign(el('cb-collision', 'div', 'cb-collision', ''), { hidden: true }),
+      h(
+        'div',
+        { class: 'cb-grid' },
+        h(
+          'div',
+          { class: 'sp-card cb-fields' },
+          h('div', { class: 'sp-label' }, 'Protective fields (scanner)'),
+          h('div', { class: 'cb-field-row' }, field('outer', 'Outer: slows'), field('inner', 'Inner: stops')),
+          el('cb-person', 'div', 'sp-small', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card' },
+          h('div', { class: 'sp-label' }, 'Speed and separation'),
+          el('cb-ssm', 'div', 'sp-big', '—'),
+          el('cb-ssm-detail', 'div', 'sp-small', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card' },
+          h('div', { class: 'sp-label' }, 'TCP speed / limit in force'),
+          el('cb-speed', 'div', 'sp-big', '—'),
+          h('div', { class: 'cb-bar' }, el('cb-speed-bar', 'div', 'cb-bar-fill', '')),
+          el('cb-limit-by', 'div', 'sp-small', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card' },
+          h('div', { class: 'sp-label' }, 'Power and force limiting'),
+          el('cb-pfl', 'div', 'sp-big', '—'),
+          el('cb-force', 'div', 'cb-force', ''),
+          h('div', { class: 'cb-bar' }, el('cb-force-bar', 'div', 'cb-bar-fill', '')),
+        ),
+      ),
+      h('div', { class: 'sp-label cb-why-label' }, 'Why the robot is slow'),
+      el('cb-why', 'ul', 'cb-why', ''),
+    ));
+  }
+
+  private renderCollab(): void {
+    const s = this.status;
+    const sf = s?.safety;
+    const collab = this.info?.config.collaborative as { enabled?: boolean } | undefined;
+    setText(
+      this.e['cb-enabled'],
+      this.info ? (collab?.enabled ? ' · enabled in this configuration' : ' · not enabled in this configuration') : '',
+    );
+    for (const which of ['outer', 'inner'] as const) {
+      const st = sf?.fields?.[which] ?? 'unknown';
+      setAttr(this.e[`cb-field-${which}`], 'data-state', st);
+      setText(this.e[`cb-field-${which}-word`], st === 'unknown' ? 'not reported' : st === 'clear' ? 'Clear' : 'INTERRUPTED');
+    }
+    const person = s?.alarms.includes('PERSON_IN_FIELD');
+    setText(
+      this.e['cb-person'],
+      person
+        ? 'PERSON_IN_FIELD: someone is in the inner field. The program pauses; it may not start or resume until both fields are clear.'
+        : sf?.fields?.outer === 'interrupted'
+          ? 'Someone is in the outer field: reduced speed while it lasts.'
+          : sf?.fields
+            ? 'Nobody in either field.'
+            : '',
+    );
+    toggleClass(this.e['cb-person'], 'warn', !!person);
+    // SSM
+    if (sf && sf.v_allowed !== null && sf.v_allowed !== undefined) {
+      setText(this.e['cb-ssm'], `${fmt(sf.v_allowed)} mm/s`);
+      toggleClass(this.e['cb-ssm'], 'warn', sf.v_allowed <= 0);
+      setText(
+        this.e['cb-ssm-detail'],
+        `v_allowed at a separation of ${sf.separation_mm != null ? `${fmt(sf.separation_mm)} mm` : 'unknown'}${sf.v_allowed <= 0 ? ': the robot holds' : ''}`,
+      );
+    } else {
+      setText(this.e['cb-ssm'], sf ? 'not acting' : '—');
+      toggleClass(this.e['cb-ssm'], 'warn', false);
+      setText(this.e['cb-ssm-detail'], sf ? 'SSM acts with collaborative operation and SSM on, in AUTO.' : '');
+    }
+    // Speed against the limit in force, and why.
+    const why = sf ? slowWhy(sf) : null;
+    if (s && why) {
+      setText(this.e['cb-speed'], `${fmt(s.tcp_speed)} / ${fmt(why.limit)} mm/s`);
+      const frac = why.limit > 0 ? Math.min(1, s.tcp_speed / why.limit) : s.tcp_speed > 0.5 ? 1 : 0;
+      this.e['cb-speed-bar'].style.width = `${(frac * 100).toFixed(1)}%`;
+      toggleClass(this.e['cb-speed-bar'], 'over', frac >= 0.999 && s.tcp_speed > 0.5);
+      const byWords: Record<string, string> = {
+        normal: 'the normal TCP limit',
+        reduced: 'the reduced-speed limit',
+        pfl: 'the PFL cap v_pfl',
+        ssm: 'v_allowed of speed and separation monitoring',
+        'ssm-hold': 'SSM: v_allowed = 0, the robot holds',
+      };
+      setText(this.e['cb-limit-by'], `Limit set by ${byWords[why.by]}.`);
+      setAttr(this.e['sp-collab'], 'data-limit-by', why.by);
+    } else {
+      setText(this.e['cb-speed'], '—');
+      setText(this.e['cb-limit-by'], '');
+    }
+    const ul = this.e['cb-why'];
+    const items = why ? (why.reasons.length ? why.reasons : ['It is not: the normal limits apply.']) : [];
+    const key = items.join('\n');
+    if (ul.dataset.key !== key) {
+      ul.dataset.key = key;
+      ul.replaceChildren(...items.map((t) => h('li', {}, t)));
+    }
+    // PFL and the contact force
+    setText(this.e['cb-pfl'], sf ? (sf.pfl ? 'ON' : 'off') : '—');
+    setText(this.e['cb-force'], sf ? contactWords(sf) : '');
+    const f = sf?.pfl ? (sf.contact_force ?? 0) : 0;
+    const lim = sf?.contact_force_limit ?? 0;
+    const ff = lim > 0 ? Math.min(1, f / lim) : 0;
+    this.e['cb-force-bar'].style.width = `${(ff * 100).toFixed(1)}%`;
+    toggleClass(this.e['cb-force-bar'], 'over', ff >= 0.8);
+    // COLLISION, with the core's detail (the force it saw).
+    const collision = !!s?.alarms.includes('COLLISION');
+    const box = this.e['cb-collision'];
+    box.hidden = !collision;
+    if (collision) {
+      const a = this.alarmObjects.find((x) => x.name === 'COLLISION');
+      setText(
+        box,
+        `COLLISION${a?.detail ? `: ${a.detail}` : ''}. The robot stops, backs off 10 mm along its path and holds. Clear the contact, then resume; a reset with the servos off clears the alarm.`,
+      );
+    }
+  }
+
   setHighlight(hl: Highlight): void {
     this.hl = hl;
     this.render();
@@ -282,6 +434,7 @@ export class SafetyPage {
         if (cell) setText(cell, `${deg(q).toFixed(1)}°`);
       });
     }
+    this.renderCollab();
     this.renderDialog();
   }
 

@@ -1,6 +1,7 @@
 // The simulated cell's physical devices, shown only when status.simulated: E-stop
 // mushroom (and its two channels), guard, 3-position enabling device, key switch, the
-// cabinet's reset button, and fault injection, all as protocol `sim` messages in the
+// cabinet's reset button, the area scanner's two protective fields and the distance sensor
+// (SPEC §11), and fault injection (with a contact force at the TCP), all as protocol `sim` messages in the
 // vocabulary of the scenario format. The status does not report raw contacts, so the
 // panel shows the positions it last set, starting from the cell's initial inputs
 // (SPEC §6) and kept per core process across page reloads, corrected by what the status
@@ -18,6 +19,10 @@ interface Devices {
   mode: 'AUTO' | 'T1' | 'T2';
   reducedA: boolean; // SPEC §10 reduced-speed input, NC: contact closed = normal speed
   reducedB: boolean;
+  fieldOuter: 'clear' | 'interrupted'; // SPEC §11 protective fields, both channels together
+  fieldInner: 'clear' | 'interrupted';
+  separation: number; // mm, the distance sensor's reading last sent
+  separationValid: boolean;
 }
 
 const INITIAL: Devices = {
@@ -28,7 +33,14 @@ const INITIAL: Devices = {
   mode: 'AUTO',
   reducedA: true,
   reducedB: true,
+  fieldOuter: 'clear',
+  fieldInner: 'clear',
+  separation: 2000,
+  separationValid: false, // no reading at start: unknown (SPEC §11)
 };
+
+/** The largest separation the slider offers (mm); the number field takes any integer >= 0. */
+const SEPARATION_MAX = 5000;
 
 function segmented<T extends string>(
   id: string,
@@ -67,6 +79,14 @@ export class SimPanel {
   private redNote: HTMLElement;
   private drive: HTMLSelectElement;
   private estopNote: HTMLElement;
+  private fieldOuter: ReturnType<typeof segmented<'clear' | 'interrupted'>>;
+  private fieldInner: ReturnType<typeof segmented<'clear' | 'interrupted'>>;
+  private sepRange: HTMLInputElement;
+  private sepNumber: HTMLInputElement;
+  private sepValid: HTMLButtonElement;
+  private sepNote: HTMLElement;
+  private force: HTMLInputElement;
+  private forceNote: HTMLElement;
 
   constructor(private readonly link: Link) {
     this.mushroom = h(
@@ -108,6 +128,33 @@ export class SimPanel {
     this.redNote = h('div', { class: 'sim-note', id: 'sim-reduced-note' }, '');
     this.redA = redCh('a');
     this.redB = redCh('b');
+
+    // SPEC §11: the area scanner's fields (scenario vocabulary field.outer/field.inner=clear|interrupted).
+    this.fieldOuter = segmented('sim-field-outer', [['clear', 'Clear'], ['interrupted', 'Interrupted']], (v) =>
+      this.set({ fieldOuter: v }, { 'field.outer': v }, `outer protective field ${v}`),
+    );
+    this.fieldInner = segmented('sim-field-inner', [['clear', 'Clear'], ['interrupted', 'Interrupted']], (v) =>
+      this.set({ fieldInner: v }, { 'field.inner': v }, `inner protective field ${v}`),
+    );
+    // The distance sensor: separation_mm (an integer >= 0, a valid reading) and separation_valid.
+    this.sepRange = h('input', {
+      type: 'range', id: 'sim-separation-range', min: 0, max: SEPARATION_MAX, step: 10, 'aria-label': 'Separation (mm)',
+    }) as HTMLInputElement;
+    this.sepNumber = h('input', {
+      type: 'number', id: 'sim-separation', min: 0, step: 1, class: 'num', 'aria-label': 'Separation (mm)',
+    }) as HTMLInputElement;
+    this.sepRange.addEventListener('input', () => {
+      this.sepNumber.value = this.sepRange.value;
+    });
+    this.sepRange.addEventListener('change', () => this.sendSeparation(this.sepRange.value));
+    this.sepNumber.addEventListener('change', () => this.sendSeparation(this.sepNumber.value));
+    this.sepValid = h('button', { type: 'button', class: 'switch small', id: 'sim-separation-valid', onclick: () => this.toggleSepValid() }, '');
+    this.sepNote = h('div', { class: 'sim-note', id: 'sim-separation-note' }, '');
+    // A contact at the TCP (fault contact F, newtons, 0 removes it).
+    this.force = h('input', {
+      type: 'number', id: 'sim-contact-force', min: 0, max: 5000, step: 10, value: 150, class: 'num', 'aria-label': 'Contact force (N)',
+    }) as HTMLInputElement;
+    this.forceNote = h('div', { class: 'sim-note', id: 'sim-contact-note' }, '');
 
     this.drive = h('select', { id: 'sim-axis', 'aria-label': 'Drive or brake number' });
     for (let i = 1; i <= 6; i++) this.drive.append(h('option', { value: i }, String(i)));
@@ -162,6 +209,37 @@ export class SimPanel {
         ),
         h(
           'div',
+          { class: 'sim-cell sim-collab', id: 'sim-collab' },
+          h(
+            'div',
+            {},
+            h('div', { class: 'sim-label', title: 'SPEC §11: an area scanner, two OSSD pairs per field' }, 'Outer field (slows)'),
+            this.fieldOuter.el,
+          ),
+          h('div', {}, h('div', { class: 'sim-label' }, 'Inner field (stops)'), this.fieldInner.el),
+          h(
+            'div',
+            {},
+            h('div', { class: 'sim-label', title: 'SPEC §11 speed and separation monitoring: the distance sensor' }, 'Separation (mm)'),
+            h('div', { class: 'sim-sep-row' }, this.sepRange, this.sepNumber, this.sepValid),
+            this.sepNote,
+          ),
+          h(
+            'div',
+            {},
+            h('div', { class: 'sim-label', title: 'SPEC §11 collision detection: a surface where the TCP next moves pushes back with this force' }, 'Contact at the TCP (N)'),
+            h(
+              'div',
+              { class: 'sim-sep-row' },
+              this.force,
+              h('button', { type: 'button', class: 'btn small warn', id: 'sim-contact', onclick: () => this.contact(this.force.value) }, 'Contact'),
+              h('button', { type: 'button', class: 'btn small', id: 'sim-contact-0', onclick: () => this.contact('0') }, 'Contact 0'),
+            ),
+            this.forceNote,
+          ),
+        ),
+        h(
+          'div',
           { class: 'sim-cell sim-faults' },
           h('div', { class: 'sim-label' }, 'Fault injection'),
           h(
@@ -206,6 +284,40 @@ export class SimPanel {
     this.link.sim({ fault: line }, `fault: ${line}`);
   }
 
+  private sendSeparation(text: string): void {
+    const v = Number(text);
+    if (text.trim() === '' || !Number.isInteger(v) || v < 0) {
+      setText(this.sepNote, `"${text}" is not a separation: an integer number of mm, 0 or more. Nothing sent.`);
+      setAttr(this.sepNote, 'data-problem', 'yes');
+      this.render(false);
+      return;
+    }
+    setAttr(this.sepNote, 'data-problem', null);
+    // A distance given is a valid reading (protocol.md, SPEC §11).
+    this.set({ separation: v, separationValid: true }, { separation_mm: v }, `separation ${v} mm`);
+  }
+
+  private toggleSepValid(): void {
+    const valid = !this.d.separationValid;
+    this.set(
+      { separationValid: valid },
+      valid ? { separation_mm: this.d.separation, separation_valid: 1 } : { separation_valid: 0 },
+      valid ? `separation ${this.d.separation} mm valid` : 'separation invalid',
+    );
+  }
+
+  private contact(text: string): void {
+    const f = Number(text);
+    if (text.trim() === '' || !Number.isFinite(f) || f < 0 || f > 5000) {
+      setText(this.forceNote, `"${text}" is not a contact force: 0 to 5000 N. Nothing sent.`);
+      setAttr(this.forceNote, 'data-problem', 'yes');
+      return;
+    }
+    setAttr(this.forceNote, 'data-problem', null);
+    this.fault(`contact ${f}`);
+    setText(this.forceNote, f > 0 ? `Sent: a surface pushes back with ${f} N where the TCP next moves.` : 'Sent: contact removed.');
+  }
+
   private pressResetButton(): void {
     // SPEC §2: the reset button acts on its falling edge, so press and release.
     if (this.link.sim({ set: { reset_button: 1 } }, 'cabinet reset button pressed') !== null) {
@@ -238,7 +350,18 @@ export class SimPanel {
     );
   }
 
-  private render(): void {
+  private render(inputs = true): void {
+    this.fieldOuter.set(this.d.fieldOuter);
+    this.fieldInner.set(this.d.fieldInner);
+    if (inputs && document.activeElement !== this.sepNumber) this.sepNumber.value = String(this.d.separation);
+    if (inputs && document.activeElement !== this.sepRange) this.sepRange.value = String(Math.min(this.d.separation, SEPARATION_MAX));
+    toggleClass(this.sepValid, 'open', !this.d.separationValid);
+    setText(this.sepValid, this.d.separationValid ? 'valid' : 'invalid');
+    setAttr(this.sepValid, 'aria-pressed', this.d.separationValid ? 'true' : 'false');
+    setAttr(this.sepValid, 'title', this.d.separationValid ? 'The reading is valid: click to make it invalid (counts as 0)' : 'No valid reading (counts as 0): click to send the distance as valid');
+    if (this.sepNote.dataset.problem !== 'yes') {
+      setText(this.sepNote, this.d.separationValid ? `Sensor reads ${this.d.separation} mm` : 'No valid reading: SSM counts it as 0 mm (holds)');
+    }
     const pressed = !this.d.estopA && !this.d.estopB;
     const partial = this.d.estopA !== this.d.estopB;
     toggleClass(this.mushroom, 'pressed', pressed || partial);
@@ -293,6 +416,9 @@ export class SimPanel {
     // Reduced mode not asked for by the input: both of its channels are closed. (Asked for
     // proves nothing about the contacts: a discrepancy keeps it on with both closed.)
     if (s.safety && !s.safety.reduced_by.includes('input')) d.reducedA = d.reducedB = true;
+    // A field reads clear only once both of its channels are closed (SPEC §11).
+    if (s.safety?.fields?.outer === 'clear') d.fieldOuter = 'clear';
+    if (s.safety?.fields?.inner === 'clear') d.fieldInner = 'clear';
     if (JSON.stringify(d) !== JSON.stringify(this.d)) {
       this.d = d;
       this.save();

@@ -122,6 +122,12 @@ before(async () => {
 
 after(async () => {
   await ctx?.close().catch(() => {});
+  await collabCell.ctx?.close().catch(() => {});
+  if (collabCell.proc && collabCell.proc.exitCode === null) {
+    collabCell.proc.kill('SIGINT');
+    const done = await Promise.race([collabCell.exit, sleep(10000).then(() => null)]);
+    if (!done) collabCell.proc.kill('SIGKILL');
+  }
   await safetyCell.ctx?.close().catch(() => {});
   if (safetyCell.proc && safetyCell.proc.exitCode === null) {
     safetyCell.proc.kill('SIGINT');
@@ -612,4 +618,185 @@ test('safety: safestate run --safety stops on SIGINT with exit 0', async () => {
   safetyCell.proc.kill('SIGINT');
   const r = await Promise.race([safetyCell.exit, sleep(15000).then(() => ({ code: 'timeout' }))]);
   assert.equal(r.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(safetyCell.logPath, 'utf8').slice(-2000)}`);
+});
+
+// ------------------------------------------------------------------ collaborative operation (SPEC §11, issue 20)
+// A cell of its own with hmi/tests/collab-cell.json, examples/safety/collaborative.json
+// without its brake test (which would have to run before AUTO): fields, SSM with v_h 1600,
+// a 2000, T_r 100 ms, C 200, Z 100; PFL for the hand: F_qs 140 N. The Safety page's
+// Collaborative section and the simulated cell's field, separation and contact controls.
+const COLLAB_FILE = path.join(ROOT, 'hmi', 'tests', 'collab-cell.json');
+const collabCell = {};
+const cp = (fn, arg) => collabCell.page.evaluate(fn, arg);
+const cpStatus = () => cp(() => window.safestateHmi.status);
+const cpShot = (name) => collabCell.page.screenshot({ path: path.join(ARTIFACTS, `${name}.png`), fullPage: true });
+const collab = () => cp(() => {
+  const t = (id) => document.getElementById(id)?.textContent ?? null;
+  return {
+    outer: document.getElementById('cb-field-outer')?.dataset.state, inner: document.getElementById('cb-field-inner')?.dataset.state,
+    outerWord: t('cb-field-outer-word'), innerWord: t('cb-field-inner-word'), person: t('cb-person'),
+    ssm: t('cb-ssm'), ssmDetail: t('cb-ssm-detail'), speed: t('cb-speed'), by: t('cb-limit-by'),
+    limitBy: document.getElementById('sp-collab')?.dataset.limitBy,
+    why: [...document.querySelectorAll('#cb-why li')].map((li) => li.textContent),
+    pfl: t('cb-pfl'), force: t('cb-force'), enabled: t('cb-enabled'),
+    collision: document.getElementById('cb-collision')?.hidden === false ? t('cb-collision') : '',
+  };
+});
+const cpUntil = (what, pred, ms = 8000) => until(what, async () => {
+  const c = await collab();
+  const s = await cpStatus();
+  return pred(c, s) ? { c, s } : false;
+}, ms).catch(async (e) => {
+  throw new Error(`${e.message}; section ${JSON.stringify(await collab())}; status ${JSON.stringify(await cpStatus())}`);
+});
+
+test('collaborative: the Safety page has the Collaborative section, fields clear, SSM and PFL as configured', async () => {
+  const check = execFileSync(BIN, ['safety', 'check', COLLAB_FILE], { encoding: 'utf8' });
+  collabCell.checksum = /checksum:\s+([0-9A-F]{8})/.exec(check)[1];
+  const port = await freePort();
+  const logPath = path.join(tmp, 'run-collab.log');
+  const log = fs.openSync(logPath, 'w');
+  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, 'events-collab.db'), '--static', DIST, '--no-opcua',
+    '--safety', COLLAB_FILE, ...RUN_ARGS], { cwd: ROOT, stdio: ['ignore', log, log] });
+  Object.assign(collabCell, { proc, port, logPath, errors: [], exit: new Promise((r) => proc.on('exit', (code, signal) => r({ code, signal }))) });
+  await until('GET /api/status after BOOT', async () => {
+    if (proc.exitCode !== null) throw new Error(`safestate run --safety exited: ${fs.readFileSync(logPath, 'utf8')}`);
+    return (await getJson(port, '/api/status')).state !== 'BOOT';
+  }, 20000);
+  collabCell.ctx = await chromium.launchPersistentContext(fs.mkdtempSync(path.join(tmp, 'chromium-collab-')), {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 900 },
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+  });
+  const page = collabCell.ctx.pages()[0] ?? (await collabCell.ctx.newPage());
+  collabCell.page = page;
+  page.on('pageerror', (e) => collabCell.errors.push(e.message));
+  await page.goto(`http://127.0.0.1:${port}/`);
+  await until('connected as pendant', () => cp(() => window.safestateHmi?.link?.role === 'pendant'));
+  await page.click('#tab-safety');
+  const { c } = await cpUntil('the section filled in', (x) => x.outer === 'clear' && x.inner === 'clear' && /enabled/.test(x.enabled ?? ''));
+  assert.match(c.enabled, /· enabled in this configuration/);
+  assert.equal(c.outerWord, 'Clear');
+  assert.match(c.person, /Nobody in either field/);
+  assert.equal(c.pfl, 'ON');
+  assert.match(c.force, /^\d+\.\d N of 140 N \(F_qs, COLLISION above\)$/, 'the force against the hand region\'s F_qs');
+  // The panel has the controls (on the Operate page).
+  for (const id of ['sim-field-outer-clear', 'sim-field-outer-interrupted', 'sim-field-inner-clear', 'sim-field-inner-interrupted',
+    'sim-separation', 'sim-separation-range', 'sim-separation-valid', 'sim-contact-force', 'sim-contact', 'sim-contact-0']) {
+    assert.ok(await cp((i) => !!document.getElementById(i), id), `#${id} in the simulated-cell panel`);
+  }
+  await page.click('#tab-operate');
+  await cpShot('20-collab-panel');
+  await page.click('#tab-safety');
+});
+
+test('collaborative: validated, AUTO, servo on: SSM holds at an unknown separation, says why, and follows the panel\'s separation', async () => {
+  const page = collabCell.page;
+  await page.click('#cmd-reset');
+  await page.click('#tab-operate');
+  await page.click('#sim-mode-t1');
+  await until('T1 IDLE', async () => { const s = await cpStatus(); return s.state === 'IDLE' && s.mode === 'T1'; });
+  await page.click('#tab-safety');
+  await until('validate enabled', () => cp(() => !document.getElementById('sp-validate').disabled));
+  await page.click('#sp-validate');
+  await page.fill('#validate-code', collabCell.checksum);
+  await page.click('#validate-send');
+  await until('validated', async () => (await cpStatus()).safety.validated === true);
+  await page.click('#validate-close');
+  await page.click('#tab-operate');
+  await page.click('#sim-mode-auto');
+  await until('AUTO IDLE', async () => { const s = await cpStatus(); return s.state === 'IDLE' && s.mode === 'AUTO'; });
+  await page.click('#cmd-servo-on');
+  await until('AUTO_IDLE', async () => (await cpStatus()).sub === 'AUTO_IDLE', 10000);
+  // No sensor reading yet: unknown counts as 0, SSM holds, and the section says so.
+  let r = await cpUntil('SSM holding', (x) => x.limitBy === 'ssm-hold');
+  assert.equal(r.c.ssm, '0 mm/s');
+  assert.ok(r.c.why.some((w) => /holds the robot: at a separation of 0 mm, v_allowed is 0 mm\/s/.test(w)), r.c.why.join(' | '));
+  assert.match(r.c.speed, /^0 \/ 0 mm\/s$/);
+  // 800 mm from the panel's number field: v_allowed 344.8 mm/s (collaborative.md's worked example).
+  await page.fill('#sim-separation', '800');
+  await page.press('#sim-separation', 'Enter');
+  await page.locator('#sim-separation').blur();
+  // The separation the core believes rises at most 3.5 mm a cycle: wait for the section to show 800 mm.
+  r = await cpUntil('v_allowed at 800 mm', (x, s) => s.safety.separation_mm === 800 && x.limitBy === 'ssm' && /separation of 800 mm/.test(x.ssmDetail));
+  assert.equal(r.s.safety.v_allowed, 344.8);
+  assert.equal(r.c.ssm, '345 mm/s');
+  assert.match(r.c.ssmDetail, /separation of 800 mm/);
+  assert.ok(r.c.why.some((w) => /separation of 800 mm the TCP may move at 345 mm\/s/.test(w)), r.c.why.join(' | '));
+  assert.equal(await cp(() => document.getElementById('sim-separation-valid').textContent), 'valid');
+  // A bad number is refused in the panel, nothing sent.
+  await page.fill('#sim-separation', '-5');
+  await page.locator('#sim-separation').blur();
+  await until('the refusal in words', () => cp(() => /not a separation/.test(document.getElementById('sim-separation-note').textContent)));
+  await sleep(200);
+  assert.equal((await cpStatus()).safety.separation_mm, 800, 'nothing changed');
+  await page.click('#tab-safety');
+  await cpShot('21-collab-ssm-800');
+  await page.click('#tab-operate');
+  // Far away: the normal limit again.
+  await page.fill('#sim-separation', '5000');
+  await page.locator('#sim-separation').blur();
+  await cpUntil('normal limit at 5000 mm', (x, s) => s.safety.separation_mm > 4000 && x.limitBy === 'normal', 10000);
+});
+
+test('collaborative: the inner field from the panel while AUTO_RUNNING: PERSON_IN_FIELD, the field shown interrupted, resume when clear', async () => {
+  const page = collabCell.page;
+  await page.click('#cmd-start');
+  await until('AUTO_RUNNING', async () => (await cpStatus()).sub === 'AUTO_RUNNING', 5000);
+  await page.click('#sim-field-inner-interrupted');
+  let r = await cpUntil('PERSON_IN_FIELD and the inner field interrupted',
+    (x, s) => s.alarms.includes('PERSON_IN_FIELD') && x.inner === 'interrupted' && s.sub !== 'AUTO_RUNNING');
+  assert.equal(r.c.innerWord, 'INTERRUPTED');
+  assert.equal(r.c.outer, 'clear');
+  assert.match(r.c.person, /PERSON_IN_FIELD/);
+  assert.ok(r.c.why.some((w) => /inner protective field is interrupted/.test(w)), r.c.why.join(' | '));
+  assert.ok(await cp(() => document.getElementById('sim-field-inner-interrupted').classList.contains('on')), 'the panel shows what it set');
+  await page.click('#tab-safety');
+  await cpShot('22-collab-person-in-field');
+  await page.click('#tab-operate');
+  await page.click('#sim-field-inner-clear');
+  r = await cpUntil('resumed by itself after resume_delay_ms', (x, s) => s.sub === 'AUTO_RUNNING' && x.inner === 'clear', 8000);
+  assert.ok(!r.s.alarms.includes('PERSON_IN_FIELD'));
+});
+
+test('collaborative: the outer field from the panel: reduced speed, and why in words', async () => {
+  const page = collabCell.page;
+  await page.click('#sim-field-outer-interrupted');
+  const r = await cpUntil('reduced by the field', (x, s) => x.outer === 'interrupted' && s.safety.reduced_by.includes('field'));
+  assert.ok(r.c.why.some((w) => /outer protective field is interrupted/.test(w)), r.c.why.join(' | '));
+  assert.match(r.c.person, /outer field: reduced speed/);
+  await page.click('#tab-safety');
+  await cpShot('23-collab-outer-field');
+  await page.click('#tab-operate');
+  await page.click('#sim-field-outer-clear');
+  await cpUntil('normal again', (x, s) => x.outer === 'clear' && !s.safety.reduced, 5000);
+});
+
+test('collaborative: a contact from the panel while running: COLLISION highlighted with its force, then contact 0', async () => {
+  const page = collabCell.page;
+  await until('AUTO_RUNNING at speed', async () => { const s = await cpStatus(); return s.sub === 'AUTO_RUNNING' && s.tcp_speed > 200; }, 10000);
+  // Out of range: refused in the panel, nothing sent.
+  await page.fill('#sim-contact-force', '6000');
+  await page.click('#sim-contact');
+  assert.match(await cp(() => document.getElementById('sim-contact-note').textContent), /not a contact force: 0 to 5000 N/);
+  await page.fill('#sim-contact-force', '300');
+  await page.click('#sim-contact');
+  const r = await cpUntil('COLLISION in the section, with its detail', (x, s) => s.alarms.includes('COLLISION') && /^COLLISION: /.test(x.collision), 8000);
+  assert.match(r.c.collision, /^COLLISION: .*\d+(\.\d)? N/, 'the core\'s detail with the force');
+  assert.match(r.c.collision, /backs off 10 mm/);
+  await page.click('#tab-safety');
+  await cpShot('24-collab-collision');
+  await page.click('#tab-operate');
+  await page.click('#sim-contact-0');
+  assert.match(await cp(() => document.getElementById('sim-contact-note').textContent), /contact removed/);
+  assert.deepEqual(collabCell.errors, [], 'no script errors on the page');
+});
+
+test('collaborative: safestate run stops on SIGINT with exit 0', async () => {
+  await collabCell.ctx?.close();
+  collabCell.ctx = null;
+  collabCell.proc.kill('SIGINT');
+  const r = await Promise.race([collabCell.exit, sleep(15000).then(() => ({ code: 'timeout' }))]);
+  assert.equal(r.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(collabCell.logPath, 'utf8').slice(-2000)}`);
 });

@@ -135,3 +135,63 @@ test('reduced mode in words; zone colours distinct', () => {
   const colours = Object.values(L.ZONE_STYLE).map((s) => s.color);
   assert.equal(new Set(colours).size, 3);
 });
+
+// SPEC §11: why the robot is slow, from the status' safety object (slowWhy), and the
+// contact force against F_qs (contactWords).
+const sfBase = { reduced: false, reduced_by: [], speed_limit: 1500, v_allowed: null, fields: { outer: 'clear', inner: 'clear' },
+  separation_mm: null, pfl: false, contact_force: null, contact_force_limit: null, pfl_speed_limit: null };
+const sfOf = (over) => ({ ...sfBase, ...over });
+
+test('why slow: the normal limit, nothing to say', () => {
+  assert.deepEqual(L.slowWhy(sfBase), { limit: 1500, by: 'normal', reasons: [] });
+});
+
+test('why slow: every reduced source in words, the outer field as a person near', () => {
+  const w = L.slowWhy(sfOf({ reduced: true, reduced_by: ['zone', 'input', 'field'], speed_limit: 250 }));
+  assert.equal(w.by, 'reduced');
+  assert.equal(w.limit, 250);
+  assert.equal(w.reasons.length, 3);
+  assert.match(w.reasons[0], /reduced zone/);
+  assert.match(w.reasons[1], /reduced-speed input/);
+  assert.match(w.reasons[2], /outer protective field is interrupted/);
+  assert.doesNotMatch(w.reasons[2], /v_pfl/, 'the PFL cap is not the limit here');
+  assert.match(L.slowWhy(sfOf({ reduced: true, reduced_by: [] })).reasons[0], /not reported/);
+});
+
+test('why slow: the PFL cap when v_pfl is the limit in force', () => {
+  const w = L.slowWhy(sfOf({ reduced: true, reduced_by: ['field'], speed_limit: 1348, pfl: true, pfl_speed_limit: 1348.2, contact_force: 0 }));
+  assert.equal(w.by, 'pfl');
+  assert.match(w.reasons[0], /power and force limiting caps the TCP at v_pfl = 1348 mm\/s/);
+  // The same cap without the field: the outer field is what makes it act.
+  assert.equal(L.slowWhy(sfOf({ reduced: true, reduced_by: ['input'], speed_limit: 1348, pfl_speed_limit: 1348 })).by, 'reduced');
+});
+
+test('why slow: SSM slows below the limit, holds at v_allowed 0, says nothing above the limit', () => {
+  const w = L.slowWhy(sfOf({ v_allowed: 344.8, separation_mm: 800 }));
+  assert.equal(w.by, 'ssm');
+  assert.equal(w.limit, 344.8);
+  assert.match(w.reasons[0], /separation of 800 mm the TCP may move at 345 mm\/s/);
+  const hold = L.slowWhy(sfOf({ v_allowed: 0, separation_mm: 500 }));
+  assert.equal(hold.by, 'ssm-hold');
+  assert.equal(hold.limit, 0);
+  assert.match(hold.reasons[0], /holds the robot.*500 mm.*v_allowed is 0/);
+  assert.match(L.slowWhy(sfOf({ v_allowed: 0, separation_mm: null })).reasons[0], /separation of unknown/);
+  assert.deepEqual(L.slowWhy(sfOf({ v_allowed: 1500, separation_mm: 5000 })).reasons, [], 'v_allowed at the limit: not slower');
+  // Reduced and SSM together: both reasons, the lower limit wins.
+  const both = L.slowWhy(sfOf({ reduced: true, reduced_by: ['field'], speed_limit: 250, v_allowed: 100, separation_mm: 600 }));
+  assert.equal(both.by, 'ssm');
+  assert.equal(both.limit, 100);
+  assert.equal(both.reasons.length, 2);
+});
+
+test('why slow: the inner field is named (rule 9)', () => {
+  const w = L.slowWhy(sfOf({ fields: { outer: 'interrupted', inner: 'interrupted' }, reduced: true, reduced_by: ['field'], speed_limit: 250 }));
+  assert.ok(w.reasons.some((r) => /inner protective field is interrupted.*rule 9/.test(r)), w.reasons.join(' | '));
+});
+
+test('contact force: off, the force alone, and against F_qs', () => {
+  assert.equal(L.contactWords(sfBase), 'Collision detection off');
+  assert.equal(L.contactWords(sfOf({ pfl: true, contact_force: 12.34 })), '12.3 N');
+  assert.equal(L.contactWords(sfOf({ pfl: true, contact_force: 3, contact_force_limit: 140 })), '3.0 N of 140 N (F_qs, COLLISION above)');
+  assert.equal(L.contactWords(sfOf({ pfl: false, contact_force: 3, contact_force_limit: 140 })), 'Collision detection off');
+});

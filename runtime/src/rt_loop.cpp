@@ -193,6 +193,8 @@ void Publisher::publish() noexcept {
   s.safety_ssm = o.safety.ssm;
   s.safety_v_allowed_mm_s = o.safety.v_allowed_mm_s;
   s.safety_separation_mm = o.safety.separation_mm;
+  s.safety_pfl = o.safety.pfl;
+  s.safety_contact_force_n = o.safety.contact_force_n;
   s.brake_test_last = static_cast<std::uint8_t>(o.brake_test.last);
   s.brake_test_due_known = o.brake_test.due_known;
   s.brake_test_due = o.brake_test.due;
@@ -257,8 +259,10 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       break;
     case bridge::RecordKind::sim_fault:
       if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all) ||
-          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::brake_weak)) {
-        cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis});
+          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::brake_weak) ||
+          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::contact) ||
+          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::drive_torque_bias)) {
+        cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis, rec.fault_value});
       }
       break;
   }

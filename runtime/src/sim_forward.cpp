@@ -1,5 +1,6 @@
 // `sim` records for an emulated segment: from the RT loop (never blocking) to the
 // emulator's control socket (written by a non-real-time thread of `safestate run`).
+#include <cstdint>
 #include <string>
 
 #include "safestate/runtime/runtime.hpp"
@@ -26,6 +27,21 @@ bool SimForward::pop(bridge::CommandRecord& r) noexcept {
   tail_.store(t + 1U, std::memory_order_release);
   return true;
 }
+
+namespace {
+
+// A value in tenths as decimal text: 1234 -> "123.4", -5 -> "-0.5", 20 -> "2".
+std::string tenths(std::int32_t v) {
+  const bool neg = v < 0;
+  const std::uint32_t a = neg ? static_cast<std::uint32_t>(-static_cast<std::int64_t>(v)) : static_cast<std::uint32_t>(v);
+  std::string t = (neg ? "-" : "") + std::to_string(a / 10U);
+  if (a % 10U != 0U) {
+    t += "." + std::to_string(a % 10U);
+  }
+  return t;
+}
+
+}  // namespace
 
 std::string sim_line(const bridge::CommandRecord& r) {
   // Contacts in the order of scenario::Contact (the bit order of set_mask).
@@ -63,11 +79,14 @@ std::string sim_line(const bridge::CommandRecord& r) {
     case sim::FaultKind::contactor_welded: return "fault contactor welded";
     case sim::FaultKind::brake_stuck_released: return "fault brake " + n + " stuck_released";
     case sim::FaultKind::brake_weak: return "fault brake " + n + " weak";
-    // The record has no value field (statusword, ms, contact force, torque bias), and the
-    // rest act on the core's side of the cell, not on the segment: the gateway does not send
-    // them (rt_loop refuses them).
-    case sim::FaultKind::contact:
+    // The emulator parses these with the scenario parser and its plant takes them (the same
+    // sim::Plant as the in-process cell): the value back in the scenario's units.
+    case sim::FaultKind::contact: return "fault contact " + tenths(static_cast<std::int32_t>(r.fault_value));
     case sim::FaultKind::drive_torque_bias:
+      return "fault drive " + n + " torque_bias " +
+             tenths(static_cast<std::int32_t>(static_cast<std::int16_t>(r.fault_value)));  // per mille -> %
+    // The gateway does not send these (no value form in the `sim` message, or they act on the
+    // core's side of the cell, not on the segment; rt_loop refuses them).
     case sim::FaultKind::integrity:
     case sim::FaultKind::selftest_fail:
     case sim::FaultKind::drive_statusword:

@@ -558,6 +558,15 @@ def test_bad_input_is_answered_and_others_keep_being_served(cell):
         assert e["type"] == "error" and e["code"] == "BAD_MESSAGE", e
         e = (await bad.sim(fault="drive 9 runaway"))
         assert e["type"] == "error" and e["code"] == "BAD_MESSAGE", e
+        # SPEC §11's value forms: a bad number is named, with the range it must be in.
+        for line, named in (("contact -1", "bad contact force \"-1\""), ("contact 5000.1", "0..5000"),
+                            ("contact 12N", "bad contact force \"12N\""), ("contact nan", "bad contact force"),
+                            ("contact inf", "bad contact force"),
+                            ("drive 7 torque_bias 10", "bad drive \"7\""),
+                            ("drive 2 torque_bias 300.5", "bad torque bias \"300.5\""),
+                            ("drive 2 torque_bias -301", "-300..300"), ("drive 2 torque_bias", "bad fault")):
+            e = await bad.sim(fault=line)
+            assert e["type"] == "error" and e["code"] == "BAD_MESSAGE" and named in e["detail"], (line, e)
 
         # Nothing changed, the connection still works, and the watcher kept getting status.
         s = await watcher.status(timeout=2.0)

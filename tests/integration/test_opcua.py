@@ -40,13 +40,13 @@ def users_file(path):
 class OpcCell:
     """`safestate run` with its OPC UA adapter on a free port."""
 
-    def __init__(self, tmp_path):
+    def __init__(self, tmp_path, args=()):
         if not ADAPTER.exists():
             pytest.fail(f"{ADAPTER} missing: `make opcua` builds the adapter")
         self.opc_port = free_port()
         self.users = users_file(tmp_path / "opcua-users")
         self.cell = SafeState(tmp_path, args=["--opcua-port", str(self.opc_port),
-                                              "--opcua-users-file", str(self.users)])
+                                              "--opcua-users-file", str(self.users), *args])
         self.url = f"opc.tcp://127.0.0.1:{self.opc_port}"
         try:
             run(self.wait_served())
@@ -534,6 +534,64 @@ def test_safe_limits_show_checksum_validated_and_reduced_mode(opc):
             await wait_value(await var("reduced"), lambda dv: dv.Value.Value is False, what="normal speed")
         await p.close()
     run(main())
+
+
+def test_collaborative_variables_fields_ssm_and_pfl(tmp_path):
+    """SPEC §11 beside SafeLimits: the fields, the separation and v_allowed while SSM acts, pfl
+    and the contact force with its F_qs, as the status `safety` object says; no data (Good, a
+    Null value) where the status has null."""
+    # The built-in configuration: no collaborative operation.
+    tmp_path.joinpath("plain").mkdir()
+    opc = OpcCell(tmp_path / "plain")
+    try:
+        async def plain():
+            async with client(opc.url) as c:
+                n = await Nodes.of(c)
+
+                async def var(name):
+                    return await n.get(f"{n.rob}:SafetyStates", f"{n.own}:SafetyState", f"{n.own}:SafeLimits",
+                                       f"{n.own}:{name}")
+                await wait_value(await var("field_outer"), lambda dv: dv.Value.Value == "clear", what="outer clear")
+                assert await (await var("field_inner")).read_value() == "clear"
+                assert await (await var("pfl")).read_value() is False
+                for name in ("separation_mm", "v_allowed", "contact_force", "contact_force_limit"):
+                    dv = await (await var(name)).read_data_value(raise_on_bad_status=False)
+                    assert dv.StatusCode.value == ua.StatusCodes.GoodNoData and dv.Value.Value is None, (name, dv)
+        run(plain())
+    finally:
+        assert opc.cell.stop() == 0, opc.cell.output()
+
+    tmp_path.joinpath("collab").mkdir()
+    opc = OpcCell(tmp_path / "collab", ["--safety", str(ROOT / "examples" / "safety" / "collaborative.json")])
+    try:
+        async def collab():
+            p = await booted(opc.cell)
+            async with client(opc.url) as c:
+                n = await Nodes.of(c)
+
+                async def var(name):
+                    return await n.get(f"{n.rob}:SafetyStates", f"{n.own}:SafetyState", f"{n.own}:SafeLimits",
+                                       f"{n.own}:{name}")
+                # AUTO (the key's start position), no sensor reading: SSM acts and holds.
+                await wait_value(await var("v_allowed"), lambda dv: dv.Value.Value == 0.0, what="v_allowed 0")
+                assert await (await var("separation_mm")).read_value() == 0.0
+                assert await (await var("pfl")).read_value() is True
+                assert await (await var("contact_force")).read_value() == 0.0, "power off: no estimate"
+                assert await (await var("contact_force_limit")).read_value() == 140.0, "hand: F_qs 140 N"
+                assert (await p.sim(set={"separation_mm": 800}))["result"] == "OK"
+                await wait_value(await var("separation_mm"), lambda dv: dv.Value.Value == 800.0, what="separation 800")
+                # collaborative.md's worked example: 344.8 mm/s at 800 mm.
+                await wait_value(await var("v_allowed"), lambda dv: dv.Value.Value == 344.8, what="v_allowed 344.8")
+                assert (await p.sim(set={"field.inner": "interrupted"}))["result"] == "OK"
+                await wait_value(await var("field_inner"), lambda dv: dv.Value.Value == "interrupted", what="inner field")
+                assert await (await var("field_outer")).read_value() == "clear"
+                with pytest.raises(ua.UaStatusCodeError) as e:
+                    await (await var("pfl")).write_value(ua.DataValue(ua.Variant(False, ua.VariantType.Boolean)))
+                assert e.value.code == ua.StatusCodes.BadNotWritable
+            await p.close()
+        run(collab())
+    finally:
+        assert opc.cell.stop() == 0, opc.cell.output()
 
 
 def test_start_answers_gate_open_in_auto_and_not_control_owner_in_t1(opc):

@@ -6,6 +6,7 @@ loopback (the SafeState helper of test_gateway.py).
 
 Run:  SAFESTATE_BIN=build/bin/safestate python -m pytest tests/integration/test_safety_run.py
 """
+import asyncio
 import hashlib
 import json
 import signal
@@ -21,6 +22,7 @@ from test_gateway import BIN, ROOT, SafeState, free_port, get_json, pendant, run
 
 CELL = ROOT / "examples" / "safety" / "cell.json"
 SLOT = ROOT / "tests" / "scenarios" / "configs" / "slot-y60.json"
+COLLAB = ROOT / "examples" / "safety" / "collaborative.json"
 HEX8 = set("0123456789ABCDEF")
 
 
@@ -137,13 +139,16 @@ def test_api_safety_and_status_shape(tmp_path):
         st = get_json(s.port, "/api/status")
         sf = st["safety"]
         assert list(sf) == ["checksum", "validated", "reduced", "reduced_by", "recovery", "speed_limit", "v_allowed",
-                            "fields", "separation_mm", "brake_test"], sf
+                            "fields", "separation_mm", "brake_test",  # protocol.md's, then views.cpp's
+                            "pfl", "contact_force", "contact_force_limit", "pfl_speed_limit"], sf
         assert sf["checksum"] == expected and sf["validated"] is False
         assert sf["reduced"] is False and sf["reduced_by"] == [] and sf["recovery"] is False
         assert sf["speed_limit"] == a["config"]["tcp_max_speed_mm_s"]
         assert sf["v_allowed"] is None and sf["separation_mm"] is None
         assert sf["fields"] == {"outer": "clear", "inner": "clear"}
         assert sf["brake_test"] == {"due_in_h": None, "last": "none"}
+        assert sf["pfl"] is False and sf["contact_force"] is None, "no collaborative block: no PFL"
+        assert sf["contact_force_limit"] is None and sf["pfl_speed_limit"] is None
         assert "CONFIG_NOT_VALIDATED" in st["alarms"]
 
         async def reduced_input():
@@ -277,5 +282,59 @@ def test_reduced_zone_named_in_alarm_words(tmp_path):
         assert st["safety"]["reduced"] is True and st["safety"]["reduced_by"] == ["zone"], st["safety"]
         al = [a for a in get_json(s.port, "/api/alarms") if a["name"] == "REDUCED_SPEED"]
         assert al and "in reduced zone loading" in al[0]["detail"], al
+    finally:
+        stop(s)
+
+
+# @req COL-FIELDS COL-COLLISION
+def test_collaborative_status_and_the_value_faults_through_the_gateway(tmp_path):
+    """SPEC §11 from outside: status `pfl`, `contact_force` (and the configuration's F_qs and
+    v_pfl), the fields, and the `sim` message's `drive N torque_bias X` and `contact F` carried
+    with their value through the bridge to the simulated cell: a torque bias on a held arm is
+    a force the core estimates at the TCP (the arm stands still: no COLLISION)."""
+    s = start(tmp_path, COLLAB)
+    try:
+        async def main():
+            p = await pendant(s)
+            st = await p.status()
+            sf = st["safety"]
+            assert sf["pfl"] is True, sf
+            assert sf["contact_force"] == 0.0, "power off: the arm is not free, no estimate"
+            # ISO/TS 15066 Annex A, hand: F_qs 140 N; v_pfl for 25 kg, 1.5 kg payload (collaborative.md).
+            assert sf["contact_force_limit"] == 140.0, sf
+            assert abs(sf["pfl_speed_limit"] - 1348) < 1.0, sf
+            assert sf["fields"] == {"outer": "clear", "inner": "clear"}
+            await p.state("ESTOP_RESET_NEEDED")
+            await t1_idle(p)
+            assert (await p.sim(set={"enable": "centre"}))["result"] == "OK"
+            assert await p.command("servo_on") == "OK"
+            await p.state("OPERATIONAL", "MANUAL_IDLE")
+            await p.status(lambda m: m["safety"]["contact_force"] is not None and m["safety"]["contact_force"] < 10.0,
+                           what="no force on the held arm")
+            # A bad value changes nothing: the estimate stays low.
+            e = await p.sim(fault="drive 2 torque_bias 400")
+            assert e["type"] == "error" and "bad torque bias" in e["detail"], e
+            await asyncio.sleep(0.3)
+            assert (await p.status())["safety"]["contact_force"] < 10.0
+            # The value arrives, fraction and all: twice the bias, twice the force (about 1.8 N
+            # per % on axis 2 in this pose).
+            assert (await p.sim(fault="drive 2 torque_bias 25.5"))["result"] == "OK"
+            m = await p.status(lambda m: 30.0 < m["safety"]["contact_force"] < 60.0, what="the bias read as a force at the TCP")
+            f1 = m["safety"]["contact_force"]
+            assert (await p.sim(fault="drive 2 torque_bias 51"))["result"] == "OK"
+            m = await p.status(lambda m: abs(m["safety"]["contact_force"] - 2 * f1) < 0.1 * f1, what="twice the force")
+            assert m["state"] == "OPERATIONAL" and "COLLISION" not in m["alarms"], "standing still: no rule 8"
+            assert (await p.sim(fault="drive 2 torque_bias 0"))["result"] == "OK"
+            await p.status(lambda m: m["safety"]["contact_force"] < 10.0, what="the bias gone")
+            assert (await p.sim(fault="contact 150"))["result"] == "OK"
+            assert (await p.sim(fault="contact 0"))["result"] == "OK"
+            # The fields as the status shows them.
+            assert (await p.sim(set={"field.outer": "interrupted"}))["result"] == "OK"
+            await p.status(lambda m: m["safety"]["fields"] == {"outer": "interrupted", "inner": "clear"},
+                           what="the outer field interrupted")
+            assert (await p.sim(set={"field.outer": "clear"}))["result"] == "OK"
+            await p.status(lambda m: m["safety"]["fields"]["outer"] == "clear", what="clear again")
+            await p.close()
+        run(main())
     finally:
         stop(s)

@@ -371,6 +371,27 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   EXPECT_FLOAT_EQ(st.safety_v_allowed_mm_s, 0.0F) << "invalid is 0";
 }
 
+// @req COL-SIM-CONTACT
+// The `sim` message's value faults (SPEC §11) travel in the record's fault_value and reach
+// the emulator as the scenario's own words, in its units (N, % of rated torque).
+TEST(RuntimeBridge, ValueFaultsKeepTheirValueOnTheWayToTheEmulator) {
+  CommandRecord rec{};
+  rec.kind = RecordKind::sim_fault;
+  rec.fault_kind = static_cast<std::uint8_t>(sim::FaultKind::contact);
+  rec.fault_value = 1505;  // tenths of a newton
+  EXPECT_EQ(runtime::sim_line(rec), "fault contact 150.5");
+  rec.fault_value = 0;
+  EXPECT_EQ(runtime::sim_line(rec), "fault contact 0");
+  rec.fault_kind = static_cast<std::uint8_t>(sim::FaultKind::drive_torque_bias);
+  rec.fault_axis = 2;
+  rec.fault_value = static_cast<std::uint16_t>(std::int16_t{-255});  // per mille
+  EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias -25.5");
+  rec.fault_value = 3000;
+  EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias 300");
+  rec.fault_value = static_cast<std::uint16_t>(std::int16_t{-5});
+  EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias -0.5");
+}
+
 TEST(Histogram, PowerOfTwoBuckets) {
   EXPECT_EQ(histogram_bucket(0), 0U);
   EXPECT_EQ(histogram_bucket(1), 0U);

@@ -33,6 +33,13 @@ export interface SafetyStatus {
   reduced_by: string[];
   recovery: boolean;
   speed_limit: number;
+  // SPEC §11 (absent from a gateway that predates it): null while the function does not act.
+  v_allowed?: number | null;
+  fields?: { outer: string; inner: string };
+  separation_mm?: number | null;
+  pfl?: boolean;
+  contact_force?: number | null;
+  contact_force_limit?: number | null;
 }
 
 export interface AlarmInfo {

@@ -185,7 +185,8 @@ export class Model {
     const o = this.ns.addObject({
       browseName: "SafeLimits",
       componentOf: safetyState,
-      description: "the active safety configuration (SPEC §10): checksum, validated, reduced mode, recovery",
+      description:
+        "the active safety configuration (SPEC §10): checksum, validated, reduced mode, recovery; collaborative operation (SPEC §11): fields, SSM, PFL",
     });
     const add = (name: string, dataType: DataType, description: string, get: Getter, array = false) => {
       const v = this.ns.addVariable({
@@ -218,6 +219,34 @@ export class Model {
       st.safety?.recovery ?? false,
     ]);
     add("speed_limit", DataType.Double, "TCP speed limit in force, mm/s", (st) => [DataType.Double, st.safety?.speed_limit ?? 0]);
+    // SPEC §11 collaborative operation. A value that is null in the status (the function does
+    // not act) is a Null variant with GoodNoData: known to be absent, not a lost link.
+    const orNone = (v: number | null | undefined) => (v === null || v === undefined ? NOT_ACTING : v);
+    add("field_outer", DataType.String, "outer protective field as validated: clear or interrupted (slows: reduced mode)", (st) => [
+      DataType.String,
+      st.safety?.fields?.outer ?? "",
+    ]);
+    add("field_inner", DataType.String, "inner protective field as validated: clear or interrupted (stops: rule 9, PERSON_IN_FIELD)", (st) => [
+      DataType.String,
+      st.safety?.fields?.inner ?? "",
+    ]);
+    add("separation_mm", DataType.Double, "separation used by speed and separation monitoring, mm (no data while SSM does not act)", (st) => [
+      DataType.Double,
+      orNone(st.safety?.separation_mm),
+    ]);
+    add("v_allowed", DataType.Double, "TCP speed SSM allows at that separation, mm/s (0: the robot holds; no data while SSM does not act)", (st) => [
+      DataType.Double,
+      orNone(st.safety?.v_allowed),
+    ]);
+    add("pfl", DataType.Boolean, "power and force limiting and collision detection act", (st) => [DataType.Boolean, st.safety?.pfl ?? false]);
+    add("contact_force", DataType.Double, "force at the TCP estimated from the drives' torques, N (no data while pfl is off)", (st) => [
+      DataType.Double,
+      orNone(st.safety?.contact_force),
+    ]);
+    add("contact_force_limit", DataType.Double, "the body region's quasi-static limit F_qs, N: above it is COLLISION (no data while pfl is off)", (st) => [
+      DataType.Double,
+      orNone(st.safety?.contact_force_limit),
+    ]);
   }
 
   private motionDevice(): UAObject {
@@ -390,6 +419,8 @@ export class Model {
       b.last = key;
       if (value === NO_SENSOR) {
         b.v.setValueFromSource({ dataType: DataType.Null }, StatusCodes.BadNotConnected);
+      } else if (value === NOT_ACTING) {
+        b.v.setValueFromSource({ dataType: DataType.Null }, StatusCodes.GoodNoData);
       } else if (Array.isArray(value)) {
         b.v.setValueFromSource({ dataType, arrayType: VariantArrayType.Array, value }, StatusCodes.Good);
       } else {
@@ -433,6 +464,7 @@ export class Model {
 }
 
 const NO_SENSOR = Symbol("no sensor");
+const NOT_ACTING = Symbol("not acting"); // null in the status: the safety function does not act
 
 function round(v: number, scale: number): number {
   return Math.round(v * scale) / scale + 0;

@@ -101,6 +101,23 @@ namespace SafeState.Client
             throw Bad(key, "a number");
         }
 
+        public double? NumOrNull(string key, bool optional = false)
+        {
+            object v = Get(key, !optional);
+            if (v == null) return null;
+            if (v is long) return (long)v;
+            if (v is double) return (double)v;
+            throw Bad(key, "a number or null");
+        }
+
+        public bool? BoolOrNull(string key, bool optional = false)
+        {
+            object v = Get(key, !optional);
+            if (v == null) return null;
+            if (!(v is bool)) throw Bad(key, "true, false or null");
+            return (bool)v;
+        }
+
         public bool Bool(string key)
         {
             object v = Get(key, true);
@@ -261,7 +278,7 @@ namespace SafeState.Client
         }
     }
 
-    /// <summary>The status message's `safety` object (protocol.md, SPEC §10).</summary>
+    /// <summary>The status message's `safety` object (protocol.md, SPEC §10, §11).</summary>
     public sealed class SafetyStatus
     {
         /// <summary>The active configuration's checksum, 8 upper-case hex digits.</summary>
@@ -275,8 +292,32 @@ namespace SafeState.Client
         /// <summary>The TCP speed limit in force, mm/s.</summary>
         public double SpeedLimit { get; private set; }
 
-        // Fields of later issues (SPEC §11, §12), not typed yet.
-        private static readonly string[] Extras = { "v_allowed", "fields", "separation_mm", "brake_test" };
+        // SPEC §11 collaborative operation (protocol.md's v_allowed, fields, separation_mm; the
+        // gateway's pfl, contact_force, contact_force_limit, pfl_speed_limit). Each is optional:
+        // a gateway that predates it leaves it out (null, false).
+
+        /// <summary>The TCP speed speed and separation monitoring allows now, mm/s (0: the robot
+        /// holds); null while SSM does not act (collaborative and ssm on, mode AUTO).</summary>
+        public double? VAllowed { get; private set; }
+        /// <summary>The outer protective field (slows: reduced mode) is interrupted, as the core
+        /// validated it; null from a gateway that does not report the fields.</summary>
+        public bool? OuterFieldInterrupted { get; private set; }
+        /// <summary>The inner protective field (stops: rule 9, PERSON_IN_FIELD) is interrupted;
+        /// null from a gateway that does not report the fields.</summary>
+        public bool? InnerFieldInterrupted { get; private set; }
+        /// <summary>The separation SSM uses, mm; null while SSM does not act.</summary>
+        public double? SeparationMm { get; private set; }
+        /// <summary>Power and force limiting and collision detection act (collaborative and pfl on).</summary>
+        public bool Pfl { get; private set; }
+        /// <summary>The force at the TCP the core estimates from the drives' torques, N; null while pfl is off.</summary>
+        public double? ContactForce { get; private set; }
+        /// <summary>The body region's quasi-static limit F_qs, N (above it: COLLISION); null without pfl.</summary>
+        public double? ContactForceLimit { get; private set; }
+        /// <summary>The PFL speed cap v_pfl, mm/s (while the outer field is interrupted); null without pfl.</summary>
+        public double? PflSpeedLimit { get; private set; }
+
+        // Fields of later issues (SPEC §12), not typed yet.
+        private static readonly string[] Extras = { "brake_test" };
 
         internal static SafetyStatus Read(Fields f)
         {
@@ -299,6 +340,21 @@ namespace SafeState.Client
             s.ReducedBy = by;
             s.Recovery = f.Bool("recovery");
             s.SpeedLimit = f.Num("speed_limit");
+            s.VAllowed = f.NumOrNull("v_allowed", true);
+            if (f.Object.Has("fields"))
+            {
+                var fields = new Fields(f.Obj("fields"), "status.safety.fields");
+                s.OuterFieldInterrupted = fields.Either("outer", "clear", "interrupted");
+                s.InnerFieldInterrupted = fields.Either("inner", "clear", "interrupted");
+            }
+            s.SeparationMm = f.NumOrNull("separation_mm", true);
+            s.Pfl = f.BoolOrNull("pfl", true) ?? false;
+            s.ContactForce = f.NumOrNull("contact_force", true);
+            s.ContactForceLimit = f.NumOrNull("contact_force_limit", true);
+            s.PflSpeedLimit = f.NumOrNull("pfl_speed_limit", true);
+            if (s.VAllowed < 0) throw f.Bad("v_allowed", "a number >= 0 or null");
+            if (s.SeparationMm < 0) throw f.Bad("separation_mm", "a number >= 0 or null");
+            if (s.ContactForce < 0) throw f.Bad("contact_force", "a number >= 0 or null");
             f.Allow(Extras);
             return s;
         }

@@ -78,6 +78,16 @@ namespace SafeState.Tests
                 Assert.AreEqual(Mode.AUTO, s.Mode);
                 Assert.IsFalse(s.ContactorClosed);
                 Assert.IsNull(s.Sub);
+                // SPEC §11 from the real gateway (built-in configuration: no collaborative operation).
+                Assert.IsNotNull(s.Safety);
+                Assert.AreEqual(false, s.Safety.OuterFieldInterrupted);
+                Assert.AreEqual(false, s.Safety.InnerFieldInterrupted);
+                Assert.IsNull(s.Safety.VAllowed);
+                Assert.IsNull(s.Safety.SeparationMm);
+                Assert.IsFalse(s.Safety.Pfl);
+                Assert.IsNull(s.Safety.ContactForce);
+                Assert.IsNull(s.Safety.ContactForceLimit);
+                Assert.IsNull(s.Safety.PflSpeedLimit);
             }
             // A second pendant is refused with the server's code; ConnectAsync says so.
             var second = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });

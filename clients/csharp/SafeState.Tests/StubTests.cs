@@ -241,11 +241,72 @@ namespace SafeState.Tests
                 Assert.IsTrue(last.Safety.Reduced);
                 CollectionAssert.AreEqual(new[] { "zone", "input" }, last.Safety.ReducedBy);
                 Assert.AreEqual(250.0, last.Safety.SpeedLimit);
+                Assert.IsNull(last.Safety.VAllowed);
+                Assert.IsNull(last.Safety.SeparationMm);
+                Assert.AreEqual(false, last.Safety.OuterFieldInterrupted);
+                Assert.AreEqual(false, last.Safety.InnerFieldInterrupted);
+                Assert.IsFalse(last.Safety.Pfl, "absent: a gateway without collision detection");
+                Assert.IsNull(last.Safety.ContactForce);
                 Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "every field of the safety object is known");
                 StringAssert.Contains("checksum", rec.ErrorsOf(ClientErrorKind.BadMessage)[0].Message);
                 EventMessage ev = rec.EventsWhere(e => e.Kind == EventKind.config_validated)[0];
                 Assert.AreEqual("3AD9012B", ev.Data["checksum"]);
                 StringAssert.Contains("3AD9012B validated by hmi", ev.Line());
+                client.Dispose();
+            }
+        }
+
+        [Test]
+        public void CollaborativeSafetyFieldsAreTyped()
+        {
+            // SPEC §11: the fields, SSM's separation and v_allowed, PFL and the contact force
+            // (views.cpp's additions after protocol.md's fields) are typed; a wrong type or a
+            // wrong word refuses the message.
+            const string safety =
+                ",\"safety\":{\"checksum\":\"3AD9012B\",\"validated\":true,\"reduced\":true,\"reduced_by\":[\"field\"]," +
+                "\"recovery\":false,\"speed_limit\":250.0,\"v_allowed\":344.8,\"fields\":{\"outer\":\"interrupted\",\"inner\":\"clear\"}," +
+                "\"separation_mm\":800,\"brake_test\":{\"due_in_h\":null,\"last\":\"none\"}," +
+                "\"pfl\":true,\"contact_force\":12.5,\"contact_force_limit\":140.0,\"pfl_speed_limit\":1348.2}}";
+            using (var stub = new StubServer())
+            {
+                var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
+                var rec = new Recorder(client);
+                var got = new List<StatusMessage>();
+                client.Status += (s, e) => { lock (got) got.Add(e); };
+                string head = ValidStatus.Substring(0, ValidStatus.Length - 1);
+                Task server = Task.Run(async () =>
+                {
+                    await Welcome(stub);
+                    await stub.SendText(head + safety);
+                    await stub.SendText(head + safety.Replace("\"interrupted\"", "\"broken\""));
+                    await stub.SendText(head + safety.Replace("\"contact_force\":12.5", "\"contact_force\":\"12.5\""));
+                    await stub.SendText(head + safety.Replace("\"pfl\":true", "\"pfl\":1"));
+                    await stub.SendText(head + safety.Replace("\"v_allowed\":344.8", "\"v_allowed\":-1"));
+                });
+                Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
+                Wait.Done(server, 10, "the stub");
+                Wait.Until(() => rec.ErrorsOf(ClientErrorKind.BadMessage).Count == 4, 10, "the four bad ones refused");
+                StatusMessage last;
+                lock (got)
+                {
+                    Assert.AreEqual(1, got.Count, "only the good status is delivered");
+                    last = got[0];
+                }
+                SafetyStatus sf = last.Safety;
+                Assert.AreEqual(344.8, sf.VAllowed);
+                Assert.AreEqual(800.0, sf.SeparationMm);
+                Assert.AreEqual(true, sf.OuterFieldInterrupted);
+                Assert.AreEqual(false, sf.InnerFieldInterrupted);
+                Assert.IsTrue(sf.Pfl);
+                Assert.AreEqual(12.5, sf.ContactForce);
+                Assert.AreEqual(140.0, sf.ContactForceLimit);
+                Assert.AreEqual(1348.2, sf.PflSpeedLimit);
+                Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "every field of the safety object is known");
+                var bad = rec.ErrorsOf(ClientErrorKind.BadMessage);
+                StringAssert.Contains("status.safety.fields: \"outer\" must be \"clear\" or \"interrupted\"", bad[0].Message);
+                StringAssert.Contains("\"contact_force\" must be a number or null", bad[1].Message);
+                StringAssert.Contains("\"pfl\" must be true, false or null", bad[2].Message);
+                StringAssert.Contains("\"v_allowed\" must be a number >= 0 or null", bad[3].Message);
                 client.Dispose();
             }
         }

@@ -28,7 +28,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 6U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles
+inline constexpr std::uint32_t kLayoutVersion = 7U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles; 7: fault value, pfl and contact force
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
@@ -58,6 +58,8 @@ struct CommandRecord {
   std::uint8_t fault_kind = 0;    // kind == sim_fault: sim::FaultKind
   std::uint8_t fault_axis = 0;
   std::uint8_t pad2[1]{};
+  std::uint16_t fault_value = 0;  // kind == sim_fault: sim::Fault::value (contact: 0.1 N; torque bias: int16 per mille)
+  std::uint8_t pad3[2]{};
 };
 
 // Answer to a record: a command's result, or for sim records OK / NOT_SIMULATED.
@@ -140,6 +142,9 @@ struct Status {
   bool safety_ssm = false;
   float safety_v_allowed_mm_s = 0.0F;
   float safety_separation_mm = 0.0F;
+  // SPEC §11 collision detection (core::SafetyStatus): acts, and the force estimated at the TCP.
+  bool safety_pfl = false;
+  float safety_contact_force_n = 0.0F;
   // SPEC §12, as the core reports it (core::BrakeTestStatus).
   std::uint8_t brake_test_last = 0;  // core::BrakeTestResult
   bool brake_test_due_known = false;
