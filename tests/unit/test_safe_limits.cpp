@@ -327,3 +327,27 @@ TEST(AlarmDetail, CodeFromAFloatIsSaturatedAndNaNIsTheTop) {
   EXPECT_EQ(core::detail_code(12.7F), 12U);
   EXPECT_EQ(core::detail_code(65534.5F), 65534U);
 }
+
+// SPEC §10: a keep_in box holds the whole tool sphere: the TCP 10 mm inside any one of the
+// six faces with a 40 mm sphere is 30 mm outside, 50 mm inside is 10 mm in. (Found by the
+// mutant "keep_in sphere radius dropped at min", which no test killed.)
+// @req LIM-ZONES
+TEST(Zones, AKeepInBoxHoldsTheToolSphereAtEveryFace) {
+  core::Zone z{};
+  z.kind = core::ZoneKind::keep_in;
+  z.min_mm = {-500.0F, -400.0F, 100.0F};
+  z.max_mm = {500.0F, 400.0F, 900.0F};
+  const core::Vec3 centre{0.0F, 0.0F, 500.0F};
+  for (std::size_t axis = 0; axis < 3U; ++axis) {
+    for (const bool at_min : {true, false}) {
+      for (const float inside_by : {10.0F, 50.0F}) {
+        core::ArmPose p{};
+        for (core::Vec3& o : p.origin) o = centre;  // the links well inside
+        p.tcp = centre;
+        p.tcp[axis] = at_min ? (z.min_mm[axis] + inside_by) : (z.max_mm[axis] - inside_by);
+        EXPECT_NEAR(core::ZoneMonitor::outside_mm(z, p, 40.0F), 40.0F - inside_by, 1e-3F)
+            << "axis " << axis << (at_min ? " min" : " max") << " inside by " << inside_by;
+      }
+    }
+  }
+}
