@@ -331,7 +331,7 @@ TEST(AlarmDetail, CodeFromAFloatIsSaturatedAndNaNIsTheTop) {
 // SPEC §10: a keep_in box holds the whole tool sphere: the TCP 10 mm inside any one of the
 // six faces with a 40 mm sphere is 30 mm outside, 50 mm inside is 10 mm in. (Found by the
 // mutant "keep_in sphere radius dropped at min", which no test killed.)
-// @req LIM-ZONES
+// @req LIM-ZONE
 TEST(Zones, AKeepInBoxHoldsTheToolSphereAtEveryFace) {
   core::Zone z{};
   z.kind = core::ZoneKind::keep_in;
