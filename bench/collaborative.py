@@ -15,15 +15,12 @@ two cores); `--smoke` runs one direction, one speed, one round and writes nothin
 import datetime
 import json
 import os
-import platform
 import re
-import subprocess
 import sys
 import time
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-BIN = os.path.join(ROOT, "build", "bin")
-OUT = os.path.join(ROOT, "build", "bench")
+from common import BIN, OUT, ROOT, machine, run  # bench/common.py
+
 DOC = os.path.join(ROOT, "docs", "performance.md")
 SVG_DIR = os.path.join(ROOT, "docs", "collaborative")
 SVG = os.path.join(SVG_DIR, "ssm-run.svg")
@@ -32,20 +29,10 @@ FIELDS_CFG = "tests/scenarios/configs/collab-fields.json"
 TITLE = "## Collaborative operation: SSM against fields only (simulated person)"
 
 
-def machine():
-    cpu = "?"
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-    return f"{cpu}, {os.cpu_count()} cores, Linux {platform.release()}"
-
-
 def measure(smoke=False):
     cmd = [os.path.join(BIN, "bench_collab"), SSM_CFG, FIELDS_CFG] + (["--smoke"] if smoke else [])
-    print("bench: " + " ".join(cmd), flush=True)
     t0 = time.monotonic()
-    out = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, cwd=ROOT).stdout
+    out = run(cmd)
     d = json.loads(out)
     d["wall_s"] = time.monotonic() - t0
     d["date"] = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -15,30 +15,13 @@ Fails (exit 1) when a measured figure is above the computed one, after writing t
 import datetime
 import json
 import os
-import platform
-import subprocess
 import sys
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-BIN = os.path.join(ROOT, "build", "bin")
-OUT = os.path.join(ROOT, "build", "bench")
+from common import BIN, OUT, ROOT, machine, run  # bench/common.py
+
 DOC = os.path.join(ROOT, "docs", "response-time.md")
 CONFIGS = [("built-in", None), ("examples/safety/collaborative.json", "examples/safety/collaborative.json")]
 BUS = "hal/ethercat/default-bus.json"
-
-
-def run(cmd):
-    print("bench: " + " ".join(cmd), flush=True)
-    return subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, cwd=ROOT).stdout
-
-
-def machine():
-    cpu = "?"
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-    return f"{cpu}, {os.cpu_count()} cores, Linux {platform.release()}"
 
 
 def ecat_wire():

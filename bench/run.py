@@ -35,9 +35,8 @@ import re
 import subprocess
 import sys
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-BIN = os.path.join(ROOT, "build", "bin")
-OUT = os.path.join(ROOT, "build", "bench")
+from common import BIN, OUT, ROOT, cpu_model, run  # bench/common.py
+
 DOC = os.path.join(ROOT, "docs", "performance.md")
 RT_SECONDS = int(os.environ.get("RT_SECONDS", "60"))
 CYCLES = int(os.environ.get("CYCLES", "1000000"))
@@ -47,17 +46,8 @@ ECAT_PRESSES = int(os.environ.get("ECAT_PRESSES", "100"))
 ECAT_LOSS_TRIALS = int(os.environ.get("ECAT_LOSS_TRIALS", "5"))
 
 
-def run(cmd, **kw):
-    print("bench: " + " ".join(cmd), flush=True)
-    return subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, cwd=ROOT, **kw).stdout
-
-
 def machine():
-    cpu = "?"
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
+    cpu = cpu_model()
     cxx = run(["c++", "--version"]).split("\n")[0]
     flags = "?"
     cache = os.path.join(ROOT, "build", "CMakeCache.txt")

@@ -12,11 +12,9 @@ Called by `make bench` (bench/run.py); alone: `python3 bench/stopping.py` (a few
 import datetime
 import json
 import os
-import platform
-import subprocess
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-BIN = os.path.join(ROOT, "build", "bin")
+from common import BIN, ROOT, machine, run  # bench/common.py
+
 DOC = os.path.join(ROOT, "docs", "stopping-data.md")
 SVG_DIR = os.path.join(ROOT, "docs", "stopping")
 HEADER = os.path.join(ROOT, "safety", "include", "safestate", "safety", "stopping_data.hpp")
@@ -24,20 +22,6 @@ K_MM_S = 1600.0          # ISO 13855 approach speed used here (the brief's K)
 CURTAIN_D_MM = 30.0      # assumed guard: a light curtain of 30 mm resolution
 C_MM = 8.0 * (CURTAIN_D_MM - 14.0)  # ISO 13855 intrusion distance for d <= 40 mm
 COLORS = {0.33: "#1b9e77", 0.66: "#d95f02", 1.0: "#7570b3"}
-
-
-def run(cmd):
-    print("bench: " + " ".join(cmd), flush=True)
-    return subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, cwd=ROOT).stdout
-
-
-def machine():
-    cpu = "?"
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-    return f"{cpu}, {os.cpu_count()} cores, Linux {platform.release()}"
 
 
 def panel(x0, y0, w, h, runs, key, label, ymax):
