@@ -149,11 +149,11 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
   a.last_cw = cw;
 }
 
-// Torque actual (0x6077) of a drive, an assumption of this plant (no gravity, no friction:
-// docs/robot.md): rated torque accelerates the axis at its limit, so the torque is the
-// acceleration in per mille of qdd_max, within the drive's limit (0x6072); against the
-// engaged brake a drive off its set-point pushes with its limit, held or slipping; a drive
-// without torque (not enabled, no power) reports 0.
+// Torque actual (0x6077) of a drive whose axis its brake holds, or without power: a drive
+// without torque (not enabled, no power) reports 0; against the engaged brake a drive off its
+// set-point pushes with its limit (0x6072), held or slipping; otherwise the axis' acceleration
+// in per mille of qdd_max, within that limit (the brake, not the drive, carries the arm). An
+// axis the drive holds with its brake released gets the arm's dynamics instead (dynamics()).
 std::int16_t SimPlant::drive_torque(const Axis& a, const hal::DriveOut& d, float accel, float amax,
                                     float target) const noexcept {
   if (a.ds != c402::DriveState::OperationEnabled || !contactor_closed_) {
