@@ -109,7 +109,7 @@ def bus_loss(a, d):
 async def armed(port):
     from websockets.asyncio.client import connect
 
-    async with connect(f"ws://127.0.0.1:{port}/ws") as ws:
+    async with connect(f"ws://127.0.0.1:{port}/ws", max_queue=None) as ws:  # see tests/integration/ecat/pendant.py
         await ws.send(json.dumps({"type": "hello", "role": "pendant", "client": "ecat loss bench"}))
         await arm(Pendant(ws))
 

@@ -129,7 +129,7 @@ async def measure(port, ctl, presses):
     from websockets.asyncio.client import connect
 
     out = []
-    async with connect(f"ws://127.0.0.1:{port}/ws") as ws:
+    async with connect(f"ws://127.0.0.1:{port}/ws", max_queue=None) as ws:  # see tests/integration/ecat/pendant.py
         await ws.send(json.dumps({"type": "hello", "role": "pendant", "client": "ecat reaction bench"}))
         p = Pendant(ws)
         for i in range(presses):

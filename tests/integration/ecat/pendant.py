@@ -10,7 +10,11 @@ from websockets.asyncio.client import connect
 
 
 async def main(port, cmds, want):
-    async with connect(f"ws://127.0.0.1:{port}/ws") as ws:
+    # max_queue=None: this pendant stops reading once it has its state, while the gateway goes
+    # on sending status at 50 Hz. With websockets' default (16 frames) the library stops reading
+    # the socket when its queue is full, so it never sees the gateway's close frame and every
+    # exit waited close_timeout (10 s) for it: 80 s of the ecat_run test were spent so.
+    async with connect(f"ws://127.0.0.1:{port}/ws", max_queue=None) as ws:
         await ws.send(json.dumps({"type": "hello", "role": "pendant", "client": "ecat test"}))
         seq = 0
         status = None
