@@ -140,6 +140,7 @@ bench: $(VENV)/.stamp
 	@$(DEPS) build bench embedded ecat
 	cmake --preset default
 	cmake --build --preset default
+	cmake --build --preset default --target ws_rtt
 	VENV_PY=$(VENV)/bin/python python3 bench/run.py
 
 # The narrated replay of examples/demo.scn (no server).
