@@ -31,7 +31,8 @@ float beyond(const Zone& z, const Vec3& p, float r) noexcept {
   return worst;
 }
 
-// Keep-out: how deep a sphere of radius r about p reaches into the box (<= 0: apart).
+// Keep-out: how deep a sphere of radius r about p reaches into the box (<= 0: apart; NaN
+// for a point that is not a number, which the callers count as inside: unknown is unsafe).
 float depth(const Zone& z, const Vec3& p, float r) noexcept {
   if (inside(z, p)) {
     float to_face = 1.0e30F;
@@ -46,7 +47,8 @@ float depth(const Zone& z, const Vec3& p, float r) noexcept {
   for (std::size_t k = 0; k < 3U; ++k) {
     const float below = z.min_mm[k] - p[k];
     const float above = p[k] - z.max_mm[k];
-    const float gap = max_of(max_of(below, above), 0.0F);
+    const float apart = max_of(below, above);
+    const float gap = (apart < 0.0F) ? 0.0F : apart;  // NaN stays NaN: an unknown point is in
     d2 += gap * gap;
   }
   return r - std::sqrt(d2);

@@ -1,0 +1,77 @@
+// The guards of core/src/guards.cpp called directly, operand by operand (MC/DC,
+// docs/verification.md): the supervisor always hands them a limit report and never a
+// separation verdict without its alarm, so some operands decide only here.
+#include <gtest/gtest.h>
+
+#include "safestate/core/monitors.hpp"
+#include "safestate/core/transitions.hpp"
+
+using namespace safestate::core;
+
+namespace {
+
+// A cell where every guard below says OK unless the test changes one thing: AUTO, gate
+// closed, enabling device held, configuration validated, no brake test required.
+struct View {
+  SafetyInputs in{};
+  Feedback fb{};
+  AlarmSet alarms{};
+  Timing timing{};
+  LimitReport report{};
+  const LimitReport* limits = &report;
+  bool separation_over = false;
+
+  View() {
+    in.estop_pressed = false;
+    in.gate_open = false;
+    in.mode = Mode::AUTO;
+    in.enable_ok = true;
+  }
+  void raise(AlarmId id) { alarms.raise(id, AlarmDetail{}, 1U); }
+  [[nodiscard]] GuardView guard() const {
+    return GuardView{in,     fb,    alarms, timing, false, false, false, true, false, limits, true, 0U, 0U,
+                     false, separation_over, false};
+  }
+  [[nodiscard]] Result reset() const { return guard_reset_causes_gone(guard()); }
+  [[nodiscard]] Result servo_on() const { return guard_servo_on(guard()); }
+};
+
+}  // namespace
+
+// @req LIM-SPEED
+TEST(GuardReset, ASpeedStillOverItsLimitRefusesTheResetOnlyWithItsAlarm) {
+  View v;
+  v.report.speed_over = true;
+  EXPECT_EQ(v.reset(), Result::OK) << "no SPEED_LIMIT alarm: nothing to reset";
+  v.raise(AlarmId::SPEED_LIMIT);
+  EXPECT_EQ(v.reset(), Result::FAULT_PRESENT) << "the cause is still there";
+  v.report.speed_over = false;
+  EXPECT_EQ(v.reset(), Result::OK) << "the speed is back under its limit";
+  v.report.speed_over = true;
+  v.limits = nullptr;
+  EXPECT_EQ(v.reset(), Result::OK) << "no limit report: no verdict to refuse on";
+}
+
+// @req COL-SSM-MONITOR
+TEST(GuardReset, TheTcpStillTooFastForTheSeparationRefusesTheResetOnlyWithItsAlarm) {
+  View v;
+  v.separation_over = true;
+  EXPECT_EQ(v.reset(), Result::OK) << "no SEPARATION_VIOLATED alarm: nothing to reset";
+  v.raise(AlarmId::SEPARATION_VIOLATED);
+  EXPECT_EQ(v.reset(), Result::FAULT_PRESENT);
+  v.separation_over = false;
+  EXPECT_EQ(v.reset(), Result::OK) << "the TCP is slow enough again";
+}
+
+// @req LIM-VALIDATION
+TEST(GuardServoOn, OutsideTheLimitsRefusesAutoAndT2ButNotT1) {
+  View v;
+  EXPECT_EQ(v.servo_on(), Result::OK);
+  v.report.outside = true;
+  EXPECT_EQ(v.servo_on(), Result::OUTSIDE_LIMITS);
+  v.in.mode = Mode::T1;
+  EXPECT_EQ(v.servo_on(), Result::OK) << "T1 is where the operator jogs back";
+  v.in.mode = Mode::AUTO;
+  v.limits = nullptr;
+  EXPECT_EQ(v.servo_on(), Result::OK) << "no limit report: no verdict to refuse on";
+}
