@@ -71,6 +71,9 @@ TEST(Ssm, TheSwitchOfHumanSpeedAt500mmWithAShortReach) {
 TEST(Ssm, ClampedToTheLimitInForce) {
   EXPECT_FLOAT_EQ(ssm_allowed_speed_mm_s(2000.0F, spec_example(), 250.0F), 250.0F);
   EXPECT_FLOAT_EQ(ssm_allowed_speed_mm_s(2000.0F, spec_example(), 0.0F), 0.0F);
+  // A limit that is not a number is no limit to trust: 0, whatever the separation.
+  EXPECT_FLOAT_EQ(ssm_allowed_speed_mm_s(2000.0F, spec_example(), std::numeric_limits<float>::quiet_NaN()), 0.0F);
+  EXPECT_FLOAT_EQ(ssm_allowed_speed_mm_s(2000.0F, spec_example(), std::numeric_limits<float>::infinity()), 0.0F);
 }
 
 // @req COL-SSM
@@ -125,6 +128,20 @@ TEST(Pfl, SkullAndFaceAllowNoTransientContact) {
   EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::face, 25.0F, 1.5F), 0.0F);
   EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, 0.0F, 1.5F), 0.0F) << "no robot mass: no cap to trust";
   EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, 25.0F, -1.0F), 0.0F);
+}
+
+// Each operand of the cap's input check on its own (MC/DC): a mass or payload that is not a
+// number, and an effective mass m_R that overflows to infinity from two finite halves.
+// @req COL-PFL
+TEST(Pfl, NoCapFromMassesThatAreNotNumbers) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, kNaN, 1.5F), 0.0F);
+  EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, kInf, 1.5F), 0.0F);
+  EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, 25.0F, kNaN), 0.0F);
+  EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, 25.0F, kInf), 0.0F);
+  EXPECT_FLOAT_EQ(pfl_speed_cap_mm_s(BodyRegion::hand, 3.0e38F, 3.0e38F), 0.0F) << "m_R = inf";
+  EXPECT_GT(pfl_speed_cap_mm_s(BodyRegion::hand, 3.0e38F, 0.0F), 0.0F) << "a huge but finite m_R still caps";
 }
 
 // @req COL-PFL
@@ -366,6 +383,11 @@ TEST(SsmMonitor, TrInCyclesFromTheFilesMilliseconds) {
   EXPECT_EQ(m.reaction_cycles(), 80U);
   m.configure(l, 3000U);
   EXPECT_EQ(m.reaction_cycles(), 6U);  // 20 ms / 3 ms, rounded down
+  m.configure(l, 0U);
+  EXPECT_EQ(m.reaction_cycles(), 0U) << "no cycle time: no division, T_r of 0 cycles";
+  l.collaborative.ssm.reaction_s = 0.0F;
+  m.configure(l, 1000U);
+  EXPECT_EQ(m.reaction_cycles(), 0U);
 }
 
 // The SSM benchmark found the robot one reaction closer than S_p for a cycle where the

@@ -351,6 +351,63 @@ TEST(ProgramLimits, SetLimitsAfterLoadingRechecksAndStartOutsideDoesNotMove) {
   EXPECT_EQ(rig.q()[0], at[0]);
 }
 
+// The motion layer's own barrier behind OUTSIDE_LIMITS (MC/DC): waypoints and the path
+// between them inside, only the leg from where the arm stands through a keep-out box; a
+// start that arrives anyway does not move. Without limits or without a program there is no
+// leg to refuse.
+// @req MO-LIMITS-PROGRAM
+TEST(ProgramLimits, AStartWhoseOnlyFaultIsTheFirstLegDoesNotMove) {
+  const auto w = swing();
+  core::SafetyLimits lim = base_limits();
+  add_zone(lim, core::ZoneKind::keep_out, {400, -50, 500}, {700, 50, 800});
+  const std::array<Waypoint, 1> first{w[1]};  // +60 deg
+  Joints left{};
+  left[0] = -deg(60.0F);
+  Rig rig(left, &lim);
+  rig.mc.load_program(first.data(), 1);
+  rig.cycle(core::SupervisorOut{});
+  ASSERT_TRUE(rig.mc.program_within_limits()) << "the waypoint alone is inside";
+  ASSERT_FALSE(rig.fb.program_within_limits) << "the leg from the arm crosses the box";
+  rig.cycle(run_program(core::ProgramCmd::Start));
+  for (int n = 0; n < 200; ++n) rig.cycle(run_program());
+  EXPECT_EQ(rig.q()[0], left[0]);
+  Joints right{};
+  right[0] = deg(90.0F);
+  Rig moves(right, &lim);
+  moves.mc.load_program(first.data(), 1);
+  moves.cycle(core::SupervisorOut{});
+  moves.cycle(run_program(core::ProgramCmd::Start));
+  for (int n = 0; n < 200; ++n) moves.cycle(run_program());
+  EXPECT_LT(moves.q()[0], right[0]) << "the same program from the right starts";
+
+  MotionController bare{kRobot, MotionConfig{}};
+  EXPECT_TRUE(bare.start_within_limits(left)) << "no limits: nothing to refuse";
+  bare.set_limits(lim);
+  EXPECT_TRUE(bare.start_within_limits(left)) << "no program: no leg";
+  bare.load_program(first.data(), 1);
+  EXPECT_FALSE(bare.start_within_limits(left));
+}
+
+// A first sample that comes stale (the bus's first exchange late) is still the first sample:
+// the next one is differentiated against it, over one cycle.
+// @req MO-T1-MONITOR
+TEST(MeasuredSpeed, AStaleFirstSampleStillStartsTheDifferentiation) {
+  MotionController mc{kRobot, MotionConfig{}};
+  std::array<core::DriveFeedback, kJoints> drives{};
+  core::Feedback fb{};
+  mc.measure(drives, fb, true);
+  EXPECT_EQ(fb.max_point_speed_mm_s, 0.0F);
+  drives[0].position_rad = 0.001F;  // 1 rad/s on axis 1 over one 1 ms cycle
+  mc.measure(drives, fb, false);
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "the flange at ~374 mm from axis 1";
+  drives[0].position_rad = 0.002F;
+  mc.measure(drives, fb, true);  // stale now: the last speeds stand
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F);
+  drives[0].position_rad = 0.003F;
+  mc.measure(drives, fb, false);  // 2 mrad over the two cycles since the last fresh one
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "over the real time between the samples";
+}
+
 // ------------------------------------------------------------------ speeds
 // @req MO-LIMITS-SPEED
 TEST(SpeedLimits, AJogKeepsTheJointAt95PercentOfItsLimit) {

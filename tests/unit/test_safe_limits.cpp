@@ -9,6 +9,7 @@
 #include <random>
 
 #include "safestate/controller/controller.hpp"
+#include "safestate/core/describe.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/robot.hpp"
@@ -350,4 +351,141 @@ TEST(Zones, AKeepInBoxHoldsTheToolSphereAtEveryFace) {
       }
     }
   }
+}
+
+// Several joints outside at once (MC/DC of the joint monitor's report, docs/verification.md):
+// the alarm names the first axis that trips, `outside` and `recovering` stay set by an earlier
+// axis whatever a later one says.
+// @req LIM-JOINT LIM-RECOVERY
+TEST(JointLimits, SeveralAxesOutsideAtOnceNameTheFirstAndKeepTheReport) {
+  core::SafetyLimits l = builtin();
+  for (auto& j : l.joints) {
+    j.min_rad = -10.0F * kDeg;
+    j.max_rad = 10.0F * kDeg;
+  }
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  // With power, axes 2 and 3 beyond their range in the same cycle: one alarm, axis 2.
+  m.evaluate(at({0, 12 * kDeg, -12 * kDeg, 0, 0, 0}), true, false, 0, r);
+  ASSERT_TRUE(r.joint.hit);
+  EXPECT_EQ(r.joint.detail.axis, 2) << "the first axis that tripped, not the last";
+  EXPECT_TRUE(r.outside);
+
+  // Without power, axes 1 and 2 outside: both recovering, nothing trips.
+  m = monitors(l);
+  m.evaluate(at({12 * kDeg, 12 * kDeg, 0, 0, 0, 0}), false, false, 0, r);
+  EXPECT_FALSE(r.joint.hit);
+  EXPECT_TRUE(r.outside && r.recovering);
+  // Axis 2 jogged back in, axis 1 still out: still outside (axis 1), no trip.
+  m.evaluate(at({12 * kDeg, 5 * kDeg, 0, 0, 0, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.joint.hit);
+  EXPECT_TRUE(r.outside) << "axis 1 is still outside although axis 2, after it, is back in";
+  EXPECT_TRUE(r.recovering);
+  // Axis 1 recovering, axis 3 newly out with power: axis 3 trips, and recovery still shows.
+  m.evaluate(at({12 * kDeg, 5 * kDeg, 11 * kDeg, 0, 0, 0}), true, false, 0, r);
+  ASSERT_TRUE(r.joint.hit);
+  EXPECT_EQ(r.joint.detail.axis, 3);
+  EXPECT_TRUE(r.recovering) << "axis 1's recovery is not hidden by axis 3, which is not recovering";
+  // Both back in: nothing outside, nothing recovering.
+  m.evaluate(at({5 * kDeg, 5 * kDeg, 5 * kDeg, 0, 0, 0}), true, false, 0, r);
+  EXPECT_FALSE(r.outside || r.recovering || r.joint.hit);
+}
+
+namespace {
+core::Zone box(const char* name, core::ZoneKind kind, std::array<float, 3> lo, std::array<float, 3> hi) {
+  core::Zone z{};
+  std::snprintf(z.name.data(), z.name.size(), "%s", name);
+  z.kind = kind;
+  z.min_mm = lo;
+  z.max_mm = hi;
+  return z;
+}
+core::ArmPose home_pose(const core::SafetyLimits& l) {
+  core::ArmPose p{};
+  core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, p);
+  return p;
+}
+}  // namespace
+
+// Two zones found in one cycle: the first is named (ZONE_VIOLATION, REDUCED_SPEED), the
+// second changes nothing of what the first set (MC/DC of the zone monitor's report).
+// @req LIM-ZONE LIM-REDUCED
+TEST(Zones, TwoZonesAtOnceNameTheFirst) {
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  const core::ArmPose home = home_pose(l);
+  const float x = home.tcp[0];
+  l.zones[0] = box("left", core::ZoneKind::keep_out, {x - 50.0F, -100.0F, -100.0F}, {x + 50.0F, 100.0F, 2000.0F});
+  l.zones[1] = box("right", core::ZoneKind::keep_out, {x - 60.0F, -110.0F, -110.0F}, {x + 60.0F, 110.0F, 2000.0F});
+  l.zone_count = 2;
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  m.evaluate(at({}), true, false, 0, r);
+  ASSERT_TRUE(r.zone.hit);
+  EXPECT_EQ(r.zone.detail.code, 0) << "both boxes hold the TCP: the first is named";
+
+  l.zones[0] = box("load", core::ZoneKind::reduced, {x - 50.0F, -100.0F, -100.0F}, {x + 50.0F, 100.0F, 2000.0F});
+  l.zones[1] = box("unload", core::ZoneKind::reduced, {x - 60.0F, -110.0F, -110.0F}, {x + 60.0F, 110.0F, 2000.0F});
+  m = monitors(l);
+  m.evaluate(at({}), true, false, 0, r);
+  EXPECT_FALSE(r.zone.hit);
+  EXPECT_TRUE(r.in_reduced_zone);
+  EXPECT_EQ(r.reduced_zone, 1) << "both reduced zones hold the TCP: REDUCED_SPEED names the first";
+}
+
+// A pose that is not a number (a drive's position lost) is inside no zone and outside every
+// one: ZONE_VIOLATION, whichever point of the arm is unknown; and a tool offset that makes the
+// reach unbounded turns the far-zone skipping off without losing a zone.
+// @req LIM-ZONE
+TEST(Zones, AnUnknownPoseOrAnUnboundedReachIsNeverSkipped) {
+  core::SafetyLimits l = builtin();
+  l.zones[0] = box("fence", core::ZoneKind::keep_out, {2000.0F, 2000.0F, 0.0F}, {2100.0F, 2100.0F, 100.0F});
+  l.zone_count = 1;
+  SafeLimitMonitors m = monitors(l);
+  LimitReport r{};
+  m.evaluate(at({}), true, false, 0, r);
+  EXPECT_FALSE(r.zone.hit) << "far away";
+  m.evaluate(at({0, 0, 0, std::nanf(""), 0, 0}), true, false, 0, r);
+  EXPECT_TRUE(r.zone.hit) << "axis 4 unknown: the wrist and the tool are unknown";
+  // A box around the elbow's link point: found whatever the tool offset does to the reach.
+  const core::Vec3 elbow = home_pose(l).origin[3];
+  l.zones[0] = box("post", core::ZoneKind::keep_out, {elbow[0] - 20.0F, elbow[1] - 20.0F, elbow[2] - 20.0F},
+                   {elbow[0] + 20.0F, elbow[1] + 20.0F, elbow[2] + 20.0F});
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    core::SafetyLimits u = l;
+    u.tcp_mm = {bad, 0.0F, 0.0F};
+    SafeLimitMonitors mu = monitors(u);
+    for (int k = 0; k < 3; ++k) {
+      mu.evaluate(at({}), true, false, 0, r);
+      EXPECT_TRUE(r.zone.hit) << "tool offset " << bad << ", cycle " << k;
+    }
+  }
+}
+
+// The zone's name into the caller's buffer: truncated to it, never past the name's array,
+// and the plain detail name for a zone index the configuration does not have.
+// @req LIM-ZONE
+TEST(AlarmDetail, ZoneNamesAreCopiedWithinBothBuffers) {
+  core::SafetyLimits l = builtin();
+  l.zones[0] = box("table", core::ZoneKind::keep_out, {0, 0, 0}, {1, 1, 1});
+  l.zones[0].name.fill('z');  // no terminating NUL in the configuration's array
+  l.zones[1] = box("table", core::ZoneKind::keep_out, {0, 0, 0}, {1, 1, 1});
+  l.zone_count = 2;
+  core::AlarmDetail d{};
+  d.signal = core::Signal::zone;
+  d.code = 1;
+  std::array<char, 64> buf{};
+  EXPECT_STREQ(core::limit_detail_name(d, l, buf.data(), buf.size()), "table");
+  EXPECT_STREQ(core::limit_detail_name(d, l, buf.data(), 4U), "tab") << "cut to the caller's 4 bytes";
+  EXPECT_STREQ(core::limit_detail_name(d, l, nullptr, 4U), "");
+  EXPECT_STREQ(core::limit_detail_name(d, l, buf.data(), 0U), "");
+  d.code = 0;
+  EXPECT_EQ(std::string(core::limit_detail_name(d, l, buf.data(), buf.size())), std::string(l.zones[0].name.size(), 'z'))
+      << "the whole array, and no further";
+  std::array<char, 64> plain{};
+  d.code = 2;  // not a zone of this configuration: the plain detail name
+  EXPECT_STREQ(core::limit_detail_name(d, l, buf.data(), buf.size()), core::detail_name(d, plain.data(), plain.size()));
+  l.zone_count = 40;  // a corrupt count above the array: the index is still bounded by it
+  d.code = 20;
+  EXPECT_STREQ(core::limit_detail_name(d, l, buf.data(), buf.size()), core::detail_name(d, plain.data(), plain.size()));
 }
