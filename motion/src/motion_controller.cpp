@@ -318,8 +318,12 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
 void MotionController::follow_program(const core::SupervisorOut& so) noexcept {
   // T1: time-scale the program so that the path stays the same and no point exceeds
   // the reduced speed (ISO 10218-1 5.7.3).
-  if (!program_.active() && !program_.finished()) {
-    v_sp_.fill(0.0F);  // not started (refused outside the limits): hold, never jump to q0
+  if (!program_.active()) {
+    // Not started (refused outside the limits) or finished: hold where the set-point is.
+    // A finished program's executor answers with its last segment's start, so asking it
+    // for one more step (the supervisor still in AUTO_RUNNING for a cycle) jumped back
+    // there; never jump.
+    v_sp_.fill(0.0F);
     return;
   }
   float scale = 1.0F;
