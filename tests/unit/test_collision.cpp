@@ -281,6 +281,11 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
   EXPECT_FALSE(r.hit.hit) << "the count starts again when the arm is free";
   on.check(pushed, true, r);
   EXPECT_TRUE(r.hit.hit);
+  // No cycle time, no velocity to differentiate the inertia from: off rather than guessing.
+  CollisionMonitor timeless;
+  timeless.configure(pfl_limits(), 0U);
+  EXPECT_FALSE(timeless.enabled());
+  EXPECT_TRUE(on.enabled());
 }
 
 // ---- the whole cell: the simulated arm's dynamics, the contact, rule 8, the back-off -------

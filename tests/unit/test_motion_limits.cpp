@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "safestate/core/cia402.hpp"
+#include "safestate/motion/back_off.hpp"
 #include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/limits.hpp"
 #include "safestate/motion/motion_controller.hpp"
@@ -386,6 +387,87 @@ TEST(ProgramLimits, AStartWhoseOnlyFaultIsTheFirstLegDoesNotMove) {
   EXPECT_TRUE(bare.start_within_limits(left)) << "no program: no leg";
   bare.load_program(first.data(), 1);
   EXPECT_FALSE(bare.start_within_limits(left));
+}
+
+// A program at its end holds its last waypoint while the supervisor still asks for program
+// motion (the cycle before it sees program_finished): no jump back to where it started.
+// @req MO-LIMITS-PROGRAM
+TEST(ProgramLimits, AFinishedProgramHoldsItsLastWaypoint) {
+  const auto w = swing();
+  Joints at{};
+  at[0] = -deg(60.0F);
+  const core::SafetyLimits lim = base_limits();
+  Rig rig(at, &lim);
+  rig.mc.load_program(w.data(), 3);
+  rig.cycle(core::SupervisorOut{});
+  rig.cycle(run_program(core::ProgramCmd::Start));
+  int n = 0;
+  for (; n < 20000 && !rig.fb.program_finished; ++n) rig.cycle(run_program());
+  ASSERT_TRUE(rig.fb.program_finished) << "the swing ends";
+  const Joints end = rig.q();
+  EXPECT_NEAR(end[0], -deg(30.0F), 1e-4F);
+  for (int k = 0; k < 200; ++k) rig.cycle(run_program());
+  EXPECT_EQ(rig.q(), end);
+}
+
+// The axis under brake test is pushed off its set-point on purpose (SPEC §12): not a
+// following error; another axis lagging at the same time still is.
+// @req BT-SEQUENCE
+TEST(FollowingError, TheAxisUnderBrakeTestIsNotAFollowingError) {
+  Joints at{};
+  Rig rig(at, nullptr);
+  core::SupervisorOut so{};
+  so.drives_enable = true;
+  so.brakes_release = true;
+  so.motion.mode = core::MotionMode::Hold;
+  so.motion.brake_test.axis = 2;
+  rig.cycle(so);
+  rig.drives[1].position_rad = 0.2F;  // axis 2 slips off its set-point
+  rig.mc.measure(rig.drives, rig.fb);
+  EXPECT_EQ(rig.fb.following_error_axis, 0U);
+  rig.drives[2].position_rad = 0.2F;  // and axis 3, which is not tested, too
+  rig.mc.measure(rig.drives, rig.fb);
+  EXPECT_EQ(rig.fb.following_error_axis, 3U);
+}
+
+// The retrace of a collision's back-off (COL-BACKOFF) on its own: before begin() and with
+// nothing recorded there is nothing to do; with a straight path it goes back 10 mm of it.
+// @req COL-BACKOFF
+TEST(BackOff, NothingRecordedOrNotBegunIsNoMotion) {
+  BackOff b;
+  Joints q{};
+  Joints v{};
+  v.fill(1.0F);
+  b.step(0.001F, q, v);
+  EXPECT_EQ(v, Joints{}) << "not begun: still";
+  EXPECT_FALSE(b.started());
+  b.begin(q, Vec3{300.0F, 0.0F, 600.0F});
+  EXPECT_TRUE(b.done()) << "nothing recorded: done at once";
+  EXPECT_EQ(b.distance_mm(), 0.0F);
+  v.fill(1.0F);
+  b.step(0.001F, q, v);
+  EXPECT_EQ(v, Joints{});
+  EXPECT_EQ(q, Joints{});
+}
+
+// @req COL-BACKOFF
+TEST(BackOff, RetracesTenMillimetresOfAStraightPath) {
+  BackOff b;
+  for (int k = 0; k <= 30; ++k) {  // 1 mm per sample along x, axis 1 at 1 mrad per mm
+    Joints q{};
+    q[0] = 0.001F * static_cast<float>(k);
+    b.record(q, Vec3{300.0F + static_cast<float>(k), 0.0F, 600.0F});
+  }
+  Joints q{};
+  q[0] = 0.030F;
+  b.begin(q, Vec3{330.0F, 0.0F, 600.0F});
+  EXPECT_NEAR(b.distance_mm(), 10.0F, 1e-3F);
+  Joints v{};
+  int n = 0;
+  for (; n < 5000 && !b.done(); ++n) b.step(0.001F, q, v);
+  ASSERT_TRUE(b.done());
+  EXPECT_NEAR(q[0], 0.020F, 1e-5F) << "10 mm back along the recorded path";
+  EXPECT_GE(n, 100) << "at most 100 mm/s: 10 mm take 100 ms or more";
 }
 
 // A first sample that comes stale (the bus's first exchange late) is still the first sample:
