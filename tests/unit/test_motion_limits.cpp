@@ -470,6 +470,48 @@ TEST(BackOff, RetracesTenMillimetresOfAStraightPath) {
   EXPECT_GE(n, 100) << "at most 100 mm/s: 10 mm take 100 ms or more";
 }
 
+// Which limits make the planner predict stopping paths (cartesian()): a keep-in or keep-out
+// zone anywhere in the list, or an orientation cone with an axis; reduced zones and a cone
+// without an axis do not (MC/DC of LimitPlanner::configure).
+// @req MO-LIMITS-JOG
+TEST(LimitPlanner, OnlyZonesThatLimitAndAConeWithAnAxisArePredicted) {
+  core::SafetyLimits l = base_limits();
+  LimitPlanner p;
+  p.configure(l, tool_model(), 0.0F);
+  EXPECT_FALSE(p.cartesian()) << "joints only";
+  add_zone(l, core::ZoneKind::reduced, {0, 0, 0}, {100, 100, 100});
+  p.configure(l, tool_model(), 0.0F);
+  EXPECT_FALSE(p.cartesian()) << "a reduced zone slows, it does not limit the path";
+  add_zone(l, core::ZoneKind::keep_out, {500, 500, 0}, {600, 600, 100});
+  add_zone(l, core::ZoneKind::reduced, {0, 0, 0}, {50, 50, 50});
+  p.configure(l, tool_model(), 0.0F);
+  EXPECT_TRUE(p.cartesian()) << "a keep-out box between two reduced zones";
+  l = base_limits();
+  l.orientation_enabled = true;
+  l.orientation_axis = {0.0F, 0.0F, 0.0F};
+  p.configure(l, tool_model(), 0.0F);
+  EXPECT_FALSE(p.cartesian()) << "a cone without an axis is no cone";
+  l.orientation_axis = {0.0F, 0.0F, -2.0F};
+  p.configure(l, tool_model(), 0.0F);
+  EXPECT_TRUE(p.cartesian());
+}
+
+// A pose whose clearance is not a number (a joint position lost) has no slack.
+// @req MO-LIMITS-JOG
+TEST(LimitPlanner, NoSlackWhereTheClearanceIsUnknown) {
+  core::SafetyLimits l = base_limits();
+  add_zone(l, core::ZoneKind::keep_out, {500, 500, 0}, {600, 600, 100});
+  LimitPlanner p;
+  p.configure(l, tool_model(), 0.0F);
+  Clearance thr{};
+  p.margins(thr);
+  EXPECT_TRUE(p.path_clear(Joints{}, Joints{}, thr, 4U));
+  Joints lost{};
+  lost[1] = std::nanf("");
+  EXPECT_FALSE(p.path_clear(Joints{}, lost, thr, 4U)) << "a path to an unknown pose";
+  EXPECT_FALSE(p.path_clear(lost, lost, thr, 4U));
+}
+
 // A first sample that comes stale (the bus's first exchange late) is still the first sample:
 // the next one is differentiated against it, over one cycle.
 // @req MO-T1-MONITOR
