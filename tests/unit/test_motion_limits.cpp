@@ -512,6 +512,34 @@ TEST(LimitPlanner, NoSlackWhereTheClearanceIsUnknown) {
   EXPECT_FALSE(p.path_clear(lost, lost, thr, 4U));
 }
 
+// A back-off cut short: the stop ends (or escalates) while the arm retraces; the retrace is
+// dropped at once and the arm holds where it is (MC/DC of the controller's cancel).
+// @req COL-BACKOFF
+TEST(BackOff, EndingTheStopMidwayDropsTheRetraceAndHolds) {
+  Rig rig(Joints{}, nullptr);
+  for (int n = 0; n < 300; ++n) rig.cycle(jog(1, +1, 100));
+  core::SupervisorOut stop{};
+  stop.drives_enable = true;
+  stop.brakes_release = true;
+  stop.motion.mode = core::MotionMode::Ramp2;
+  stop.motion.back_off = true;
+  int n = 0;
+  for (; n < 2000 && !rig.fb.backing_off; ++n) rig.cycle(stop);
+  ASSERT_TRUE(rig.fb.backing_off) << "at rest, the back-off begins";
+  for (int k = 0; k < 20; ++k) rig.cycle(stop);
+  const float mid = rig.q()[0];
+  core::SupervisorOut hold = stop;
+  hold.motion.mode = core::MotionMode::Hold;
+  hold.motion.back_off = false;
+  rig.cycle(hold);
+  rig.cycle(hold);
+  EXPECT_FALSE(rig.fb.backing_off) << "the retrace is dropped with the stop";
+  const float held = rig.q()[0];
+  EXPECT_LT(held, mid + 1e-6F) << "it went back, not forward";
+  for (int k = 0; k < 100; ++k) rig.cycle(hold);
+  EXPECT_EQ(rig.q()[0], held) << "and holds there";
+}
+
 // A first sample that comes stale (the bus's first exchange late) is still the first sample:
 // the next one is differentiated against it, over one cycle.
 // @req MO-T1-MONITOR
