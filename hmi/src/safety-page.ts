@@ -393,7 +393,7 @@ export class SafetyPage {
           'div',
           { class: 'sp-card bt-axes-card' },
           el('bt-axes-label', 'div', 'sp-label', 'Drift per axis'),
-          h('div', { class: 'cb-bar bt-progress', id: 'bt-progress' }, el('bt-progress-bar', 'div', 'cb-bar-fill', '')),
+          (this.e['bt-progress'] = h('div', { class: 'cb-bar bt-progress', id: 'bt-progress' }, el('bt-progress-bar', 'div', 'cb-bar-fill', ''))),
           axes,
         ),
       ),
