@@ -442,3 +442,10 @@ export function brakeTestAxes(bt: BrakeTestInput, maxDrift: number): BrakeAxisRo
   }
   return rows;
 }
+
+/** Hours since the last passed test: interval_h − due_in_h (the status counts due_in_h from
+ * the last pass also after a failure); null when either is unknown. */
+export function lastPassAgeH(bt: BrakeTestInput, intervalH: unknown): number | null {
+  if (bt.due_in_h === null || bt.due_in_h === undefined || typeof intervalH !== 'number' || !Number.isFinite(intervalH)) return null;
+  return Math.max(0, intervalH - bt.due_in_h);
+}

@@ -20,6 +20,8 @@ import {
   brakeTestDue,
   brakeTestGate,
   contactWords,
+  hoursWords,
+  lastPassAgeH,
   maxDriftDeg,
   type Highlight,
   reducedWords,
@@ -433,6 +435,8 @@ export class SafetyPage {
     } else if (bt && last !== 'none') {
       when = 'Time not reported.';
     }
+    const passAge = last === 'failed' && bt ? lastPassAgeH(bt, cfg?.interval_h) : null;
+    if (passAge !== null) when += ` The last pass was ${hoursWords(passAge)} ago.`;
     setText(this.e['bt-last-when'], when);
     // The button: pendant, servos on, idle.
     const gate = brakeTestGate({

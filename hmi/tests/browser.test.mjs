@@ -928,7 +928,7 @@ test('brake test: a weak brake on axis 3 from the panel: failed naming axis 3, i
   assert.equal(b.due, 'Failed: axis 3');
   assert.ok(b.dueRed);
   assert.match(b.dueDetail, /AUTO is refused/);
-  assert.match(b.when, /^Failed on /);
+  assert.match(b.when, /^Failed on .* The last pass was \d+ min ago\.$/, 'the pass of the test before, minutes ago');
   assert.deepEqual(b.axes.map((a) => a.phase), ['held', 'held', 'slipped', 'untested', 'untested', 'untested']);
   assert.match(b.axes[2].word, /^\d+\.\d{3}° SLIPPED$/);
   assert.ok(Number.parseFloat(b.axes[2].word) > 0.5, b.axes[2].word);

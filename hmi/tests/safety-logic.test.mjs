@@ -277,3 +277,10 @@ test('brake test axes: the drift of a pass against max_drift_deg; a failure stop
   // A malformed drift list is not shown as a result.
   assert.ok(L.brakeTestAxes(bt({ drift_deg: [1, 2] }), 0.5).every((r) => r.phase === 'untested' && r.drift === null));
 });
+
+test('brake test: the age of the last pass from interval_h and due_in_h, also after a failure', () => {
+  assert.equal(L.lastPassAgeH(bt({ due_in_h: 5.5 }), 8), 2.5);
+  assert.equal(L.lastPassAgeH(bt({ last: 'failed', due_in_h: -1 }), 8), 9);
+  assert.equal(L.lastPassAgeH(bt({ due_in_h: null }), 8), null);
+  assert.equal(L.lastPassAgeH(bt({}), undefined), null, 'no brake_test key: no interval');
+});
