@@ -486,7 +486,7 @@ export class SafetyPage {
     setAttr(reply, 'data-result', 'pending');
     this.brakeSeq = this.link.command('brake_test', {}, 'all', (o) => {
       this.brakeSeq = null;
-      setText(reply, o.result === 'OK' ? 'OK: the test runs axis by axis.' : `${o.result}: ${resultWords(o.result, 'brake_test', this.status)}`);
+      setText(reply, o.result === 'OK' ? 'Reply OK: the test started.' : `${o.result}: ${resultWords(o.result, 'brake_test', this.status)}`);
       setAttr(reply, 'data-result', o.result);
       this.renderBrake();
     });

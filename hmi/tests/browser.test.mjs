@@ -901,7 +901,7 @@ test('brake test: as the pendant in T1 the button runs it: each axis in turn, th
   assert.equal(mid.b.axes[1].current, 'step');
   assert.match(mid.b.label, /^Testing axis 2 · \d+ %$/);
   assert.equal(mid.b.run, false, 'not while it runs');
-  assert.match(mid.b.reply, /^OK/);
+  assert.match(mid.b.reply, /^Reply OK/);
   await bpShot('30-brake-test-running');
   const { b, s } = await bpUntil('passed', (x, st) => x.last === 'Passed' && st.sub === 'MANUAL_IDLE' && x.axes.every((a) => a.phase === 'held'), BRAKE_TEST_MS);
   assert.equal(b.due, 'Due in 8.0 h');
