@@ -6,7 +6,10 @@ outside, against a real `safestate run` on loopback (the SafeState helper of tes
 
 Run:  SAFESTATE_BIN=build/bin/safestate python -m pytest tests/integration/test_brake_test_run.py
 """
+import json
+import sqlite3
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -87,6 +90,21 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
         assert "BRAKE_TEST_DUE" not in st["alarms"]
 
         run(arm_in_auto(s))
+    finally:
+        stop(s)
+
+    # A brake_test event whose drift list is malformed (written behind the gateway's back): the
+    # core still counts the pass (run.cpp reads the result only), the status shows no record.
+    now = datetime.now(timezone.utc)
+    with sqlite3.connect(db) as con:
+        con.execute("INSERT INTO events(t, time, kind, data) VALUES(?, ?, ?, ?)",
+                    (1, now.strftime("%Y-%m-%dT%H:%M:%S.") + f"{now.microsecond // 1000:03d}Z", "brake_test",
+                     json.dumps({"result": "passed", "axis": None, "drift_deg": [0, 0, 0, 0, 0]})))
+    s = start(tmp_path, CFG, db)
+    try:
+        bt = get_json(s.port, "/api/status")["safety"]["brake_test"]
+        assert bt["last"] == "passed" and bt["due_in_h"] > 7.99, bt
+        assert bt["last_time"] is None and bt["last_axis"] is None and bt["drift_deg"] is None, bt
     finally:
         stop(s)
 
