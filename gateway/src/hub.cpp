@@ -55,6 +55,16 @@ Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log,
   // What a predecessor already committed stays committed: start after it.
   auto& h = segment_.header();
   segment_.events().advance_to(log_.ring_progress(h.instance));
+  // The latest brake test on record, for the status; an unreadable log shows none.
+  std::string time;
+  std::string data;
+  bool found = false;
+  std::string error;
+  if (!log_.latest("brake_test", time, data, found, error)) {
+    log_error("event log: the latest brake test cannot be read: " + error);
+  } else if (found) {
+    brake_test_record_ = brake_test_record(time, Json::parse(data, nullptr, false));
+  }
 }
 
 // ------------------------------------------------------------------ from the core
@@ -228,6 +238,9 @@ Frame Hub::store(const bridge::EventRecord& e, const std::string& time, const st
   } else {
     ++events_stored_;
   }
+  if (e.kind == bridge::EventKind::brake_test) {
+    brake_test_record_ = brake_test_record(time, data);
+  }
   return std::make_shared<const std::string>(dump(event_message(id, e.t, time, kind, data)));
 }
 
@@ -291,6 +304,7 @@ StatusExtras Hub::extras() const {
   x.shutting_down = h.shutting_down.load(std::memory_order_relaxed) != 0U;
   x.gateway_pid = h.gateway_pid.load(std::memory_order_relaxed);
   x.gateway_restarts = h.gateway_restarts.load(std::memory_order_relaxed);
+  x.brake_test_record = &brake_test_record_;
   return x;
 }
 

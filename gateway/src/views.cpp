@@ -343,7 +343,7 @@ Json safety_json() {
   return j;
 }
 
-Json status_safety_json(const bridge::Status& s) {
+Json status_safety_json(const bridge::Status& s, const Json* brake_test_record) {
   Json j;
   j["checksum"] = hex8(s.safety_checksum);
   j["validated"] = s.safety_validated;
@@ -376,6 +376,21 @@ Json status_safety_json(const bridge::Status& s) {
   brake["due_in_h"] = s.brake_test_due_known ? Json(rounded(static_cast<double>(s.brake_test_due_in_h), 1000.0))
                                              : Json(nullptr);
   brake["last"] = core::to_string(static_cast<core::BrakeTestResult>(s.brake_test_last));
+  // After protocol.md's fields (additive): the test in progress (axis 1..6 and percent of
+  // the whole test, 4 steps per axis, null while none runs), the BRAKE_TEST_DUE and
+  // BRAKE_TEST_REQUIRED conditions, and the latest result on record in the event log (so
+  // that it survives a restart): when, the axis that slipped, every axis' drift.
+  brake["running"] = s.brake_test_running;
+  brake["axis"] = (s.brake_test_running && s.brake_test_axis >= 1U && std::size_t{s.brake_test_axis} <= core::kAxes)
+                      ? Json(s.brake_test_axis)
+                      : Json(nullptr);
+  brake["progress"] = s.brake_test_running ? Json(std::min<unsigned>(s.brake_test_progress, 100U)) : Json(nullptr);
+  brake["due"] = s.brake_test_due;
+  brake["required"] = s.brake_test_required;
+  const bool record = (brake_test_record != nullptr) && brake_test_record->is_object();
+  brake["last_time"] = record ? brake_test_record->at("time") : Json(nullptr);
+  brake["last_axis"] = record ? brake_test_record->at("axis") : Json(nullptr);
+  brake["drift_deg"] = record ? brake_test_record->at("drift_deg") : Json(nullptr);
   j["brake_test"] = std::move(brake);
   // SPEC §11 collision detection, after the fields of protocol.md: whether it acts
   // (collaborative and pfl on), the force estimated at the TCP (N, 0.1; null while it does
@@ -388,6 +403,33 @@ Json status_safety_json(const bridge::Status& s) {
       pfl_config ? Json(rounded(static_cast<double>(g_safety.limits.collaborative.f_qs_n), 10.0)) : Json(nullptr);
   j["pfl_speed_limit"] =
       pfl_config ? Json(rounded(static_cast<double>(g_safety.limits.collaborative.pfl_speed_mm_s), 10.0)) : Json(nullptr);
+  return j;
+}
+
+Json brake_test_record(const std::string& time, const Json& data) {
+  if (!data.is_object()) {
+    return nullptr;
+  }
+  const auto result = data.find("result");
+  const auto axis = data.find("axis");
+  const auto drift = data.find("drift_deg");
+  if (result == data.end() || !result->is_string() || (*result != "passed" && *result != "failed") ||
+      axis == data.end() ||
+      !(axis->is_null() || (axis->is_number_integer() && axis->get<std::int64_t>() >= 1 &&
+                            axis->get<std::int64_t>() <= static_cast<std::int64_t>(core::kAxes))) ||
+      drift == data.end() || !drift->is_array() || drift->size() != core::kAxes) {
+    return nullptr;
+  }
+  for (const Json& d : *drift) {
+    if (!d.is_number() || !std::isfinite(d.get<double>())) {
+      return nullptr;
+    }
+  }
+  Json j;
+  j["time"] = time;
+  j["result"] = *result;
+  j["axis"] = *axis;
+  j["drift_deg"] = *drift;
   return j;
 }
 
@@ -420,7 +462,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["tcp"] = std::move(tcp);
   j["t2_confirmed"] = s.t2_confirmed;
   j["owner"] = (x.owner == nullptr) ? Json(nullptr) : Json(x.owner);
-  j["safety"] = status_safety_json(s);
+  j["safety"] = status_safety_json(s, x.brake_test_record);
   // Beyond protocol.md (SPEC §7: requested beside effective, the first-out cause).
   j["mode_requested"] = core::to_string(s.mode_requested);
   j["target"] = leaf_target(s.target);

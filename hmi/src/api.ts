@@ -10,7 +10,14 @@ export type State =
   | 'ARMING'
   | 'OPERATIONAL'
   | 'STOPPING';
-export type Sub = 'AUTO_IDLE' | 'AUTO_RUNNING' | 'AUTO_PAUSED' | 'MANUAL_IDLE' | 'MANUAL_JOGGING' | 'MANUAL_RUNNING';
+export type Sub =
+  | 'AUTO_IDLE'
+  | 'AUTO_RUNNING'
+  | 'AUTO_PAUSED'
+  | 'MANUAL_IDLE'
+  | 'MANUAL_JOGGING'
+  | 'MANUAL_RUNNING'
+  | 'BRAKE_TEST';
 export type Mode = 'AUTO' | 'T1' | 'T2' | 'NONE';
 export type StopCat = 'CAT0' | 'CAT1' | 'CAT2';
 
@@ -60,12 +67,27 @@ export interface SafetyStatus {
   v_allowed: number | null;
   fields?: { outer: string; inner: string };
   separation_mm?: number | null;
-  brake_test?: { due_in_h: number | null; last: string };
+  brake_test?: BrakeTestStatus;
   // SPEC §11 collision detection (after protocol.md's fields, gateway/src/views.cpp).
   pfl?: boolean;
   contact_force?: number | null; // N at the TCP, null when pfl is off
   contact_force_limit?: number | null; // the body region's F_qs (N), from the configuration
   pfl_speed_limit?: number | null; // v_pfl (mm/s), from the configuration
+}
+
+/** The status's `safety.brake_test` (SPEC §12): protocol.md's due_in_h and last, then the
+ * gateway's additive fields (gateway/README.md; absent from a gateway that predates them). */
+export interface BrakeTestStatus {
+  due_in_h: number | null; // negative: overdue; null when no pass is on record or none is required
+  last: string; // none | passed | failed
+  running?: boolean;
+  axis?: number | null; // 1..6 while running
+  progress?: number | null; // percent of the whole test while running
+  due?: boolean; // BRAKE_TEST_DUE
+  required?: boolean; // servo_on in AUTO is BRAKE_TEST_REQUIRED
+  last_time?: string | null; // ISO-8601 UTC of the newest brake_test event of the log
+  last_axis?: number | null; // the axis that slipped (null on a pass)
+  drift_deg?: number[] | null; // every axis' drift of that result, degrees
 }
 
 export type ZoneKind = 'keep_in' | 'keep_out' | 'reduced';

@@ -306,3 +306,146 @@ export function contactWords(sf: CollabInput): string {
   const f = `${sf.contact_force.toFixed(1)} N`;
   return sf.contact_force_limit != null ? `${f} of ${mm(sf.contact_force_limit)} N (F_qs, COLLISION above)` : f;
 }
+
+// ------------------------------------------------------------------ brake test (SPEC §12)
+/** The status' `safety.brake_test` (protocol.md's due_in_h and last, then the gateway's
+ * additive fields; a gateway that predates them leaves them out). */
+export interface BrakeTestInput {
+  due_in_h: number | null;
+  last: string; // none | passed | failed
+  running?: boolean;
+  axis?: number | null;
+  progress?: number | null;
+  due?: boolean;
+  required?: boolean;
+  last_time?: string | null;
+  last_axis?: number | null;
+  drift_deg?: number[] | null;
+}
+
+/** SPEC §12 defaults: the limit a test is held to when the configuration has no `brake_test` key. */
+export const BRAKE_TEST_DEFAULT_MAX_DRIFT_DEG = 0.5;
+
+/** max_drift_deg of the configuration's `brake_test` (SPEC §12), its default when absent or not a positive number. */
+export function maxDriftDeg(brakeTestConfig: unknown): number {
+  const v = (brakeTestConfig as { max_drift_deg?: unknown } | null | undefined)?.max_drift_deg;
+  return typeof v === 'number' && Number.isFinite(v) && v > 0 ? v : BRAKE_TEST_DEFAULT_MAX_DRIFT_DEG;
+}
+
+/** Hours in words: "5.2 h", under one hour "45 min". */
+export function hoursWords(hours: number): string {
+  const a = Math.abs(hours);
+  return a >= 1 ? `${a.toFixed(1)} h` : `${Math.round(a * 60)} min`;
+}
+
+export interface BrakeTestDue {
+  /** 'ok' due in the future; 'overdue' past its interval; 'failed' the latest failed;
+   * 'never' none passed and one is required; 'not-required' no periodic test configured. */
+  tone: 'ok' | 'overdue' | 'failed' | 'never' | 'not-required';
+  /** Shown large: "Due in 5.2 h", "Overdue by 1.5 h", "Failed: axis 3", "Never tested". */
+  text: string;
+  /** What it means for the operator. */
+  detail: string;
+}
+
+/** When the next brake test is due, in words, from the status. Pure. */
+export function brakeTestDue(bt: BrakeTestInput): BrakeTestDue {
+  const auto = bt.required ? ' AUTO is refused (Servo on) until a test passes; T1 and T2 stay allowed.' : '';
+  if (bt.last === 'failed') {
+    const axis = bt.last_axis != null ? `axis ${bt.last_axis}` : 'axis not reported';
+    return { tone: 'failed', text: `Failed: ${axis}`, detail: `The latest brake test failed.${auto || ' AUTO is refused until a test passes.'}` };
+  }
+  if (bt.due_in_h === null || bt.due_in_h === undefined) {
+    if (bt.last === 'passed') {
+      return { tone: 'not-required', text: 'Passed', detail: 'This configuration asks for no periodic brake test (no brake_test key).' };
+    }
+    if (bt.required || bt.due) {
+      return { tone: 'never', text: 'Never tested', detail: `No brake test has passed yet.${auto}` };
+    }
+    return { tone: 'not-required', text: 'Never tested', detail: 'This configuration asks for no periodic brake test (no brake_test key).' };
+  }
+  if (bt.due_in_h > 0) {
+    return { tone: 'ok', text: `Due in ${hoursWords(bt.due_in_h)}`, detail: 'The last test passed; run the next one before it is due.' };
+  }
+  return {
+    tone: 'overdue',
+    text: `Overdue by ${hoursWords(bt.due_in_h)}`,
+    detail: bt.required ? `The grace time has run out.${auto}` : 'Run the brake test before the grace time runs out; after it AUTO is refused.',
+  };
+}
+
+export interface BrakeTestGateInput {
+  connected: boolean;
+  role: 'pendant' | 'observer' | null;
+  state: State | null;
+  sub: string | null;
+  mode: Mode | null;
+  /** status.owner: who may command now (null: nobody). */
+  owner: string | null;
+  running: boolean;
+}
+
+/** SPEC §4/§12: `brake_test` in AUTO_IDLE or MANUAL_IDLE with a valid mode (at standstill:
+ * the controller checks that, its reply says so); this screen sends it as the pendant, which
+ * must hold control (status.owner). */
+export function brakeTestGate(g: BrakeTestGateInput): Gate {
+  const reasons: string[] = [];
+  if (!g.connected || g.state === null) {
+    return { enabled: false, reasons: ['Not connected to the controller.'] };
+  }
+  if (g.running) {
+    return { enabled: false, reasons: ['The brake test is running.'] };
+  }
+  if (g.role !== 'pendant') {
+    reasons.push('This screen is read-only (observer): only the pendant that has control may run the brake test.');
+  } else if (g.owner !== 'pendant') {
+    reasons.push(`The pendant does not have control now (${g.owner ? `${g.owner} has` : 'nobody has'}).`);
+  }
+  if (g.mode === 'NONE' || g.mode === null) {
+    reasons.push('The mode selector gives no valid mode.');
+  }
+  if (g.state !== 'OPERATIONAL' || (g.sub !== 'AUTO_IDLE' && g.sub !== 'MANUAL_IDLE')) {
+    reasons.push(`Only with the servos on and the robot idle (AUTO_IDLE or MANUAL_IDLE; now ${g.sub ?? g.state}).`);
+  }
+  return { enabled: reasons.length === 0, reasons };
+}
+
+export interface BrakeAxisRow {
+  axis: number; // 1..6
+  /** While running: done / testing / pending. Else, of the latest result: held / slipped /
+   * untested (after a slip, or none on record). */
+  phase: 'done' | 'testing' | 'pending' | 'held' | 'slipped' | 'untested';
+  /** The drift of the latest result (degrees), null while running or when none. */
+  drift: number | null;
+  /** drift / max_drift_deg, clamped to 0..1 (for a bar), 0 when none. */
+  frac: number;
+}
+
+/** The six axes of the brake test: progress while it runs, else the latest result's drift. Pure. */
+export function brakeTestAxes(bt: BrakeTestInput, maxDrift: number): BrakeAxisRow[] {
+  const rows: BrakeAxisRow[] = [];
+  const drift = Array.isArray(bt.drift_deg) && bt.drift_deg.length === 6 ? bt.drift_deg : null;
+  // After a failure the axes before the slipped one held and those after it were not tested
+  // (an axis not reported: none counts as held).
+  const failed = bt.last === 'failed' ? (bt.last_axis ?? 0) : null;
+  for (let axis = 1; axis <= 6; axis++) {
+    if (bt.running) {
+      const at = bt.axis ?? 0;
+      rows.push({ axis, phase: axis < at ? 'done' : axis === at ? 'testing' : 'pending', drift: null, frac: 0 });
+      continue;
+    }
+    let phase: BrakeAxisRow['phase'] = 'untested';
+    if (drift && failed === null) phase = 'held';
+    else if (drift && failed !== null) phase = axis < failed ? 'held' : axis === failed ? 'slipped' : 'untested';
+    const d = drift && phase !== 'untested' ? drift[axis - 1] : null;
+    rows.push({ axis, phase, drift: d, frac: d !== null && maxDrift > 0 ? Math.min(1, Math.max(0, d / maxDrift)) : 0 });
+  }
+  return rows;
+}
+
+/** Hours since the last passed test: interval_h − due_in_h (the status counts due_in_h from
+ * the last pass also after a failure); null when either is unknown. */
+export function lastPassAgeH(bt: BrakeTestInput, intervalH: unknown): number | null {
+  if (bt.due_in_h === null || bt.due_in_h === undefined || typeof intervalH !== 'number' || !Number.isFinite(intervalH)) return null;
+  return Math.max(0, intervalH - bt.due_in_h);
+}

@@ -9,11 +9,20 @@
 // monitoring, the TCP speed against the limit in force and why the robot is slow
 // (safety-logic.ts slowWhy), collision detection with the contact force against F_qs, and a
 // COLLISION alarm with its detail.
+// And the Brake test section (SPEC §12): when it is due (overdue in red), the latest result
+// and when it was recorded, the Run button (pendant, AUTO_IDLE/MANUAL_IDLE: safety-logic.ts
+// brakeTestGate), the axes while it runs, and each axis' drift against max_drift_deg.
 import type { Alarm, SafetyInfo, Status } from './api';
 import type { Link, LinkState, Role } from './connection';
 import { clockTime, deg, h, setAttr, setText, toggleClass } from './dom';
 import {
+  brakeTestAxes,
+  brakeTestDue,
+  brakeTestGate,
   contactWords,
+  hoursWords,
+  lastPassAgeH,
+  maxDriftDeg,
   type Highlight,
   reducedWords,
   slowWhy,
@@ -23,6 +32,7 @@ import {
   violationLabel,
   ZONE_STYLE,
 } from './safety-logic';
+import { resultWords } from './words';
 
 const fmt = (v: number, digits = 0) => (Number.isFinite(v) ? v.toFixed(digits) : '—');
 const vec = (v: number[] | undefined) => (v ? `[${v.map((x) => fmt(x, Number.isInteger(x) ? 0 : 1)).join(', ')}]` : '—');
@@ -40,6 +50,7 @@ export class SafetyPage {
   private pendingSeq: number | null = null;
   private lastKey = '';
   private alarmObjects: Alarm[] = [];
+  private brakeSeq: number | null = null;
   private e: Record<string, HTMLElement> = {};
 
   constructor(private readonly link: Link) {
@@ -93,6 +104,7 @@ export class SafetyPage {
       ),
       el('sp-violations', 'div', 'sp-violations', ''),
       this.collabSection(el),
+      this.brakeSection(el),
       h(
         'div',
         { class: 'sp-now' },
@@ -339,6 +351,148 @@ export class SafetyPage {
     }
   }
 
+  private brakeSection(el: (id: string, tag?: keyof HTMLElementTagNameMap, cls?: string, text?: string) => HTMLElement): HTMLElement {
+    const run = h('button', { type: 'button', class: 'btn primary', id: 'bt-run' }, 'Run brake test') as HTMLButtonElement;
+    run.addEventListener('click', () => this.runBrakeTest());
+    this.e['bt-run'] = run;
+    const axes = el('bt-axes', 'ol', 'bt-axes', '');
+    setAttr(axes, 'aria-label', 'Brake test, per axis');
+    for (let a = 1; a <= 6; a++) {
+      axes.append(
+        (this.e[`bt-axis-${a}`] = h(
+          'li',
+          { class: 'bt-axis', id: `bt-axis-${a}`, 'data-phase': 'untested' },
+          h('span', { class: 'bt-axis-name' }, `A${a}`),
+          h('div', { class: 'cb-bar bt-bar' }, el(`bt-axis-${a}-bar`, 'div', 'cb-bar-fill', '')),
+          el(`bt-axis-${a}-word`, 'span', 'bt-axis-word', '—'),
+        )),
+      );
+    }
+    return (this.e['sp-brake'] = h(
+      'section',
+      { class: 'sp-brake', id: 'sp-brake', 'aria-label': 'Brake test' },
+      h('h3', {}, 'Brake test (SPEC §12)', el('bt-config', 'span', 'cb-enabled', '')),
+      h(
+        'div',
+        { class: 'bt-grid' },
+        h(
+          'div',
+          { class: 'sp-card' },
+          h('div', { class: 'sp-label' }, 'Next test'),
+          el('bt-due', 'div', 'sp-big', '—'),
+          el('bt-due-detail', 'div', 'sp-small', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card' },
+          h('div', { class: 'sp-label' }, 'Latest result'),
+          el('bt-last', 'div', 'sp-big', '—'),
+          el('bt-last-when', 'div', 'sp-small', ''),
+          h('div', { class: 'bt-run-line' }, run, el('bt-run-why', 'div', 'sp-why', '')),
+          el('bt-reply', 'div', 'bt-reply', ''),
+        ),
+        h(
+          'div',
+          { class: 'sp-card bt-axes-card' },
+          el('bt-axes-label', 'div', 'sp-label', 'Drift per axis'),
+          (this.e['bt-progress'] = h('div', { class: 'cb-bar bt-progress', id: 'bt-progress' }, el('bt-progress-bar', 'div', 'cb-bar-fill', ''))),
+          axes,
+        ),
+      ),
+    ));
+  }
+
+  private renderBrake(): void {
+    const s = this.status;
+    const bt = s?.safety?.brake_test;
+    const cfg = this.info?.config.brake_test as { interval_h?: number; grace_h?: number } | undefined;
+    const maxDrift = maxDriftDeg(cfg);
+    setText(
+      this.e['bt-config'],
+      this.info
+        ? cfg
+          ? ` · every ${cfg.interval_h ?? 8} h, grace ${cfg.grace_h ?? 1} h, max drift ${maxDrift}°`
+          : ` · not required by this configuration, max drift ${maxDrift}°`
+        : '',
+    );
+    const due = bt ? brakeTestDue(bt) : null;
+    setText(this.e['bt-due'], due ? due.text : '—');
+    setText(this.e['bt-due-detail'], due ? due.detail : 'The controller does not report the brake test.');
+    setAttr(this.e['bt-due'], 'data-tone', due ? due.tone : null);
+    const red = !!due && (due.tone === 'overdue' || due.tone === 'failed' || due.tone === 'never');
+    toggleClass(this.e['bt-due'], 'bad', red);
+    setAttr(this.e['bt-due'], 'role', red ? 'alert' : null);
+    // The latest result, and when the log recorded it.
+    const last = bt?.last ?? 'none';
+    setText(this.e['bt-last'], !bt ? '—' : last === 'passed' ? 'Passed' : last === 'failed' ? `FAILED${bt.last_axis != null ? `: axis ${bt.last_axis}` : ''}` : 'Never tested');
+    setAttr(this.e['bt-last'], 'data-result', bt ? last : null);
+    toggleClass(this.e['bt-last'], 'bad', last === 'failed');
+    const at = bt?.last_time ? new Date(bt.last_time) : null;
+    let when = '';
+    if (at && !Number.isNaN(at.getTime())) {
+      const day = `${at.getFullYear()}-${String(at.getMonth() + 1).padStart(2, '0')}-${String(at.getDate()).padStart(2, '0')}`;
+      when = `${last === 'failed' ? 'Failed' : 'Passed'} on ${day} at ${clockTime(at)}.`;
+    } else if (bt && last !== 'none') {
+      when = 'Time not reported.';
+    }
+    const passAge = last === 'failed' && bt ? lastPassAgeH(bt, cfg?.interval_h) : null;
+    if (passAge !== null) when += ` The last pass was ${hoursWords(passAge)} ago.`;
+    setText(this.e['bt-last-when'], when);
+    // The button: pendant, servos on, idle.
+    const gate = brakeTestGate({
+      connected: this.linkState === 'open',
+      role: this.role,
+      state: s?.state ?? null,
+      sub: s?.sub ?? null,
+      mode: s?.mode ?? null,
+      owner: s?.owner ?? null,
+      running: !!bt?.running || s?.sub === 'BRAKE_TEST',
+    });
+    const run = this.e['bt-run'] as HTMLButtonElement;
+    run.disabled = !gate.enabled || this.brakeSeq !== null || !bt;
+    setText(
+      this.e['bt-run-why'],
+      gate.enabled ? 'At standstill: each brake in turn holds the test torque.' : `Disabled: ${gate.reasons.join(' ')}`,
+    );
+    setAttr(this.e['bt-run-why'], 'data-enabled', gate.enabled ? 'yes' : 'no');
+    // Progress while running, else each axis' drift of the latest result.
+    const running = !!bt?.running;
+    setAttr(this.e['sp-brake'], 'data-running', running ? 'yes' : 'no');
+    setText(
+      this.e['bt-axes-label'],
+      running ? `Testing axis ${bt?.axis ?? '?'} · ${bt?.progress ?? 0} %` : `Drift per axis (latest result, limit ${maxDrift}°)`,
+    );
+    this.e['bt-progress'].hidden = !running;
+    this.e['bt-progress-bar'].style.width = `${running ? Math.min(100, Math.max(0, bt?.progress ?? 0)) : 0}%`;
+    const rows = bt ? brakeTestAxes(bt, maxDrift) : [];
+    const words: Record<string, string> = { done: 'done', testing: 'testing…', pending: 'pending', untested: 'not tested' };
+    for (const r of rows) {
+      setAttr(this.e[`bt-axis-${r.axis}`], 'data-phase', r.phase);
+      setAttr(this.e[`bt-axis-${r.axis}`], 'aria-current', r.phase === 'testing' ? 'step' : null);
+      const bar = this.e[`bt-axis-${r.axis}-bar`];
+      bar.style.width = `${(running ? (r.phase === 'done' ? 1 : 0) : r.frac) * 100}%`;
+      toggleClass(bar, 'over', r.phase === 'slipped');
+      setText(
+        this.e[`bt-axis-${r.axis}-word`],
+        r.drift !== null ? `${r.drift.toFixed(3)}°${r.phase === 'slipped' ? ' SLIPPED' : ''}` : words[r.phase] ?? r.phase,
+      );
+    }
+  }
+
+  private runBrakeTest(): void {
+    if (this.brakeSeq !== null) return;
+    const reply = this.e['bt-reply'];
+    setText(reply, 'Sending…');
+    setAttr(reply, 'data-result', 'pending');
+    this.brakeSeq = this.link.command('brake_test', {}, 'all', (o) => {
+      this.brakeSeq = null;
+      setText(reply, o.result === 'OK' ? 'Reply OK: the test started.' : `${o.result}: ${resultWords(o.result, 'brake_test', this.status)}`);
+      setAttr(reply, 'data-result', o.result);
+      this.renderBrake();
+    });
+    this.renderBrake();
+  }
+
   setHighlight(hl: Highlight): void {
     this.hl = hl;
     this.render();
@@ -435,6 +589,7 @@ export class SafetyPage {
       });
     }
     this.renderCollab();
+    this.renderBrake();
     this.renderDialog();
   }
 

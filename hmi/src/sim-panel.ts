@@ -251,6 +251,8 @@ export class SimPanel {
             fault('Runaway', 'sim-drive-runaway', () => `drive ${n()} runaway`, 'warn'),
             fault('No stop', 'sim-drive-nostop', () => `drive ${n()} nostop`, 'warn'),
             fault('Brake stuck', 'sim-brake-stuck', () => `brake ${n()} stuck`, 'warn'),
+            // SPEC §12: holds less than the brake test's torque, so the test fails on it.
+            fault('Brake weak', 'sim-brake-weak', () => `brake ${n()} weak`, 'warn'),
             fault('Fieldbus lost', 'sim-fieldbus-lost', () => 'fieldbus lost', 'warn'),
             fault('Contactor stuck', 'sim-contactor-stuck', () => 'contactor stuck_open', 'warn'),
             fault('Clear all', 'sim-clear-all', () => 'clear all'),

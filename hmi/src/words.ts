@@ -75,6 +75,7 @@ export const SUB_WORDS: Record<string, string> = {
   MANUAL_IDLE: 'ready to jog',
   MANUAL_JOGGING: 'jogging',
   MANUAL_RUNNING: 'program test running',
+  BRAKE_TEST: 'brake test running',
 };
 
 export const MODE_WORDS: Record<Mode, string> = {

@@ -128,6 +128,7 @@ after(async () => {
     const done = await Promise.race([collabCell.exit, sleep(10000).then(() => null)]);
     if (!done) collabCell.proc.kill('SIGKILL');
   }
+  await stopCell(brakeCell);
   await safetyCell.ctx?.close().catch(() => {});
   if (safetyCell.proc && safetyCell.proc.exitCode === null) {
     safetyCell.proc.kill('SIGINT');
@@ -799,4 +800,152 @@ test('collaborative: safestate run stops on SIGINT with exit 0', async () => {
   collabCell.proc.kill('SIGINT');
   const r = await Promise.race([collabCell.exit, sleep(15000).then(() => ({ code: 'timeout' }))]);
   assert.equal(r.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(collabCell.logPath, 'utf8').slice(-2000)}`);
+});
+
+// ------------------------------------------------------------------ brake test (SPEC §12, issue 21 item 3)
+// A cell of its own with tests/scenarios/configs/brake-test.json (a test every 8 h, 1 h grace,
+// max drift 0.5°) and a fresh event log: never tested. The Safety page's Brake test section,
+// its Run button as the pendant in T1, the axes while it runs, and a weak brake on axis 3
+// from the simulated cell's panel.
+const BRAKE_FILE = path.join(ROOT, 'tests', 'scenarios', 'configs', 'brake-test.json');
+const brakeCell = {};
+
+/** `safestate run --safety FILE` on a free port with its own log, and a headless page on it as the pendant. */
+async function startCell(c, name, safetyFile) {
+  const port = await freePort();
+  const logPath = path.join(tmp, `run-${name}.log`);
+  const log = fs.openSync(logPath, 'w');
+  const proc = spawn(BIN, ['run', '--port', String(port), '--db', path.join(tmp, `events-${name}.db`), '--static', DIST, '--no-opcua',
+    '--safety', safetyFile, ...RUN_ARGS], { cwd: ROOT, stdio: ['ignore', log, log] });
+  Object.assign(c, { proc, port, logPath, errors: [], exit: new Promise((r) => proc.on('exit', (code, signal) => r({ code, signal }))) });
+  await until('GET /api/status after BOOT', async () => {
+    if (proc.exitCode !== null) throw new Error(`safestate run --safety exited: ${fs.readFileSync(logPath, 'utf8')}`);
+    return (await getJson(port, '/api/status')).state !== 'BOOT';
+  }, 20000);
+  c.ctx = await chromium.launchPersistentContext(fs.mkdtempSync(path.join(tmp, `chromium-${name}-`)), {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 900 },
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+  });
+  c.page = c.ctx.pages()[0] ?? (await c.ctx.newPage());
+  c.page.on('pageerror', (e) => c.errors.push(e.message));
+  await c.page.goto(`http://127.0.0.1:${port}/`);
+  await until('connected as pendant', () => c.page.evaluate(() => window.safestateHmi?.link?.role === 'pendant'));
+}
+
+/** Closes the page and stops the cell (SIGINT, then SIGKILL after 10 s); the exit. */
+async function stopCell(c) {
+  await c.ctx?.close().catch(() => {});
+  c.ctx = null;
+  if (!c.proc || c.proc.exitCode !== null) return c.exit;
+  c.proc.kill('SIGINT');
+  const done = await Promise.race([c.exit, sleep(10000).then(() => null)]);
+  if (!done) c.proc.kill('SIGKILL');
+  return done;
+}
+
+const bp = (fn, arg) => brakeCell.page.evaluate(fn, arg);
+const bpStatus = () => bp(() => window.safestateHmi.status);
+const bpShot = (name) => brakeCell.page.screenshot({ path: path.join(ARTIFACTS, `${name}.png`), fullPage: true });
+const brakeSection = () => bp(() => {
+  const t = (id) => document.getElementById(id)?.textContent ?? null;
+  const due = document.getElementById('bt-due');
+  return {
+    due: t('bt-due'), dueTone: due?.dataset.tone, dueRed: !!due?.classList.contains('bad'), dueRole: due?.getAttribute('role'),
+    dueDetail: t('bt-due-detail'), last: t('bt-last'), when: t('bt-last-when'), reply: t('bt-reply'), label: t('bt-axes-label'),
+    run: !document.getElementById('bt-run')?.disabled, why: t('bt-run-why'), running: document.getElementById('sp-brake')?.dataset.running,
+    axes: [1, 2, 3, 4, 5, 6].map((a) => ({ phase: document.getElementById(`bt-axis-${a}`)?.dataset.phase, word: t(`bt-axis-${a}-word`),
+      current: document.getElementById(`bt-axis-${a}`)?.getAttribute('aria-current') })),
+  };
+});
+const bpUntil = (what, pred, ms = 8000) => until(what, async () => {
+  const b = await brakeSection();
+  const s = await bpStatus();
+  return pred(b, s) ? { b, s } : false;
+}, ms).catch(async (e) => {
+  throw new Error(`${e.message}; section ${JSON.stringify(await brakeSection())}; status ${JSON.stringify((await bpStatus())?.safety)}`);
+});
+const BRAKE_TEST_MS = 15000; // about 6.8 s of cycles
+
+test('brake test: never tested, in red; the Run button disabled outside AUTO_IDLE/MANUAL_IDLE, saying why', async () => {
+  await startCell(brakeCell, 'brake', BRAKE_FILE);
+  await brakeCell.page.click('#tab-safety');
+  const { b } = await bpUntil('never tested', (x) => x.due === 'Never tested');
+  assert.equal(b.dueTone, 'never');
+  assert.ok(b.dueRed, 'never tested with a test required: red');
+  assert.equal(b.dueRole, 'alert');
+  assert.match(b.dueDetail, /AUTO is refused/);
+  assert.equal(b.last, 'Never tested');
+  assert.equal(b.run, false);
+  assert.match(b.why, /Disabled: .*servos on.*now ESTOP_RESET_NEEDED/);
+  assert.ok(b.axes.every((a) => a.phase === 'untested' && a.word === 'not tested'), JSON.stringify(b.axes));
+});
+
+test('brake test: as the pendant in T1 the button runs it: each axis in turn, then passed with every axis\' drift', async () => {
+  const page = brakeCell.page;
+  await page.click('#cmd-reset');
+  await page.click('#tab-operate');
+  await page.click('#sim-mode-t1');
+  await until('T1 IDLE', async () => { const s = await bpStatus(); return s.state === 'IDLE' && s.mode === 'T1'; });
+  await page.click('#sim-enable-centre');
+  await sleep(150);
+  await page.click('#cmd-servo-on');
+  await until('MANUAL_IDLE', async () => (await bpStatus()).sub === 'MANUAL_IDLE', 10000);
+  await page.click('#tab-safety');
+  await bpUntil('the button enabled', (x) => x.run);
+  await page.click('#bt-run');
+  // Axis 2 under test: axis 1 done, 3..6 pending, the overall progress shown.
+  const mid = await bpUntil('axis 2 under test', (x, s) => s.sub === 'BRAKE_TEST' && x.axes[1].phase === 'testing', BRAKE_TEST_MS);
+  assert.deepEqual(mid.b.axes.map((a) => a.phase), ['done', 'testing', 'pending', 'pending', 'pending', 'pending']);
+  assert.equal(mid.b.axes[1].current, 'step');
+  assert.match(mid.b.label, /^Testing axis 2 · \d+ %$/);
+  assert.equal(mid.b.run, false, 'not while it runs');
+  assert.match(mid.b.reply, /^Reply OK/);
+  await bpShot('30-brake-test-running');
+  const { b, s } = await bpUntil('passed', (x, st) => x.last === 'Passed' && st.sub === 'MANUAL_IDLE' && x.axes.every((a) => a.phase === 'held'), BRAKE_TEST_MS);
+  assert.equal(b.due, 'Due in 8.0 h');
+  assert.equal(b.dueTone, 'ok');
+  assert.equal(b.dueRed, false);
+  assert.match(b.when, /^Passed on \d{4}-\d\d-\d\d at \d\d:\d\d:\d\d\.$/);
+  // Each axis' drift as the status carries it (the latest brake_test event), within 0.5°.
+  assert.deepEqual(b.axes.map((a) => a.word), s.safety.brake_test.drift_deg.map((d) => `${d.toFixed(3)}°`));
+  assert.ok(s.safety.brake_test.drift_deg.every((d) => d <= 0.5), JSON.stringify(s.safety.brake_test));
+  assert.match(b.label, /limit 0.5°/);
+  assert.equal(b.run, true, 'again possible');
+  await bpShot('31-brake-test-passed');
+});
+
+test('brake test: a weak brake on axis 3 from the panel: failed naming axis 3, in red; cleared and reset', async () => {
+  const page = brakeCell.page;
+  await page.click('#tab-operate');
+  await page.selectOption('#sim-axis', '3');
+  await page.click('#sim-brake-weak');
+  await page.click('#tab-safety');
+  await page.click('#bt-run');
+  const { b, s } = await bpUntil('failed on axis 3', (x, st) => x.last === 'FAILED: axis 3' && st.state === 'IDLE', BRAKE_TEST_MS);
+  assert.ok(s.alarms.includes('BRAKE_TEST_FAILED'), s.alarms.join());
+  assert.equal(b.due, 'Failed: axis 3');
+  assert.ok(b.dueRed);
+  assert.match(b.dueDetail, /AUTO is refused/);
+  assert.match(b.when, /^Failed on .* The last pass was \d+ min ago\.$/, 'the pass of the test before, minutes ago');
+  assert.deepEqual(b.axes.map((a) => a.phase), ['held', 'held', 'slipped', 'untested', 'untested', 'untested']);
+  assert.match(b.axes[2].word, /^\d+\.\d{3}° SLIPPED$/);
+  assert.ok(Number.parseFloat(b.axes[2].word) > 0.5, b.axes[2].word);
+  assert.equal(b.run, false);
+  assert.match(b.why, /now IDLE/);
+  await bpShot('32-brake-test-failed');
+  await page.click('#tab-operate');
+  await page.click('#sim-clear-all');
+  await sleep(150);
+  await page.click('#cmd-reset');
+  await until('BRAKE_TEST_FAILED reset', async () => { const st = await bpStatus(); return st.state === 'IDLE' && !st.alarms.includes('BRAKE_TEST_FAILED'); });
+  // The latest result stays the failure until a test passes.
+  assert.equal((await brakeSection()).last, 'FAILED: axis 3');
+  assert.deepEqual(brakeCell.errors, [], 'no script errors on the page');
+});
+
+test('brake test: safestate run stops on SIGINT with exit 0', async () => {
+  const r = await Promise.race([stopCell(brakeCell), sleep(15000).then(() => ({ code: 'timeout' }))]);
+  assert.equal(r?.code, 0, `exit ${JSON.stringify(r)}: ${fs.readFileSync(brakeCell.logPath, 'utf8').slice(-2000)}`);
 });

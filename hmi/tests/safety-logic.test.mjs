@@ -195,3 +195,92 @@ test('contact force: off, the force alone, and against F_qs', () => {
   assert.equal(L.contactWords(sfOf({ pfl: true, contact_force: 3, contact_force_limit: 140 })), '3.0 N of 140 N (F_qs, COLLISION above)');
   assert.equal(L.contactWords(sfOf({ pfl: false, contact_force: 3, contact_force_limit: 140 })), 'Collision detection off');
 });
+
+// ------------------------------------------------------------------ brake test (SPEC §12)
+const bt = (over) => ({ due_in_h: 5.25, last: 'passed', running: false, axis: null, progress: null, due: false, required: false, ...over });
+
+test('brake test due: in hours or minutes, overdue, failed naming the axis, never tested', () => {
+  assert.deepEqual([L.brakeTestDue(bt({})).tone, L.brakeTestDue(bt({})).text], ['ok', 'Due in 5.3 h']);
+  assert.equal(L.brakeTestDue(bt({ due_in_h: 0.5 })).text, 'Due in 30 min');
+  const over = L.brakeTestDue(bt({ due_in_h: -1.5, due: true }));
+  assert.deepEqual([over.tone, over.text], ['overdue', 'Overdue by 1.5 h']);
+  assert.match(over.detail, /grace/);
+  const gone = L.brakeTestDue(bt({ due_in_h: -2, due: true, required: true }));
+  assert.match(gone.detail, /AUTO is refused/);
+  const failed = L.brakeTestDue(bt({ last: 'failed', last_axis: 3, due_in_h: 7, required: true }));
+  assert.deepEqual([failed.tone, failed.text], ['failed', 'Failed: axis 3']);
+  const never = L.brakeTestDue(bt({ last: 'none', due_in_h: null, due: true, required: true }));
+  assert.deepEqual([never.tone, never.text], ['never', 'Never tested']);
+  assert.match(never.detail, /AUTO is refused/);
+  assert.equal(L.brakeTestDue(bt({ last: 'none', due_in_h: null })).tone, 'not-required');
+  assert.equal(L.brakeTestDue(bt({ last: 'passed', due_in_h: null })).tone, 'not-required');
+  // Protocol.md's two fields alone (a gateway that predates the others).
+  assert.equal(L.brakeTestDue({ due_in_h: -0.25, last: 'passed' }).text, 'Overdue by 15 min');
+});
+
+test('brake test: max_drift_deg from the configuration, else the SPEC default', () => {
+  assert.equal(L.maxDriftDeg({ max_drift_deg: 0.2 }), 0.2);
+  for (const c of [undefined, null, {}, { max_drift_deg: 'x' }, { max_drift_deg: -1 }, { max_drift_deg: 0 }]) {
+    assert.equal(L.maxDriftDeg(c), 0.5, JSON.stringify(c));
+  }
+});
+
+const btGate = (over) =>
+  L.brakeTestGate({ connected: true, role: 'pendant', state: 'OPERATIONAL', sub: 'MANUAL_IDLE', mode: 'T1', owner: 'pendant', running: false, ...over });
+
+test('brake test button: the pendant with control, AUTO_IDLE or MANUAL_IDLE, a valid mode', () => {
+  assert.deepEqual(btGate({}), { enabled: true, reasons: [] });
+  assert.equal(btGate({ sub: 'AUTO_IDLE', mode: 'AUTO' }).enabled, true);
+  for (const over of [
+    { role: 'observer' },
+    { role: null },
+    { owner: 'remote' },
+    { owner: null },
+    { mode: 'NONE' },
+    { state: 'IDLE', sub: null },
+    { sub: 'MANUAL_JOGGING' },
+    { sub: 'AUTO_RUNNING' },
+    { sub: 'BRAKE_TEST', running: true },
+    { state: 'STOPPING', sub: null },
+    { connected: false },
+  ]) {
+    const g = btGate(over);
+    assert.equal(g.enabled, false, JSON.stringify(over));
+    assert.ok(g.reasons.length >= 1, JSON.stringify(over));
+  }
+  assert.match(btGate({ owner: 'remote' }).reasons.join(' '), /remote has/);
+  assert.match(btGate({ state: 'IDLE', sub: null }).reasons.join(' '), /now IDLE/);
+  assert.equal(btGate({ role: 'observer', state: 'IDLE', sub: null, mode: 'NONE' }).reasons.length, 3);
+});
+
+test('brake test axes: progress while running, the current axis testing', () => {
+  const rows = L.brakeTestAxes(bt({ running: true, axis: 3, progress: 45, drift_deg: [0, 0, 0, 0, 0, 0] }), 0.5);
+  assert.deepEqual(
+    rows.map((r) => r.phase),
+    ['done', 'done', 'testing', 'pending', 'pending', 'pending'],
+  );
+  assert.ok(rows.every((r) => r.drift === null));
+});
+
+test('brake test axes: the drift of a pass against max_drift_deg; a failure stops at its axis', () => {
+  const pass = L.brakeTestAxes(bt({ drift_deg: [0.01, 0.1, 0.25, 0, 0.5, 0.75] }), 0.5);
+  assert.deepEqual(pass.map((r) => r.phase), Array(6).fill('held'));
+  assert.deepEqual(pass.map((r) => r.drift), [0.01, 0.1, 0.25, 0, 0.5, 0.75]);
+  assert.deepEqual(pass.map((r) => r.frac), [0.02, 0.2, 0.5, 0, 1, 1]);
+  const fail = L.brakeTestAxes(bt({ last: 'failed', last_axis: 3, drift_deg: [0.01, 0.02, 1.2, 0, 0, 0] }), 0.5);
+  assert.deepEqual(fail.map((r) => r.phase), ['held', 'held', 'slipped', 'untested', 'untested', 'untested']);
+  assert.deepEqual(fail.map((r) => r.drift), [0.01, 0.02, 1.2, null, null, null]);
+  assert.deepEqual(
+    L.brakeTestAxes(bt({ last: 'none', drift_deg: null }), 0.5).map((r) => r.phase),
+    Array(6).fill('untested'),
+  );
+  // A malformed drift list is not shown as a result.
+  assert.ok(L.brakeTestAxes(bt({ drift_deg: [1, 2] }), 0.5).every((r) => r.phase === 'untested' && r.drift === null));
+});
+
+test('brake test: the age of the last pass from interval_h and due_in_h, also after a failure', () => {
+  assert.equal(L.lastPassAgeH(bt({ due_in_h: 5.5 }), 8), 2.5);
+  assert.equal(L.lastPassAgeH(bt({ last: 'failed', due_in_h: -1 }), 8), 9);
+  assert.equal(L.lastPassAgeH(bt({ due_in_h: null }), 8), null);
+  assert.equal(L.lastPassAgeH(bt({}), undefined), null, 'no brake_test key: no interval');
+});

@@ -6,7 +6,10 @@ outside, against a real `safestate run` on loopback (the SafeState helper of tes
 
 Run:  SAFESTATE_BIN=build/bin/safestate python -m pytest tests/integration/test_brake_test_run.py
 """
+import json
+import sqlite3
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -33,7 +36,10 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
     s = start(tmp_path, CFG, db)
     try:
         st = get_json(s.port, "/api/status")
-        assert st["safety"]["brake_test"] == {"due_in_h": None, "last": "none"}, st["safety"]
+        assert st["safety"]["brake_test"] == {
+            "due_in_h": None, "last": "none", "running": False, "axis": None, "progress": None,
+            "due": True, "required": True, "last_time": None, "last_axis": None, "drift_deg": None,
+        }, st["safety"]
         assert "BRAKE_TEST_DUE" in st["alarms"], "never tested, and the configuration asks for it"
 
         async def main():
@@ -47,11 +53,22 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
             mark = p.mark()
             assert await p.command("brake_test") == "OK"
             await p.state("OPERATIONAL", "BRAKE_TEST")
+            # While it runs: the axis under test and the percentage of the whole test.
+            m = await p.status(lambda m: m["safety"]["brake_test"]["running"]
+                               and m["safety"]["brake_test"]["axis"] == 2, what="testing axis 2")
+            assert 4 * 100 // 24 <= m["safety"]["brake_test"]["progress"] < 8 * 100 // 24, m["safety"]["brake_test"]
             ev = await p.event(lambda m: m["kind"] == "brake_test", since=mark, timeout=TEST_S, what="brake_test")
             assert ev["data"]["result"] == "passed" and ev["data"]["axis"] is None, ev
             assert len(ev["data"]["drift_deg"]) == 6 and max(ev["data"]["drift_deg"]) <= 0.5, ev
             m = await p.status(lambda m: m["safety"]["brake_test"]["last"] == "passed", what="last passed")
-            assert 7.99 <= m["safety"]["brake_test"]["due_in_h"] <= 8.0, m["safety"]["brake_test"]
+            bt = m["safety"]["brake_test"]
+            assert 7.99 <= bt["due_in_h"] <= 8.0, bt
+            assert not bt["running"] and bt["axis"] is None and bt["progress"] is None, bt
+            assert not bt["due"] and not bt["required"], bt
+            m = await p.status(lambda m: m["safety"]["brake_test"]["last_time"] is not None, what="the result on record")
+            bt = m["safety"]["brake_test"]
+            assert bt["last_time"] == ev["time"] and bt["last_axis"] is None, bt
+            assert bt["drift_deg"] == ev["data"]["drift_deg"], bt
             assert "BRAKE_TEST_DUE" not in m["alarms"]
             assert m["sub"] == "MANUAL_IDLE"
             await p.close()
@@ -68,9 +85,26 @@ def test_a_pass_is_kept_across_a_restart(tmp_path):
         bt = st["safety"]["brake_test"]
         # Aged by the seconds between the pass and now (due_in_h is shown to 1/1000 h).
         assert bt["last"] == "passed" and 7.9 <= bt["due_in_h"] <= 8.0, bt
+        assert bt["last_time"] is not None and len(bt["drift_deg"]) == 6, "found again in the log"
+        assert bt["drift_deg"] == logged(s.port, "brake_test")[0]["data"]["drift_deg"], bt
         assert "BRAKE_TEST_DUE" not in st["alarms"]
 
         run(arm_in_auto(s))
+    finally:
+        stop(s)
+
+    # A brake_test event whose drift list is malformed (written behind the gateway's back): the
+    # core still counts the pass (run.cpp reads the result only), the status shows no record.
+    now = datetime.now(timezone.utc)
+    with sqlite3.connect(db) as con:
+        con.execute("INSERT INTO events(t, time, kind, data) VALUES(?, ?, ?, ?)",
+                    (1, now.strftime("%Y-%m-%dT%H:%M:%S.") + f"{now.microsecond // 1000:03d}Z", "brake_test",
+                     json.dumps({"result": "passed", "axis": None, "drift_deg": [0, 0, 0, 0, 0]})))
+    s = start(tmp_path, CFG, db)
+    try:
+        bt = get_json(s.port, "/api/status")["safety"]["brake_test"]
+        assert bt["last"] == "passed" and bt["due_in_h"] > 7.99, bt
+        assert bt["last_time"] is None and bt["last_axis"] is None and bt["drift_deg"] is None, bt
     finally:
         stop(s)
 
@@ -93,6 +127,9 @@ def test_a_failure_blocks_auto_across_a_restart(tmp_path):
             assert al["data"]["subject"] == "axis.3", al
             st = await p.state("IDLE")
             assert st["safety"]["brake_test"]["last"] == "failed", st["safety"]
+            st = await p.status(lambda m: m["safety"]["brake_test"]["last_axis"] == 3, what="failed axis 3 on record")
+            assert st["safety"]["brake_test"]["required"], "a failed test blocks AUTO"
+            assert st["safety"]["brake_test"]["drift_deg"] == ev["data"]["drift_deg"], st["safety"]
             await p.close()
         run(main())
     finally:

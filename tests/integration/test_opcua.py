@@ -20,7 +20,9 @@ from asyncua import Client as UaClient
 from asyncua import ua
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_gateway import ROOT, SafeState, booted, free_port, get_json, run, try_status, wait_until  # noqa: E402
+from test_gateway import (  # noqa: E402
+    ROOT, SafeState, booted, free_port, get_json, run, to_t1_manual_idle, try_status, wait_until,
+)
 
 ROBOTICS = "http://opcfoundation.org/UA/Robotics/"
 DI = "http://opcfoundation.org/UA/DI/"
@@ -539,12 +541,14 @@ def test_safe_limits_show_checksum_validated_and_reduced_mode(opc):
 def test_collaborative_variables_fields_ssm_and_pfl(tmp_path):
     """SPEC §11 beside SafeLimits: the fields, the separation and v_allowed while SSM acts, pfl
     and the contact force with its F_qs, as the status `safety` object says; no data (Good, a
-    Null value) where the status has null."""
+    Null value) where the status has null. SPEC §12 there too: the brake test's running flag
+    while it runs, then its result; due in no data (the built-in configuration requires none)."""
     # The built-in configuration: no collaborative operation.
     tmp_path.joinpath("plain").mkdir()
     opc = OpcCell(tmp_path / "plain")
     try:
         async def plain():
+            p = await booted(opc.cell)
             async with client(opc.url) as c:
                 n = await Nodes.of(c)
 
@@ -554,9 +558,20 @@ def test_collaborative_variables_fields_ssm_and_pfl(tmp_path):
                 await wait_value(await var("field_outer"), lambda dv: dv.Value.Value == "clear", what="outer clear")
                 assert await (await var("field_inner")).read_value() == "clear"
                 assert await (await var("pfl")).read_value() is False
-                for name in ("separation_mm", "v_allowed", "contact_force", "contact_force_limit"):
+                for name in ("separation_mm", "v_allowed", "contact_force", "contact_force_limit", "BrakeTestDueInHours"):
                     dv = await (await var(name)).read_data_value(raise_on_bad_status=False)
                     assert dv.StatusCode.value == ua.StatusCodes.GoodNoData and dv.Value.Value is None, (name, dv)
+                assert await (await var("BrakeTestLastResult")).read_value() == "none"
+                assert await (await var("BrakeTestRunning")).read_value() is False
+                await to_t1_manual_idle(p)
+                assert await p.command("brake_test") == "OK"
+                await wait_value(await var("BrakeTestRunning"), lambda dv: dv.Value.Value is True, what="brake test running")
+                await wait_value(await var("BrakeTestLastResult"), lambda dv: dv.Value.Value == "passed",
+                                 what="brake test passed", timeout=15.0)
+                await wait_value(await var("BrakeTestRunning"), lambda dv: dv.Value.Value is False, what="brake test over")
+                dv = await (await var("BrakeTestDueInHours")).read_data_value(raise_on_bad_status=False)
+                assert dv.StatusCode.value == ua.StatusCodes.GoodNoData, "none required by the built-in configuration"
+            await p.close()
         run(plain())
     finally:
         assert opc.cell.stop() == 0, opc.cell.output()

@@ -146,7 +146,11 @@ def test_api_safety_and_status_shape(tmp_path):
         assert sf["speed_limit"] == a["config"]["tcp_max_speed_mm_s"]
         assert sf["v_allowed"] is None and sf["separation_mm"] is None
         assert sf["fields"] == {"outer": "clear", "inner": "clear"}
-        assert sf["brake_test"] == {"due_in_h": None, "last": "none"}
+        # protocol.md's two fields first, then views.cpp's (no brake_test key: none required).
+        assert sf["brake_test"] == {"due_in_h": None, "last": "none", "running": False, "axis": None, "progress": None,
+                                    "due": False, "required": False, "last_time": None, "last_axis": None,
+                                    "drift_deg": None}, sf["brake_test"]
+        assert list(sf["brake_test"])[:2] == ["due_in_h", "last"]
         assert sf["pfl"] is False and sf["contact_force"] is None, "no collaborative block: no PFL"
         assert sf["contact_force_limit"] is None and sf["pfl_speed_limit"] is None
         assert "CONFIG_NOT_VALIDATED" in st["alarms"]

@@ -40,6 +40,8 @@ export interface SafetyStatus {
   pfl?: boolean;
   contact_force?: number | null;
   contact_force_limit?: number | null;
+  // SPEC §12 (protocol.md's due_in_h and last; running after them, from the gateway).
+  brake_test?: { due_in_h: number | null; last: string; running?: boolean };
 }
 
 export interface AlarmInfo {

@@ -186,7 +186,7 @@ export class Model {
       browseName: "SafeLimits",
       componentOf: safetyState,
       description:
-        "the active safety configuration (SPEC §10): checksum, validated, reduced mode, recovery; collaborative operation (SPEC §11): fields, SSM, PFL",
+        "the active safety configuration (SPEC §10): checksum, validated, reduced mode, recovery; collaborative operation (SPEC §11): fields, SSM, PFL; the brake test (SPEC §12)",
     });
     const add = (name: string, dataType: DataType, description: string, get: Getter, array = false) => {
       const v = this.ns.addVariable({
@@ -246,6 +246,20 @@ export class Model {
     add("contact_force_limit", DataType.Double, "the body region's quasi-static limit F_qs, N: above it is COLLISION (no data while pfl is off)", (st) => [
       DataType.Double,
       orNone(st.safety?.contact_force_limit),
+    ]);
+    // SPEC §12 brake test (status safety.brake_test). The hours are null in the status when no
+    // pass is on record or none is required: no data, as above.
+    add("BrakeTestDueInHours", DataType.Double, "hours until the brake test is due (negative: overdue; no data when no pass is on record or none is required)", (st) => [
+      DataType.Double,
+      orNone(st.safety?.brake_test?.due_in_h),
+    ]);
+    add("BrakeTestLastResult", DataType.String, "the latest brake test on record: none, passed or failed", (st) => [
+      DataType.String,
+      st.safety?.brake_test?.last ?? "",
+    ]);
+    add("BrakeTestRunning", DataType.Boolean, "the brake test runs (sub-state BRAKE_TEST)", (st) => [
+      DataType.Boolean,
+      st.safety?.brake_test?.running ?? false,
     ]);
   }
 

@@ -316,8 +316,9 @@ namespace SafeState.Client
         /// <summary>The PFL speed cap v_pfl, mm/s (while the outer field is interrupted); null without pfl.</summary>
         public double? PflSpeedLimit { get; private set; }
 
-        // Fields of later issues (SPEC §12), not typed yet.
-        private static readonly string[] Extras = { "brake_test" };
+        /// <summary>SPEC §12 (protocol.md `brake_test`): when the brake test is due, the latest
+        /// result, the test in progress; null from a gateway that predates it.</summary>
+        public BrakeTestStatus BrakeTest { get; private set; }
 
         internal static SafetyStatus Read(Fields f)
         {
@@ -355,8 +356,85 @@ namespace SafeState.Client
             if (s.VAllowed < 0) throw f.Bad("v_allowed", "a number >= 0 or null");
             if (s.SeparationMm < 0) throw f.Bad("separation_mm", "a number >= 0 or null");
             if (s.ContactForce < 0) throw f.Bad("contact_force", "a number >= 0 or null");
-            f.Allow(Extras);
+            if (f.Object.Has("brake_test"))
+            {
+                s.BrakeTest = BrakeTestStatus.Read(new Fields(f.Obj("brake_test"), "status.safety.brake_test"));
+            }
             return s;
+        }
+    }
+
+    /// <summary>The status's `safety.brake_test` object (SPEC §12): protocol.md's due_in_h and
+    /// last, then the gateway's running, axis, progress, due, required and the latest result on
+    /// record (last_time, last_axis, drift_deg), each optional (a gateway that predates it leaves
+    /// it out: null, false).</summary>
+    public sealed class BrakeTestStatus
+    {
+        /// <summary>Hours until the test is due, negative when overdue; null when no pass is on
+        /// record or the configuration requires none.</summary>
+        public double? DueInHours { get; private set; }
+        /// <summary>The latest result on record: "none", "passed" or "failed".</summary>
+        public string Last { get; private set; }
+        /// <summary>The test runs (sub-state BRAKE_TEST).</summary>
+        public bool Running { get; private set; }
+        /// <summary>The axis under test, 1..6; null while none runs.</summary>
+        public int? Axis { get; private set; }
+        /// <summary>Percent of the whole test done (4 steps per axis); null while none runs.</summary>
+        public int? Progress { get; private set; }
+        /// <summary>BRAKE_TEST_DUE: the last pass is older than interval_h (or none passed).</summary>
+        public bool Due { get; private set; }
+        /// <summary>servo_on in AUTO is refused (BRAKE_TEST_REQUIRED) until a test passes.</summary>
+        public bool Required { get; private set; }
+        /// <summary>When the latest result was logged (ISO-8601 UTC); null when none is on record.</summary>
+        public string LastTime { get; private set; }
+        /// <summary>The axis that slipped in the latest result; null on a pass or when none.</summary>
+        public int? LastAxis { get; private set; }
+        /// <summary>Every axis' drift in the latest result, degrees (6 values); null when none.</summary>
+        public double[] DriftDeg { get; private set; }
+
+        private static readonly string[] Results = { "none", "passed", "failed" };
+
+        internal static BrakeTestStatus Read(Fields f)
+        {
+            var s = new BrakeTestStatus();
+            s.DueInHours = f.NumOrNull("due_in_h");
+            s.Last = f.Str("last");
+            if (Array.IndexOf(Results, s.Last) < 0) throw f.Bad("last", "\"none\", \"passed\" or \"failed\"");
+            s.Running = f.BoolOrNull("running", true) ?? false;
+            s.Axis = AxisOrNull(f, "axis");
+            long? progress = f.IntOrNull("progress", true);
+            if (progress < 0 || progress > 100) throw f.Bad("progress", "an integer 0..100 or null");
+            s.Progress = (int?)progress;
+            s.Due = f.BoolOrNull("due", true) ?? false;
+            s.Required = f.BoolOrNull("required", true) ?? false;
+            s.LastTime = f.StrOrNull("last_time", true);
+            s.LastAxis = AxisOrNull(f, "last_axis");
+            if (f.List("drift_deg", true) != null)
+            {
+                s.DriftDeg = f.Numbers("drift_deg", 6);
+                foreach (double d in s.DriftDeg)
+                {
+                    if (!(d >= 0)) throw f.Bad("drift_deg", "an array of 6 numbers >= 0 or null");
+                }
+            }
+            return s;
+        }
+
+        private static int? AxisOrNull(Fields f, string key)
+        {
+            long? a = f.IntOrNull(key, true);
+            if (a < 1 || a > 6) throw f.Bad(key, "an axis 1..6 or null");
+            return (int?)a;
+        }
+
+        /// <summary>One line: "due in 5.2 h, last passed" / "running axis 3 (45 %)" / "last failed axis 3".</summary>
+        public string Line()
+        {
+            if (Running) return string.Format(CultureInfo.InvariantCulture, "running axis {0} ({1} %)", Axis, Progress);
+            string due = DueInHours.HasValue
+                ? string.Format(CultureInfo.InvariantCulture, DueInHours.Value < 0 ? "overdue by {0:0.0} h" : "due in {0:0.0} h", Math.Abs(DueInHours.Value))
+                : "not due";
+            return due + ", last " + Last + (LastAxis.HasValue ? " axis " + LastAxis.Value : "");
         }
     }
 

@@ -88,6 +88,12 @@ namespace SafeState.Tests
                 Assert.IsNull(s.Safety.ContactForce);
                 Assert.IsNull(s.Safety.ContactForceLimit);
                 Assert.IsNull(s.Safety.PflSpeedLimit);
+                // SPEC §12: a fresh event log, the built-in configuration: none on record, none required.
+                Assert.IsNotNull(s.Safety.BrakeTest);
+                Assert.AreEqual("none", s.Safety.BrakeTest.Last);
+                Assert.IsNull(s.Safety.BrakeTest.DueInHours);
+                Assert.IsFalse(s.Safety.BrakeTest.Running || s.Safety.BrakeTest.Required);
+                Assert.IsNull(s.Safety.BrakeTest.DriftDeg);
             }
             // A second pendant is refused with the server's code; ConnectAsync says so.
             var second = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });

@@ -267,48 +267,121 @@ namespace SafeState.Tests
                 "\"recovery\":false,\"speed_limit\":250.0,\"v_allowed\":344.8,\"fields\":{\"outer\":\"interrupted\",\"inner\":\"clear\"}," +
                 "\"separation_mm\":800,\"brake_test\":{\"due_in_h\":null,\"last\":\"none\"}," +
                 "\"pfl\":true,\"contact_force\":12.5,\"contact_force_limit\":140.0,\"pfl_speed_limit\":1348.2}}";
+            Recorder rec;
+            List<StatusMessage> got = StatusesWithSafety(new[]
+            {
+                safety,
+                safety.Replace("\"interrupted\"", "\"broken\""),
+                safety.Replace("\"contact_force\":12.5", "\"contact_force\":\"12.5\""),
+                safety.Replace("\"pfl\":true", "\"pfl\":1"),
+                safety.Replace("\"v_allowed\":344.8", "\"v_allowed\":-1"),
+            }, 4, out rec);
+            Assert.AreEqual(1, got.Count, "only the good status is delivered");
+            StatusMessage last = got[0];
+            SafetyStatus sf = last.Safety;
+            Assert.AreEqual(344.8, sf.VAllowed);
+            Assert.AreEqual(800.0, sf.SeparationMm);
+            Assert.AreEqual(true, sf.OuterFieldInterrupted);
+            Assert.AreEqual(false, sf.InnerFieldInterrupted);
+            Assert.IsTrue(sf.Pfl);
+            Assert.AreEqual(12.5, sf.ContactForce);
+            Assert.AreEqual(140.0, sf.ContactForceLimit);
+            Assert.AreEqual(1348.2, sf.PflSpeedLimit);
+            Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "every field of the safety object is known");
+            var bad = rec.ErrorsOf(ClientErrorKind.BadMessage);
+            StringAssert.Contains("status.safety.fields: \"outer\" must be \"clear\" or \"interrupted\"", bad[0].Message);
+            StringAssert.Contains("\"contact_force\" must be a number or null", bad[1].Message);
+            StringAssert.Contains("\"pfl\" must be true, false or null", bad[2].Message);
+            StringAssert.Contains("\"v_allowed\" must be a number >= 0 or null", bad[3].Message);
+        }
+
+        /// <summary>One status per `safety` object (the text after ValidStatus' last field) from a
+        /// stub gateway; waits until `refused` of them were refused as bad messages, and returns
+        /// the others as delivered, in order.</summary>
+        private static List<StatusMessage> StatusesWithSafety(string[] safeties, int refused, out Recorder rec)
+        {
             using (var stub = new StubServer())
             {
                 var client = new SafeStateClient(new ClientOptions { UseSynchronizationContext = false });
-                var rec = new Recorder(client);
+                var r = new Recorder(client);
                 var got = new List<StatusMessage>();
                 client.Status += (s, e) => { lock (got) got.Add(e); };
                 string head = ValidStatus.Substring(0, ValidStatus.Length - 1);
                 Task server = Task.Run(async () =>
                 {
                     await Welcome(stub);
-                    await stub.SendText(head + safety);
-                    await stub.SendText(head + safety.Replace("\"interrupted\"", "\"broken\""));
-                    await stub.SendText(head + safety.Replace("\"contact_force\":12.5", "\"contact_force\":\"12.5\""));
-                    await stub.SendText(head + safety.Replace("\"pfl\":true", "\"pfl\":1"));
-                    await stub.SendText(head + safety.Replace("\"v_allowed\":344.8", "\"v_allowed\":-1"));
+                    foreach (string sf in safeties) await stub.SendText(head + sf);
                 });
                 Wait.Done(client.ConnectAsync(stub.Ws, Role.pendant), 10, "connect");
                 Wait.Done(server, 10, "the stub");
-                Wait.Until(() => rec.ErrorsOf(ClientErrorKind.BadMessage).Count == 4, 10, "the four bad ones refused");
-                StatusMessage last;
-                lock (got)
-                {
-                    Assert.AreEqual(1, got.Count, "only the good status is delivered");
-                    last = got[0];
-                }
-                SafetyStatus sf = last.Safety;
-                Assert.AreEqual(344.8, sf.VAllowed);
-                Assert.AreEqual(800.0, sf.SeparationMm);
-                Assert.AreEqual(true, sf.OuterFieldInterrupted);
-                Assert.AreEqual(false, sf.InnerFieldInterrupted);
-                Assert.IsTrue(sf.Pfl);
-                Assert.AreEqual(12.5, sf.ContactForce);
-                Assert.AreEqual(140.0, sf.ContactForceLimit);
-                Assert.AreEqual(1348.2, sf.PflSpeedLimit);
-                Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "every field of the safety object is known");
-                var bad = rec.ErrorsOf(ClientErrorKind.BadMessage);
-                StringAssert.Contains("status.safety.fields: \"outer\" must be \"clear\" or \"interrupted\"", bad[0].Message);
-                StringAssert.Contains("\"contact_force\" must be a number or null", bad[1].Message);
-                StringAssert.Contains("\"pfl\" must be true, false or null", bad[2].Message);
-                StringAssert.Contains("\"v_allowed\" must be a number >= 0 or null", bad[3].Message);
+                Wait.Until(() => r.ErrorsOf(ClientErrorKind.BadMessage).Count == refused, 10, refused + " refused");
                 client.Dispose();
+                rec = r;
+                lock (got) return new List<StatusMessage>(got);
             }
+        }
+
+        [Test]
+        public void BrakeTestStatusIsTyped()
+        {
+            // SPEC §12: safety.brake_test, protocol.md's due_in_h and last and the gateway's
+            // additions (views.cpp), typed; a wrong word, axis, progress or drift list refuses the
+            // message; protocol.md's two fields alone read with the others at their defaults.
+            const string head =
+                ",\"safety\":{\"checksum\":\"3AD9012B\",\"validated\":true,\"reduced\":false,\"reduced_by\":[]," +
+                "\"recovery\":false,\"speed_limit\":1500.0,\"v_allowed\":null,\"brake_test\":";
+            const string failed =
+                "{\"due_in_h\":-1.25,\"last\":\"failed\",\"running\":false,\"axis\":null,\"progress\":null,\"due\":true," +
+                "\"required\":true,\"last_time\":\"2026-11-27T06:30:00.000Z\",\"last_axis\":3,\"drift_deg\":[0.01,0.02,1.2,0,0,0]}";
+            const string running =
+                "{\"due_in_h\":null,\"last\":\"none\",\"running\":true,\"axis\":2,\"progress\":25,\"due\":false," +
+                "\"required\":false,\"last_time\":null,\"last_axis\":null,\"drift_deg\":null}";
+            Recorder rec;
+            List<StatusMessage> got = StatusesWithSafety(new[]
+            {
+                head + failed + "}}",
+                head + running + "}}",
+                head + "{\"due_in_h\":5.2,\"last\":\"passed\"}}}",
+                head + failed.Replace("\"failed\"", "\"maybe\"") + "}}",
+                head + running.Replace("\"axis\":2", "\"axis\":7") + "}}",
+                head + running.Replace("\"progress\":25", "\"progress\":101") + "}}",
+                head + failed.Replace("1.2,0,0,0]", "1.2,0,0]") + "}}",
+                head + failed.Replace("[0.01,", "[-0.01,") + "}}",
+            }, 5, out rec);
+            Assert.AreEqual(3, got.Count, "only the good ones are delivered");
+            BrakeTestStatus f = got[0].Safety.BrakeTest;
+            Assert.AreEqual(-1.25, f.DueInHours);
+            Assert.AreEqual("failed", f.Last);
+            Assert.IsFalse(f.Running);
+            Assert.IsNull(f.Axis);
+            Assert.IsNull(f.Progress);
+            Assert.IsTrue(f.Due);
+            Assert.IsTrue(f.Required);
+            Assert.AreEqual("2026-11-27T06:30:00.000Z", f.LastTime);
+            Assert.AreEqual(3, f.LastAxis);
+            CollectionAssert.AreEqual(new[] { 0.01, 0.02, 1.2, 0, 0, 0 }, f.DriftDeg);
+            Assert.AreEqual("overdue by 1.3 h, last failed axis 3", f.Line());
+            BrakeTestStatus r = got[1].Safety.BrakeTest;
+            Assert.IsTrue(r.Running);
+            Assert.AreEqual(2, r.Axis);
+            Assert.AreEqual(25, r.Progress);
+            Assert.IsNull(r.DueInHours);
+            Assert.IsNull(r.DriftDeg);
+            Assert.AreEqual("running axis 2 (25 %)", r.Line());
+            BrakeTestStatus p = got[2].Safety.BrakeTest;
+            Assert.AreEqual(5.2, p.DueInHours);
+            Assert.AreEqual("passed", p.Last);
+            Assert.IsFalse(p.Running || p.Due || p.Required);
+            Assert.IsNull(p.LastAxis);
+            Assert.IsNull(p.DriftDeg);
+            Assert.AreEqual("due in 5.2 h, last passed", p.Line());
+            Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField));
+            var bad = rec.ErrorsOf(ClientErrorKind.BadMessage);
+            StringAssert.Contains("status.safety.brake_test: \"last\" must be \"none\", \"passed\" or \"failed\"", bad[0].Message);
+            StringAssert.Contains("\"axis\" must be an axis 1..6 or null", bad[1].Message);
+            StringAssert.Contains("\"progress\" must be an integer 0..100 or null", bad[2].Message);
+            StringAssert.Contains("\"drift_deg\" must be an array of 6 numbers", bad[3].Message);
+            StringAssert.Contains("\"drift_deg\" must be an array of 6 numbers >= 0 or null", bad[4].Message);
         }
 
         [Test]

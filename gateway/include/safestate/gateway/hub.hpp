@@ -200,6 +200,9 @@ class Hub {
 
   std::array<std::uint64_t, core::kResultCount> commands_by_result_{};
   std::uint64_t events_stored_ = 0;
+  // SPEC §12: the latest brake test on record (brake_test_record(); null: none), read from
+  // the log at start and kept as brake_test events are stored; shown in the status.
+  Json brake_test_record_;
   std::string robot_;  // GET /api/robot never changes
   int parent_at_start_ = 0;
   bool flushing_ = false;

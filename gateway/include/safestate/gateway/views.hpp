@@ -24,6 +24,9 @@ struct StatusExtras {
   std::uint32_t gateway_pid = 0;
   bool shutting_down = false;  // header().shutting_down: the core is stopping for good
   std::uint32_t gateway_restarts = 0;  // header().gateway_restarts, counted by `safestate run`
+  // SPEC §12: the latest brake test on record in the event log, as brake_test_record()
+  // made it (null or absent: none).
+  const Json* brake_test_record = nullptr;
 };
 
 // The fieldbus subdevice names and boot error `safestate run` put in the segment: alarm
@@ -37,8 +40,12 @@ bool set_safety(const bridge::SafetyInfo& info, std::string& error);
 // GET /api/safety without `validated` and `confirmation` (the status and the log say those):
 // name, checksum, source, config; null when set_safety() has not succeeded.
 Json safety_json();
-// The status `safety` object (protocol.md).
-Json status_safety_json(const bridge::Status& s);
+// The status `safety` object (protocol.md). `brake_test_record`: see brake_test_record().
+Json status_safety_json(const bridge::Status& s, const Json* brake_test_record = nullptr);
+// SPEC §12: a `brake_test` event of the log (its time and data) as the status shows it:
+// {time, result, axis, drift_deg}; null when the data is not a brake_test event's (a
+// result passed or failed, axis null or 1..6, six finite drifts).
+Json brake_test_record(const std::string& time, const Json& data);
 // An alarm detail in the vocabulary of the scenario format's `alarm.NAME.detail=`: axis.N,
 // tcp, the zone's name, estop.a, ... (the `subject` of an alarm object).
 std::string alarm_subject(const core::AlarmDetail& d);
