@@ -523,10 +523,19 @@ TEST(BackOff, EndingTheStopMidwayDropsTheRetraceAndHolds) {
   stop.brakes_release = true;
   stop.motion.mode = core::MotionMode::Ramp2;
   stop.motion.back_off = true;
-  int n = 0;
-  for (; n < 2000 && !rig.fb.backing_off; ++n) rig.cycle(stop);
-  ASSERT_TRUE(rig.fb.backing_off) << "at rest, the back-off begins";
+  // The Cat 2 ramp first (backing_off already says the stop is not over), then, at rest, the
+  // retrace: axis 1 turning back.
+  float before = rig.q()[0];
+  bool retracing = false;
+  for (int n = 0; n < 3000 && !retracing; ++n) {
+    rig.cycle(stop);
+    retracing = rig.q()[0] < before;
+    before = rig.q()[0];
+  }
+  ASSERT_TRUE(retracing) << "at rest, the back-off begins";
+  ASSERT_TRUE(rig.fb.backing_off);
   for (int k = 0; k < 20; ++k) rig.cycle(stop);
+  ASSERT_LT(rig.q()[0], before) << "still retracing";
   const float mid = rig.q()[0];
   core::SupervisorOut hold = stop;
   hold.motion.mode = core::MotionMode::Hold;
@@ -538,6 +547,19 @@ TEST(BackOff, EndingTheStopMidwayDropsTheRetraceAndHolds) {
   EXPECT_LT(held, mid + 1e-6F) << "it went back, not forward";
   for (int k = 0; k < 100; ++k) rig.cycle(hold);
   EXPECT_EQ(rig.q()[0], held) << "and holds there";
+  // The path is recorded again from here: a later collision backs off along the new motion
+  // (axis 2), not along the old one.
+  for (int k = 0; k < 300; ++k) rig.cycle(jog(2, +1, 100));
+  const float axis1 = rig.q()[0];
+  float top = rig.q()[1];
+  bool back = false;
+  for (int k = 0; k < 3000 && !back; ++k) {
+    rig.cycle(stop);
+    back = rig.q()[1] < top - 1e-4F;
+    top = std::max(top, rig.q()[1]);
+  }
+  EXPECT_TRUE(back) << "the second back-off retraces axis 2's path";
+  EXPECT_EQ(rig.q()[0], axis1);
 }
 
 // A first sample that comes stale (the bus's first exchange late) is still the first sample:
