@@ -145,6 +145,14 @@ TEST(SpeedLimit, TheReducedLimitAppliesOnceTheRampTimeIsOver) {
   m.evaluate(fb, true, false, 0, r);
   EXPECT_FALSE(r.speed.hit) << "reduced mode over: the normal limit at once";
   EXPECT_EQ(m.reduced().sources(), 0);
+  // Asked for again: a new ramp. (The ramp's count was once left running across an inactive
+  // spell, so every activation after the first was enforced at once: SPEED_LIMIT, Cat 0.)
+  for (int t = 0; t <= 500; ++t) {
+    m.evaluate(fb, true, true, 0, r);
+    ASSERT_FALSE(r.speed.hit) << "within the second ramp, cycle " << t;
+  }
+  m.evaluate(fb, true, true, 0, r);
+  EXPECT_TRUE(r.speed.hit) << "after the second ramp";
 }
 
 // @req LIM-ORIENTATION

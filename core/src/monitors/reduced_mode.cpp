@@ -16,6 +16,7 @@ void ReducedMode::update(std::uint8_t sources, Cycle ramp, float limit) noexcept
   if ((sources_ == 0U) || !was || lower) {
     // inactive, became active in this cycle, or a source that reduces further joined
     // (SPEC §11's outer field): the ramp to the new limit starts now
+    elapsed_ = 0;
   } else if (elapsed_ <= ramp_) {
     ++elapsed_;
   }
