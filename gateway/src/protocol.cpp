@@ -453,7 +453,7 @@ std::string person_at(const Json& person, bridge::PersonRecord& p) {
     }
     p.radius_mm = static_cast<float>(v);
   }
-  p.what |= bridge::kPersonAt;
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonAt);
   return {};
 }
 
@@ -490,7 +490,8 @@ std::string person_walk(const Json& walk, bridge::PersonRecord& p) {
     }
     q.speed_mm_s = static_cast<float>(v);
     if (w.size() == 4U) {
-      const auto ms = integer_or<std::int64_t>(w[3], -1);
+      // A JSON integer (a huge unsigned one reads negative here and is refused too).
+      const std::int64_t ms = w[3].is_number_integer() ? w[3].get<std::int64_t>() : -1;
       if (ms < 0 || ms > static_cast<std::int64_t>(sim::kPersonMaxStandMs)) {
         return point + ": stand " + value_text(w[3]) + " is not a whole number of ms up to 3600000";
       }
@@ -498,7 +499,7 @@ std::string person_walk(const Json& walk, bridge::PersonRecord& p) {
     }
   }
   p.points = static_cast<std::uint8_t>(walk.size());
-  p.what |= bridge::kPersonWalk;
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonWalk);
   return {};
 }
 
@@ -516,7 +517,7 @@ std::string person_fields(const Json& f, bridge::PersonRecord& p) {
   }
   p.fields_outer_mm = s.outer_mm;
   p.fields_inner_mm = s.inner_mm;
-  p.what |= bridge::kPersonFields;
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonFields);
   return {};
 }
 

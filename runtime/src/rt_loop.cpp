@@ -73,14 +73,14 @@ void apply_contacts(const bridge::CommandRecord& rec, core::RawInputs& r) noexce
 // gateway has checked the values already; the runtime does not trust it.
 bridge::SimResult apply_person(const bridge::PersonRecord& p, sim::Cell& cell) noexcept {
   static_assert(bridge::kPersonPoints == sim::kPersonMaxWaypoints);
-  constexpr std::uint8_t kAll = bridge::kPersonFields | bridge::kPersonAt | bridge::kPersonWalk |
-                                bridge::kPersonStand | bridge::kPersonLeave;
+  constexpr unsigned kAll = bridge::kPersonFields | bridge::kPersonAt | bridge::kPersonWalk | bridge::kPersonStand |
+                           bridge::kPersonLeave;
   const bool fields = (p.what & bridge::kPersonFields) != 0U;
   const bool at = (p.what & bridge::kPersonAt) != 0U;
   const bool walk = (p.what & bridge::kPersonWalk) != 0U;
   const bool stand = p.what == bridge::kPersonStand;
   const bool leave = p.what == bridge::kPersonLeave;
-  if (p.what == 0U || (p.what & ~kAll) != 0U ||
+  if (p.what == 0U || (static_cast<unsigned>(p.what) & ~kAll) != 0U ||
       ((p.what & (bridge::kPersonStand | bridge::kPersonLeave)) != 0U && !stand && !leave)) {
     return bridge::SimResult::person_invalid;  // nothing, an unknown bit, or stand/leave with more
   }
