@@ -393,11 +393,6 @@ TEST(RuntimeBridge, ValueFaultsKeepTheirValueOnTheWayToTheEmulator) {
   EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias -0.5");
 }
 
-// @req COL-SIM-PERSON
-// The `sim` message's person (issue 20 item 5) as a bridge record: all or nothing, a walk
-// needs a person, the person walks in the cell, the simulated scanner and distance sensor
-// follow it into what the core reads, the status shows it, and leaving gives the inputs
-// set from outside back. On an emulated segment it is refused (the person is not on the bus).
 namespace {
 
 CommandRecord person_record(std::uint32_t seq, std::uint8_t what) {
@@ -417,6 +412,11 @@ SimResult answer(Segment& seg) {
 
 }  // namespace
 
+// @req COL-SIM-PERSON
+// The `sim` message's person (issue 20 item 5) as a bridge record: all or nothing, a walk
+// needs a person, the person walks in the cell, the simulated scanner and distance sensor
+// follow it into what the core reads, the status shows it, and leaving gives the inputs
+// set from outside back.
 TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow) {
   const std::string name = unique_name("person");
   std::string err;
@@ -537,6 +537,8 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   EXPECT_TRUE(cell.raw_inputs_of_last_cycle().field_inner_a && cell.raw_inputs_of_last_cycle().field_inner_b);
 }
 
+// @req COL-SIM-PERSON
+// On an emulated segment a person record is refused, not forwarded (ecat-sim has no person).
 TEST(RuntimeBridge, APersonRecordIsRefusedWhereTheWorldIsAnEmulatedSegment) {
   const std::string name = unique_name("person-bus");
   std::string err;
