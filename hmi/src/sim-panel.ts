@@ -501,7 +501,8 @@ export class SimPanel {
       this.personOuter.value = String(s.sim.person_fields.outer_mm);
       this.personInner.value = String(s.sim.person_fields.inner_mm);
     }
-    setText(this.personNote, this.personProblem || personWords(s));
+    const over = this.personNow ? ' Its scanner and distance sensor set the fields and the separation above while it is in the cell.' : '';
+    setText(this.personNote, this.personProblem || personWords(s) + over);
     this.renderPerson();
     if (s.core_pid !== undefined && s.core_pid !== this.corePid) {
       // A new core process starts from the initial inputs; a reload keeps what was set.
