@@ -740,40 +740,12 @@ test('collaborative: validated, AUTO, servo on: SSM holds at an unknown separati
   await cpUntil('normal limit at 5000 mm', (x, s) => s.safety.separation_mm > 4000 && x.limitBy === 'normal', 10000);
 });
 
-test('collaborative: the inner field from the panel while AUTO_RUNNING: PERSON_IN_FIELD, the field shown interrupted, resume when clear', async () => {
-  const page = collabCell.page;
-  await page.click('#cmd-start');
-  await until('AUTO_RUNNING', async () => (await cpStatus()).sub === 'AUTO_RUNNING', 5000);
-  await page.click('#sim-field-inner-interrupted');
-  let r = await cpUntil('PERSON_IN_FIELD and the inner field interrupted',
-    (x, s) => s.alarms.includes('PERSON_IN_FIELD') && x.inner === 'interrupted' && s.sub !== 'AUTO_RUNNING');
-  assert.equal(r.c.innerWord, 'INTERRUPTED');
-  assert.equal(r.c.outer, 'clear');
-  assert.match(r.c.person, /PERSON_IN_FIELD/);
-  assert.ok(r.c.why.some((w) => /inner protective field is interrupted/.test(w)), r.c.why.join(' | '));
-  assert.ok(await cp(() => document.getElementById('sim-field-inner-interrupted').classList.contains('on')), 'the panel shows what it set');
-  await page.click('#tab-safety');
-  await cpShot('22-collab-person-in-field');
-  await page.click('#tab-operate');
-  await page.click('#sim-field-inner-clear');
-  r = await cpUntil('resumed by itself after resume_delay_ms', (x, s) => s.sub === 'AUTO_RUNNING' && x.inner === 'clear', 8000);
-  assert.ok(!r.s.alarms.includes('PERSON_IN_FIELD'));
-});
-
-test('collaborative: the outer field from the panel: reduced speed, and why in words', async () => {
-  const page = collabCell.page;
-  await page.click('#sim-field-outer-interrupted');
-  const r = await cpUntil('reduced by the field', (x, s) => x.outer === 'interrupted' && s.safety.reduced_by.includes('field'));
-  assert.ok(r.c.why.some((w) => /outer protective field is interrupted/.test(w)), r.c.why.join(' | '));
-  assert.match(r.c.person, /outer field: reduced speed/);
-  await page.click('#tab-safety');
-  await cpShot('23-collab-outer-field');
-  await page.click('#tab-operate');
-  await page.click('#sim-field-outer-clear');
-  await cpUntil('normal again', (x, s) => x.outer === 'clear' && !s.safety.reduced, 5000);
-});
-
 // @req COL-SIM-PERSON
+// Before the panel's manual field tests: after a manual outer-field episode the core trips
+// SPEED_LIMIT (255 > 250 mm/s) 768 ms after a person walks in at 1.6 m/s (a core finding,
+// reproduced by a replay scenario and reported with this branch). Open: after this test the
+// manual outer-field test is followed by SPEED_LIMIT (611 mm/s) too, which the contact test
+// below then shows (its wait now prints the status).
 test('collaborative: a person walked in from the panel: drawn with both fields, the inner one pauses the robot; walked out, it resumes', async () => {
   const page = collabCell.page;
   const arm = () => cp(() => {
@@ -785,7 +757,11 @@ test('collaborative: a person walked in from the panel: drawn with both fields, 
     const a = await arm();
     const s = await cpStatus();
     return pred(a, s) ? { a, s } : false;
-  }, ms).catch(async (e) => { throw new Error(`${e.message}; arm ${JSON.stringify(await arm())}; sim ${JSON.stringify((await cpStatus()).sim)}`); });
+  }, ms).catch(async (e) => {
+    const s = await cpStatus();
+    throw new Error(`${e.message}; arm ${JSON.stringify(await arm())}; status ${JSON.stringify({ state: s.state, sub: s.sub, alarms: s.alarms, cause: s.cause, sim: s.sim, safety: s.safety })}`);
+  });
+  if ((await cpStatus()).sub === 'AUTO_IDLE') await page.click('#cmd-start');
   await until('AUTO_RUNNING', async () => (await cpStatus()).sub === 'AUTO_RUNNING', 8000);
   let r = await armUntil('the fields drawn, nobody in the cell', (a) => a.person === 'absent' && a.fields === 'outer:clear,inner:clear');
   assert.equal(r.a.objects, 4, 'two fields, each a disc and its edge');
@@ -832,9 +808,43 @@ test('collaborative: a person walked in from the panel: drawn with both fields, 
   assert.deepEqual(collabCell.errors, [], 'no script errors on the page');
 });
 
+test('collaborative: the inner field from the panel while AUTO_RUNNING: PERSON_IN_FIELD, the field shown interrupted, resume when clear', async () => {
+  const page = collabCell.page;
+  await page.click('#cmd-start');
+  await until('AUTO_RUNNING', async () => (await cpStatus()).sub === 'AUTO_RUNNING', 5000);
+  await page.click('#sim-field-inner-interrupted');
+  let r = await cpUntil('PERSON_IN_FIELD and the inner field interrupted',
+    (x, s) => s.alarms.includes('PERSON_IN_FIELD') && x.inner === 'interrupted' && s.sub !== 'AUTO_RUNNING');
+  assert.equal(r.c.innerWord, 'INTERRUPTED');
+  assert.equal(r.c.outer, 'clear');
+  assert.match(r.c.person, /PERSON_IN_FIELD/);
+  assert.ok(r.c.why.some((w) => /inner protective field is interrupted/.test(w)), r.c.why.join(' | '));
+  assert.ok(await cp(() => document.getElementById('sim-field-inner-interrupted').classList.contains('on')), 'the panel shows what it set');
+  await page.click('#tab-safety');
+  await cpShot('22-collab-person-in-field');
+  await page.click('#tab-operate');
+  await page.click('#sim-field-inner-clear');
+  r = await cpUntil('resumed by itself after resume_delay_ms', (x, s) => s.sub === 'AUTO_RUNNING' && x.inner === 'clear', 8000);
+  assert.ok(!r.s.alarms.includes('PERSON_IN_FIELD'));
+});
+
+test('collaborative: the outer field from the panel: reduced speed, and why in words', async () => {
+  const page = collabCell.page;
+  await page.click('#sim-field-outer-interrupted');
+  const r = await cpUntil('reduced by the field', (x, s) => x.outer === 'interrupted' && s.safety.reduced_by.includes('field'));
+  assert.ok(r.c.why.some((w) => /outer protective field is interrupted/.test(w)), r.c.why.join(' | '));
+  assert.match(r.c.person, /outer field: reduced speed/);
+  await page.click('#tab-safety');
+  await cpShot('23-collab-outer-field');
+  await page.click('#tab-operate');
+  await page.click('#sim-field-outer-clear');
+  await cpUntil('normal again', (x, s) => x.outer === 'clear' && !s.safety.reduced, 5000);
+});
+
 test('collaborative: a contact from the panel while running: COLLISION highlighted with its force, then contact 0', async () => {
   const page = collabCell.page;
-  await until('AUTO_RUNNING at speed', async () => { const s = await cpStatus(); return s.sub === 'AUTO_RUNNING' && s.tcp_speed > 200; }, 10000);
+  await until('AUTO_RUNNING at speed', async () => { const s = await cpStatus(); return s.sub === 'AUTO_RUNNING' && s.tcp_speed > 200; }, 10000)
+    .catch(async (e) => { const s = await cpStatus(); throw new Error(`${e.message}; ${JSON.stringify({ state: s.state, sub: s.sub, alarms: s.alarms, cause: s.cause, tcp: s.tcp_speed, prog: [s.program_index, s.program_length], safety: s.safety })}`); });
   // Out of range: refused in the panel, nothing sent.
   await page.fill('#sim-contact-force', '6000');
   await page.click('#sim-contact');
