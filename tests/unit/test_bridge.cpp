@@ -33,6 +33,15 @@ core::SafetyLimits safety_limits_for_test() {
   l.tcp_max_speed_mm_s = 1500.0F;
   return l;
 }
+
+// The same with collaborative operation and SSM on: v_h 1600, a 2000, T_r 100 ms, C 200, Z 100.
+core::SafetyLimits ssm_limits_for_test() {
+  core::SafetyLimits l = safety_limits_for_test();
+  l.collaborative.enabled = true;
+  l.collaborative.ssm_enabled = true;
+  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
+  return l;
+}
 }  // namespace
 
 TEST(Ring, FifoAndFullWithoutWaiting) {
@@ -326,11 +335,7 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
   runtime::Publisher pub(*seg, cell);
-  core::SafetyLimits l = safety_limits_for_test();
-  l.collaborative.enabled = true;
-  l.collaborative.ssm_enabled = true;
-  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
-  cell.configure_limits(l, true);
+  cell.configure_limits(ssm_limits_for_test(), true);
   ASSERT_TRUE(cell.inputs().field_outer_a && cell.inputs().field_inner_b) << "NC: 1 = clear at start";
   ASSERT_FALSE(cell.inputs().separation_valid) << "no sensor reading yet: invalid";
   CommandRecord rec{};
@@ -424,11 +429,7 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
   runtime::Publisher pub(*seg, cell);
-  core::SafetyLimits l = safety_limits_for_test();
-  l.collaborative.enabled = true;
-  l.collaborative.ssm_enabled = true;
-  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
-  cell.configure_limits(l, true);
+  cell.configure_limits(ssm_limits_for_test(), true);
   // The HMI's manual distance sensor: with nobody placed, the person's devices write nothing.
   CommandRecord set{};
   set.kind = RecordKind::sim_set;
