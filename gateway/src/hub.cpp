@@ -101,6 +101,29 @@ void Hub::flush() {
   flushing_ = false;
 }
 
+namespace {
+
+// @req COL-SIM-PERSON
+// A `sim` record the runtime refused, as the `error` the client gets (nothing changed).
+Json sim_refusal(bridge::SimResult r) {
+  switch (r) {
+    case bridge::SimResult::person_absent:
+      return make_error(ErrorCode::BAD_MESSAGE,
+                        "person: no person in the cell to walk, stand or leave (send {\"at\": [X, Y]} first)");
+    case bridge::SimResult::person_invalid:
+      return make_error(ErrorCode::BAD_MESSAGE, "person: the simulated cell refused the values (nothing changed)");
+    case bridge::SimResult::person_not_on_bus:
+      return make_error(ErrorCode::NOT_SIMULATED,
+                        "the simulated person is not on the fieldbus: an emulated EtherCAT segment has no person "
+                        "(only the in-process simulated cell, --fieldbus sim, has one)");
+    case bridge::SimResult::ok:
+    case bridge::SimResult::not_simulated: break;
+  }
+  return make_error(ErrorCode::NOT_SIMULATED, "the cell is not simulated");
+}
+
+}  // namespace
+
 void Hub::drain_replies() {
   bridge::ReplyRecord r{};
   while (segment_.replies().pop(r)) {
@@ -129,7 +152,7 @@ void Hub::drain_replies() {
     } else if (r.sim == bridge::SimResult::ok) {
       send(client, make_reply(p.seq, "OK"));
     } else {
-      send(client, make_error(ErrorCode::NOT_SIMULATED, "the cell is not simulated"));
+      send(client, sim_refusal(r.sim));
     }
   }
 }

@@ -11,8 +11,8 @@
 //    stays 9, the core refuses it). Arguments a command does not take are ignored.
 //    validate_config's `code` must be a string of exactly 8 hex digits (either case),
 //    else it is sent without a code (BAD_ARGUMENT from the core).
-//  - `sim`: `seq` must be an integer and exactly one of `set` (object) or `fault`
-//    (string) must be present. Raw contacts take 0/1, true/false or "0"/"1";
+//  - `sim`: `seq` must be an integer and exactly one of `set` (object), `fault`
+//    (string) or `person` (object or string; docs/collaborative.md) must be present. Raw contacts take 0/1, true/false or "0"/"1";
 //    `reset_button` likewise; the other shorthands take exactly the words of the
 //    scenario format. Keys apply in the order written, so a later key wins.
 #include "safestate/gateway/protocol.hpp"
@@ -204,12 +204,15 @@ ClientMessage parse_sim(const Json& j) {
   }
   const auto set = j.find("set");
   const auto fault = j.find("fault");
-  if ((set != j.end()) == (fault != j.end())) {
-    return bad("sim needs exactly one of \"set\" (object) or \"fault\" (string)");
+  const auto person = j.find("person");
+  if ((set != j.end() ? 1 : 0) + (fault != j.end() ? 1 : 0) + (person != j.end() ? 1 : 0) != 1) {
+    return bad("sim needs exactly one of \"set\" (object), \"fault\" (string) or \"person\" (object or string)");
   }
   std::string problem;
   if (set != j.end()) {
     problem = set->is_object() ? encode_sim_set(*set, m.record) : "\"set\" must be an object";
+  } else if (person != j.end()) {
+    problem = encode_sim_person(*person, m.record);
   } else {
     problem = fault->is_string() ? encode_sim_fault(fault->get_ref<const std::string&>(), m.record)
                                  : "\"fault\" must be a string";
@@ -406,6 +409,122 @@ bool real(const std::string& s, double& out) {
 constexpr double kMaxContactN = 5000.0;      // stored in tenths of a newton
 constexpr double kMaxTorqueBiasPct = 300.0;  // the drives' peak; stored as int16 per mille
 
+// ------------------------------------------------------------------ sim person
+// SPEC §11, the simulated person, in the words and limits of the scenario's `person` keys
+// (scenario/src/person_keys.cpp, sim/person.hpp). "" when fine, else what is wrong.
+
+// A finite JSON number (not a boolean, not a string).
+bool json_real(const Json& v, double& out) {
+  if (!v.is_number() || !std::isfinite(v.get<double>())) {
+    return false;
+  }
+  out = v.get<double>();
+  return true;
+}
+
+std::string on_floor(const Json& v, const std::string& what, float& out) {
+  double x = 0.0;
+  if (!json_real(v, x)) {
+    return what + " " + value_text(v) + " is not a number (mm)";
+  }
+  if (std::fabs(x) > static_cast<double>(sim::kPersonMaxRangeMm)) {
+    return what + " " + value_text(v) + " is off the floor (|x|, |y| <= 20000 mm)";
+  }
+  out = static_cast<float>(x);
+  return {};
+}
+
+std::string person_at(const Json& person, bridge::PersonRecord& p) {
+  const Json& at = person.at("at");
+  if (!at.is_array() || at.size() != 2U) {
+    return "person at must be [X, Y] (mm), found " + value_text(at);
+  }
+  if (std::string e = on_floor(at[0], "person at: X", p.x_mm); !e.empty()) {
+    return e;
+  }
+  if (std::string e = on_floor(at[1], "person at: Y", p.y_mm); !e.empty()) {
+    return e;
+  }
+  p.radius_mm = sim::kPersonDefaultRadiusMm;
+  if (const auto r = person.find("radius_mm"); r != person.end()) {
+    double v = 0.0;
+    if (!json_real(*r, v) || v <= 0.0 || v > static_cast<double>(sim::kPersonMaxRadiusMm)) {
+      return "person radius_mm " + value_text(*r) + " is not a number of mm in (0, 1000]";
+    }
+    p.radius_mm = static_cast<float>(v);
+  }
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonAt);
+  return {};
+}
+
+std::string person_walk(const Json& walk, bridge::PersonRecord& p) {
+  if (!walk.is_array() || walk.empty()) {
+    return "person walk must be a list of 1..16 points [X, Y, SPEED] or [X, Y, SPEED, STAND_MS], found " +
+           value_text(walk);
+  }
+  if (walk.size() > bridge::kPersonPoints) {
+    return "person walk: " + std::to_string(walk.size()) + " points, more than 16";
+  }
+  for (std::size_t i = 0; i < walk.size(); ++i) {
+    const Json& w = walk[i];
+    const std::string point = "person walk: point " + std::to_string(i + 1U);
+    if (!w.is_array() || (w.size() != 3U && w.size() != 4U)) {
+      return point + " must be [X, Y, SPEED] or [X, Y, SPEED, STAND_MS], found " + value_text(w);
+    }
+    bridge::PersonPoint& q = p.path[i];
+    if (std::string e = on_floor(w[0], point + ": X", q.x_mm); !e.empty()) {
+      return e;
+    }
+    if (std::string e = on_floor(w[1], point + ": Y", q.y_mm); !e.empty()) {
+      return e;
+    }
+    double v = 0.0;
+    if (!json_real(w[2], v)) {
+      return point + ": speed " + value_text(w[2]) + " is not a number (mm/s)";
+    }
+    if (v <= 0.0) {
+      return point + ": speed " + value_text(w[2]) + " mm/s is not above 0 (\"stand\" stops)";
+    }
+    if (v > static_cast<double>(sim::kPersonMaxSpeedMmS)) {
+      return point + ": speed " + value_text(w[2]) + " mm/s is over 2000 (ISO 13855's fastest approach)";
+    }
+    q.speed_mm_s = static_cast<float>(v);
+    if (w.size() == 4U) {
+      // A JSON integer (a huge unsigned one reads negative here and is refused too).
+      const std::int64_t ms = w[3].is_number_integer() ? w[3].get<std::int64_t>() : -1;
+      if (ms < 0 || ms > static_cast<std::int64_t>(sim::kPersonMaxStandMs)) {
+        return point + ": stand " + value_text(w[3]) + " is not a whole number of ms up to 3600000";
+      }
+      q.stand_ms = static_cast<std::uint32_t>(ms);
+    }
+  }
+  p.points = static_cast<std::uint8_t>(walk.size());
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonWalk);
+  return {};
+}
+
+std::string person_fields(const Json& f, bridge::PersonRecord& p) {
+  sim::PersonSensors s{};
+  double outer = 0.0;
+  double inner = 0.0;
+  if (!f.is_array() || f.size() != 2U || !json_real(f[0], outer) || !json_real(f[1], inner)) {
+    return "person fields must be [OUTER, INNER] (mm), found " + value_text(f);
+  }
+  s.outer_mm = static_cast<float>(outer);
+  s.inner_mm = static_cast<float>(inner);
+  if (!sim::valid(s)) {
+    return "person fields " + value_text(f) + " are not 0 < INNER < OUTER <= 20000 mm";
+  }
+  p.fields_outer_mm = s.outer_mm;
+  p.fields_inner_mm = s.inner_mm;
+  p.what = static_cast<std::uint8_t>(p.what | bridge::kPersonFields);
+  return {};
+}
+
+constexpr const char* kPersonForms =
+    "\"stand\", \"leave\", or an object with \"at\": [X, Y] (and \"radius_mm\"), \"walk\": [[X, Y, SPEED], ...], "
+    "\"fields\": [OUTER, INNER]";
+
 }  // namespace
 
 const char* to_string(Role r) noexcept {
@@ -530,6 +649,46 @@ std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) 
   return "bad fault \"" + std::string(line) +
          "\" (expected drive N fault|clear|runaway|nostop, drive N torque_bias X, fieldbus lost, contactor stuck_open,"
          " brake N stuck|weak, contact F, clear all; N 1..6)";
+}
+
+// @req COL-SIM-PERSON
+std::string encode_sim_person(const Json& person, bridge::CommandRecord& out) {
+  out = bridge::CommandRecord{};
+  out.kind = bridge::RecordKind::sim_person;
+  bridge::PersonRecord& p = out.person;
+  std::string problem;
+  if (person.is_string()) {
+    const auto& w = person.get_ref<const std::string&>();
+    if (w == "stand" || w == "leave") {
+      p.what = (w == "stand") ? bridge::kPersonStand : bridge::kPersonLeave;
+      return {};
+    }
+    problem = "unknown person action " + value_text(person) + " (expected " + kPersonForms + ")";
+  } else if (!person.is_object() || person.empty()) {
+    problem = std::string("\"person\" must be ") + kPersonForms;
+  } else {
+    for (const auto& [key, value] : person.items()) {
+      if (key == "at") {
+        problem = person_at(person, p);
+      } else if (key == "walk") {
+        problem = person_walk(value, p);
+      } else if (key == "fields") {
+        problem = person_fields(value, p);
+      } else if (key == "radius_mm") {
+        problem = person.contains("at") ? "" : "person radius_mm goes with \"at\"";
+      } else {
+        problem = "unknown person key \"" + key + "\" (expected at, radius_mm, walk, fields)";
+      }
+      if (!problem.empty()) {
+        break;
+      }
+    }
+  }
+  if (!problem.empty()) {
+    out = bridge::CommandRecord{};
+    out.kind = bridge::RecordKind::sim_person;
+  }
+  return problem;
 }
 
 Json make_welcome(Role role, const std::string& version) {

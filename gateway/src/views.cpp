@@ -13,6 +13,11 @@
 //    detection acts), contact_force (N at the TCP, 0.1, null when pfl is off) and, from the
 //    active configuration, contact_force_limit (the body region's F_qs, N) and
 //    pfl_speed_limit (v_pfl, mm/s), both null without pfl.
+//  - The status carries `sim` (SPEC §11, the simulated person; docs/collaborative.md): null
+//    unless the in-process simulated cell, else {person: null | {x_mm, y_mm, radius_mm,
+//    speed_mm_s, walking, in_outer, in_inner, separation_mm, nearest_point}, person_fields:
+//    {outer_mm, inner_mm, scanner, distance_sensor}} (mm, 0.1; what the simulated devices
+//    see of the person, not what the core validated: that is `safety`).
 //  - The black box of a stopping transition is {first, last, missing, cycles:[...]};
 //    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
 #include "safestate/gateway/views.hpp"
@@ -486,6 +491,37 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["gateway_pid"] = x.gateway_pid;
   j["shutting_down"] = x.shutting_down;
   j["gateway_restarts"] = x.gateway_restarts;
+  j["sim"] = status_sim_json(s);
+  return j;
+}
+
+// @req COL-SIM-PERSON
+Json status_sim_json(const bridge::Status& s) {
+  if (!s.person_shown) {
+    return nullptr;
+  }
+  Json fields;
+  fields["outer_mm"] = rounded(static_cast<double>(s.person_outer_mm), 10.0);
+  fields["inner_mm"] = rounded(static_cast<double>(s.person_inner_mm), 10.0);
+  fields["scanner"] = s.person_scanner;
+  fields["distance_sensor"] = s.person_distance_sensor;
+  Json j;
+  if (s.person_present) {
+    Json p;
+    p["x_mm"] = rounded(static_cast<double>(s.person_x_mm), 10.0);
+    p["y_mm"] = rounded(static_cast<double>(s.person_y_mm), 10.0);
+    p["radius_mm"] = rounded(static_cast<double>(s.person_radius_mm), 10.0);
+    p["speed_mm_s"] = rounded(static_cast<double>(s.person_speed_mm_s), 10.0);
+    p["walking"] = s.person_walking;
+    p["in_outer"] = s.person_in_outer;
+    p["in_inner"] = s.person_in_inner;
+    p["separation_mm"] = rounded(static_cast<double>(s.person_separation_mm), 10.0);
+    p["nearest_point"] = s.person_nearest_point;
+    j["person"] = std::move(p);
+  } else {
+    j["person"] = nullptr;
+  }
+  j["person_fields"] = std::move(fields);
   return j;
 }
 

@@ -54,6 +54,27 @@ export interface Status {
   shutting_down?: boolean;
   // SPEC §10 (protocol.md): absent from a gateway that predates it.
   safety?: SafetyStatus;
+  // SPEC §11, the simulated person (gateway/src/views.cpp): null off the in-process simulated cell.
+  sim?: SimStatus | null;
+}
+
+/** The simulated person as the simulated scanner and distance sensor see it. */
+export interface SimPerson {
+  x_mm: number;
+  y_mm: number;
+  radius_mm: number;
+  speed_mm_s: number;
+  walking: boolean;
+  in_outer: boolean;
+  in_inner: boolean;
+  separation_mm: number; // body edge to the nearest robot point, horizontal
+  nearest_point: number; // 0..6 DH frame origin, 7 the TCP
+}
+
+/** The status's `sim` object (docs/collaborative.md "The simulated person"). */
+export interface SimStatus {
+  person: SimPerson | null;
+  person_fields: { outer_mm: number; inner_mm: number; scanner: boolean; distance_sensor: boolean };
 }
 
 /** The status's `safety` object (protocol.md, SPEC §10-§12). */

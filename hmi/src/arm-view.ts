@@ -7,6 +7,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import type { Robot, SafetyZone } from './api';
 import { forward, type Frames, type Vec3 } from './kinematics';
+import type { PersonDrawing } from './person';
 import { ZONE_STYLE } from './safety-logic';
 
 /** The zones and the tool of the safety configuration (SPEC §10), as drawn. */
@@ -29,6 +30,8 @@ export interface ArmDrawing {
   clearTrail(): void;
   setSafety(s: SafetyDrawing | null): void;
   markZones(m: ZoneMarks): void;
+  /** SPEC §11: the simulated person and the scanner's two fields on the floor (null: none). */
+  setPerson(d: PersonDrawing | null): void;
   readonly kind: 'webgl' | '2d';
 }
 
@@ -58,6 +61,68 @@ const sameMarks = (a: ZoneMarks, b: ZoneMarks) =>
   a.violated.join() === b.violated.join() && a.active.join() === b.active.join();
 
 const TRAIL_POINTS = 800;
+
+// ------------------------------------------------------------------------- the person
+// SPEC §11: the simulated person (a body of 1.7 m on its floor circle) and the scanner's
+// fields as discs on the floor about the base axis; interrupted: a stronger colour.
+const FIELD_STYLE = {
+  outer: { color: 0xffb300, css: '#ffb300' }, // amber: slows
+  inner: { color: 0xff1744, css: '#ff1744' }, // red: stops
+};
+const PERSON_CSS = '#b388ff';
+const BODY_MM = 1450; // the body cylinder; the head's top at 1700 mm
+const HEAD_MM = 110;
+
+/** The person as drawn, for tests and diagnostics (window.safestateHmi.person and #arm's
+ * data-person, data-person-xy, data-fields, data-person-objects): read back from what is drawn. */
+interface DrawnPerson {
+  present: boolean;
+  x_mm: number;
+  y_mm: number;
+  outer: 'clear' | 'interrupted';
+  inner: 'clear' | 'interrupted';
+  objects: number; // visible parts of the drawing: fields, body, head, footprint, separation line and label
+  separation: string; // the label's text
+}
+
+function exposePerson(container: HTMLElement, d: DrawnPerson | null): void {
+  container.dataset.person = d === null ? 'none' : d.present ? 'present' : 'absent';
+  container.dataset.personXy = d?.present ? `${Math.round(d.x_mm)},${Math.round(d.y_mm)}` : '';
+  container.dataset.fields = d ? `outer:${d.outer},inner:${d.inner}` : '';
+  container.dataset.personObjects = String(d?.objects ?? 0);
+  const w = window as unknown as { safestateHmi?: Record<string, unknown> };
+  w.safestateHmi ??= {};
+  w.safestateHmi.person = d;
+}
+
+/** The robot point the separation is measured to (0..6 frame origin, 7 TCP), as kinematics.ts has it. */
+const nearestPoint = (f: Frames, k: number): Vec3 => (k >= 0 && k < f.origin.length ? f.origin[k] : f.tcp);
+
+/** The separation line on the floor: from the robot point to the body's edge. */
+function separationEnds(f: Frames, p: NonNullable<PersonDrawing['person']>): [Vec3, Vec3] {
+  const a = nearestPoint(f, p.nearest_point);
+  const dx = p.x_mm - a[0];
+  const dy = p.y_mm - a[1];
+  const d = Math.hypot(dx, dy);
+  const k = d > 1 ? Math.max(0, d - p.radius_mm) / d : 0;
+  return [
+    [a[0], a[1], 12],
+    [a[0] + dx * k, a[1] + dy * k, 12],
+  ];
+}
+
+const sepText = (p: NonNullable<PersonDrawing['person']>) => `${Math.round(p.separation_mm)} mm`;
+
+/** A circle on the floor (z = 0) as a path of `n` segments, through the 2D view's projection. */
+function floorCircle(g: CanvasRenderingContext2D, P: (p: Vec3) => [number, number], cx: number, cy: number, r: number, n: number): void {
+  g.beginPath();
+  for (let k = 0; k <= n; k++) {
+    const a = (k / n) * 2 * Math.PI;
+    const q = P([cx + r * Math.cos(a), cy + r * Math.sin(a), 0]);
+    if (k) g.lineTo(...q);
+    else g.moveTo(...q);
+  }
+}
 
 function exposeDrawn(container: HTMLElement, joints: number[], f: Frames): void {
   const j = joints.map((q) => Math.round(q * 1e6) / 1e6);
@@ -114,6 +179,16 @@ class WebGlArm implements ArmDrawing {
   /** Software GL (SwiftShader, llvmpipe) costs CPU that the jog keep-alive needs: fewer frames. */
   readonly software: boolean;
   private minFrameMs: number;
+  private personGroup = new THREE.Group();
+  private fieldParts: Record<'outer' | 'inner', { fill: THREE.Mesh; edge: THREE.Mesh; r: number }>;
+  private body: THREE.Group;
+  private footprint: THREE.Mesh;
+  private sepLine: THREE.Line;
+  private sepLabel: THREE.Sprite;
+  private sepLabelText = '';
+  private floor: THREE.GridHelper;
+  private personD: PersonDrawing | null = null;
+  private widened = false;
 
   constructor(
     private readonly container: HTMLElement,
@@ -205,6 +280,52 @@ class WebGlArm implements ArmDrawing {
 
     root.add(new THREE.AxesHelper(220));
 
+    // The person and the fields (hidden until the status has a `sim` object).
+    const fieldPart = (which: 'outer' | 'inner', z: number) => {
+      const st = FIELD_STYLE[which];
+      const fill = new THREE.Mesh(
+        new THREE.CircleGeometry(1, 96),
+        new THREE.MeshBasicMaterial({ color: st.color, transparent: true, depthWrite: false, side: THREE.DoubleSide }),
+      );
+      const edge = new THREE.Mesh(
+        new THREE.RingGeometry(0.98, 1, 128),
+        new THREE.MeshBasicMaterial({ color: st.color, transparent: true, depthWrite: false, side: THREE.DoubleSide }),
+      );
+      fill.position.z = z;
+      edge.position.z = z + 1;
+      fill.name = `field:${which}`;
+      this.personGroup.add(fill, edge);
+      return { fill, edge, r: 0 };
+    };
+    this.fieldParts = { outer: fieldPart('outer', 2), inner: fieldPart('inner', 4) };
+    const personMat = new THREE.MeshStandardMaterial({ color: PERSON_CSS, roughness: 0.6 });
+    this.body = new THREE.Group();
+    const torso = new THREE.Mesh(new THREE.CylinderGeometry(1, 1, BODY_MM, 28), personMat);
+    torso.rotation.x = Math.PI / 2; // three's cylinder stands on y; the robot's floor has z up
+    torso.position.z = BODY_MM / 2;
+    torso.name = 'person:body';
+    const head = new THREE.Mesh(new THREE.SphereGeometry(HEAD_MM, 24, 16), new THREE.MeshStandardMaterial({ color: 0xffccbc, roughness: 0.7 }));
+    head.position.z = 1700 - HEAD_MM;
+    head.name = 'person:head';
+    this.body.add(torso, head);
+    this.footprint = new THREE.Mesh(
+      new THREE.CircleGeometry(1, 48),
+      new THREE.MeshBasicMaterial({ color: PERSON_CSS, transparent: true, opacity: 0.45, depthWrite: false, side: THREE.DoubleSide }),
+    );
+    this.footprint.position.z = 6;
+    this.sepLine = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0xffffff }));
+    this.sepLine.geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(6), 3));
+    this.sepLabel = new THREE.Sprite(new THREE.SpriteMaterial({ depthTest: false, transparent: true }));
+    this.sepLabel.renderOrder = 3;
+    this.personGroup.add(this.body, this.footprint, this.sepLine, this.sepLabel);
+    this.personGroup.visible = false;
+    root.add(this.personGroup);
+    // A floor of 8 m (0.5 m squares) under the fields, beside the arm's own 1.6 m grid.
+    this.floor = new THREE.GridHelper(8000, 16, 0x2a3440, 0x1c242d);
+    this.floor.position.y = -1;
+    this.floor.visible = false;
+    this.scene.add(this.floor);
+
     // Camera in front of the arm, a little to its right (robot frame: x forward, z up).
     this.camera.position.set(1300, 820, 900);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
@@ -291,7 +412,95 @@ class WebGlArm implements ArmDrawing {
 
     if (this.trail.push(f.tcp)) this.writeTrail();
     exposeDrawn(this.container, joints, f);
+    this.placeSeparation(f);
     this.requestRender();
+  }
+
+  setPerson(d: PersonDrawing | null): void {
+    if (d === null && this.personD === null && this.container.dataset.person === 'none') return;
+    this.personD = d;
+    this.personGroup.visible = d !== null;
+    this.floor.visible = d !== null;
+    if (d) {
+      if (!this.widened) {
+        // Once: step back so that the outer field fits in the view, about the base axis.
+        this.widened = true;
+        const target = new THREE.Vector3(0, 300, 0);
+        const dir = this.camera.position.clone().sub(this.controls.target).normalize();
+        const dist = Math.max(this.camera.position.distanceTo(this.controls.target), (d.outer_mm + 500) * 1.9);
+        this.controls.target.copy(target);
+        this.camera.position.copy(target.addScaledVector(dir, dist));
+        this.controls.update();
+      }
+      for (const which of ['outer', 'inner'] as const) {
+        const part = this.fieldParts[which];
+        const r = which === 'outer' ? d.outer_mm : d.inner_mm;
+        const on = which === 'outer' ? d.outerInterrupted : d.innerInterrupted;
+        if (r !== part.r) {
+          part.r = r;
+          part.fill.scale.set(r, r, 1);
+          part.edge.geometry.dispose();
+          part.edge.geometry = new THREE.RingGeometry(Math.max(0, r - 30), r, 128); // a 30 mm edge at any radius
+        }
+        (part.fill.material as THREE.MeshBasicMaterial).opacity = on ? 0.3 : 0.06;
+        (part.edge.material as THREE.MeshBasicMaterial).opacity = on ? 1 : 0.6;
+        part.fill.userData.interrupted = on;
+      }
+      const p = d.person;
+      this.body.visible = this.footprint.visible = p !== null;
+      if (p) {
+        this.body.position.set(p.x_mm, p.y_mm, 0);
+        const torso = this.body.children[0];
+        torso.scale.set(p.radius_mm * 0.72, 1, p.radius_mm * 0.72); // shoulders inside the floor circle
+        this.footprint.position.set(p.x_mm, p.y_mm, 6);
+        this.footprint.scale.set(p.radius_mm, p.radius_mm, 1);
+        const text = sepText(p);
+        if (text !== this.sepLabelText) {
+          this.sepLabelText = text;
+          const old = this.sepLabel.material.map;
+          this.sepLabel.material.map = labelTexture(text, '#ffffff', false);
+          this.sepLabel.material.needsUpdate = true;
+          old?.dispose();
+          const img = this.sepLabel.material.map.image as HTMLCanvasElement;
+          this.sepLabel.scale.set(img.width * 4, img.height * 4, 1);
+        }
+      }
+    }
+    this.placeSeparation(forward(this.robot.dh, this.lastJoints, this.tcpOffset));
+    this.exposePerson();
+    this.requestRender();
+  }
+
+  private placeSeparation(f: Frames): void {
+    const p = this.personD?.person ?? null;
+    this.sepLine.visible = this.sepLabel.visible = p !== null;
+    if (!p) return;
+    const [a, b] = separationEnds(f, p);
+    const pos = this.sepLine.geometry.getAttribute('position') as THREE.BufferAttribute;
+    pos.setXYZ(0, ...a);
+    pos.setXYZ(1, ...b);
+    pos.needsUpdate = true;
+    this.sepLine.geometry.computeBoundingSphere();
+    this.sepLabel.position.set((a[0] + b[0]) / 2, (a[1] + b[1]) / 2, 140);
+  }
+
+  private exposePerson(): void {
+    const d = this.personD;
+    if (!d) {
+      exposePerson(this.container, null);
+      return;
+    }
+    const parts: THREE.Object3D[] = [...Object.values(this.fieldParts).flatMap((f) => [f.fill, f.edge]), ...this.body.children, this.footprint, this.sepLine, this.sepLabel];
+    const shown = (o: THREE.Object3D) => o.visible && (o.parent === this.body ? this.body.visible : true);
+    exposePerson(this.container, {
+      present: this.body.visible,
+      x_mm: this.body.position.x,
+      y_mm: this.body.position.y,
+      outer: this.fieldParts.outer.fill.userData.interrupted ? 'interrupted' : 'clear',
+      inner: this.fieldParts.inner.fill.userData.interrupted ? 'interrupted' : 'clear',
+      objects: parts.filter(shown).length,
+      separation: this.sepLabel.visible ? this.sepLabelText : '',
+    });
   }
 
   private writeTrail(): void {
@@ -439,6 +648,7 @@ class FlatArm implements ArmDrawing {
   private lastJoints: number[] = [0, 0, 0, 0, 0, 0];
   private safety: SafetyDrawing | null = null;
   private marks: ZoneMarks = { violated: [], active: [] };
+  private personD: PersonDrawing | null = null;
 
   constructor(
     private readonly container: HTMLElement,
@@ -484,13 +694,33 @@ class FlatArm implements ArmDrawing {
     this.draw();
   }
 
+  setPerson(d: PersonDrawing | null): void {
+    if (d === null && this.personD === null && this.container.dataset.person === 'none') return;
+    this.personD = d;
+    const p = d?.person ?? null;
+    exposePerson(
+      this.container,
+      d && {
+        present: p !== null,
+        x_mm: p?.x_mm ?? 0,
+        y_mm: p?.y_mm ?? 0,
+        outer: d.outerInterrupted ? 'interrupted' : 'clear',
+        inner: d.innerInterrupted ? 'interrupted' : 'clear',
+        objects: 4 + (p ? 5 : 0), // as the WebGL view counts: each field's fill and edge; body, head, footprint, line, label
+        separation: p ? sepText(p) : '',
+      },
+    );
+    this.draw();
+  }
+
   private draw(): void {
     const c = this.canvas;
     const w = (c.width = this.container.clientWidth);
     const h = (c.height = this.container.clientHeight);
     const g = c.getContext('2d');
     if (!g || !this.last) return;
-    const s = Math.min(w, h) / 1500;
+    // With the person's fields the floor to show is wider than the arm's reach.
+    const s = Math.min(w, h) / (this.personD ? Math.max(1500, 1.6 * this.personD.outer_mm) : 1500);
     // Isometric projection of robot coordinates (x forward, y left, z up).
     const P = (p: Vec3): [number, number] => [
       w * 0.4 + (p[0] * 0.87 - p[1] * 0.87) * s,
@@ -498,6 +728,52 @@ class FlatArm implements ArmDrawing {
     ];
     g.fillStyle = '#10151b';
     g.fillRect(0, 0, w, h);
+    const d = this.personD;
+    if (d) {
+      // The fields as floor circles (outer amber, inner red; stronger when interrupted).
+      for (const [r, on, st] of [
+        [d.outer_mm, d.outerInterrupted, FIELD_STYLE.outer],
+        [d.inner_mm, d.innerInterrupted, FIELD_STYLE.inner],
+      ] as const) {
+        floorCircle(g, P, 0, 0, r, 72);
+        g.globalAlpha = on ? 0.3 : 0.07;
+        g.fillStyle = st.css;
+        g.fill();
+        g.globalAlpha = 1;
+        g.strokeStyle = st.css;
+        g.lineWidth = on ? 3 : 1.5;
+        g.stroke();
+      }
+      const p = d.person;
+      if (p) {
+        g.fillStyle = PERSON_CSS;
+        g.globalAlpha = 0.45;
+        floorCircle(g, P, p.x_mm, p.y_mm, p.radius_mm, 36);
+        g.fill();
+        g.globalAlpha = 1;
+        const [a, b] = separationEnds(this.last, p);
+        g.strokeStyle = '#ffffff';
+        g.lineWidth = 1.5;
+        g.beginPath();
+        g.moveTo(...P(a));
+        g.lineTo(...P(b));
+        g.stroke();
+        g.fillStyle = '#ffffff';
+        g.font = '12px sans-serif';
+        g.fillText(sepText(p), ...P([(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, 80]));
+        g.strokeStyle = PERSON_CSS;
+        g.lineWidth = Math.max(6, 2 * p.radius_mm * 0.72 * s);
+        g.lineCap = 'round';
+        g.beginPath();
+        g.moveTo(...P([p.x_mm, p.y_mm, 0]));
+        g.lineTo(...P([p.x_mm, p.y_mm, BODY_MM]));
+        g.stroke();
+        g.fillStyle = '#ffccbc';
+        g.beginPath();
+        g.arc(...P([p.x_mm, p.y_mm, 1700 - HEAD_MM]), Math.max(4, HEAD_MM * s), 0, 2 * Math.PI);
+        g.fill();
+      }
+    }
     // Zones as wire boxes (the 12 edges of each), named.
     (this.safety?.zones ?? []).forEach((z, i) => {
       const bad = this.marks.violated.includes(i);

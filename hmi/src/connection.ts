@@ -3,6 +3,7 @@
 // messages, status and event pushes, and reconnection. A command that cannot be sent, or
 // that gets no reply, is reported like a refusal: nothing is dropped silently.
 import type { HmiEvent, ServerMessage, Status } from './api';
+import type { PersonMessage } from './person';
 // One reconnect schedule for every gateway client of this repository (the OPC UA adapter's
 // file: its tsc build takes sources from its own src/ only; Vite takes this path as it is).
 import { retryDelayMs } from '../../adapters/opcua/src/backoff';
@@ -152,7 +153,10 @@ export class Link {
     return seq;
   }
 
-  sim(body: { set: Record<string, string | number> } | { fault: string }, what: string): number | null {
+  sim(
+    body: { set: Record<string, string | number> } | { fault: string } | { person: PersonMessage },
+    what: string,
+  ): number | null {
     const seq = this.seq++;
     if (!this.send({ type: 'sim', seq, ...body })) {
       this.h.outcome({ seq: null, kind: 'sim', cmd: what, result: 'NOT_SENT', detail: 'not connected to the controller', show: 'all' });

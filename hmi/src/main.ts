@@ -10,6 +10,7 @@ import { SpeedGauge } from './gauge';
 import { History } from './history';
 import { JogPanel } from './jog';
 import { fmtSeconds, type Metrics, parseMetrics, quantile } from './metrics';
+import { personDrawing } from './person';
 import { SafetyPage } from './safety-page';
 import { highlights, ZONE_STYLE } from './safety-logic';
 import { SimPanel } from './sim-panel';
@@ -355,6 +356,7 @@ function onStatus(s: Status): void {
     lastSafetyKey = safetyKey;
   }
   armView?.update(s.joints);
+  armView?.setPerson(personDrawing(s));
   if (first) renderConnection();
   const key = discrete(s);
   const wait = lastRender + MOTION_MS - performance.now();
@@ -560,6 +562,7 @@ async function loadRobot(): Promise<void> {
   container.dataset.renderer = armView.kind;
   applySafetyDrawing();
   armView.update(status?.joints ?? (await fetchStatus().catch(() => null))?.joints ?? [0, 0, 0, 0, 0, 0]);
+  armView.setPerson(personDrawing(status));
 }
 
 link.connect();

@@ -15,6 +15,7 @@
 import type { Alarm, SafetyInfo, Status } from './api';
 import type { Link, LinkState, Role } from './connection';
 import { clockTime, deg, h, setAttr, setText, toggleClass } from './dom';
+import { personWords } from './person';
 import {
   brakeTestAxes,
   brakeTestDue,
@@ -242,6 +243,7 @@ export class SafetyPage {
           h('div', { class: 'sp-label' }, 'Speed and separation'),
           el('cb-ssm', 'div', 'sp-big', '—'),
           el('cb-ssm-detail', 'div', 'sp-small', ''),
+          el('cb-sim-person', 'div', 'sp-small cb-sim-person', ''),
         ),
         h(
           'div',
@@ -303,6 +305,7 @@ export class SafetyPage {
       toggleClass(this.e['cb-ssm'], 'warn', false);
       setText(this.e['cb-ssm-detail'], sf ? 'SSM acts with collaborative operation and SSM on, in AUTO.' : '');
     }
+    setText(this.e['cb-sim-person'], personWords(s)); // the simulated person, where there is one
     // Speed against the limit in force, and why.
     const why = sf ? slowWhy(sf) : null;
     if (s && why) {

@@ -1,15 +1,17 @@
 // The simulated cell's physical devices, shown only when status.simulated: E-stop
 // mushroom (and its two channels), guard, 3-position enabling device, key switch, the
 // cabinet's reset button, the area scanner's two protective fields and the distance sensor
-// (SPEC §11), and fault injection (with a contact force at the TCP), all as protocol `sim` messages in the
+// (SPEC §11), a walking person whose simulated scanner and distance sensor set those
+// (issue 20 item 5, only on the in-process simulated cell: status.sim), and fault injection (with a contact force at the TCP), all as protocol `sim` messages in the
 // vocabulary of the scenario format. The status does not report raw contacts, so the
 // panel shows the positions it last set, starting from the cell's initial inputs
 // (SPEC §6) and kept per core process across page reloads, corrected by what the status
 // proves (the selected mode, an E-stop alarm, a drive-on state that needs the enabling
 // device at centre or the guard closed).
-import type { Status } from './api';
+import type { SimPerson, Status } from './api';
 import type { Link } from './connection';
 import { h, setAttr, setText, toggleClass } from './dom';
+import { parseFields, parseSpeed, type PersonMessage, personWords, WALK_FROM_MM, WALK_TO_MM, walkIn, walkOut } from './person';
 
 interface Devices {
   estopA: boolean; // contact closed = not pressed
@@ -87,6 +89,16 @@ export class SimPanel {
   private sepNote: HTMLElement;
   private force: HTMLInputElement;
   private forceNote: HTMLElement;
+  private personCell: HTMLElement;
+  private personDir: HTMLSelectElement;
+  private personSpeed: HTMLInputElement;
+  private personOuter: HTMLInputElement;
+  private personInner: HTMLInputElement;
+  private personNote: HTMLElement;
+  private personProblem = '';
+  private personNow: SimPerson | null = null;
+  private personNeeds: HTMLButtonElement[];
+  private fieldsShown = false;
 
   constructor(private readonly link: Link) {
     this.mushroom = h(
@@ -155,6 +167,56 @@ export class SimPanel {
       type: 'number', id: 'sim-contact-force', min: 0, max: 5000, step: 10, value: 150, class: 'num', 'aria-label': 'Contact force (N)',
     }) as HTMLInputElement;
     this.forceNote = h('div', { class: 'sim-note', id: 'sim-contact-note' }, '');
+
+    // SPEC §11, the simulated person: walk it in and out along a direction; its scanner and
+    // distance sensor then set the fields and the separation above.
+    this.personDir = h('select', { id: 'sim-person-dir', 'aria-label': 'Direction the person walks in from' });
+    for (const [deg, label] of [
+      [0, '0° (+x, in front)'], [45, '45°'], [90, '90° (+y, left)'], [135, '135°'],
+      [180, '180° (−x, behind)'], [225, '225°'], [270, '270° (−y, right)'], [315, '315°'],
+    ] as const) {
+      this.personDir.append(h('option', { value: deg }, label));
+    }
+    this.personDir.value = '90';
+    this.personSpeed = h('input', {
+      type: 'number', id: 'sim-person-speed', min: 1, max: 2000, step: 100, value: 1600, class: 'num', 'aria-label': 'Walking speed (mm/s)',
+    }) as HTMLInputElement;
+    this.personOuter = h('input', { type: 'number', id: 'sim-person-outer', min: 1, max: 20000, step: 100, value: 2000, class: 'num', 'aria-label': 'Outer field radius (mm)' }) as HTMLInputElement;
+    this.personInner = h('input', { type: 'number', id: 'sim-person-inner', min: 1, max: 20000, step: 100, value: 1000, class: 'num', 'aria-label': 'Inner field radius (mm)' }) as HTMLInputElement;
+    this.personNote = h('div', { class: 'sim-note', id: 'sim-person-note' }, '');
+    const pbtn = (id: string, label: string, title: string, on: () => void, cls = '') =>
+      h('button', { type: 'button', class: `btn small ${cls}`, id, title, onclick: on }, label);
+    const walkOutBtn = pbtn('sim-person-out', 'Walk out', `Straight away from the robot to ${WALK_FROM_MM / 1000} m`, () => this.walkOut());
+    const standBtn = pbtn('sim-person-stand', 'Stand', 'Stops where it is', () => this.person('stand', 'person stands'));
+    const leaveBtn = pbtn('sim-person-leave', 'Leave', 'Out of the cell: the field and separation inputs above apply again', () => this.person('leave', 'person leaves'));
+    this.personNeeds = [walkOutBtn, standBtn, leaveBtn];
+    this.personCell = h(
+      'div',
+      { class: 'sim-cell sim-person', id: 'sim-person', hidden: true },
+      h('div', { class: 'sim-label', title: 'SPEC §11: a person in the cell; while it is there its scanner and distance sensor set the fields and the separation' }, 'Person in the cell'),
+      h(
+        'div',
+        { class: 'sim-sep-row' },
+        h('label', { class: 'axis-pick', title: 'Direction it walks in from (about the base axis)' }, 'From', this.personDir),
+        h('label', { class: 'axis-pick', title: 'Walking speed, up to 2000 mm/s' }, 'mm/s', this.personSpeed),
+      ),
+      h(
+        'div',
+        { class: 'sim-sep-row' },
+        pbtn('sim-person-in', `Walk in (${WALK_FROM_MM / 1000} → ${WALK_TO_MM / 1000} m)`, `Enters ${WALK_FROM_MM / 1000} m away (or from where it stands) and walks to ${WALK_TO_MM / 1000} m from the base axis`, () => this.walkIn(), 'warn'),
+        walkOutBtn,
+        standBtn,
+        leaveBtn,
+      ),
+      h(
+        'div',
+        { class: 'sim-sep-row', title: 'The scanner\'s two fields: circles about the base axis' },
+        h('label', { class: 'axis-pick' }, 'Outer', this.personOuter),
+        h('label', { class: 'axis-pick' }, 'Inner', this.personInner),
+        pbtn('sim-person-fields', 'Set fields', 'The scanner\'s field radii (mm)', () => this.setFields()),
+      ),
+      this.personNote,
+    );
 
     this.drive = h('select', { id: 'sim-axis', 'aria-label': 'Drive or brake number' });
     for (let i = 1; i <= 6; i++) this.drive.append(h('option', { value: i }, String(i)));
@@ -238,6 +300,7 @@ export class SimPanel {
             this.forceNote,
           ),
         ),
+        this.personCell,
         h(
           'div',
           { class: 'sim-cell sim-faults' },
@@ -320,6 +383,41 @@ export class SimPanel {
     setText(this.forceNote, f > 0 ? `Sent: a surface pushes back with ${f} N where the TCP next moves.` : 'Sent: contact removed.');
   }
 
+  private person(person: PersonMessage, what: string): boolean {
+    this.personProblem = '';
+    return this.link.sim({ person }, what) !== null;
+  }
+
+  private refuse(problem: string): void {
+    this.personProblem = `${problem} Nothing sent.`;
+    this.renderPerson();
+  }
+
+  private walkIn(): void {
+    const v = parseSpeed(this.personSpeed.value);
+    if (typeof v === 'string') return this.refuse(v);
+    const deg = Number(this.personDir.value);
+    this.person(walkIn(deg, v, this.personNow !== null), `person walks in from ${deg}° at ${v} mm/s`);
+  }
+
+  private walkOut(): void {
+    const v = parseSpeed(this.personSpeed.value);
+    if (typeof v === 'string') return this.refuse(v);
+    this.person(walkOut(this.personNow, Number(this.personDir.value), v), `person walks out at ${v} mm/s`);
+  }
+
+  private setFields(): void {
+    const f = parseFields(this.personOuter.value, this.personInner.value);
+    if (typeof f === 'string') return this.refuse(f);
+    this.person({ fields: f }, `scanner fields ${f[0]} / ${f[1]} mm`);
+  }
+
+  private renderPerson(): void {
+    for (const b of this.personNeeds) b.disabled = this.personNow === null;
+    setAttr(this.personNote, 'data-problem', this.personProblem ? 'yes' : null);
+    setAttr(this.personCell, 'data-person', this.personNow ? (this.personNow.walking ? 'walking' : 'standing') : 'absent');
+  }
+
   private pressResetButton(): void {
     // SPEC §2: the reset button acts on its falling edge, so press and release.
     if (this.link.sim({ set: { reset_button: 1 } }, 'cabinet reset button pressed') !== null) {
@@ -397,6 +495,17 @@ export class SimPanel {
   }
 
   update(s: Status): void {
+    // The person (status.sim: only the in-process simulated cell has one).
+    this.personCell.hidden = !s.sim;
+    this.personNow = s.sim?.person ?? null;
+    if (s.sim && !this.fieldsShown) {
+      this.fieldsShown = true;
+      this.personOuter.value = String(s.sim.person_fields.outer_mm);
+      this.personInner.value = String(s.sim.person_fields.inner_mm);
+    }
+    const over = this.personNow ? ' Its scanner and distance sensor set the fields and the separation above while it is in the cell.' : '';
+    setText(this.personNote, this.personProblem || personWords(s) + over);
+    this.renderPerson();
     if (s.core_pid !== undefined && s.core_pid !== this.corePid) {
       // A new core process starts from the initial inputs; a reload keeps what was set.
       this.corePid = s.core_pid;

@@ -67,6 +67,61 @@ void apply_contacts(const bridge::CommandRecord& rec, core::RawInputs& r) noexce
   }
 }
 
+// @req COL-SIM-PERSON
+// A `sim` person record (bridge::PersonRecord), all or nothing: tried first on a copy of
+// the person (the cell's own checks, no heap), applied only when every part passes. The
+// gateway has checked the values already; the runtime does not trust it.
+bridge::SimResult apply_person(const bridge::PersonRecord& p, sim::Cell& cell) noexcept {
+  static_assert(bridge::kPersonPoints == sim::kPersonMaxWaypoints);
+  constexpr unsigned kAll = bridge::kPersonFields | bridge::kPersonAt | bridge::kPersonWalk | bridge::kPersonStand |
+                           bridge::kPersonLeave;
+  const bool fields = (p.what & bridge::kPersonFields) != 0U;
+  const bool at = (p.what & bridge::kPersonAt) != 0U;
+  const bool walk = (p.what & bridge::kPersonWalk) != 0U;
+  const bool stand = p.what == bridge::kPersonStand;
+  const bool leave = p.what == bridge::kPersonLeave;
+  if (p.what == 0U || (static_cast<unsigned>(p.what) & ~kAll) != 0U ||
+      ((p.what & (bridge::kPersonStand | bridge::kPersonLeave)) != 0U && !stand && !leave)) {
+    return bridge::SimResult::person_invalid;  // nothing, an unknown bit, or stand/leave with more
+  }
+  if ((walk || stand || leave) && !at && !cell.person().present()) {
+    return bridge::SimResult::person_absent;  // nobody to do it (as the scenario's `person` keys)
+  }
+  sim::PersonSensors sensors = cell.person_sensors();
+  if (fields) {
+    sensors.outer_mm = p.fields_outer_mm;
+    sensors.inner_mm = p.fields_inner_mm;
+    if (!sim::valid(sensors)) {
+      return bridge::SimResult::person_invalid;
+    }
+  }
+  std::array<sim::PersonWaypoint, sim::kPersonMaxWaypoints> path{};
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    path[i] = sim::PersonWaypoint{p.path[i].x_mm, p.path[i].y_mm, p.path[i].speed_mm_s, p.path[i].stand_ms};
+  }
+  sim::Person trial = cell.person();
+  if ((at && !trial.place(p.x_mm, p.y_mm, p.radius_mm)) || (walk && !trial.walk(path.data(), p.points))) {
+    return bridge::SimResult::person_invalid;
+  }
+  // Every part passed on the copy: the same on the cell, in the record's order.
+  if (fields) {
+    static_cast<void>(cell.configure_person_sensors(sensors));
+  }
+  if (at) {
+    static_cast<void>(cell.add_person(p.x_mm, p.y_mm, p.radius_mm));
+  }
+  if (walk) {
+    static_cast<void>(cell.set_person_path(path.data(), p.points));
+  }
+  if (stand) {
+    cell.person_stand();
+  }
+  if (leave) {
+    cell.remove_person();
+  }
+  return bridge::SimResult::ok;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------ Publisher
@@ -195,6 +250,25 @@ void Publisher::publish() noexcept {
   s.safety_separation_mm = o.safety.separation_mm;
   s.safety_pfl = o.safety.pfl;
   s.safety_contact_force_n = o.safety.contact_force_n;
+  // @req COL-SIM-PERSON
+  s.person_shown = person_;
+  if (person_) {
+    const sim::PersonView& pv = v.person;
+    s.person_present = pv.present;
+    s.person_walking = pv.walking;
+    s.person_in_outer = pv.outer_interrupted;
+    s.person_in_inner = pv.inner_interrupted;
+    s.person_scanner = pv.sensors.scanner;
+    s.person_distance_sensor = pv.sensors.distance_sensor;
+    s.person_nearest_point = pv.nearest_point;
+    s.person_x_mm = pv.x_mm;
+    s.person_y_mm = pv.y_mm;
+    s.person_radius_mm = pv.radius_mm;
+    s.person_speed_mm_s = pv.speed_mm_s;
+    s.person_separation_mm = pv.separation_mm;
+    s.person_outer_mm = pv.sensors.outer_mm;
+    s.person_inner_mm = pv.sensors.inner_mm;
+  }
   s.brake_test_last = static_cast<std::uint8_t>(o.brake_test.last);
   s.brake_test_due_known = o.brake_test.due_known;
   s.brake_test_due = o.brake_test.due;
@@ -251,9 +325,16 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
         return;
       }
       break;
+    case bridge::RecordKind::sim_person:
+      // The person lives in the in-process cell only: an emulated segment has no person
+      // (ecat-sim's plant has none), so a person record there is refused, never dropped.
+      r.sim = (forward != nullptr) ? bridge::SimResult::person_not_on_bus : apply_person(rec.person, cell);
+      pub.reply(r);
+      return;
   }
   switch (rec.kind) {
-    case bridge::RecordKind::command: return;
+    case bridge::RecordKind::command:
+    case bridge::RecordKind::sim_person: return;
     case bridge::RecordKind::sim_set:
       apply_contacts(rec, cell.inputs());
       break;
@@ -272,7 +353,7 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
 
 // ------------------------------------------------------------------ RtLoop
 RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
-    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell, opt.simulated) {}
+    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell, opt.simulated, opt.sim_forward == nullptr) {}
 
 RtLoop::~RtLoop() {
   if (dma_latency_fd_ >= 0) {

@@ -66,6 +66,9 @@ std::string sim_line(const bridge::CommandRecord& r) {
     }
     return line;
   }
+  if (r.kind != bridge::RecordKind::sim_fault) {
+    return "";  // a command or a person: never forwarded (take_record refuses a person there)
+  }
   const std::string n = std::to_string(r.fault_axis);
   switch (static_cast<sim::FaultKind>(r.fault_kind)) {
     case sim::FaultKind::drive_fault: return "fault drive " + n + " fault";

@@ -140,6 +140,7 @@ bool Cell::configure_person_sensors(const PersonSensors& s) noexcept {
   impl_->person_sensors = s;
   return true;
 }
+const PersonSensors& Cell::person_sensors() const noexcept { return impl_->person_sensors; }
 const Person& Cell::person() const noexcept { return impl_->person; }
 
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {

@@ -16,6 +16,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (const auto* s = std::get_if<gateway::SimMsg>(&m)) {
     if (s->record.kind == bridge::RecordKind::command) __builtin_trap();
     if (s->record.kind == bridge::RecordKind::sim_set && (s->record.set_mask >> bridge::kContactCount) != 0U) __builtin_trap();
+    // A person record the gateway accepts does something, with at most 16 points (the walk's array).
+    if (s->record.kind == bridge::RecordKind::sim_person &&
+        (s->record.person.what == 0U || s->record.person.points > bridge::kPersonPoints)) __builtin_trap();
   }
   return 0;
 }

@@ -235,7 +235,7 @@ class Client:
                                 what=f"the reply to {cmd} (seq {seq})")
         return m["result"]
 
-    async def sim(self, set=None, fault=None):
+    async def sim(self, set=None, fault=None, person=None):
         """The reply or error answering a sim message."""
         seq = next(Client._seq)
         mark = self.mark()
@@ -244,6 +244,8 @@ class Client:
             msg["set"] = set
         if fault is not None:
             msg["fault"] = fault
+        if person is not None:
+            msg["person"] = person
         await self.send(msg)
         return await self.wait_for(
             lambda m: (m["type"] == "reply" and m["seq"] == seq) or m["type"] == "error",
@@ -577,6 +579,73 @@ def test_bad_input_is_answered_and_others_keep_being_served(cell):
         assert n_after - n_before >= 5, "the other client keeps receiving status"
         assert await bad.command("reset") == "OK"
         await watcher.state("IDLE")
+    run(main())
+
+
+# @req COL-SIM-PERSON
+def test_sim_person_walks_in_and_out_the_fields_follow_and_bad_input_changes_nothing(cell):
+    """The `sim` message's person (docs/collaborative.md): the scenario's `person` keys as
+    JSON; a bad value is an error naming it and nothing changes; the status' `sim` object
+    shows the person and the field radii, and the core's fields follow the person."""
+    default_fields = {"outer_mm": 2000, "inner_mm": 1000, "scanner": True, "distance_sensor": True}
+
+    async def main():
+        p = await booted(cell)
+        s = await p.status()
+        assert s["sim"] == {"person": None, "person_fields": default_fields}, s["sim"]
+        for person, named in (
+                ({"at": [25000, 0]}, "person at: X 25000 is off the floor"),
+                ({"at": [1, "x"]}, "person at: Y \"x\" is not a number"),
+                ({"at": [1]}, "person at must be [X, Y]"),
+                ({"at": [0, 0], "radius_mm": 0}, "radius_mm 0 is not a number of mm in (0, 1000]"),
+                ({"at": [0, 0], "radius_mm": True}, "radius_mm true"),
+                ({"radius_mm": 300}, "radius_mm goes with \"at\""),
+                ({"walk": [[0, 0, 2500]]}, "point 1: speed 2500 mm/s is over 2000"),
+                ({"walk": [[0, 0, 100], [0, 0, 0]]}, "point 2: speed 0 mm/s is not above 0"),
+                ({"walk": [[0, 0, 100]] * 17}, "17 points, more than 16"),
+                ({"walk": []}, "list of 1..16 points"),
+                ({"walk": [[0, 0]]}, "point 1 must be [X, Y, SPEED]"),
+                ({"walk": [[0, 0, 100, -1]]}, "point 1: stand -1 is not a whole number of ms"),
+                ({"walk": [[0, 0, 100, 1.5]]}, "point 1: stand 1.5"),
+                ({"fields": [1000, 2000]}, "are not 0 < INNER < OUTER <= 20000 mm"),
+                ({"fields": [30000, 1000]}, "are not 0 < INNER < OUTER"),
+                ({"fields": 5}, "person fields must be [OUTER, INNER]"),
+                ({"at": [0, 0], "fly": 1}, "unknown person key \"fly\""),
+                ({}, "\"person\" must be"),
+                ("dance", "unknown person action \"dance\""),
+                (7, "\"person\" must be")):
+            e = await p.sim(person=person)
+            assert e["type"] == "error" and e["code"] == "BAD_MESSAGE" and named in e["detail"], (person, e)
+        e = await p.error({"type": "sim", "seq": 1, "set": {"gate": "open"}, "person": "stand"})
+        assert e["code"] == "BAD_MESSAGE" and "exactly one of" in e["detail"], e
+        # Walk, stand, leave with nobody in the cell: the runtime refuses, as the scenario does.
+        for person in ({"walk": [[800, 0, 1600]]}, "stand", "leave", {"fields": [1500, 700], "walk": [[0, 0, 1]]}):
+            e = await p.sim(person=person)
+            assert e["type"] == "error" and e["code"] == "BAD_MESSAGE" and "no person in the cell" in e["detail"], e
+        s = await p.status()
+        assert s["sim"] == {"person": None, "person_fields": default_fields}, "nothing changed"
+        assert s["safety"]["fields"] == {"outer": "clear", "inner": "clear"}, s["safety"]
+
+        # In at 3 m on the x axis, walking to 0.8 m at 1.6 m/s, with fields of 1.5 m and 0.7 m.
+        r = await p.sim(person={"fields": [1500, 700], "at": [3000, 0], "walk": [[800, 0, 1600]]})
+        assert r["type"] == "reply" and r["result"] == "OK", r
+        s = await p.status(lambda s: s["sim"]["person"] and s["sim"]["person"]["walking"], what="the person walking")
+        assert s["sim"]["person_fields"] == {**default_fields, "outer_mm": 1500, "inner_mm": 700}, s["sim"]
+        assert s["sim"]["person"]["speed_mm_s"] == 1600 and s["sim"]["person"]["radius_mm"] == 250, s["sim"]
+        assert 800 < s["sim"]["person"]["x_mm"] <= 3000 and s["sim"]["person"]["y_mm"] == 0, s["sim"]
+        s = await p.status(lambda s: s["safety"]["fields"]["outer"] == "interrupted", what="the outer field")
+        assert s["sim"]["person"]["in_outer"] and s["sim"]["person"]["x_mm"] <= 1750 + 1, s["sim"]
+        s = await p.status(lambda s: not s["sim"]["person"]["walking"], what="the person standing at 0.8 m")
+        assert s["sim"]["person"]["x_mm"] == 800 and s["sim"]["person"]["speed_mm_s"] == 0, s["sim"]
+        assert s["sim"]["person"]["in_inner"] and s["safety"]["fields"]["inner"] == "interrupted", s
+        assert 0 <= s["sim"]["person"]["separation_mm"] < 550, s["sim"]
+        # Out again at 2 m/s: both fields clear; then leave.
+        assert (await p.sim(person={"walk": [[3000, 0, 2000]]}))["result"] == "OK"
+        s = await p.status(lambda s: s["sim"]["person"]["x_mm"] == 3000, what="the person back at 3 m")
+        assert s["safety"]["fields"] == {"outer": "clear", "inner": "clear"}, s["safety"]
+        assert (await p.sim(person="leave"))["result"] == "OK"
+        s = await p.status(lambda s: s["sim"]["person"] is None, what="the person gone")
+        assert s["sim"]["person_fields"]["outer_mm"] == 1500, "the radii stay as set"
     run(main())
 
 

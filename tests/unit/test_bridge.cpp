@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cmath>
 #include <string>
 #include <thread>
 
@@ -30,6 +31,15 @@ core::SafetyLimits safety_limits_for_test() {
     j.max_speed_rad_s = 3.0F;
   }
   l.tcp_max_speed_mm_s = 1500.0F;
+  return l;
+}
+
+// The same with collaborative operation and SSM on: v_h 1600, a 2000, T_r 100 ms, C 200, Z 100.
+core::SafetyLimits ssm_limits_for_test() {
+  core::SafetyLimits l = safety_limits_for_test();
+  l.collaborative.enabled = true;
+  l.collaborative.ssm_enabled = true;
+  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
   return l;
 }
 }  // namespace
@@ -325,11 +335,7 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
   runtime::Publisher pub(*seg, cell);
-  core::SafetyLimits l = safety_limits_for_test();
-  l.collaborative.enabled = true;
-  l.collaborative.ssm_enabled = true;
-  l.collaborative.ssm = core::SsmParams{1600.0F, 2000.0F, 0.1F, 200.0F, 100.0F};
-  cell.configure_limits(l, true);
+  cell.configure_limits(ssm_limits_for_test(), true);
   ASSERT_TRUE(cell.inputs().field_outer_a && cell.inputs().field_inner_b) << "NC: 1 = clear at start";
   ASSERT_FALSE(cell.inputs().separation_valid) << "no sensor reading yet: invalid";
   CommandRecord rec{};
@@ -390,6 +396,172 @@ TEST(RuntimeBridge, ValueFaultsKeepTheirValueOnTheWayToTheEmulator) {
   EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias 300");
   rec.fault_value = static_cast<std::uint16_t>(std::int16_t{-5});
   EXPECT_EQ(runtime::sim_line(rec), "fault drive 2 torque_bias -0.5");
+}
+
+namespace {
+
+CommandRecord person_record(std::uint32_t seq, std::uint8_t what) {
+  CommandRecord rec{};
+  rec.seq = seq;
+  rec.kind = RecordKind::sim_person;
+  rec.person.what = what;
+  return rec;
+}
+
+SimResult answer(Segment& seg) {
+  ReplyRecord r{};
+  EXPECT_TRUE(seg.replies().pop(r)) << "every person record is answered at once";
+  EXPECT_EQ(r.kind, RecordKind::sim_person);
+  return r.sim;
+}
+
+}  // namespace
+
+// @req COL-SIM-PERSON
+// The `sim` message's person (issue 20 item 5) as a bridge record: all or nothing, a walk
+// needs a person, the person walks in the cell, the simulated scanner and distance sensor
+// follow it into what the core reads, the status shows it, and leaving gives the inputs
+// set from outside back.
+TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow) {
+  const std::string name = unique_name("person");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell);
+  cell.configure_limits(ssm_limits_for_test(), true);
+  // The HMI's manual distance sensor: with nobody placed, the person's devices write nothing.
+  CommandRecord set{};
+  set.kind = RecordKind::sim_set;
+  set.separation_mm = 4321;
+  set.separation_set = kSetSeparation;
+  runtime::take_record(set, cell, pub, 0);
+  ReplyRecord r{};
+  ASSERT_TRUE(seg->replies().pop(r));
+  cell.step();
+  pub.publish();
+  EXPECT_EQ(cell.raw_inputs_of_last_cycle().separation_mm, 4321) << "no person: the manual reading stands";
+  Status st{};
+  ASSERT_TRUE(seg->status().read(st));
+  EXPECT_TRUE(st.person_shown);
+  EXPECT_FALSE(st.person_present);
+  EXPECT_FLOAT_EQ(st.person_outer_mm, 2000.0F) << "the default fields";
+  EXPECT_FLOAT_EQ(st.person_inner_mm, 1000.0F);
+
+  // Walk, stand and leave need a person (as the scenario's keys); nothing changes.
+  CommandRecord walk = person_record(20, kPersonWalk);
+  walk.person.points = 1;
+  walk.person.path[0] = PersonPoint{800.0F, 0.0F, 1600.0F, 0};
+  for (const std::uint8_t what : {kPersonWalk, kPersonStand, kPersonLeave}) {
+    walk.person.what = what;
+    runtime::take_record(walk, cell, pub, 1);
+    EXPECT_EQ(answer(*seg), SimResult::person_absent) << int{what};
+  }
+  EXPECT_FALSE(cell.person().present());
+  // A bad part refuses the whole record: the fields stay as they were, nobody is placed.
+  CommandRecord in = person_record(21, kPersonFields | kPersonAt | kPersonWalk);
+  in.person.fields_outer_mm = 1500.0F;
+  in.person.fields_inner_mm = 700.0F;
+  in.person.x_mm = 3000.0F;
+  in.person.radius_mm = 250.0F;
+  in.person.points = 1;
+  in.person.path[0] = PersonPoint{800.0F, 0.0F, 2500.0F, 0};  // over 2000 mm/s
+  runtime::take_record(in, cell, pub, 1);
+  EXPECT_EQ(answer(*seg), SimResult::person_invalid);
+  EXPECT_FALSE(cell.person().present());
+  EXPECT_FLOAT_EQ(cell.person_sensors().outer_mm, 2000.0F);
+  for (const std::uint8_t what : {std::uint8_t{0}, std::uint8_t{kPersonStand | kPersonLeave},
+                                  std::uint8_t{kPersonAt | kPersonStand}, std::uint8_t{0x80U}}) {
+    CommandRecord odd = in;
+    odd.person.what = what;
+    odd.person.path[0].speed_mm_s = 1600.0F;
+    runtime::take_record(odd, cell, pub, 1);
+    EXPECT_EQ(answer(*seg), SimResult::person_invalid) << int{what};
+  }
+  EXPECT_FALSE(cell.person().present());
+  in.person.fields_inner_mm = 1600.0F;  // not inner < outer
+  in.person.path[0].speed_mm_s = 1600.0F;
+  runtime::take_record(in, cell, pub, 1);
+  EXPECT_EQ(answer(*seg), SimResult::person_invalid);
+  EXPECT_FALSE(cell.person().present());
+
+  // Fields 1500 / 700, in at 3 m on the x axis, walking to 0.8 m at 1.6 m/s.
+  in.person.fields_inner_mm = 700.0F;
+  runtime::take_record(in, cell, pub, 1);
+  EXPECT_EQ(answer(*seg), SimResult::ok);
+  ASSERT_TRUE(cell.person().present());
+  EXPECT_FLOAT_EQ(cell.person_sensors().outer_mm, 1500.0F);
+  EXPECT_FLOAT_EQ(cell.person_sensors().inner_mm, 700.0F);
+  auto run = [&](int cycles) {
+    for (int i = 0; i < cycles; ++i) {
+      cell.step();
+      pub.publish();
+    }
+    EXPECT_TRUE(seg->status().read(st));
+  };
+  // 700 cycles: the centre at 3000 - 1120 = 1880 mm, its edge 1630 beyond the outer field.
+  run(700);
+  EXPECT_TRUE(st.person_present);
+  EXPECT_TRUE(st.person_walking);
+  EXPECT_FLOAT_EQ(st.person_speed_mm_s, 1600.0F);
+  EXPECT_NEAR(st.person_x_mm, 1880.0F, 1.0F);
+  EXPECT_FLOAT_EQ(st.person_outer_mm, 1500.0F);
+  EXPECT_FALSE(st.person_in_outer);
+  EXPECT_FALSE(st.safety_field_outer_interrupted);
+  EXPECT_TRUE(cell.raw_inputs_of_last_cycle().field_outer_a);
+  EXPECT_NE(cell.raw_inputs_of_last_cycle().separation_mm, 4321) << "the person's distance sensor now";
+  EXPECT_EQ(cell.raw_inputs_of_last_cycle().separation_mm, static_cast<std::int32_t>(std::floor(st.person_separation_mm)));
+  // 200 more: the centre at 1560, its edge 1310 inside the outer field, not the inner one.
+  run(200);
+  EXPECT_TRUE(st.person_in_outer);
+  EXPECT_FALSE(st.person_in_inner);
+  EXPECT_TRUE(st.safety_field_outer_interrupted) << "the core reads the scanner's channels";
+  EXPECT_FALSE(st.safety_field_inner_interrupted);
+  EXPECT_FALSE(cell.raw_inputs_of_last_cycle().field_outer_a);
+  EXPECT_FALSE(cell.raw_inputs_of_last_cycle().field_outer_b);
+  // At 0.8 m after 1.375 s: standing, in both fields.
+  run(600);
+  EXPECT_FALSE(st.person_walking);
+  EXPECT_FLOAT_EQ(st.person_speed_mm_s, 0.0F);
+  EXPECT_FLOAT_EQ(st.person_x_mm, 800.0F);
+  EXPECT_TRUE(st.person_in_inner);
+  EXPECT_TRUE(st.safety_field_inner_interrupted);
+  EXPECT_LT(st.person_separation_mm, 550.0F) << "the arm is nearer than the base axis";
+  // Stand while standing is fine; leave: the manual inputs again (fields clear, 4321 mm).
+  runtime::take_record(person_record(22, kPersonStand), cell, pub, 2);
+  EXPECT_EQ(answer(*seg), SimResult::ok);
+  runtime::take_record(person_record(23, kPersonLeave), cell, pub, 2);
+  EXPECT_EQ(answer(*seg), SimResult::ok);
+  run(1);
+  EXPECT_FALSE(st.person_present);
+  EXPECT_EQ(cell.raw_inputs_of_last_cycle().separation_mm, 4321);
+  EXPECT_TRUE(cell.raw_inputs_of_last_cycle().field_inner_a && cell.raw_inputs_of_last_cycle().field_inner_b);
+}
+
+// @req COL-SIM-PERSON
+// On an emulated segment a person record is refused, not forwarded (ecat-sim has no person).
+TEST(RuntimeBridge, APersonRecordIsRefusedWhereTheWorldIsAnEmulatedSegment) {
+  const std::string name = unique_name("person-bus");
+  std::string err;
+  auto seg = Segment::create(name, err);
+  ASSERT_TRUE(seg);
+  sim::Cell cell{core::Config{}};
+  runtime::Publisher pub(*seg, cell, true, false);
+  runtime::SimForward forward;
+  CommandRecord rec = person_record(30, kPersonAt);
+  rec.person.x_mm = 2000.0F;
+  rec.person.radius_mm = 250.0F;
+  runtime::take_record(rec, cell, pub, 0, &forward);
+  EXPECT_EQ(answer(*seg), SimResult::person_not_on_bus);
+  CommandRecord none{};
+  EXPECT_FALSE(forward.pop(none)) << "not forwarded: the emulator has no person";
+  EXPECT_FALSE(cell.person().present());
+  EXPECT_EQ(runtime::sim_line(rec), "");
+  cell.step();
+  pub.publish();
+  Status st{};
+  ASSERT_TRUE(seg->status().read(st));
+  EXPECT_FALSE(st.person_shown) << "no person view where none can be placed";
 }
 
 TEST(Histogram, PowerOfTwoBuckets) {

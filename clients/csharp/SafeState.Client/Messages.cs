@@ -218,6 +218,7 @@ namespace SafeState.Client
             "target", "arming_step", "arming_progress", "program_index", "program_length", "simulated",
             "max_point_speed", "statusword", "core_heartbeat", "core_heartbeat_age_ms", "gateway_heartbeat",
             "core_pid", "gateway_restarts", "shutting_down",
+            "sim", // SPEC §11 the simulated person (untyped: in Raw)
         };
 
         internal static StatusMessage Read(Fields f, List<string> unknownNames)

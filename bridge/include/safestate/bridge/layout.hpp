@@ -28,10 +28,10 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 7U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles; 7: fault value, pfl and contact force
+inline constexpr std::uint32_t kLayoutVersion = 8U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles; 7: fault value, pfl and contact force; 8: the simulated person (record and status)
 
 // ------------------------------------------------------------------ records
-enum class RecordKind : std::uint8_t { command, sim_set, sim_fault };
+enum class RecordKind : std::uint8_t { command, sim_set, sim_fault, sim_person };
 
 // Contacts a `sim` message may set (the scenario vocabulary), in RawInputs order.
 enum class Contact : std::uint8_t {
@@ -45,6 +45,34 @@ inline constexpr std::size_t kContactCount = 17;
 inline constexpr std::uint8_t kSetSeparation = 0x01U;    // separation_mm written (and valid, unless kSetValid)
 inline constexpr std::uint8_t kSetValid = 0x02U;         // separation_valid written ...
 inline constexpr std::uint8_t kSeparationValid = 0x04U;  // ... with this value
+
+// A `sim` record's person (SPEC §11, sim::Person; the scenario's `person` keys): what it
+// does, as kPerson* bits. The runtime applies them in this order, all or nothing: the
+// field radii, `at` (place, standing), `walk` (the path from where it then is); `stand`
+// and `leave` come alone.
+inline constexpr std::uint8_t kPersonFields = 0x01U;  // fields_outer_mm / fields_inner_mm
+inline constexpr std::uint8_t kPersonAt = 0x02U;      // x_mm, y_mm, radius_mm
+inline constexpr std::uint8_t kPersonWalk = 0x04U;    // path[0 .. points)
+inline constexpr std::uint8_t kPersonStand = 0x08U;
+inline constexpr std::uint8_t kPersonLeave = 0x10U;
+inline constexpr std::size_t kPersonPoints = 16;  // sim::kPersonMaxWaypoints
+struct PersonPoint {  // sim::PersonWaypoint
+  float x_mm = 0.0F;
+  float y_mm = 0.0F;
+  float speed_mm_s = 0.0F;
+  std::uint32_t stand_ms = 0;
+};
+struct PersonRecord {
+  std::uint8_t what = 0;    // kPerson* bits
+  std::uint8_t points = 0;  // kPersonWalk: how many of `path`
+  std::uint8_t pad[2]{};
+  float x_mm = 0.0F;        // kPersonAt
+  float y_mm = 0.0F;
+  float radius_mm = 0.0F;
+  float fields_outer_mm = 0.0F;  // kPersonFields
+  float fields_inner_mm = 0.0F;
+  std::array<PersonPoint, kPersonPoints> path{};
+};
 
 struct CommandRecord {
   std::uint32_t seq = 0;  // assigned by the gateway, echoed in the reply
@@ -60,10 +88,14 @@ struct CommandRecord {
   std::uint8_t pad2[1]{};
   std::uint16_t fault_value = 0;  // kind == sim_fault: sim::Fault::value (contact: 0.1 N; torque bias: int16 per mille)
   std::uint8_t pad3[2]{};
+  PersonRecord person{};          // kind == sim_person
 };
 
-// Answer to a record: a command's result, or for sim records OK / NOT_SIMULATED.
-enum class SimResult : std::uint8_t { ok, not_simulated };
+// Answer to a record: a command's result, or for sim records OK / NOT_SIMULATED. A person
+// record may also be refused, nothing changed: `walk`, `stand` or `leave` with nobody in the
+// cell (person_absent), a value the cell refuses (person_invalid; the gateway checks them
+// first), or any person record where the world is an emulated segment (person_not_on_bus).
+enum class SimResult : std::uint8_t { ok, not_simulated, person_absent, person_invalid, person_not_on_bus };
 struct ReplyRecord {
   std::uint32_t seq = 0;
   RecordKind kind = RecordKind::command;
@@ -145,6 +177,24 @@ struct Status {
   // SPEC §11 collision detection (core::SafetyStatus): acts, and the force estimated at the TCP.
   bool safety_pfl = false;
   float safety_contact_force_n = 0.0F;
+  // SPEC §11, the simulated person (sim::PersonView of the last cycle), for the HMI's floor.
+  // person_shown: the in-process simulated cell, where a person can be placed (false on a
+  // fieldbus, emulated or not); the rest is meaningful only with it.
+  bool person_shown = false;
+  bool person_present = false;
+  bool person_walking = false;
+  bool person_in_outer = false;  // what the scanner sees of the person
+  bool person_in_inner = false;
+  bool person_scanner = false;   // sim::PersonSensors: which devices the person feeds
+  bool person_distance_sensor = false;
+  std::uint8_t person_nearest_point = 0;  // 0..6 DH frame origin, 7 TCP
+  float person_x_mm = 0.0F;
+  float person_y_mm = 0.0F;
+  float person_radius_mm = 0.0F;
+  float person_speed_mm_s = 0.0F;
+  float person_separation_mm = 0.0F;  // what the distance sensor sees of the person
+  float person_outer_mm = 0.0F;       // the scanner's field radii
+  float person_inner_mm = 0.0F;
   // SPEC §12, as the core reports it (core::BrakeTestStatus).
   std::uint8_t brake_test_last = 0;  // core::BrakeTestResult
   bool brake_test_due_known = false;

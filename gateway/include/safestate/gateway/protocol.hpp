@@ -45,7 +45,7 @@ struct CommandMsg {
 
 struct SimMsg {
   Json seq;
-  bridge::CommandRecord record{};  // kind sim_set or sim_fault; seq set by the session
+  bridge::CommandRecord record{};  // kind sim_set, sim_fault or sim_person; seq set by the session
 };
 
 struct ProtocolError {
@@ -62,6 +62,11 @@ ClientMessage parse_client_message(std::string_view text);
 // by the `sim` message. Return "" on success, else what is wrong.
 std::string encode_sim_set(const Json& set, bridge::CommandRecord& out);
 std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out);
+// SPEC §11, the simulated person (an extension of the `sim` message, docs/collaborative.md):
+// "stand", "leave", or {"at": [X, Y], "radius_mm": R, "walk": [[X, Y, SPEED(, STAND_MS)], ...],
+// "fields": [OUTER, INNER]} with the limits of the scenario's `person` keys. On a problem
+// `out` is left without any action.
+std::string encode_sim_person(const Json& person, bridge::CommandRecord& out);
 
 // Server-to-client messages.
 Json make_welcome(Role role, const std::string& version);

@@ -50,6 +50,9 @@ Json brake_test_record(const std::string& time, const Json& data);
 // tcp, the zone's name, estop.a, ... (the `subject` of an alarm object).
 std::string alarm_subject(const core::AlarmDetail& d);
 
+// The status `sim` object (SPEC §11, the simulated person and the scanner's field radii);
+// null unless the status comes from the in-process simulated cell.
+Json status_sim_json(const bridge::Status& s);
 // The `status` message (with_type) or GET /api/status (without).
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type);
 // Who may command (protocol.md "Roles"): the pendant in T1/T2; in AUTO a connected

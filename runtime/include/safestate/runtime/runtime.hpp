@@ -49,8 +49,10 @@ struct RtOptions {
 // Copies one cycle of the cell into the bridge. Fixed work, no allocation.
 class Publisher {
  public:
-  Publisher(bridge::Segment& seg, const sim::Cell& cell, bool simulated = true) noexcept
-      : seg_(seg), cell_(cell), simulated_(simulated) {}
+  // `person`: the cell's own plant is the world (no emulated segment behind it), so the
+  // status shows the simulated person (only when also `simulated`).
+  Publisher(bridge::Segment& seg, const sim::Cell& cell, bool simulated = true, bool person = true) noexcept
+      : seg_(seg), cell_(cell), simulated_(simulated), person_(simulated && person) {}
   void publish() noexcept;                         // after cell.step()
   void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
 
@@ -59,10 +61,13 @@ class Publisher {
   bridge::Segment& seg_;
   const sim::Cell& cell_;
   bool simulated_;
+  bool person_;
 };
 
 // Applies one record from the gateway to the cell; answers sim records and refused
-// commands at once (commands are otherwise answered by the core).
+// commands at once (commands are otherwise answered by the core). A person record is
+// applied all or nothing; with `forward` (an emulated segment) it is refused
+// (person_not_on_bus).
 void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
                  SimForward* forward = nullptr) noexcept;
 

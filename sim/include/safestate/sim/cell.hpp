@@ -113,6 +113,7 @@ class Cell {
   // The scanner's field radii and which devices the person feeds (default: both, 2000 /
   // 1000 mm); false for radii that are not 0 < inner < outer <= 20 m.
   bool configure_person_sensors(const PersonSensors& s) noexcept;
+  [[nodiscard]] const PersonSensors& person_sensors() const noexcept;
   [[nodiscard]] const Person& person() const noexcept;
   void inject(const Fault& f) noexcept;
   // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
