@@ -42,6 +42,20 @@ Feedback at(std::array<float, 6> q, std::array<float, 6> qd = {}) {
 
 constexpr float kDeg = 3.14159265F / 180.0F;
 
+core::Zone box(const char* name, core::ZoneKind kind, std::array<float, 3> lo, std::array<float, 3> hi) {
+  core::Zone z{};
+  std::snprintf(z.name.data(), z.name.size(), "%s", name);
+  z.kind = kind;
+  z.min_mm = lo;
+  z.max_mm = hi;
+  return z;
+}
+core::ArmPose home_pose(const core::SafetyLimits& l) {
+  core::ArmPose p{};
+  core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, p);
+  return p;
+}
+
 }  // namespace
 
 TEST(CoreArm, AgreesWithTheMotionLayersKinematicsOnRandomPoses) {
@@ -183,20 +197,12 @@ TEST(Orientation, TheToolAxisOutsideItsConeTripsAndRecoversOnlyTowardIt) {
 TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
   core::SafetyLimits l = builtin();
   l.tool_radius_mm = 40.0F;
-  core::ArmPose home{};
-  core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, home);
-  core::Zone out{};
-  std::snprintf(out.name.data(), out.name.size(), "table");
-  out.kind = core::ZoneKind::keep_out;
+  const core::ArmPose home = home_pose(l);
   // A box whose face is 30 mm from the TCP: the 40 mm sphere touches it.
-  out.min_mm = {home.tcp[0] + 30.0F, -100.0F, -100.0F};
-  out.max_mm = {home.tcp[0] + 300.0F, 100.0F, 2000.0F};
+  const core::Zone out = box("table", core::ZoneKind::keep_out, {home.tcp[0] + 30.0F, -100.0F, -100.0F},
+                             {home.tcp[0] + 300.0F, 100.0F, 2000.0F});
   l.zones[1] = out;
-  core::Zone in{};
-  std::snprintf(in.name.data(), in.name.size(), "cell");
-  in.kind = core::ZoneKind::keep_in;
-  in.min_mm = {-1000.0F, -1000.0F, -10.0F};
-  in.max_mm = {1000.0F, 1000.0F, 2000.0F};
+  const core::Zone in = box("cell", core::ZoneKind::keep_in, {-1000.0F, -1000.0F, -10.0F}, {1000.0F, 1000.0F, 2000.0F});
   l.zones[0] = in;
   l.zone_count = 2;
   EXPECT_NEAR(core::ZoneMonitor::outside_mm(out, home, 40.0F), 10.0F, 0.1F);
@@ -399,21 +405,6 @@ TEST(JointLimits, SeveralAxesOutsideAtOnceNameTheFirstAndKeepTheReport) {
   EXPECT_FALSE(r.outside || r.recovering || r.joint.hit);
 }
 
-namespace {
-core::Zone box(const char* name, core::ZoneKind kind, std::array<float, 3> lo, std::array<float, 3> hi) {
-  core::Zone z{};
-  std::snprintf(z.name.data(), z.name.size(), "%s", name);
-  z.kind = kind;
-  z.min_mm = lo;
-  z.max_mm = hi;
-  return z;
-}
-core::ArmPose home_pose(const core::SafetyLimits& l) {
-  core::ArmPose p{};
-  core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, p);
-  return p;
-}
-}  // namespace
 
 // Two zones found in one cycle: the first is named (ZONE_VIOLATION, REDUCED_SPEED), the
 // second changes nothing of what the first set (MC/DC of the zone monitor's report).
