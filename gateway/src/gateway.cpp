@@ -352,11 +352,15 @@ int gateway_main(const GatewayOptions& options) {
     return 1;
   }
   std::string error;
+  // Two connections to the log: the writer's thread commits (an fsync each), the I/O thread
+  // reads (history, black boxes, the latest confirmation) without waiting for it (WAL).
   std::unique_ptr<EventLog> log = EventLog::open(options.db_path, error);
-  if (!log) {
+  std::unique_ptr<EventLog> write_log = log ? EventLog::open(options.db_path, error) : nullptr;
+  if (!log || !write_log) {
     say(error);
     return 1;
   }
+  EventWriter writer(std::move(write_log));
 
   tcp::endpoint endpoint;
   if (!resolve(options, endpoint)) {
@@ -364,11 +368,12 @@ int gateway_main(const GatewayOptions& options) {
   }
   const bool loopback = is_loopback(endpoint.address());
   // Declared before the io_context: sessions destroyed with it still detach from the hub.
-  Hub hub(options, *segment, *log, loopback);
+  Hub hub(options, *segment, *log, writer, loopback);
   Sessions sessions(options.max_clients);
   HttpSessions http(options.max_http);
   Endpoints endpoints{hub, sessions, hub.access(), "safestate " + options.version};
   asio::io_context ioc{1};
+  writer.on_done([&ioc, &hub] { asio::post(ioc, [&hub] { hub.collect_log(); }); });
   auto listener = std::make_shared<Listener>(ioc, endpoints, http);
   if (!listener->open(endpoint, error)) {
     say("cannot listen on " + options.bind + ":" + std::to_string(options.port) + ": " + error);
@@ -426,6 +431,7 @@ int gateway_main(const GatewayOptions& options) {
       options.shm_name + ", event log " + options.db_path + ")");
   ioc.run();
   liveness.stop();
+  writer.stop();  // what is queued is written; nothing is posted to the io_context after this
 
   std::uint32_t expected = pid;
   header.gateway_pid.compare_exchange_strong(expected, 0U, std::memory_order_relaxed);

@@ -41,8 +41,14 @@ constexpr std::uint64_t kEventsPerPoll = 1024;
 
 }  // namespace
 
-Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, bool loopback_bind)
-    : options_(options), segment_(segment), log_(log), loopback_bind_(loopback_bind), access_(options, loopback_bind) {
+Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, EventWriter& writer,
+         bool loopback_bind)
+    : options_(options),
+      segment_(segment),
+      log_(log),
+      writer_(writer),
+      loopback_bind_(loopback_bind),
+      access_(options, loopback_bind) {
   // A restarted gateway must not take a reply meant for its predecessor as its own.
   std::random_device rd;
   next_seq_ = static_cast<std::uint32_t>(rd());
@@ -89,14 +95,15 @@ void Hub::poll_events() { drain_events(); }
 void Hub::flush() {
   flushing_ = true;
   drain_replies();
-  std::size_t left = segment_.events().size();
-  while (left > 0U) {
+  auto& ring = segment_.events();
+  for (;;) {
+    const std::size_t left = ring.size();
     drain_events();
-    const std::size_t now_left = segment_.events().size();
-    if (now_left >= left) {
-      break;  // the log refuses: nothing more to gain
+    writer_.wait_idle();
+    collect_log();
+    if (ring.size() == 0U || ring.size() >= left) {
+      break;  // all logged, or the log refuses: nothing more to gain
     }
-    left = now_left;
   }
   flushing_ = false;
 }
@@ -136,17 +143,18 @@ void Hub::drain_replies() {
     }
     const Pending p = it->second;
     pending_.erase(it);
-    if (p.validate && r.kind == bridge::RecordKind::command && r.result == core::Result::OK) {
-      log_confirmation(p, r.t);  // before the reply: whoever sees OK finds it in the log
-    }
     const auto c = clients_.find(p.client);
+    if (c != clients_.end() && c->second->pending > 0) {
+      --c->second->pending;
+    }
+    if (p.validate && r.kind == bridge::RecordKind::command && r.result == core::Result::OK) {
+      log_confirmation(p, r.t);  // the reply follows the commit: whoever sees OK finds it in the log
+      continue;
+    }
     if (c == clients_.end()) {
       continue;  // the client has gone
     }
     Client& client = *c->second;
-    if (client.pending > 0) {
-      --client.pending;
-    }
     if (r.kind == bridge::RecordKind::command) {
       send(client, make_reply(p.seq, core::to_string(r.result)));
     } else if (r.sim == bridge::SimResult::ok) {
@@ -159,9 +167,10 @@ void Hub::drain_replies() {
 
 // SPEC §10: the core has taken the operator's validate_config. The confirmation is kept in
 // the event log with the client and the time, and found again by the next `safestate run`
-// (latest_confirmation). Written at once, in its own transaction (synchronous=FULL: on disk
-// when insert returns), then pushed like every event. A gateway that dies before this line
-// loses the confirmation: the next start is then not validated, the safe side.
+// (latest_confirmation): written in its own transaction (synchronous=FULL), and only once it
+// is on disk are the reply OK sent and the event pushed (collect_log). A gateway that dies
+// before the commit loses the confirmation and never said OK: the next start is then not
+// validated, the safe side.
 // @req LIM-PERSIST
 void Hub::log_confirmation(const Pending& p, std::uint64_t t) {
   std::array<char, 16> hex{};
@@ -171,13 +180,15 @@ void Hub::log_confirmation(const Pending& p, std::uint64_t t) {
   data["client"] = p.client_name;
   data["role"] = to_string(p.role);
   const std::string time = iso8601_utc(std::chrono::system_clock::now());
-  const std::int64_t id = log_.insert(t, time, "config_validated", dump(data), {});
-  if (id < 0) {
-    log_error("event log: the config_validated event could not be written: " + log_.last_error());
-  } else {
-    ++events_stored_;
-  }
-  broadcast(std::make_shared<const std::string>(dump(event_message(id, t, time, "config_validated", data))), false);
+  LogBatch batch;
+  batch.rows.push_back(LogRow{t, time, "config_validated", dump(data), {}});
+  Submitted sub;
+  sub.events.push_back(Submitted::Event{t, time, "config_validated", std::move(data)});
+  sub.reply = true;
+  sub.reply_client = p.client;
+  sub.reply_seq = p.seq;
+  submitted_.push_back(std::move(sub));
+  writer_.submit(std::move(batch));
 }
 
 bool Hub::blackbox_ready(const bridge::EventRecord& e) {
@@ -198,14 +209,16 @@ bool Hub::blackbox_ready(const bridge::EventRecord& e) {
   return now - *blackbox_wait_since_ >= kBlackBoxWait;
 }
 
+// Events are peeked behind what has already been handed to the writer; the ring's tail
+// moves only when their batch comes back committed (collect_log).
 void Hub::drain_events() {
   auto& ring = segment_.events();
-  std::vector<Frame> frames;
+  LogBatch batch;
+  Submitted sub;
   std::uint64_t taken = 0;
   bridge::EventRecord e{};
   std::string time;
-  bool began = false;
-  while (taken < kEventsPerPoll && ring.peek(taken, e)) {
+  while (taken < kEventsPerPoll && ring.peek(ring_submitted_ + taken, e)) {
     std::string blackbox;
     if (needs_blackbox(e)) {
       if (!blackbox_ready(e)) {
@@ -214,36 +227,26 @@ void Hub::drain_events() {
       blackbox = dump(blackbox_json(segment_.blackbox(), e.t));
     }
     blackbox_wait_since_.reset();
-    if (!began) {
+    if (time.empty()) {
       time = iso8601_utc(std::chrono::system_clock::now());
-      began = log_.begin();
-      if (!began) {
-        log_error("event log: cannot begin a transaction: " + log_.last_error());
-      }
     }
-    frames.push_back(store(e, time, blackbox));
+    record(e, time, std::move(blackbox), batch, sub);
     ++taken;
   }
   if (taken == 0U) {
     return;
   }
-  const std::uint64_t tail = ring.tail.load(std::memory_order_relaxed) + taken;
-  const auto commit_start = Clock::now();
-  if (began && (!log_.set_ring_progress(segment_.header().instance, tail) || !log_.commit())) {
-    log_error("event log: commit failed: " + log_.last_error());
-  }
-  const auto commit_ms = std::chrono::duration<double, std::milli>(Clock::now() - commit_start).count();
-  if (commit_ms > 50.0) {
-    // The commit (fsync) runs on the one I/O thread: a slow disk delays every client.
-    log_error("event log: a commit took " + std::to_string(static_cast<int>(commit_ms)) + " ms");
-  }
-  ring.advance(taken);  // only now may the core reuse these slots
-  for (const Frame& f : frames) {
-    broadcast(f, false);
-  }
+  ring_submitted_ += taken;
+  batch.ring = true;
+  batch.instance = segment_.header().instance;
+  batch.tail = ring.tail.load(std::memory_order_relaxed) + ring_submitted_;
+  sub.ring_events = taken;
+  submitted_.push_back(std::move(sub));
+  writer_.submit(std::move(batch));
 }
 
-Frame Hub::store(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox) {
+void Hub::record(const bridge::EventRecord& e, const std::string& time, std::string blackbox, LogBatch& batch,
+                 Submitted& sub) {
   Json seq = nullptr;
   std::string name;
   if (e.kind == bridge::EventKind::command && e.reply.seq != 0U) {
@@ -254,29 +257,71 @@ Frame Hub::store(const bridge::EventRecord& e, const std::string& time, const st
     }
   }
   const char* kind = kind_name(e.kind);
-  const Json data = event_data(e, name, seq);
-  const std::int64_t id = log_.insert(e.t, time, kind, dump(data), blackbox);
-  if (id < 0) {
-    log_error("event log: insert failed: " + log_.last_error());
-  } else {
-    ++events_stored_;
-  }
-  if (e.kind == bridge::EventKind::brake_test) {
-    brake_test_record_ = brake_test_record(time, data);
-  }
-  return std::make_shared<const std::string>(dump(event_message(id, e.t, time, kind, data)));
+  Json data = event_data(e, name, seq);
+  batch.rows.push_back(LogRow{e.t, time, kind, dump(data), std::move(blackbox)});
+  sub.events.push_back(Submitted::Event{e.t, time, kind, std::move(data)});
 }
 
-void Hub::broadcast(const Frame& frame, bool droppable, const std::function<bool(Client&)>& take) {
+void Hub::collect_log() {
+  for (LogBatch& b : writer_.take_done()) {
+    if (submitted_.empty()) {
+      break;  // cannot happen: every batch is recorded before it is submitted
+    }
+    Submitted s = std::move(submitted_.front());
+    submitted_.pop_front();
+    if (!b.error.empty()) {
+      log_error("event log: " + b.error);
+    }
+    if (b.commit_ms > 50.0) {
+      // On the writer's thread: no client waited for it, but the events reached them late.
+      log_error("event log: a commit took " + std::to_string(static_cast<int>(b.commit_ms)) + " ms");
+    }
+    if (s.ring_events > 0U) {
+      segment_.events().advance(s.ring_events);  // only now may the core reuse these slots
+      ring_submitted_ -= s.ring_events;
+    }
+    for (std::size_t i = 0; i < s.events.size(); ++i) {
+      Submitted::Event& ev = s.events[i];
+      const std::int64_t id = i < b.ids.size() ? b.ids[i] : -1;
+      if (id >= 0) {
+        ++events_stored_;
+      }
+      if (std::string_view(ev.kind) == kind_name(bridge::EventKind::brake_test)) {
+        brake_test_record_ = brake_test_record(ev.time, ev.data);
+      }
+      broadcast_event(std::make_shared<const std::string>(dump(event_message(id, ev.t, ev.time, ev.kind, ev.data))));
+    }
+    if (s.reply) {
+      if (const auto c = clients_.find(s.reply_client); c != clients_.end()) {
+        send(*c->second, make_reply(s.reply_seq, core::to_string(core::Result::OK)));
+      }
+    }
+  }
+}
+
+void Hub::broadcast(const Frame& frame, const std::function<bool(Client&)>& take) {
   std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
   targets.reserve(clients_.size());
   for (const auto& [id, c] : clients_) {
-    if (c->hello && (!take || take(*c))) {
+    if (c->hello && take(*c)) {
       targets.push_back(c);
     }
   }
   for (Client* c : targets) {
-    c->send(frame, droppable);
+    c->send(frame, Delivery::status);
+  }
+}
+
+void Hub::broadcast_event(const Frame& frame) {
+  std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
+  targets.reserve(clients_.size());
+  for (const auto& [id, c] : clients_) {
+    if (c->hello) {
+      targets.push_back(c);
+    }
+  }
+  for (Client* c : targets) {
+    c->send(frame, c->role == Role::observer ? Delivery::with_status : Delivery::at_once);
   }
 }
 
@@ -335,7 +380,7 @@ void Hub::broadcast_status() {
   read_status();
   const auto frame = std::make_shared<const std::string>(dump(status_json(status_, extras(), true)));
   const auto now = Clock::now();
-  broadcast(frame, true, [&](Client& c) {
+  broadcast(frame, [&](Client& c) {
     // The same snapshot again within a period (the hello's status just before this tick)
     // tells the client nothing; a stalled core's snapshot is still repeated every period,
     // with the gateway's own fields (core_heartbeat_age_ms) moving on.

@@ -38,7 +38,7 @@ void Hub::detach(Client& c) {
   }
 }
 
-void Hub::send(Client& c, const Json& message) { c.send(std::make_shared<const std::string>(dump(message)), false); }
+void Hub::send(Client& c, const Json& message) { c.send(std::make_shared<const std::string>(dump(message)), Delivery::at_once); }
 
 void Hub::refuse(Client& c, ErrorCode code, const std::string& detail) {
   send(c, make_error(code, detail));

@@ -353,7 +353,7 @@ void WsSession::queue_control(std::uint8_t opcode, std::string payload) {
   schedule_write();
 }
 
-void WsSession::send(const Frame& frame, bool droppable) {
+void WsSession::send(const Frame& frame, Delivery delivery) {
   if (!open_ || closing_) {
     return;
   }
@@ -362,18 +362,25 @@ void WsSession::send(const Frame& frame, bool droppable) {
     abort();
     return;
   }
-  if (droppable) {
+  if (delivery == Delivery::status) {
     status_ = frame;  // replaces an unsent older status
-  } else {
-    queue_.push_back(frame);
-    queued_bytes_ += frame->size();
-    if (queued_bytes_ > kMaxQueuedBytes) {
-      say("a WebSocket client reads far slower than it is sent to (32 MiB queued): disconnected");
-      abort();
-      return;
+    // The tick queues nothing else for this client: its write starts now (with the events
+    // queued for it since its last write), not one posted handler per client later.
+    if (!writing_ && !write_posted_) {
+      do_write();
     }
+    return;
   }
-  schedule_write();
+  queue_.push_back(frame);
+  queued_bytes_ += frame->size();
+  if (queued_bytes_ > kMaxQueuedBytes) {
+    say("a WebSocket client reads far slower than it is sent to (32 MiB queued): disconnected");
+    abort();
+    return;
+  }
+  if (delivery == Delivery::at_once) {
+    schedule_write();
+  }
 }
 
 // The write starts once the current handler is done, so that every frame queued by it

@@ -118,7 +118,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
   ~WsSession() override;
 
   void run(http::request<http::string_body> req);
-  void send(const Frame& frame, bool droppable) override;
+  void send(const Frame& frame, Delivery delivery) override;
   void close_after_flush() override;
   void close_try_again_later() override;
   [[nodiscard]] bool loopback_peer() const override { return loopback_; }

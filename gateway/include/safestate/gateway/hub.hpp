@@ -21,6 +21,7 @@
 
 #include "safestate/gateway/admission.hpp"
 #include "safestate/gateway/event_log.hpp"
+#include "safestate/gateway/event_writer.hpp"
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/gateway/protocol.hpp"
 #include "safestate/gateway/views.hpp"
@@ -49,6 +50,22 @@ inline constexpr std::chrono::milliseconds kBlackBoxWait{200};
 // than that ago (its hello's status, just before the tick) is not sent it twice.
 inline constexpr std::chrono::milliseconds kStatusPeriod{20};
 
+// How soon a frame goes out (every frame but a replaced status is delivered).
+enum class Delivery : std::uint8_t {
+  // Written once the current handler is done, together with whatever else it queued:
+  // replies, errors, the welcome, events to the client that controls the robot.
+  at_once,
+  // Queued, written with the client's next write: its next status at the latest, so at
+  // most one kStatusPeriod later. Events to observers: a burst of command events then costs
+  // one system call per observer and status period, not one per poll (protocol.md
+  // "Fairness": status is never starved by events, and on two cores the writes are the
+  // gateway's cost).
+  with_status,
+  // The status: replaces an older one not yet written (a client that is behind skips
+  // one), written at once.
+  status,
+};
+
 // One WebSocket connection as the hub sees it; the transport does the I/O.
 class Client {
  public:
@@ -56,9 +73,9 @@ class Client {
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
   virtual ~Client() = default;
-  // Queues a text frame. A droppable frame (status) is skipped for a client that is
-  // behind; a client too far behind on the others is disconnected.
-  virtual void send(const Frame& frame, bool droppable) = 0;
+  // Queues a text frame (see Delivery); a client too far behind on the frames that are
+  // all delivered is disconnected.
+  virtual void send(const Frame& frame, Delivery delivery) = 0;
   // Closes once the queued frames are written. Neither call may detach the client
   // synchronously: the hub may be iterating over its clients.
   virtual void close_after_flush() = 0;
@@ -98,7 +115,8 @@ struct HttpAnswer {
 
 class Hub {
  public:
-  Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, bool loopback_bind);
+  // `log` is the I/O thread's own (read) connection; `writer` writes the events.
+  Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log, EventWriter& writer, bool loopback_bind);
 
   void attach(Client& c);
   void detach(Client& c);
@@ -111,6 +129,9 @@ class Hub {
   // after the replies' writes have started) events to the log and to every client.
   void poll();
   void poll_events();
+  // The event log's writer has written batches: advance the core's ring past their
+  // events, push them to the clients, answer a validate_config.
+  void collect_log();
   // Commands sent to the core and not yet answered (the poll loop then wakes at the
   // core's next cycle boundary instead of its idle period).
   [[nodiscard]] bool awaiting_core() const noexcept { return !pending_.empty(); }
@@ -146,11 +167,30 @@ class Hub {
     Json seq;
     std::string name;
   };
+  // A batch handed to the event log's writer, as the I/O thread needs it back: how many of
+  // the ring's events it holds, each event's message parts, and the reply that waits for
+  // its commit (validate_config: whoever sees OK finds the confirmation in the log).
+  struct Submitted {
+    struct Event {
+      std::uint64_t t = 0;
+      std::string time;
+      const char* kind = "";
+      Json data;
+    };
+    std::uint64_t ring_events = 0;
+    std::vector<Event> events;
+    bool reply = false;
+    std::uint64_t reply_client = 0;
+    Json reply_seq;
+  };
 
   void refuse(Client& c, ErrorCode code, const std::string& detail);
   void send(Client& c, const Json& message);
   // To every client past its hello for which `take` (when given) says yes.
-  void broadcast(const Frame& frame, bool droppable, const std::function<bool(Client&)>& take = {});
+  void broadcast(const Frame& frame, const std::function<bool(Client&)>& take);
+  // An event to every client past its hello: at once to the pendant and a remote client,
+  // with their next status to observers.
+  void broadcast_event(const Frame& frame);
   void on_hello(Client& c, const HelloMsg& h);
   void on_command(Client& c, const CommandMsg& m);
   void on_sim(Client& c, const SimMsg& m);
@@ -163,7 +203,8 @@ class Hub {
   void drain_replies();
   void drain_events();
   bool blackbox_ready(const bridge::EventRecord& e);
-  Frame store(const bridge::EventRecord& e, const std::string& time, const std::string& blackbox);
+  void record(const bridge::EventRecord& e, const std::string& time, std::string blackbox, LogBatch& batch,
+              Submitted& sub);
   void sweep_pending(Clock::time_point now);
   const bridge::Status& read_status();
   StatusExtras extras() const;
@@ -178,6 +219,9 @@ class Hub {
   GatewayOptions options_;
   bridge::Segment& segment_;
   EventLog& log_;
+  EventWriter& writer_;
+  std::deque<Submitted> submitted_;    // in the writer's order
+  std::uint64_t ring_submitted_ = 0;  // ring events handed to the writer, the ring not yet advanced
   bool loopback_bind_;
   Access access_;
 
