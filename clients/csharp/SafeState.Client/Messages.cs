@@ -209,6 +209,10 @@ namespace SafeState.Client
         /// <summary>SPEC §10 (protocol.md `safety`): the active safety configuration's checksum,
         /// whether it is validated, reduced mode and recovery; null from a gateway without it.</summary>
         public SafetyStatus Safety { get; private set; }
+        /// <summary>SPEC §11: the simulated person and what the simulated scanner and distance
+        /// sensor see of it (docs/collaborative.md); null off the in-process simulated cell and
+        /// from a gateway without it. Not what the core validated: that is Safety.</summary>
+        public SimStatus Sim { get; private set; }
         /// <summary>The whole object as received, for fields this class does not type.</summary>
         public JsonObject Raw { get; private set; }
 
@@ -218,7 +222,6 @@ namespace SafeState.Client
             "target", "arming_step", "arming_progress", "program_index", "program_length", "simulated",
             "max_point_speed", "statusword", "core_heartbeat", "core_heartbeat_age_ms", "gateway_heartbeat",
             "core_pid", "gateway_restarts", "shutting_down",
-            "sim", // SPEC §11 the simulated person (untyped: in Raw)
         };
 
         internal static StatusMessage Read(Fields f, List<string> unknownNames)
@@ -265,6 +268,8 @@ namespace SafeState.Client
             }
             s.AxisStates = states;
             if (f.Object.Has("safety")) s.Safety = SafetyStatus.Read(new Fields(f.Obj("safety"), "status.safety"));
+            if (f.Object.Has("sim") && f.Object["sim"] != null) s.Sim = SimStatus.Read(new Fields(f.Obj("sim"), "status.sim"));
+            f.Allow("sim");
             f.Allow(Extras);
             return s;
         }
@@ -276,6 +281,81 @@ namespace SafeState.Client
                 T, Wire.Name(State), Sub.HasValue ? "/" + Wire.Name(Sub.Value) : "", Wire.Name(Mode),
                 Stop.HasValue ? Wire.Name(Stop.Value) : "-", TcpSpeed, Owner.HasValue ? Wire.Name(Owner.Value) : "none",
                 Alarms.Count == 0 ? "-" : string.Join(",", Alarms));
+        }
+    }
+
+    /// <summary>The status's `sim` object (SPEC §11, views.cpp status_sim_json): the person in
+    /// the in-process simulated cell (null: nobody) and the simulated devices' fields.</summary>
+    public sealed class SimStatus
+    {
+        public SimPerson Person { get; private set; }
+        /// <summary>The simulated scanner's outer and inner field radii about the base axis, mm.</summary>
+        public double OuterFieldMm { get; private set; }
+        public double InnerFieldMm { get; private set; }
+        /// <summary>Whether the person feeds the simulated scanner (the fields' OSSDs) and the
+        /// distance sensor (separation_mm); a panel or scenario that sets those inputs itself turns
+        /// them off.</summary>
+        public bool Scanner { get; private set; }
+        public bool DistanceSensor { get; private set; }
+
+        internal static SimStatus Read(Fields f)
+        {
+            var s = new SimStatus();
+            var pf = new Fields(f.Obj("person_fields"), "status.sim.person_fields");
+            s.OuterFieldMm = NonNegative(pf, "outer_mm");
+            s.InnerFieldMm = NonNegative(pf, "inner_mm");
+            s.Scanner = pf.Bool("scanner");
+            s.DistanceSensor = pf.Bool("distance_sensor");
+            if (f.Object.Has("person") && f.Object["person"] != null)
+            {
+                s.Person = SimPerson.Read(new Fields(f.Obj("person"), "status.sim.person"));
+            }
+            else
+            {
+                f.StrOrNull("person");  // present and null: nobody in the cell
+            }
+            return s;
+        }
+
+        internal static double NonNegative(Fields f, string key)
+        {
+            double v = f.Num(key);
+            if (!(v >= 0)) throw f.Bad(key, "a number >= 0");
+            return v;
+        }
+    }
+
+    /// <summary>The simulated person (SPEC §11): where it stands on the floor (mm, base frame),
+    /// how fast it walks, which fields it is in and how far it is from the arm.</summary>
+    public sealed class SimPerson
+    {
+        public double XMm { get; private set; }
+        public double YMm { get; private set; }
+        public double RadiusMm { get; private set; }
+        public double SpeedMmS { get; private set; }
+        public bool Walking { get; private set; }
+        public bool InOuterField { get; private set; }
+        public bool InInnerField { get; private set; }
+        /// <summary>Distance from the person's body to the nearest point of the arm, mm.</summary>
+        public double SeparationMm { get; private set; }
+        /// <summary>That point: 0..6 a DH frame origin, 7 the TCP.</summary>
+        public int NearestPoint { get; private set; }
+
+        internal static SimPerson Read(Fields f)
+        {
+            var p = new SimPerson();
+            p.XMm = f.Num("x_mm");
+            p.YMm = f.Num("y_mm");
+            p.RadiusMm = SimStatus.NonNegative(f, "radius_mm");
+            p.SpeedMmS = SimStatus.NonNegative(f, "speed_mm_s");
+            p.Walking = f.Bool("walking");
+            p.InOuterField = f.Bool("in_outer");
+            p.InInnerField = f.Bool("in_inner");
+            p.SeparationMm = SimStatus.NonNegative(f, "separation_mm");
+            long n = f.Int("nearest_point");
+            if (n < 0 || n > 7) throw f.Bad("nearest_point", "an integer 0..7");
+            p.NearestPoint = (int)n;
+            return p;
         }
     }
 

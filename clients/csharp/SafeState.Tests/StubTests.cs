@@ -322,6 +322,49 @@ namespace SafeState.Tests
         }
 
         [Test]
+        public void SimulatedPersonIsTyped()
+        {
+            // SPEC §11: status.sim (views.cpp status_sim_json), the person and the simulated
+            // devices' fields, typed; null sim and null person read; a wrong type, a negative
+            // radius or a point outside 0..7 refuses the message.
+            const string fields = "\"person_fields\":{\"outer_mm\":2000,\"inner_mm\":1000,\"scanner\":true,\"distance_sensor\":true}";
+            const string person = "\"person\":{\"x_mm\":0,\"y_mm\":800,\"radius_mm\":250,\"speed_mm_s\":1600,\"walking\":false," +
+                                  "\"in_outer\":true,\"in_inner\":true,\"separation_mm\":412.5,\"nearest_point\":7}";
+            string present = ",\"sim\":{" + person + "," + fields + "}}";
+            Recorder rec;
+            List<StatusMessage> got = StatusesWithSafety(new[]
+            {
+                present,
+                ",\"sim\":{\"person\":null," + fields + "}}",
+                ",\"sim\":null}",
+                present.Replace("\"walking\":false", "\"walking\":\"no\""),
+                present.Replace("\"radius_mm\":250", "\"radius_mm\":-250"),
+                present.Replace("\"nearest_point\":7", "\"nearest_point\":8"),
+                present.Replace("\"scanner\":true", "\"scanner\":1"),
+            }, 4, out rec);
+            Assert.AreEqual(3, got.Count, "only the good ones are delivered");
+            SimStatus sim = got[0].Sim;
+            Assert.IsNotNull(sim);
+            Assert.AreEqual(2000.0, sim.OuterFieldMm);
+            Assert.AreEqual(1000.0, sim.InnerFieldMm);
+            Assert.IsTrue(sim.Scanner && sim.DistanceSensor);
+            Assert.AreEqual(800.0, sim.Person.YMm);
+            Assert.AreEqual(1600.0, sim.Person.SpeedMmS);
+            Assert.IsFalse(sim.Person.Walking);
+            Assert.IsTrue(sim.Person.InOuterField && sim.Person.InInnerField);
+            Assert.AreEqual(412.5, sim.Person.SeparationMm);
+            Assert.AreEqual(7, sim.Person.NearestPoint);
+            Assert.IsNull(got[1].Sim.Person, "nobody in the cell");
+            Assert.IsNull(got[2].Sim, "not the in-process simulated cell");
+            Assert.IsEmpty(rec.ErrorsOf(ClientErrorKind.UnknownField), "sim is a known field");
+            var bad = rec.ErrorsOf(ClientErrorKind.BadMessage);
+            StringAssert.Contains("status.sim.person: \"walking\" must be true or false", bad[0].Message);
+            StringAssert.Contains("\"radius_mm\" must be a number >= 0", bad[1].Message);
+            StringAssert.Contains("\"nearest_point\" must be an integer 0..7", bad[2].Message);
+            StringAssert.Contains("status.sim.person_fields: \"scanner\" must be true or false", bad[3].Message);
+        }
+
+        [Test]
         public void BrakeTestStatusIsTyped()
         {
             // SPEC §12: safety.brake_test, protocol.md's due_in_h and last and the gateway's
