@@ -351,13 +351,11 @@ std::vector<Measured> limits_by_runaway(const core::Config& cfg, const core::Saf
 // its set-points at once, so a person who steps close (the separation falling in one cycle)
 // never makes a healthy arm violate SSM: its own reaction is what the person needs. The
 // function is there for a drive that does not slow down when told to: `nostop` (it keeps
-// its velocity when the set-points decelerate). Axis 1 turns slowly (a bench program, at
-// about 0.2 rad/s: the following error grows by 0.02 rad within T_r = 100 ms, inside the
-// 0.05 rad window), the person steps in to C + Z, where v_allowed is 0 and the program
+// its velocity when the set-points decelerate). Axis 1 turns slowly (a bench program from
+// home, at a speed whose following error over T_r is half the window: 0.2 rad/s at most,
+// 0.025 rad in 100 ms), the person steps in to C + Z, where v_allowed is 0 and the program
 // holds; the drive keeps turning. Counted from the first cycle the TCP speed (the core's
 // kinematics) is over v_allowed + 5 %: the monitor's T_r runs from there.
-constexpr std::array<motion::Waypoint, 1> kSsmProgram{{{{0.5F, 0.0F, 0.0F, 0.0F, 0.5F, 0.0F}, 0.06F, 0}}};
-
 Measured measure_ssm(const core::Config& cfg, const core::SafetyLimits& in) {
   const core::SsmParams& p = in.collaborative.ssm;
   if (!(p.decel_mm_s2 > 0.0F && p.reaction_s > 0.0F)) {
@@ -367,17 +365,24 @@ Measured measure_ssm(const core::Config& cfg, const core::SafetyLimits& in) {
                     "(examples/safety/collaborative.json)",
                     "", 0, 0};
   }
-  Measured m{"ssm", false,
-             "AUTO, SSM on, axis 1 at 0.2 rad/s (bench program), drive 1 nostop: the separation falls to C + Z "
-             "(v_allowed 0); counted from the cycle the TCP speed is over v_allowed + 5 %",
-             "", 0, 0};
   core::SafetyLimits l = with_fields(in);
   l.collaborative.ssm_enabled = true;
+  const float speed = std::min(0.2F, 0.5F * motion::MotionConfig{}.following_error_rad / p.reaction_s);
+  motion::Joints to = sim::home_pose();
+  to[0] += 0.5F;
+  // Outlives `r`, which holds it (sim::Cell::load_program).
+  const float fraction = speed / (motion::kSpeedFactor * l.joints[0].max_speed_rad_s);
+  const std::array<motion::Waypoint, 1> program{{{to, fraction, 0}}};
+  Measured m{"ssm", false,
+             "AUTO, SSM on, axis 1 at " + fig(speed) +
+                 " rad/s (bench program), drive 1 nostop: the separation falls to C + Z (v_allowed 0); counted from "
+                 "the cycle the TCP speed is over v_allowed + 5 %",
+             "", 0, 0};
   Run r(cfg, l);
-  r.cell->load_program(kSsmProgram.data(), static_cast<std::uint8_t>(kSsmProgram.size()));
+  r.cell->load_program(program.data(), static_cast<std::uint8_t>(program.size()));
   r.arm(core::Mode::AUTO);
   r.cmd(CommandId::start);
-  r.until([](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 0.15F; });
+  r.until([speed](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 0.9F * speed; });
   r.cycles(50);  // at its speed
   r.cell->inject({sim::FaultKind::drive_nostop, 1, 0});
   r.cell->inputs().separation_mm = static_cast<std::int32_t>(std::lround(p.intrusion_mm + p.uncertainty_mm));
