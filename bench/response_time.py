@@ -72,6 +72,18 @@ def main():
          "  written, stop begun, reduced mode on). Safe state = contactor feedback open and standstill (Cat 0),",
          "  contactor open at the end of the stop (Cat 1), standstill held in AUTO_PAUSED (Cat 2), TCP at or below",
          "  the reduced limit (reduced mode).",
+         "- The limits (T1 speed, joint range, joint speed, TCP speed, zones, orientation) and SSM act when",
+         "  something below the planner fails (SPEC §10: the planner keeps a margin inside them): each is triggered",
+         "  by a drive fault of the scenario format, `drive 1 runaway` (axis 5 for the orientation) from rest, held",
+         "  at the home pose, or `drive 1 nostop` turning slowly while a person steps to C + Z (SSM). So that the",
+         "  function under test sees the drive before the following-error monitor does (DRIVE_FAULT at 0.05 rad,",
+         "  which a runaway from rest reaches after 76 ms), the position limit under test sits 1.2 planning margins",
+         "  beside the pose, and a speed limit under test below what the runaway reaches within that window (axis 1",
+         "  60 deg/s, TCP 300 mm/s): a bench configuration, the loaded one with that one limit changed, read by the",
+         "  motion layer and the monitors alike (rta/src/measure.cpp). Counted from the first cycle whose measured",
+         "  positions or speeds are past the limit, not from the fault; the alarm must be the function's own",
+         "  (`make test` checks it). Their stops begin at the low speed of the crossing: the time to the safe state",
+         "  measured is far below the worst case computed, which brakes from the axis speed limit.",
          "- `make test` checks the same (tests/unit/test_rta_measured.cpp): measured never above computed.", ""]
     for label, path, d in results:
         comp = {f["id"]: f for f in d["computed"]["functions"]}

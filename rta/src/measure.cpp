@@ -5,13 +5,20 @@
 // @req RTA-MEASURED
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <memory>
 
 #include "safestate/rta/rta.hpp"
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/arm.hpp"
 #include "safestate/core/monitors.hpp"
+#include "safestate/motion/limits.hpp"
 #include "safestate/sim/cell.hpp"
+#include "safestate/sim/plant.hpp"
 
 namespace safestate::rta {
 
@@ -106,15 +113,31 @@ struct Run {
 // state (`safe`: a plant state, seen one cycle late, so one less).
 // `second`, when given, is the other channel: it follows kSecondChannelCycles later (within
 // discrepancy_ms, so no discrepancy lockout), as a real two-channel contact does.
+// `crossed`, when given, is a measured quantity past its limit (the limits of SPEC §10, T1
+// speed, SSM): the count starts with the first cycle whose inputs show it, not with the
+// fault that led there (the plant crossed in the cycle before, as an input changes between
+// two cycles). A safe output before that cycle is a setup failure: something else stopped
+// the arm first, and the function under test was not what reacted.
 constexpr std::uint64_t kSecondChannelCycles = 5;
 using Change = std::function<void(core::RawInputs&)>;
 
-void count(Run& r, Measured& m, const Pred& out, const Pred& safe, const Change& second = nullptr) {
+void count(Run& r, Measured& m, const Pred& out, const Pred& safe, const Change& second = nullptr,
+           const Pred& crossed = nullptr) {
   std::uint64_t k = 0;
   bool out_seen = false;
+  bool started = !crossed;
   for (int i = 1; i <= kLimit; ++i) {
     if (second && k == kSecondChannelCycles) second(r.cell->inputs());
     r.cell->step();
+    if (!started) {
+      started = crossed(*r.cell);
+      if (!started && out(*r.cell)) {
+        m.measured = false;
+        m.how += " (stopped by " + r.alarm() + " before the limit was crossed)";
+        return;
+      }
+      if (!started) continue;
+    }
     ++k;
     if (!out_seen && out(*r.cell)) {
       out_seen = true;
@@ -129,7 +152,8 @@ void count(Run& r, Measured& m, const Pred& out, const Pred& safe, const Change&
     }
   }
   m.measured = false;
-  m.how += std::string(" (timed out: ") + (out_seen ? "no safe state" : "no safe output") + " in " +
+  const char* what = !started ? "limit never crossed" : (out_seen ? "no safe state" : "no safe output");
+  m.how += std::string(" (timed out: ") + what + " in " +
            core::to_string(r.cell->out().state) + "/" + core::to_string(r.cell->out().sub) + ", setup " +
            (r.ok ? "ok" : "failed") + ")";
 }
@@ -146,19 +170,235 @@ core::SafetyLimits with_fields(const core::SafetyLimits& in) {
   return l;
 }
 
+bool cat0_safe(const sim::Cell& c) {
+  if (c.view().contactor_closed) return false;
+  for (const float v : c.view().velocities_rad_s) {
+    if (!(std::fabs(v) < c.config().standstill_rad_s)) return false;
+  }
+  return true;
+}
+
+// ---- The limits of SPEC §10, T1 speed and SSM --------------------------------------------
+//
+// In normal use the planner keeps the arm inside every limit less its margin (SPEC §10), so
+// these functions act when something below the planner fails: here a drive, with the
+// faults of the scenario format. Which monitor sees such a drive first is a matter of
+// numbers: the following-error monitor (motion::MotionConfig::following_error_rad, 0.05
+// rad, DRIVE_FAULT) sees a drive `runaway` from rest (accelerating at qdd_max, 1000 deg/s^2
+// on axis 1) after 76 ms, by when axis 1 turns at 76 deg/s and has moved 2.9 deg; a limit
+// closer than that trips first. So each function is measured with the arm at rest at its
+// home pose, powered and held (its following error watched), and a bench configuration:
+// the loaded one with the limit under test moved beside that pose, kBeside planning
+// margins away (motion/limits.hpp: where the planner may still hold the arm), or the speed
+// limit under test set below what the runaway reaches inside the following-error window.
+// The motion layer and the monitors read that same configuration (sim::Cell::
+// configure_limits): nothing is set for one and not the other. T1 speed needs no bench
+// configuration (250 mm/s is reached within the window), SSM none either (a drive
+// `nostop` that keeps turning while the person is close; see measure_ssm()).
+// The count starts when the measured quantity crosses its limit (count()'s `crossed`),
+// judged here as the monitor judges it, with the core's own kinematics.
+constexpr float kBeside = 1.2F;                          // planning margins from the pose
+constexpr float kBenchJointSpeedRadS = motion::deg(60.0F);  // axis 1, reached after 1.8 deg
+constexpr float kBenchTcpSpeedMmS = 300.0F;              // axis 1 at <= 0.82 rad/s at home
+
+core::JointArray positions(const sim::Cell& c) { return c.view().joints_rad; }
+
+core::ArmPose pose_at(const core::JointArray& q, const core::SafetyLimits& l) {
+  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(motion::kRobot));
+  core::ArmPose p{};
+  core::arm_forward(arm, q, l.tcp_mm, p);
+  return p;
+}
+
+core::JointArray home() {
+  const motion::Joints h = sim::home_pose();
+  core::JointArray q{};
+  std::copy(h.begin(), h.end(), q.begin());
+  return q;
+}
+
+float core_tcp_speed(const sim::Cell& c, const core::SafetyLimits& l) {
+  const core::ArmPose p = pose_at(positions(c), l);
+  return core::point_speed(p, p.tcp, core::kAxes, c.view().velocities_rad_s);
+}
+
+// Euclidean distance from p to the box (0 inside or on it).
+float distance_to(const core::Zone& z, const core::Vec3& p) {
+  float d2 = 0.0F;
+  for (std::size_t k = 0; k < 3U; ++k) {
+    const float gap = std::max({z.min_mm[k] - p[k], p[k] - z.max_mm[k], 0.0F});
+    d2 += gap * gap;
+  }
+  return std::sqrt(d2);
+}
+
+// Axis 1 (or 5) of a drive that runs away from rest, measured as above.
+struct Runaway {
+  const char* id;
+  std::string how;
+  core::Mode mode;
+  std::uint8_t axis;
+  core::SafetyLimits limits;
+  Pred crossed;
+};
+
+Measured runaway_from_rest(const core::Config& cfg, const Runaway& w) {
+  Measured m{w.id, false, w.how, "", 0, 0};
+  Run r(cfg, w.limits);
+  r.arm(w.mode);
+  r.cycles(50);  // settled: held at the home pose
+  r.cell->inject({sim::FaultKind::drive_runaway, w.axis, 0});
+  count(r, m, power_removed, cat0_safe, nullptr, w.crossed);
+  return m;
+}
+
+// A figure of the bench configuration for `how`, e.g. "1.2".
+std::string fig(float v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", static_cast<double>(v));
+  return b;
+}
+constexpr float kDegPerRad = 180.0F / motion::kPi;
+
+std::vector<Measured> limits_by_runaway(const core::Config& cfg, const core::SafetyLimits& in) {
+  std::vector<Measured> res;
+  const auto add = [&cfg, &res](const char* id, const std::string& how, core::Mode mode, std::uint8_t axis,
+                                const core::SafetyLimits& l, const Pred& crossed) {
+    res.push_back(runaway_from_rest(cfg, Runaway{id, how, mode, axis, l, crossed}));
+  };
+  const std::string held = "AUTO, held at home, ";
+  const core::ArmPose at_home = pose_at(home(), in);
+  {
+    const float t1 = cfg.t1_speed_limit_mm_s;
+    add("t1_speed",
+        "T1, held at home: drive 1 runs away from rest; counted from the cycle a measured point is over " + fig(t1) +
+            " mm/s",
+        core::Mode::T1, 1, in, [t1](const sim::Cell& c) { return c.view().max_point_speed_mm_s > t1; });
+  }
+  {
+    core::SafetyLimits l = in;
+    l.joints[0].max_rad = std::min(l.joints[0].max_rad, home()[0] + (kBeside * motion::kJointMarginRad));
+    const float max = l.joints[0].max_rad;
+    add("joint_range",
+        held + "axis 1's max " + fig((max - home()[0]) * kDegPerRad) +
+            " deg beside it: drive 1 runs away from rest; counted from the cycle its measured position is past the max",
+        core::Mode::AUTO, 1, l, [max](const sim::Cell& c) { return c.view().joints_rad[0] > max; });
+  }
+  {
+    core::SafetyLimits l = in;
+    l.joints[0].max_speed_rad_s = std::min(l.joints[0].max_speed_rad_s, kBenchJointSpeedRadS);
+    const float max = l.joints[0].max_speed_rad_s;
+    add("joint_speed",
+        held + "axis 1's max speed " + fig(max * kDegPerRad) +
+            " deg/s: drive 1 runs away from rest; counted from the cycle its measured speed is over it",
+        core::Mode::AUTO, 1, l, [max](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > max; });
+  }
+  {
+    core::SafetyLimits l = in;
+    l.tcp_max_speed_mm_s = std::min(l.tcp_max_speed_mm_s, kBenchTcpSpeedMmS);
+    l.reduced_tcp_max_speed_mm_s = std::min(l.reduced_tcp_max_speed_mm_s, l.tcp_max_speed_mm_s);
+    add("tcp_speed",
+        held + "TCP max speed " + fig(l.tcp_max_speed_mm_s) +
+            " mm/s: drive 1 runs away from rest; counted from the cycle the TCP speed (the core's kinematics, measured "
+            "velocities) is over it",
+        core::Mode::AUTO, 1, l, [l](const sim::Cell& c) { return core_tcp_speed(c, l) > l.tcp_max_speed_mm_s; });
+  }
+  {
+    // A keep_out box on the side axis 1 turns the TCP towards (+y at home), its face
+    // kBeside zone margins from the tool sphere.
+    core::SafetyLimits l = in;
+    core::Zone z{};
+    const char name[] = "rta-bench";
+    std::copy(std::begin(name), std::end(name), z.name.begin());
+    z.kind = core::ZoneKind::keep_out;
+    const core::Vec3& p = at_home.tcp;
+    const float gap = kBeside * motion::kZoneMarginMm;
+    const float face = p[1] + l.tool_radius_mm + gap;
+    z.min_mm = {p[0] - 100.0F, face, p[2] - 100.0F};
+    z.max_mm = {p[0] + 100.0F, face + 100.0F, p[2] + 100.0F};
+    if (l.zone_count < core::kMaxZones) l.zones[l.zone_count++] = z;
+    add("zones",
+        held + "a keep_out box " + fig(gap) +
+            " mm beside the tool sphere: drive 1 runs away from rest toward it; counted from the cycle the sphere "
+            "touches it",
+        core::Mode::AUTO, 1, l, [l, z](const sim::Cell& c) {
+          const float d = distance_to(z, pose_at(positions(c), l).tcp);
+          return d < l.tool_radius_mm || !(d > 0.0F);
+        });
+  }
+  {
+    // The cone about the tool's z axis at home, kBeside orientation margins wide: axis 5
+    // tilts the tool axis by its own angle.
+    core::SafetyLimits l = in;
+    l.orientation_enabled = true;
+    l.orientation_axis = at_home.tool_z;
+    l.orientation_max_deviation_rad = kBeside * motion::kOrientationMarginRad;
+    const float cos_max = std::cos(l.orientation_max_deviation_rad);
+    add("orientation",
+        held + "the tool axis allowed " + fig(l.orientation_max_deviation_rad * kDegPerRad) +
+            " deg about its pose: drive 5 runs away from rest; counted from the cycle the tool axis is outside the "
+            "cone",
+        core::Mode::AUTO, 5, l, [l, cos_max](const sim::Cell& c) {
+          const core::Vec3 t = pose_at(positions(c), l).tool_z;
+          const core::Vec3& a = l.orientation_axis;
+          return ((a[0] * t[0]) + (a[1] * t[1]) + (a[2] * t[2])) < cos_max;
+        });
+  }
+  return res;
+}
+
+// SPEC §11 SSM. The motion layer keeps the TCP at v_allowed, and the simulated drives follow
+// its set-points at once, so a person who steps close (the separation falling in one cycle)
+// never makes a healthy arm violate SSM: its own reaction is what the person needs. The
+// function is there for a drive that does not slow down when told to: `nostop` (it keeps
+// its velocity when the set-points decelerate). Axis 1 turns slowly (a bench program from
+// home, at a speed whose following error over T_r is half the window: 0.2 rad/s at most,
+// 0.025 rad in 100 ms), the person steps in to C + Z, where v_allowed is 0 and the program
+// holds; the drive keeps turning. Counted from the first cycle the TCP speed (the core's
+// kinematics) is over v_allowed + 5 %: the monitor's T_r runs from there.
+Measured measure_ssm(const core::Config& cfg, const core::SafetyLimits& in) {
+  const core::SsmParams& p = in.collaborative.ssm;
+  if (!(p.decel_mm_s2 > 0.0F && p.reaction_s > 0.0F)) {
+    return Measured{"ssm", false,
+                    "not measured: the configuration sets no SSM (collaborative.ssm: without a and T_r v_allowed is 0 "
+                    "everywhere, there is no speed to keep); measured with a configuration that sets it "
+                    "(examples/safety/collaborative.json)",
+                    "", 0, 0};
+  }
+  core::SafetyLimits l = with_fields(in);
+  l.collaborative.ssm_enabled = true;
+  const float speed = std::min(0.2F, 0.5F * motion::MotionConfig{}.following_error_rad / p.reaction_s);
+  motion::Joints to = sim::home_pose();
+  to[0] += 0.5F;
+  // Outlives `r`, which holds it (sim::Cell::load_program).
+  const float fraction = speed / (motion::kSpeedFactor * l.joints[0].max_speed_rad_s);
+  const std::array<motion::Waypoint, 1> program{{{to, fraction, 0}}};
+  Measured m{"ssm", false,
+             "AUTO, SSM on, axis 1 at " + fig(speed) +
+                 " rad/s (bench program), drive 1 nostop: the separation falls to C + Z (v_allowed 0); counted from "
+                 "the cycle the TCP speed is over v_allowed + 5 %",
+             "", 0, 0};
+  Run r(cfg, l);
+  r.cell->load_program(program.data(), static_cast<std::uint8_t>(program.size()));
+  r.arm(core::Mode::AUTO);
+  r.cmd(CommandId::start);
+  r.until([speed](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 0.9F * speed; });
+  r.cycles(50);  // at its speed
+  r.cell->inject({sim::FaultKind::drive_nostop, 1, 0});
+  r.cell->inputs().separation_mm = static_cast<std::int32_t>(std::lround(p.intrusion_mm + p.uncertainty_mm));
+  count(r, m, power_removed, cat0_safe, nullptr, [l](const sim::Cell& c) {
+    const core::SafetyStatus& st = c.out().safety;
+    return st.ssm && core_tcp_speed(c, l) > core::kSsmTolerance * st.v_allowed_mm_s;
+  });
+  return m;
+}
+
 }  // namespace
 
 std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& s) {
   core::Config cfg = cfg_in;
   cfg.max_stop_ms = s.limits.max_stop_ms;
   std::vector<Measured> res;
-  const auto cat0_safe = [](const sim::Cell& c) {
-    if (c.view().contactor_closed) return false;
-    for (const float v : c.view().velocities_rad_s) {
-      if (!(std::fabs(v) < c.config().standstill_rad_s)) return false;
-    }
-    return true;
-  };
   const auto cat1_safe = [](const sim::Cell& c) { return c.out().state == State::IDLE && !c.view().contactor_closed; };
 
   {
@@ -187,12 +427,9 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
     count(r, m, stopping, cat1_safe, [](core::RawInputs& in) { in.enable_b = false; });
     res.push_back(m);
   }
-  const char* limit_why =
-      "not measured in-process: the planner keeps the arm inside the limit, and a drive that pushes past it is caught "
-      "first by the following-error monitor (DRIVE_FAULT, the same rule 3 Cat 0 chain)";
-  for (const char* id : {"t1_speed", "joint_range", "joint_speed", "tcp_speed"}) {
-    res.push_back(Measured{id, false, limit_why, "", 0, 0});
-  }
+  // t1_speed, joint_range, joint_speed, tcp_speed, zones, orientation, in that order.
+  const std::vector<Measured> limits = limits_by_runaway(cfg, s.limits);
+  res.insert(res.end(), limits.begin(), limits.begin() + 4);
   // At or below the reduced limit of the sources asking (core::reduced_limit_mm_s).
   const auto reduced_safe = [](const core::SafetyLimits& l) {
     return [l](const sim::Cell& c) {
@@ -209,8 +446,7 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
           [](core::RawInputs& in) { in.reduced_b = false; });
     res.push_back(m);
   }
-  res.push_back(Measured{"zones", false, limit_why, "", 0, 0});
-  res.push_back(Measured{"orientation", false, limit_why, "", 0, 0});
+  res.insert(res.end(), limits.begin() + 4, limits.end());
   {
     Measured m{"field_outer", false, "AUTO, collaborative on, demo program at speed: field.outer.a interrupted, .b 5 cycles later", "",
                0, 0};
@@ -234,10 +470,7 @@ std::vector<Measured> measure(const core::Config& cfg_in, const safety::Loaded& 
         [](core::RawInputs& in) { in.field_inner_b = false; });
     res.push_back(m);
   }
-  res.push_back(Measured{"ssm", false,
-                         "not measured in-process: the motion layer keeps the TCP at v_allowed, so SEPARATION_VIOLATED "
-                         "needs a drive that ignores it, which the following-error monitor catches first",
-                         "", 0, 0});
+  res.push_back(measure_ssm(cfg, s.limits));
   {
     // SPEC §11 rule 8: pfl on (the hand's F_qs unless the file names a region), a contact of
     // twice F_qs against the running program; safe once paused (the back-off comes after).

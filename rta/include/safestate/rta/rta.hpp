@@ -82,6 +82,9 @@ struct Measured {
 
 // Every function of analyse(), in its order. `s` as for analyse(); functions the
 // configuration does not enable are measured with it enabled (fields: collaborative on).
+// The limits (T1 speed, SPEC §10) and SSM are measured from the cycle the measured quantity
+// crosses the limit, with a drive fault, and the limit under test moved beside the arm's
+// pose (measure.cpp says why); SSM only where the configuration sets its parameters.
 std::vector<Measured> measure(const core::Config& cfg, const safety::Loaded& s);
 std::string measured_json(const std::vector<Measured>& m, std::uint32_t cycle_us);
 
