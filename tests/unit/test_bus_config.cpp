@@ -172,7 +172,41 @@ TEST(BusConfig, WatchdogRegistersNeverShorterThanAsked) {
   EXPECT_FALSE(watchdog_registers(10000, 10000, div, time));  // 100 s fits neither
 }
 
-// Issue 22 item 4: a subdevice's start-up list (SDO writes in PRE-OP), entry by entry.
+// Issue 22 item 4: the drives' start-up list as shipped is what the emulated drives accept
+// in PRE-OP (CSP, the interpolation period of their 1 ms cycle, a torque limit), and it
+// leaves them ready for SAFE-OP.
+TEST(BusConfig, DefaultStartupListIsAcceptedByTheEmulatedDrives) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  const auto segment = safestate::ecat::default_segment();
+  for (std::size_t i = 0; i < segment.size(); ++i) {
+    const Subdevice& s = c.subdevices[i];
+    if (!segment[i].mailbox) {
+      EXPECT_TRUE(s.startup.empty()) << i << ": no mailbox, no start-up SDOs";
+      continue;
+    }
+    ASSERT_EQ(s.startup.size(), 4U) << i;
+    EXPECT_EQ(s.startup[0].index, 0x6060);
+    EXPECT_EQ(s.startup[0].value, 8U);
+    EXPECT_EQ(s.startup[2].index, 0x60C2);
+    EXPECT_EQ(s.startup[2].sub, 2);
+    EXPECT_EQ(s.startup[2].value, 0xFDU);  // -3 in one byte
+    safestate::ecat::coe::Dictionary od(segment[i]);
+    for (const StartupSdo& sdo : s.startup) {
+      std::vector<std::uint8_t> bytes;
+      for (std::size_t k = 0; k < sdo.size; ++k) {
+        bytes.push_back(static_cast<std::uint8_t>(sdo.value >> (8U * k)));
+      }
+      EXPECT_EQ(od.download(sdo.index, sdo.sub, bytes, safestate::ecat::AlState::preop), 0U)
+          << i << ": " << std::hex << sdo.index << ":" << int(sdo.sub);
+    }
+    EXPECT_EQ(od.value(0x6060, 0), 8);
+    EXPECT_EQ(od.value(0x60C2, 1), 1);
+    EXPECT_EQ(od.value(0x60C2, 2), -3);
+  }
+}
+
 TEST(BusConfig, StartupEntriesAreCheckedOneByOne) {
   Json j = default_json();
   Json& list = j["subdevices"][2]["startup"];
