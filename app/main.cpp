@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
       ->required();
   ecat_sim->add_option("--control", ecat_opt.control,
                        "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
-                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`), JSON sim messages, `status`");
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), JSON sim messages, `status`");
   ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
       ->check(CLI::Range(250, 4000));
   ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")
@@ -157,6 +157,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1023));
   ecat_sim->add_option("--product", ecat_opt.product_override, "POS=CODE: give subdevice POS another product code (tests)");
   ecat_sim->add_option("--revision", ecat_opt.revision_override, "POS=REV: give subdevice POS another revision (tests)");
+  ecat_sim->add_option("--sdo-refuse", ecat_opt.sdo_refuse,
+                       "'POS INDEX:SUB ABORT': the drive at POS refuses SDO downloads to INDEX:SUB with ABORT (tests)");
   safestate::check::CheckOptions check_opt;
   auto* check = app.add_subcommand("check", "explore every reachable state of the real core and check the invariants");
   check->add_option("--depth", check_opt.max_depth, "actions from boot to explore")->check(CLI::Range(1, 64));

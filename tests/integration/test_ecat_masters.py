@@ -1,7 +1,8 @@
 """Does `safestate ecat-sim` speak standard EtherCAT? Two independent masters from PyPI,
 pysoem (SOEM) and kickcat, scan the emulated segment over a veth pair in a network
 namespace this test creates and removes, bring it to OP and read the identities, the
-PDO sizes, the CiA 402 statuswords and the safety contacts.
+PDO sizes, the CiA 402 statuswords and the safety contacts; pysoem also reads and writes
+the drives' CoE objects (SDO) and gets the standard abort codes.
 
 Run as root (network namespaces, raw sockets):
   SAFESTATE_BIN=build/bin/safestate .venv/bin/python -m pytest tests/integration/test_ecat_masters.py
@@ -21,6 +22,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
 PROBE = Path(__file__).resolve().parent / "ecat" / "probe.py"
+sys.path.insert(0, str(PROBE.parent))
+from probe import control  # noqa: E402  (one line to the emulator's control socket)
 
 VENDOR = 0x5AFE
 PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6
@@ -140,6 +143,19 @@ def test_unplugged_drive_lowers_the_working_counter(segment):
     assert r["answer"] == "OK"
     assert r["wkc_before"] == r["expected_wkc"]
     assert r["wkc_after"] == r["expected_wkc"] - 3  # drive 6 neither read nor written
+
+
+def test_pysoem_reads_and_writes_the_drives_sdos(segment):
+    """Issue 22 item 4: an independent master uses the emulated drives' CoE mailbox."""
+    r = segment.probe("soem", "sdo")
+    assert r["vendor"] == VENDOR and r["product"] == PRODUCTS[2]
+    assert r["name"] == "SafeState emu CiA402 CSP drive 1"
+    assert r["torque_before"] == 1000 and r["torque_after"] == 1234
+    assert r["aborts"] == {"read_only": 0x06010002, "range": 0x06090030, "length": 0x06070010,
+                           "no_object": 0x06020000, "state": 0x08000022}, r["aborts"]
+    assert r["op"] is True  # with 0x6060 = 8 written in PRE-OP
+    st = json.loads(control(segment.control, "status"))
+    assert st["sdo"][2]["6072:00"] == 1234 and st["sdo"][2]["6060:00"] == 8, st["sdo"]
 
 
 def test_watchdog_drops_silent_outputs_to_safeop(segment):

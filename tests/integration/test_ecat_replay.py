@@ -7,7 +7,9 @@ hang on start-up timing or on same-cycle bus loss must pass exactly as in-proces
 Run as root:  SAFESTATE_BIN=build/bin/safestate .venv/bin/python -m pytest tests/integration/test_ecat_replay.py
 """
 
+import json
 import os
+import re
 import subprocess
 import time
 import uuid
@@ -65,17 +67,44 @@ def ns():
         subprocess.run(["ip", "netns", "del", name], check=False)
 
 
-def replay(ns, scn, tmp_path):
+def segment_for_cycle(scn, tmp_path):
+    """A scenario with its own `config cycle_us=N` runs on a segment of that cycle, as a real
+    cell would be set up: ecat-sim's drives at N us, and the bus configuration's start-up
+    lists writing N us to 0x60C2 (value x 10^index s); the emulated drives refuse SAFE-OP
+    and our master refuses BOOT when the interpolation period is not the cycle."""
+    m = re.search(r"^config\b.*\bcycle_us=(\d+)", scn.read_text(), re.M)
+    cycle = int(m.group(1)) if m else 1000
+    if cycle == 1000:
+        return [], []
+    value, index = cycle, -6
+    for e in (-3, -4, -5):
+        if cycle % 10 ** (e + 6) == 0 and cycle // 10 ** (e + 6) <= 255:
+            value, index = cycle // 10 ** (e + 6), e
+            break
+    cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    for sub in cfg["subdevices"]:
+        for entry in sub.get("startup", []):
+            if entry["index"] == "0x60C2":
+                entry["value"] = value if entry["sub"] == 1 else index
+    path = tmp_path / "bus.json"
+    path.write_text(json.dumps(cfg))
+    return ["--cycle-us", str(cycle)], ["--bus-config", str(path)]
+
+
+def replay(ns, scn, tmp_path, bus_for_cycle=True):
     control = str(tmp_path / "ctl.sock")
-    sim = subprocess.Popen(["ip", "netns", "exec", ns, BIN, "ecat-sim", "--ifname", "ecs", "--control", control],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sim_args, replay_args = segment_for_cycle(scn, tmp_path)
+    replay_args = replay_args if bus_for_cycle else []
+    sim = subprocess.Popen(["ip", "netns", "exec", ns, BIN, "ecat-sim", "--ifname", "ecs", "--control", control,
+                            *sim_args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 10
         while not os.path.exists(control):
             assert sim.poll() is None and time.monotonic() < deadline, "ecat-sim did not start"
             time.sleep(0.02)
         return subprocess.run(["ip", "netns", "exec", ns, BIN, "replay", "--fieldbus", "ethercat", "--ifname", "ecm",
-                               "--ecat-sim-control", control, str(scn)], capture_output=True, text=True, timeout=120)
+                               "--ecat-sim-control", control, *replay_args, str(scn)],
+                              capture_output=True, text=True, timeout=120)
     finally:
         sim.terminate()
         sim.wait(timeout=10)
@@ -94,3 +123,14 @@ def test_a_wrong_expectation_still_fails_over_ethercat(ns, tmp_path):
     r = replay(ns, scn, tmp_path)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "expected state=OPERATIONAL, found state=ESTOP_RESET_NEEDED" in r.stdout
+
+
+def test_a_start_up_list_for_another_cycle_is_boot_failed(ns, tmp_path):
+    """Issue 22 item 4: the built-in start-up list writes a 1 ms interpolation period; a 2 ms
+    controller on it does not boot, and says why."""
+    scn = tmp_path / "cycle.scn"
+    scn.write_text("config cycle_us=2000\n@100 expect state=ERROR_LOCKOUT alarm=BOOT_FAILED\n")
+    r = replay(ns, scn, tmp_path, bus_for_cycle=False)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert ("subdevice 3 (drive axis 1) start-up list: 0x60C2 sets an interpolation period of 1000 us, "
+            "the scan cycle is 2000 us") in r.stderr, r.stderr

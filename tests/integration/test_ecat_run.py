@@ -439,6 +439,38 @@ def test_wrong_revision_is_boot_failed():
         c.close()
 
 
+def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
+    """Issue 22 item 4: our master writes each drive's start-up SDOs (default-bus.json) in
+    PRE-OP; the emulator's dictionaries hold them (CSP, 1 ms interpolation period, torque)."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    w = cell.wire()
+    assert w["sdo"][0] is None and w["sdo"][1] is None, w["sdo"]  # the I/O terminals: no mailbox
+    for pos in range(2, 8):
+        d = w["sdo"][pos]
+        assert (d["6060:00"], d["60C2:01"], d["60C2:02"], d["6072:00"]) == (8, 1, -3, 1000), (pos, d)
+    assert w["al_state"] == [8] * 8
+
+
+def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
+    c = Cell(sim_args=["--sdo-refuse", "5 0x6072:0 0x06090030"])  # drive axis 3
+    try:
+        s = c.wait_state("ERROR_LOCKOUT", 20)
+        assert "BOOT_FAILED" in s["alarms"], s
+        a = c.alarm("BOOT_FAILED")
+        want = ("Start-up failed: subdevice 5 (drive axis 3) refused start-up SDO 0x6072:00 = 1000: "
+                "abort 0x06090030 (Value range of parameter exceeded")
+        assert a["detail"].startswith(want), a
+        assert a["since"] < 100, a  # known in PRE-OP, before the cycle starts
+        assert "subdevice 5 (drive axis 3) refused start-up SDO 0x6072:00 = 1000: abort 0x06090030" in c.log("run")
+        w = c.wire()
+        # In order: the drive took 0x6060 before refusing 0x6072; the next drive got nothing,
+        # and no subdevice went on to SAFE-OP.
+        assert w["sdo"][4]["6060:00"] == 8 and w["sdo"][5]["6060:00"] == 0, w["sdo"]
+        assert w["al_state"] == [2] * 8, w["al_state"]
+    finally:
+        c.close()
+
+
 def test_hmi_sim_panel_drives_the_emulator(cell):
     """The gateway's `sim` message (as the HMI's panel sends it) reaches ecat-sim's contacts."""
     cell.wait_state("ESTOP_RESET_NEEDED")

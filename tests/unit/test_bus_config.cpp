@@ -171,3 +171,110 @@ TEST(BusConfig, WatchdogRegistersNeverShorterThanAsked) {
   EXPECT_EQ(time, 10000);
   EXPECT_FALSE(watchdog_registers(10000, 10000, div, time));  // 100 s fits neither
 }
+
+// Issue 22 item 4: the drives' start-up list as shipped is what the emulated drives accept
+// in PRE-OP (CSP, the interpolation period of their 1 ms cycle, a torque limit), and it
+// leaves them ready for SAFE-OP.
+TEST(BusConfig, DefaultStartupListIsAcceptedByTheEmulatedDrives) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  const auto segment = safestate::ecat::default_segment();
+  for (std::size_t i = 0; i < segment.size(); ++i) {
+    const Subdevice& s = c.subdevices[i];
+    if (!segment[i].mailbox) {
+      EXPECT_TRUE(s.startup.empty()) << i << ": no mailbox, no start-up SDOs";
+      continue;
+    }
+    ASSERT_EQ(s.startup.size(), 4U) << i;
+    EXPECT_EQ(s.startup[0].index, 0x6060);
+    EXPECT_EQ(s.startup[0].value, 8U);
+    EXPECT_EQ(s.startup[2].index, 0x60C2);
+    EXPECT_EQ(s.startup[2].sub, 2);
+    EXPECT_EQ(s.startup[2].value, 0xFDU);  // -3 in one byte
+    safestate::ecat::coe::Dictionary od(segment[i]);
+    for (const StartupSdo& sdo : s.startup) {
+      std::vector<std::uint8_t> bytes;
+      for (std::size_t k = 0; k < sdo.size; ++k) {
+        bytes.push_back(static_cast<std::uint8_t>(sdo.value >> (8U * k)));
+      }
+      EXPECT_EQ(od.download(sdo.index, sdo.sub, bytes, safestate::ecat::AlState::preop), 0U)
+          << i << ": " << std::hex << sdo.index << ":" << int(sdo.sub);
+    }
+    EXPECT_EQ(od.value(0x6060, 0), 8);
+    EXPECT_EQ(od.value(0x60C2, 1), 1);
+    EXPECT_EQ(od.value(0x60C2, 2), -3);
+  }
+}
+
+TEST(BusConfig, StartupEntriesAreCheckedOneByOne) {
+  Json j = default_json();
+  Json& list = j["subdevices"][2]["startup"];
+  list = Json::array({{{"index", "0x6072"}, {"sub", 0}, {"size", 2}, {"value", 65535}},
+                      {{"index", 0x2000}, {"sub", 255}, {"size", 4}, {"value", -2147483648LL}},
+                      {{"index", "0xFFFF"}, {"sub", 1}, {"size", 1}, {"value", -128}}});
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  ASSERT_EQ(c.subdevices[2].startup.size(), 3U);
+  EXPECT_EQ(c.subdevices[2].startup[0].value, 0xFFFFU);
+  EXPECT_EQ(c.subdevices[2].startup[1].index, 0x2000);
+  EXPECT_EQ(c.subdevices[2].startup[1].value, 0x80000000U);
+  EXPECT_EQ(c.subdevices[2].startup[2].value, 0x80U);
+  const std::string at = "subdevices[2] (drive axis 1).startup";
+  const Json good = {{"index", "0x6060"}, {"sub", 0}, {"size", 1}, {"value", 8}};
+  const auto with = [&](const char* key, const Json& v) {
+    Json e = good;
+    if (v.is_null()) {
+      e.erase(key);
+    } else {
+      e[key] = v;
+    }
+    return e;
+  };
+  const struct {
+    Json entry;
+    std::string field;
+  } bad[] = {
+      {Json(8), at + "[1]"},
+      {with("extra", 1), at + "[1].extra"},
+      {with("index", nullptr), at + "[1].index"},
+      {with("index", "six"), at + "[1].index"},
+      {with("index", "0x0FFF"), at + "[1].index"},
+      {with("index", 0x10000), at + "[1].index"},
+      {with("sub", nullptr), at + "[1].sub"},
+      {with("sub", 256), at + "[1].sub"},
+      {with("sub", -1), at + "[1].sub"},
+      {with("size", nullptr), at + "[1].size"},
+      {with("size", 3), at + "[1].size"},
+      {with("size", "1"), at + "[1].size"},
+      {with("value", nullptr), at + "[1].value"},
+      {with("value", 256), at + "[1].value"},
+      {with("value", -129), at + "[1].value"},
+      {with("value", 1.5), at + "[1].value"},
+      {with("value", "8"), at + "[1].value"},
+  };
+  for (const auto& b : bad) {
+    Json k = default_json();
+    k["subdevices"][2]["startup"] = Json::array({good, b.entry});
+    const std::string e = refused(k);
+    EXPECT_EQ(e.rfind(b.field + ":", 0), 0U) << b.entry.dump() << " -> " << e;
+  }
+  Json k = default_json();
+  k["subdevices"][2]["startup"] = Json::object();
+  EXPECT_EQ(refused(k).rfind(at + ":", 0), 0U);
+  k["subdevices"][2]["startup"] = Json::array();
+  for (std::size_t n = 0; n <= kMaxStartupSdos; ++n) {
+    k["subdevices"][2]["startup"].push_back(good);
+  }
+  EXPECT_EQ(refused(k).rfind(at + ":", 0), 0U) << "more than kMaxStartupSdos";
+  k["subdevices"][2]["startup"].erase(0);
+  EXPECT_TRUE(parse_bus_config(k.dump(), c, err)) << err;  // exactly kMaxStartupSdos
+  // With 2-byte and 4-byte sizes the range follows the size.
+  k["subdevices"][2]["startup"] = Json::array({with("size", 2)});
+  k["subdevices"][2]["startup"][0]["value"] = 65536;
+  EXPECT_NE(refused(k).find("(-32768..65535)"), std::string::npos);
+  k["subdevices"][2]["startup"][0]["size"] = 4;
+  k["subdevices"][2]["startup"][0]["value"] = 4294967296LL;
+  EXPECT_NE(refused(k).find("(-2147483648..4294967295)"), std::string::npos);
+}

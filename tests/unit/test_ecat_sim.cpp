@@ -4,7 +4,9 @@
 // control channel.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "safestate/ecat/cell.hpp"
@@ -101,16 +103,102 @@ void map(Segment& seg, std::uint16_t station, std::uint16_t sm_index, std::uint1
   exchange(seg, {{Cmd::FPWR, station, static_cast<std::uint16_t>(reg::fmmu + fmmu_index * 16), fm}});
 }
 
+// The drive's mailbox sync managers as its SII describes them (SM0 receive at 0x1000, SM1
+// send at 0x1080, 128 bytes each), written in INIT as every master does.
+void mailbox(Segment& seg, std::uint16_t station) {
+  exchange(seg, {{Cmd::FPWR, station, reg::sm, {0x00, 0x10, 128, 0, 0x26, 0, 1, 0}},
+                 {Cmd::FPWR, station, static_cast<std::uint16_t>(reg::sm + 8), {0x80, 0x10, 128, 0, 0x22, 0, 1, 0}}});
+}
+
+std::uint32_t le32(const std::vector<std::uint8_t>& d, std::size_t o) {
+  return static_cast<std::uint32_t>(u16(d, o)) | (static_cast<std::uint32_t>(u16(d, o + 2)) << 16);
+}
+
+// One CoE mailbox round trip: `request` (CoE header on) into SM0, the answer out of SM1.
+// Returns the whole send mailbox (mailbox header included); empty when no answer came.
+std::vector<std::uint8_t> mailbox_round_trip(Segment& seg, std::uint16_t station, const std::vector<std::uint8_t>& coe) {
+  std::vector<std::uint8_t> mbx(kMailboxBytes, 0);
+  mbx[0] = static_cast<std::uint8_t>(coe.size());
+  mbx[5] = 0x13;  // CoE, counter 1
+  std::copy(coe.begin(), coe.end(), mbx.begin() + 6);
+  if (exchange(seg, {{Cmd::FPWR, station, kMailboxOut, mbx}})[0].wkc != 1) {
+    return {};
+  }
+  auto r = exchange(seg, {{Cmd::FPRD, station, kMailboxIn, std::vector<std::uint8_t>(kMailboxBytes)}});
+  return r[0].wkc == 1 ? r[0].data : std::vector<std::uint8_t>{};
+}
+
+std::vector<std::uint8_t> sdo_request(std::uint8_t cmd, std::uint16_t index, std::uint8_t sub,
+                                      const std::vector<std::uint8_t>& data = {0, 0, 0, 0}) {
+  std::vector<std::uint8_t> r = {0x00, 0x20, cmd, static_cast<std::uint8_t>(index & 0xFF), static_cast<std::uint8_t>(index >> 8), sub};
+  r.insert(r.end(), data.begin(), data.end());
+  return r;
+}
+
+// The abort code of an answer (0 for a positive one).
+std::uint32_t abort_of(const std::vector<std::uint8_t>& a) {
+  return (a.size() >= 16 && a[8] == 0x80) ? le32(a, 12) : 0U;
+}
+
+// Expedited download of `data` (1..4 bytes): 0 or the abort code.
+std::uint32_t sdo_write(Segment& seg, std::uint16_t station, std::uint16_t index, std::uint8_t sub,
+                        std::vector<std::uint8_t> data) {
+  const auto cmd = static_cast<std::uint8_t>(0x23 | ((4 - data.size()) << 2));
+  data.resize(4, 0);
+  const std::vector<std::uint8_t> a = mailbox_round_trip(seg, station, sdo_request(cmd, index, sub, data));
+  EXPECT_FALSE(a.empty());
+  return a.empty() ? 0xFFFFFFFFU : abort_of(a);
+}
+
+// Upload: 0 and the value's bytes in `out`, or the abort code.
+std::uint32_t sdo_read(Segment& seg, std::uint16_t station, std::uint16_t index, std::uint8_t sub,
+                       std::vector<std::uint8_t>& out) {
+  const std::vector<std::uint8_t> a = mailbox_round_trip(seg, station, sdo_request(0x40, index, sub));
+  if (a.empty() || abort_of(a) != 0U) {
+    return a.empty() ? 0xFFFFFFFFU : abort_of(a);
+  }
+  EXPECT_EQ(a[7] >> 4, 3);  // SDO response
+  if ((a[8] & 0x02) != 0) {  // expedited: 4 - n in bits 2..3
+    out.assign(a.begin() + 12, a.begin() + 12 + (4 - ((a[8] >> 2) & 3)));
+  } else {
+    out.assign(a.begin() + 16, a.begin() + 16 + le32(a, 12));
+  }
+  return 0;
+}
+
+std::int64_t sdo_value(Segment& seg, std::uint16_t station, std::uint16_t index, std::uint8_t sub) {
+  std::vector<std::uint8_t> v;
+  EXPECT_EQ(sdo_read(seg, station, index, sub, v), 0U) << std::hex << index << ":" << int(sub);
+  std::int64_t x = 0;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    x |= static_cast<std::int64_t>(v[k]) << (8 * k);
+  }
+  return x;
+}
+
+// Every station addressed and the drive at `station` in PRE-OP with its mailbox.
+void drive_in_preop(Segment& seg, std::uint16_t station) {
+  address_all(seg);
+  mailbox(seg, station);
+  request(seg, station, 2);
+}
+
 // The default segment mapped at logical 0x10000.. (inputs) and 0x20000.. (outputs) and in OP.
+// The drives get their CoE start-up parameter in PRE-OP (CSP: 0x6060 = 8) and their PDOs on
+// SM2 (0x1100) and SM3 (0x1800).
 void bring_to_op(Segment& seg) {
   address_all(seg);
+  for (std::uint16_t a = 0; a < 6; ++a) {
+    mailbox(seg, static_cast<std::uint16_t>(0x1003 + a));
+  }
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
   map(seg, 0x1001, 0, 0x1000, kDiBytes, 0x20, 0, 0x10000, 1);
   map(seg, 0x1002, 0, 0x1000, kDoBytes, 0x64, 0, 0x20000, 2);
   for (std::uint16_t a = 0; a < 6; ++a) {
     const auto st = static_cast<std::uint16_t>(0x1003 + a);
-    map(seg, st, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x20002 + a * kDriveRxBytes, 2);
-    map(seg, st, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x10004 + a * kDriveTxBytes, 1);
+    ASSERT_EQ(sdo_write(seg, st, 0x6060, 0, {8}), 0U);
+    map(seg, st, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20002 + a * kDriveRxBytes, 2);
+    map(seg, st, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10004 + a * kDriveTxBytes, 1);
   }
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(4)}});
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(8)}});
@@ -196,6 +284,7 @@ TEST(EcatAl, RefusesToSkipAState) {
   EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_state_change);
   request(seg, 0x1003, 2);  // no acknowledge: ignored while the error shows
   EXPECT_EQ(al_status(seg, 0x1003), 0x11);
+  mailbox(seg, 0x1003);
   request(seg, 0x1003, 0x12);  // acknowledge + PREOP
   EXPECT_EQ(al_status(seg, 0x1003), 2);
   EXPECT_EQ(seg.esc(2).al_status_code(), 0);
@@ -203,15 +292,15 @@ TEST(EcatAl, RefusesToSkipAState) {
 
 TEST(EcatAl, SafeopNeedsTheSyncManagersOfTheSii) {
   Segment seg(default_segment());
-  address_all(seg);
-  request(seg, 0x1003, 2);
+  drive_in_preop(seg, 0x1003);
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
   request(seg, 0x1003, 4);
   EXPECT_EQ(al_status(seg, 0x1003), 0x12);  // PREOP + error
   EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_output_config);
-  map(seg, 0x1003, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x20000, 2);
+  map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20000, 2);
   request(seg, 0x1003, 0x14);
   EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_input_config);
-  map(seg, 0x1003, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x10000, 1);
+  map(seg, 0x1003, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10000, 1);
   request(seg, 0x1003, 0x14);
   EXPECT_EQ(al_status(seg, 0x1003), 4);
 }
@@ -247,8 +336,8 @@ TEST(EcatProcessData, LrwOnOverlappingAreasGivesThreePerSubdeviceWithBoth) {
   address_all(seg);
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
   // A drive with inputs and outputs at the same logical address (as kickcat maps them).
-  map(seg, 0x1003, 0, 0x1000, kDriveRxBytes, 0x64, 0, 0x30000, 2);
-  map(seg, 0x1003, 1, 0x1800, kDriveTxBytes, 0x20, 1, 0x30000, 1);
+  map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x30000, 2);
+  map(seg, 0x1003, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x30000, 1);
   auto r = exchange(seg, {{Cmd::LRW, 0x0000, 0x0003, std::vector<std::uint8_t>(kDriveTxBytes)}});
   EXPECT_EQ(r[0].wkc, 3);
 }
@@ -573,4 +662,192 @@ TEST(EcatProcessData, BrakeTestObjectsCrossTheWire) {
   unpack_outputs(dout, rx, back);
   EXPECT_EQ(back.brake_test_axis, 6);
   EXPECT_EQ(back.drive[5].max_torque_permille, 1300);
+}
+
+// Issue 22 item 4: the drives' CoE mailbox and object dictionary.
+TEST(EcatCoe, SiiOffersTheMailboxOnTheDrivesOnly) {
+  const std::vector<std::uint16_t> drive = build_sii(default_segment()[kPosFirstDrive]);
+  EXPECT_EQ(drive[0x18], kMailboxOut);
+  EXPECT_EQ(drive[0x19], kMailboxBytes);
+  EXPECT_EQ(drive[0x1A], kMailboxIn);
+  EXPECT_EQ(drive[0x1B], kMailboxBytes);
+  EXPECT_EQ(drive[0x1C], 0x0004);  // CoE
+  const std::vector<std::uint16_t> di = build_sii(default_segment()[kPosDigitalIn]);
+  EXPECT_EQ(di[0x1C], 0);  // the I/O terminals have no mailbox, as simple real ones
+  EXPECT_EQ(di[0x19], 0);
+}
+
+TEST(EcatCoe, PreopNeedsTheMailboxSyncManagers) {
+  Segment seg(default_segment());
+  address_all(seg);
+  request(seg, 0x1004, 2);
+  EXPECT_EQ(al_status(seg, 0x1004), 0x11);
+  EXPECT_EQ(seg.esc(3).al_status_code(), al_code::invalid_mailbox_config);
+  mailbox(seg, 0x1004);
+  request(seg, 0x1004, 0x12);
+  EXPECT_EQ(al_status(seg, 0x1004), 2);
+  request(seg, 0x1001, 2);  // the DI terminal: no mailbox needed
+  EXPECT_EQ(al_status(seg, 0x1001), 2);
+}
+
+TEST(EcatCoe, UploadsTheIdentityExpeditedAndTheNameNormal) {
+  Segment seg(default_segment());
+  drive_in_preop(seg, 0x1005);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1000, 0), 0x00020192);  // CiA 402 servo drive
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 0), 4);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 1), kVendorId);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 2), kProductDrive);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 3), kRevision);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 4), 13);  // axis 3
+  std::vector<std::uint8_t> name;
+  ASSERT_EQ(sdo_read(seg, 0x1005, 0x1008, 0, name), 0U);  // longer than 4 bytes: a normal upload
+  EXPECT_EQ(std::string(name.begin(), name.end()), "SafeState emu CiA402 CSP drive 3");
+  // The PDO assignment and mapping, as masters read them to size the process data.
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1C00, 3), 3);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1C12, 0), 1);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1C12, 1), 0x1600);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1C13, 1), 0x1A00);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1600, 0), 3);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1600, 3), 0x60720010);  // 0x6072:00, 16 bits
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x1A00, 4), 0x60770010);
+  EXPECT_EQ(sdo_value(seg, 0x1005, 0x60C2, 1), 1);  // 1 x 10^-3 s: the 1 ms cycle at power-on
+  EXPECT_EQ(static_cast<std::int8_t>(sdo_value(seg, 0x1005, 0x60C2, 2)), -3);
+}
+
+TEST(EcatCoe, DownloadsExpeditedAndNormalAndReadsThemBack) {
+  Segment seg(default_segment());
+  drive_in_preop(seg, 0x1003);
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6060, 0), 0);  // no mode at power-on
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6061, 0), 8);  // the display follows
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(1500)), 0U);
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6072, 0), 1500);
+  // Normal download: size indicated (0x21), the size in the data field, the value after it.
+  const std::vector<std::uint8_t> a = mailbox_round_trip(seg, 0x1003, sdo_request(0x21, 0x6072, 0, {2, 0, 0, 0, 0xBC, 0x02}));
+  ASSERT_EQ(a.size(), kMailboxBytes);
+  EXPECT_EQ(a[8], 0x60);  // download response
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6072, 0), 700);
+  EXPECT_EQ(seg.esc(2).dictionary().value(0x6072, 0), 700);
+  // Power cycled (cable cut in front of it and back): power-on values again.
+  seg.cut_before(3);
+  seg.cut_before(0);
+  EXPECT_EQ(seg.esc(2).dictionary().value(0x6072, 0), 1000);
+  EXPECT_EQ(seg.esc(2).dictionary().value(0x6060, 0), 0);
+}
+
+TEST(EcatCoe, AnswersEveryRefusalWithItsAbortCode) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  drive_in_preop(seg, 0x1003);
+  std::vector<std::uint8_t> v;
+  EXPECT_EQ(sdo_read(seg, 0x1003, 0x2000, 0, v), coe::abort_code::no_object);
+  EXPECT_EQ(sdo_read(seg, 0x1003, 0x1018, 7, v), coe::abort_code::no_subindex);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x1018, 1, {1, 2, 3, 4}), coe::abort_code::read_only);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x1600, 1, {1, 2, 3, 4}), coe::abort_code::read_only);  // fixed mapping
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, {1, 0, 0, 0}), coe::abort_code::length);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(3001)), coe::abort_code::value_range);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {3}), coe::abort_code::value_range);  // PV: not offered
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x605A, 0, le16(5)), coe::abort_code::value_range);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x1C12, 1, le16(0x1601)), coe::abort_code::value_range);
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6072, 0), 1000);  // nothing changed by a refused download
+  // Not offered: segments, complete access, other CoE services and mailbox protocols.
+  EXPECT_EQ(abort_of(mailbox_round_trip(seg, 0x1003, sdo_request(0x60, 0x6072, 0))), coe::abort_code::command);
+  EXPECT_EQ(abort_of(mailbox_round_trip(seg, 0x1003, sdo_request(0x50, 0x1018, 0))), coe::abort_code::unsupported_access);
+  const std::vector<std::uint8_t> info = mailbox_round_trip(seg, 0x1003, {0x00, 0x80, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00});
+  ASSERT_FALSE(info.empty());
+  EXPECT_EQ(info[5] & 0x0F, 0);     // a mailbox error reply
+  EXPECT_EQ(u16(info, 8), 0x0004);  // service not supported (SDO information)
+  // The start-up parameters of PRE-OP only, once in SAFE-OP; an RxPDO object in OP.
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
+  map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20000, 2);
+  map(seg, 0x1003, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10000, 1);
+  request(seg, 0x1003, 4);
+  ASSERT_EQ(al_status(seg, 0x1003), 4);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x1C12, 0, {0}), coe::abort_code::state);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), coe::abort_code::state);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(900)), 0U);  // RW in SAFE-OP: no process data yet
+  request(seg, 0x1003, 8);
+  ASSERT_EQ(al_status(seg, 0x1003), 8);
+  EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(800)), coe::abort_code::rxpdo_mapped);
+  std::vector<std::uint8_t> out(kDriveRxBytes, 0);
+  out[6] = 0x34;  // 0x6072 = 0x0134 = 308 through the PDO
+  out[7] = 0x01;
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x6072, 0), 308);  // in OP the process data owns it
+  EXPECT_STREQ(coe::abort_text(coe::abort_code::read_only), "Attempt to write a read-only object");
+}
+
+TEST(EcatCoe, MailboxFullBitsAndWorkingCountersAsAnEscShowsThem) {
+  Segment seg(default_segment());
+  drive_in_preop(seg, 0x1003);
+  const auto status = [&](std::uint16_t sm) {
+    return exchange(seg, {{Cmd::FPRD, 0x1003, static_cast<std::uint16_t>(reg::sm + sm * 8 + 5), {0}}})[0].data[0];
+  };
+  // Nothing to read: the read is not counted.
+  EXPECT_EQ(exchange(seg, {{Cmd::FPRD, 0x1003, kMailboxIn, std::vector<std::uint8_t>(kMailboxBytes)}})[0].wkc, 0);
+  std::vector<std::uint8_t> mbx(kMailboxBytes, 0);
+  const std::vector<std::uint8_t> req = sdo_request(0x40, 0x1018, 1);
+  mbx[0] = static_cast<std::uint8_t>(req.size());
+  mbx[5] = 0x13;
+  std::copy(req.begin(), req.end(), mbx.begin() + 6);
+  EXPECT_EQ(exchange(seg, {{Cmd::FPWR, 0x1003, kMailboxOut, mbx}})[0].wkc, 1);
+  EXPECT_EQ(status(0) & 0x08, 0);     // taken at once
+  EXPECT_EQ(status(1) & 0x08, 0x08);  // the answer waits in SM1
+  EXPECT_EQ(exchange(seg, {{Cmd::FPWR, 0x1003, kMailboxOut, mbx}})[0].wkc, 1);
+  EXPECT_EQ(status(0) & 0x08, 0x08);  // the second request waits: the answer was not read
+  EXPECT_EQ(exchange(seg, {{Cmd::FPWR, 0x1003, kMailboxOut, mbx}})[0].wkc, 0);  // full: refused
+  auto r = exchange(seg, {{Cmd::FPRD, 0x1003, kMailboxIn, std::vector<std::uint8_t>(kMailboxBytes)}});
+  EXPECT_EQ(r[0].wkc, 1);
+  EXPECT_EQ(le32(r[0].data, 12), kVendorId);
+  EXPECT_EQ(status(0) & 0x08, 0);     // reading the answer let the second request through
+  EXPECT_EQ(status(1) & 0x08, 0x08);
+  request(seg, 0x1003, 1);            // INIT: no mailbox communication, emptied
+  EXPECT_EQ(status(1) & 0x08, 0);
+}
+
+TEST(EcatCoe, SafeopNeedsCspAndTheInterpolationPeriodOfTheCycle) {
+  EmulatedCell cell(2000);  // a 2 ms drive: 0x60C2 = 2 x 10^-3 s at power-on
+  Segment& seg = cell.segment();
+  drive_in_preop(seg, 0x1003);
+  map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20000, 2);
+  map(seg, 0x1003, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10000, 1);
+  EXPECT_EQ(sdo_value(seg, 0x1003, 0x60C2, 1), 2);
+  request(seg, 0x1003, 4);
+  EXPECT_EQ(al_status(seg, 0x1003), 0x12);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::inconsistent_settings);  // no mode: not CSP
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x60C2, 1, {1}), 0U);  // 1 ms: not this drive's cycle
+  request(seg, 0x1003, 0x14);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_sync_cycle);
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x60C2, 1, {20}), 0U);
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x60C2, 2, {0xFC}), 0U);  // 20 x 10^-4 s = 2 ms
+  request(seg, 0x1003, 0x14);
+  EXPECT_EQ(al_status(seg, 0x1003), 4);
+}
+
+TEST(EcatCoe, ARefusalFaultAndTheStatusOfTheDictionary) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  drive_in_preop(seg, 0x1005);
+  ASSERT_EQ(control_line(cell, "fault sdo-refuse 5 0x6072:0 0x08000020"), "OK");
+  EXPECT_EQ(sdo_write(seg, 0x1005, 0x6072, 0, le16(1000)), 0x08000020U);
+  EXPECT_EQ(sdo_write(seg, 0x1005, 0x6060, 0, {8}), 0U);
+  nlohmann::json st = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_TRUE(st["sdo"][0].is_null());  // the DI terminal has no dictionary
+  EXPECT_EQ(st["sdo"][4]["6060:00"], 8);
+  EXPECT_EQ(st["sdo"][4]["60C2:02"], -3);
+  EXPECT_EQ(st["sdo"][4]["6072:00"], 1000);
+  EXPECT_EQ(st["sdo"][3]["6060:00"], 0);
+  ASSERT_EQ(control_line(cell, "fault sdo-refuse 5 off"), "OK");
+  EXPECT_EQ(sdo_write(seg, 0x1005, 0x6072, 0, le16(1000)), 0U);
+  ASSERT_EQ(control_line(cell, "fault sdo-refuse 6 0x6060:00 0x06090030"), "OK");
+  ASSERT_EQ(control_line(cell, "fault clear all"), "OK");  // takes it back too
+  for (const char* bad : {"fault sdo-refuse", "fault sdo-refuse 9 0x6072:0 0x06090030", "fault sdo-refuse 1 0x6072:0 0x06090030",
+                          "fault sdo-refuse 5 0x6072 0x06090030", "fault sdo-refuse 5 0x16072:0 0x06090030",
+                          "fault sdo-refuse 5 0x6072:0x100 0x06090030", "fault sdo-refuse 5 0x6072:0 0",
+                          "fault sdo-refuse 5 0x6072:0 0x06090030 more", "fault sdo-refuse 5 0x6072:0 abort"}) {
+    const std::string r = control_line(cell, bad);
+    EXPECT_EQ(r.rfind("ERROR ", 0), 0U) << bad << " -> " << r;
+  }
+  EXPECT_EQ(sdo_write(seg, 0x1005, 0x6072, 0, le16(1000)), 0U);  // no refusal left behind by the bad lines
 }

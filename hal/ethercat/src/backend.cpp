@@ -30,6 +30,9 @@ SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std
                            int tx_rx_priority, char* err, std::size_t errlen);
 const char* ss_ecat_error(const SsEcatMaster* m);
 int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
+int ss_ecat_sdo_write(SsEcatMaster* m, std::uint16_t position, std::uint16_t index, std::uint8_t sub, std::uint32_t value,
+                      std::uint8_t size, std::uint32_t* abort_code);
+int ss_ecat_to_safe_op(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
 int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
@@ -51,6 +54,33 @@ std::string hex(std::uint32_t v) {
   char b[16];
   std::snprintf(b, sizeof b, "0x%08X", v);
   return b;
+}
+
+std::string object(const StartupSdo& s) {
+  char b[16];
+  std::snprintf(b, sizeof b, "0x%04X:%02X", static_cast<unsigned>(s.index), static_cast<unsigned>(s.sub));
+  return b;
+}
+
+// 0x60C2 (interpolation time period, CiA 402) of a start-up list in ns: value x 10^index s;
+// 0 when the list does not write both parts.
+std::int64_t interpolation_ns(const std::vector<StartupSdo>& list) {
+  std::int64_t value = -1;
+  std::int64_t exponent = 100;
+  for (const StartupSdo& s : list) {
+    if (s.index == 0x60C2 && s.sub == 1) {
+      value = s.value & 0xFFU;
+    } else if (s.index == 0x60C2 && s.sub == 2) {
+      exponent = static_cast<std::int8_t>(s.value & 0xFFU);
+    }
+  }
+  if (value < 0 || exponent < -9 || exponent > 0) {
+    return 0;
+  }
+  for (std::int64_t e = exponent + 9; e > 0; --e) {
+    value *= 10;
+  }
+  return value;
 }
 
 using pdo::get16;
@@ -213,29 +243,23 @@ void Backend::boot(const std::string& ifname) {
     boot_error_ = std::string("EtherCAT scan: ") + ss_ecat_error(m);
     return;
   }
+  // Identities first (in PRE-OP): no start-up SDO goes to a subdevice that is not the one
+  // configured.
+  const auto fail = [&](std::size_t i, const std::string& what) {
+    health_.subdevice = static_cast<std::uint8_t>(i + 1U);
+    boot_error_ = "subdevice " + std::to_string(i + 1U) + " (" + cfg_.subdevices[i].name + ") " + what;
+  };
   for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
     const Subdevice& want = cfg_.subdevices[i];
-    const std::string who = "subdevice " + std::to_string(i + 1U) + " (" + want.name + ")";
     if (i >= static_cast<std::size_t>(n)) {
-      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
-      boot_error_ = who + " missing: " + std::to_string(n) + " found on the bus";
-      return;
+      return fail(i, "missing: " + std::to_string(n) + " found on the bus");
     }
     const SsEcatSub& got = found[i];
     if (got.vendor_id != want.vendor_id || got.product_code != want.product_code ||
         (want.check_revision && got.revision != want.revision)) {
-      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
-      boot_error_ = who + " has the wrong identity: vendor " + hex(got.vendor_id) + " product " + hex(got.product_code) +
-                    " revision " + hex(got.revision) + ", expected vendor " + hex(want.vendor_id) + " product " +
-                    hex(want.product_code) + (want.check_revision ? " revision " + hex(want.revision) : "");
-      return;
-    }
-    if (got.in_bytes != want.in_bytes || got.out_bytes != want.out_bytes) {
-      health_.subdevice = static_cast<std::uint8_t>(i + 1U);
-      boot_error_ = who + " maps " + std::to_string(got.in_bytes) + "/" + std::to_string(got.out_bytes) +
-                    " input/output bytes, expected " + std::to_string(want.in_bytes) + "/" +
-                    std::to_string(want.out_bytes);
-      return;
+      return fail(i, "has the wrong identity: vendor " + hex(got.vendor_id) + " product " + hex(got.product_code) +
+                         " revision " + hex(got.revision) + ", expected vendor " + hex(want.vendor_id) + " product " +
+                         hex(want.product_code) + (want.check_revision ? " revision " + hex(want.revision) : ""));
     }
   }
   if (static_cast<std::size_t>(n) > cfg_.subdevices.size()) {
@@ -243,6 +267,37 @@ void Backend::boot(const std::string& ifname) {
     boot_error_ = "unexpected subdevice " + std::to_string(cfg_.subdevices.size() + 1U) + " (" + found[cfg_.subdevices.size()].name +
                   "): the configuration lists " + std::to_string(cfg_.subdevices.size());
     return;
+  }
+  // The start-up lists, in PRE-OP, in order: a refused SDO is BOOT_FAILED naming the
+  // subdevice, the object and the abort code.
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const std::int64_t period_ns = interpolation_ns(cfg_.subdevices[i].startup);
+    if (period_ns != 0 && period_ns != static_cast<std::int64_t>(cycle_us_) * 1000) {
+      return fail(i, "start-up list: 0x60C2 sets an interpolation period of " + std::to_string(period_ns / 1000) +
+                         " us, the scan cycle is " + std::to_string(cycle_us_) + " us");
+    }
+    for (const StartupSdo& sdo : cfg_.subdevices[i].startup) {
+      std::uint32_t code = 0;
+      if (ss_ecat_sdo_write(m, static_cast<std::uint16_t>(i), sdo.index, sdo.sub, sdo.value, sdo.size, &code) != 0) {
+        return fail(i, code != 0U ? "refused start-up SDO " + object(sdo) + " = " + std::to_string(sdo.value) + ": abort " +
+                                        hex(code) + " (" + ss_ecat_error(m) + ")"
+                                   : "start-up SDO " + object(sdo) + ": " + ss_ecat_error(m));
+      }
+    }
+  }
+  n = ss_ecat_to_safe_op(m, found.data(), found.size());
+  if (n < 0) {
+    boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+    return;
+  }
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const Subdevice& want = cfg_.subdevices[i];
+    const SsEcatSub& got = found[i];
+    if (got.in_bytes != want.in_bytes || got.out_bytes != want.out_bytes) {
+      return fail(i, "maps " + std::to_string(got.in_bytes) + "/" + std::to_string(got.out_bytes) +
+                         " input/output bytes, expected " + std::to_string(want.in_bytes) + "/" +
+                         std::to_string(want.out_bytes));
+    }
   }
   // Every subdevice's outputs go safe by themselves when this master stops writing them
   // (killed, hung): its process-data watchdog, written before OP, where it starts counting.

@@ -128,6 +128,69 @@ bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
   return true;
 }
 
+// "startup": [{"index": "0x6060", "sub": 0, "size": 1, "value": 8}, ...]. Every key is
+// required and no other is allowed; the value must fit `size` bytes, signed or unsigned.
+bool startup_list(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  const auto it = s.find("startup");
+  if (it == s.end()) {
+    return true;
+  }
+  const std::string list = where + " (" + d.name + ").startup";
+  if (!it->is_array() || it->size() > kMaxStartupSdos) {
+    return c.fail(list, "expected a list of at most " + std::to_string(kMaxStartupSdos) + " SDO writes");
+  }
+  for (std::size_t k = 0; k < it->size(); ++k) {
+    const Json& e = (*it)[k];
+    const std::string at = list + "[" + std::to_string(k) + "]";
+    if (!e.is_object()) {
+      return c.fail(at, "expected an object with index, sub, size and value");
+    }
+    for (const auto& [key, v] : e.items()) {
+      if (key != "index" && key != "sub" && key != "size" && key != "value") {
+        return c.fail(at + "." + key, "unknown key (expected index, sub, size, value)");
+      }
+    }
+    StartupSdo sdo;
+    std::uint32_t index = 0;
+    if (!e.contains("index")) {
+      return c.fail(at + ".index", "missing (an object index, e.g. \"0x6060\")");
+    }
+    if (!id32(e["index"], at + ".index", index, c)) {
+      return false;
+    }
+    if (index < 0x1000U || index > 0xFFFFU) {
+      return c.fail(at + ".index", "object index must be 0x1000..0xFFFF");
+    }
+    sdo.index = static_cast<std::uint16_t>(index);
+    std::uint64_t v = 0;
+    if (!uint_in(e, "sub", at, 0, 255, v, c)) {
+      return false;
+    }
+    sdo.sub = static_cast<std::uint8_t>(v);
+    const auto size = e.find("size");
+    if (size == e.end() || !size->is_number_unsigned() ||
+        (size->get<std::uint64_t>() != 1U && size->get<std::uint64_t>() != 2U && size->get<std::uint64_t>() != 4U)) {
+      return c.fail(at + ".size", "expected 1, 2 or 4 (bytes)");
+    }
+    sdo.size = static_cast<std::uint8_t>(size->get<std::uint64_t>());
+    const unsigned bits = sdo.size * 8U;
+    const std::int64_t lo = -(std::int64_t{1} << (bits - 1U));
+    const std::int64_t hi = (std::int64_t{1} << bits) - 1;
+    const auto value = e.find("value");
+    const bool integer = value != e.end() && (value->is_number_integer());
+    const bool fits = integer && (value->is_number_unsigned() ? value->get<std::uint64_t>() <= static_cast<std::uint64_t>(hi)
+                                                              : value->get<std::int64_t>() >= lo);
+    if (!fits) {
+      return c.fail(at + ".value", "expected an integer that fits " + std::to_string(sdo.size) + " byte" +
+                                       (sdo.size == 1U ? "" : "s") + " (" + std::to_string(lo) + ".." + std::to_string(hi) + ")");
+    }
+    const std::uint64_t mask = (std::uint64_t{1} << bits) - 1U;
+    sdo.value = static_cast<std::uint32_t>(static_cast<std::uint64_t>(value->get<std::int64_t>()) & mask);
+    d.startup.push_back(sdo);
+  }
+  return true;
+}
+
 bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
   if (!s.is_object()) {
     return c.fail(where, "expected an object");
@@ -167,6 +230,9 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     return false;
   }
   d.out_bytes = static_cast<std::uint16_t>(v);
+  if (!startup_list(s, where, d, c)) {
+    return false;
+  }
   switch (d.role) {
     case Role::safety_inputs:
       return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, d.in_bytes, d.in_bit, c)

@@ -62,8 +62,11 @@ SubdeviceDesc drive(std::size_t axis) {
                   {0x6064, 0, 32, kInt32, "Position actual value"},
                   {0x606C, 0, 32, kInt32, "Velocity actual value"},
                   {0x6077, 0, 16, kInt16, "Torque actual value"}};
-  d.out_address = 0x1000;
+  // SM0/SM1 hold the CoE mailbox at 0x1000/0x1080: the process data on SM2 and SM3.
+  d.out_address = 0x1100;
   d.in_address = 0x1800;
+  d.mailbox = true;
+  d.device_type = 0x00020192;  // CiA 402 (0x0192), servo drive
   return d;
 }
 
@@ -78,6 +81,14 @@ std::int32_t to_counts(float rad) noexcept {
 }
 constexpr std::size_t bit(DiBit b) { return static_cast<std::size_t>(b); }
 constexpr std::size_t bit(DoBit b) { return static_cast<std::size_t>(b); }
+
+// The drives' cycle is the plant's: 0x60C2 must equal it before they go to SAFE-OP.
+std::vector<SubdeviceDesc> with_cycle(std::vector<SubdeviceDesc> devices, std::uint32_t cycle_us) {
+  for (SubdeviceDesc& d : devices) {
+    d.cycle_us = cycle_us;
+  }
+  return devices;
+}
 
 sim::PlantTiming timing(std::uint32_t cycle_us) {
   const auto cycles = [&](std::uint32_t ms) {
@@ -152,7 +163,7 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
 EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices)
     : cycle_us_(cycle_us),
       plant_(motion::kRobot, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
-      segment_(devices) {
+      segment_(with_cycle(devices, cycle_us)) {
   segment_.on_process_data([this] {
     free_running_ = false;
     plant_cycle(true);

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <charconv>
+#include <cstdio>
 #include <sstream>
 #include <array>
 #include <string>
@@ -60,6 +61,49 @@ std::string wire_fault(EmulatedCell& cell, std::string_view what, std::string_vi
   return {};
 }
 
+// A 16/32-bit number, decimal or 0x hex, the whole word.
+bool parse_hex(std::string_view s, std::uint32_t hi, std::uint32_t& v) {
+  const bool hex = s.size() > 2U && s[0] == '0' && (s[1] == 'x' || s[1] == 'X');
+  const std::string_view digits = hex ? s.substr(2) : s;
+  const auto r = std::from_chars(digits.data(), digits.data() + digits.size(), v, hex ? 16 : 10);
+  return !digits.empty() && r.ec == std::errc{} && r.ptr == digits.data() + digits.size() && v <= hi;
+}
+
+// `fault sdo-refuse POS INDEX:SUB ABORT`: the drive at POS (1-based) refuses every SDO
+// download to INDEX:SUB with the abort code ABORT (a test of the master's start-up list);
+// `fault sdo-refuse POS off` takes it back, as does `fault clear_all`.
+std::string sdo_refuse_line(EmulatedCell& cell, const std::string& line) {
+  std::istringstream words(line);
+  std::string verb, what, pos, object, code, extra;
+  words >> verb >> what >> pos >> object >> code >> extra;
+  std::uint32_t p = 0;
+  const auto n = static_cast<std::uint32_t>(cell.segment().size());
+  if (!parse_count(pos, 1, n, p)) {
+    return "ERROR sdo-refuse needs a subdevice position 1.." + std::to_string(n);
+  }
+  coe::Dictionary& od = cell.segment().esc(p - 1U).dictionary();
+  if (od.empty()) {
+    return "ERROR subdevice " + pos + " has no CoE mailbox (only the drives have one)";
+  }
+  if (object == "off" && code.empty()) {
+    od.refuse(0, 0, 0);
+    return "OK";
+  }
+  const std::size_t colon = object.find(':');
+  std::uint32_t index = 0;
+  std::uint32_t sub = 0;
+  std::uint32_t code_value = 0;
+  if (colon == std::string::npos || !parse_hex(std::string_view(object).substr(0, colon), 0xFFFF, index) ||
+      !parse_hex(std::string_view(object).substr(colon + 1U), 0xFF, sub)) {
+    return "ERROR sdo-refuse needs an object INDEX:SUB (e.g. 0x6072:0), got '" + object + "'";
+  }
+  if (!parse_hex(code, 0xFFFFFFFFU, code_value) || code_value == 0U || !extra.empty()) {
+    return "ERROR sdo-refuse needs a non-zero abort code (e.g. 0x06090030) and nothing after it";
+  }
+  od.refuse(static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub), code_value);
+  return "OK";
+}
+
 // `tool KG X Y Z`: the payload (0..100 kg) at the TCP (tool0 frame, |mm| <= 2000) the emulated
 // arm carries, so that its drives' torque (0x6077) is that of the arm the safety
 // configuration declares (`safestate replay --fieldbus ethercat` sends it at start).
@@ -113,6 +157,9 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
       cell.segment().go_silent();
     } else if (f->fault.kind == sim::FaultKind::clear_all) {
       cell.segment().clear_wire_faults();
+      for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+        cell.segment().esc(i).dictionary().refuse(0, 0, 0);
+      }
     }
     cell.inject(f->fault);
     cell.latch_inputs();
@@ -167,6 +214,26 @@ std::string status(EmulatedCell& cell) {
     wd.push_back(cell.segment().esc(i).watchdog_ns() / 1000U);
   }
   j["watchdog_us"] = wd;
+  // The writable CoE objects of each subdevice with a mailbox ("6060:00": 8, ...; null for
+  // the I/O terminals): what the master's start-up list left there.
+  nlohmann::json sdo = nlohmann::json::array();
+  for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+    const coe::Dictionary& od = cell.segment().esc(i).dictionary();
+    if (od.empty()) {
+      sdo.push_back(nullptr);
+      continue;
+    }
+    nlohmann::json objects = nlohmann::json::object();
+    for (const coe::Entry& e : od.entries()) {
+      if (e.access != coe::Access::ro) {  // the value SDO left (a PDO-mapped one follows the PDO in OP)
+        char key[16];
+        std::snprintf(key, sizeof key, "%04X:%02X", static_cast<unsigned>(e.index), static_cast<unsigned>(e.sub));
+        objects[key] = e.as_int();
+      }
+    }
+    sdo.push_back(objects);
+  }
+  j["sdo"] = sdo;
   const EmulatedCell::OutputDrop& d = cell.output_drop();
   j["output_drop"] = {{"contactor_us", d.contactor ? nlohmann::json(d.contactor_ns / 1000U) : nlohmann::json(nullptr)},
                       {"enable_us", d.enable ? nlohmann::json(d.enable_ns / 1000U) : nlohmann::json(nullptr)}};
@@ -216,6 +283,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   }
   if (!line.empty() && line.front() == '{') {
     return json_line(cell, line);
+  }
+  if (line.rfind("fault sdo-refuse", 0) == 0) {
+    return sdo_refuse_line(cell, line);
   }
   if (line.rfind("tool ", 0) == 0) {
     return tool_line(cell, line);

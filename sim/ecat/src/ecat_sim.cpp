@@ -220,6 +220,18 @@ int ecat_sim_main(const EcatSimOptions& opt) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   EmulatedCell cell(opt.cycle_us, devs);
+  if (!opt.sdo_refuse.empty()) {
+    const std::string r = control_line(cell, "fault sdo-refuse " + opt.sdo_refuse);
+    if (r != "OK") {
+      std::fprintf(stderr, "ecat-sim: --sdo-refuse: %s\n", r.c_str());
+      close(raw);
+      if (ctl >= 0) {
+        close(ctl);
+        unlink(opt.control.c_str());
+      }
+      return 2;
+    }
+  }
   std::fprintf(stderr, "ecat-sim: %zu emulated subdevices on %s%s%s\n", cell.segment().size(), opt.ifname.c_str(),
                opt.control.empty() ? "" : ", control ", opt.control.c_str());
   std::vector<Client> clients;

@@ -104,7 +104,12 @@ bool valid_state(std::uint8_t s) noexcept { return s == 1U || s == 2U || s == 3U
 
 }  // namespace
 
-Esc::Esc(SubdeviceDesc desc) : desc_(std::move(desc)), sii_(build_sii(desc_)) { reset(); }
+Esc::Esc(SubdeviceDesc desc) : desc_(std::move(desc)), sii_(build_sii(desc_)) {
+  if (desc_.mailbox) {
+    od_ = coe::Dictionary(desc_);
+  }
+  reset();
+}
 
 std::uint16_t Esc::u16(std::uint16_t a) const noexcept {
   return static_cast<std::uint16_t>(mem_[a] | (mem_[a + 1U] << 8U));
@@ -129,16 +134,73 @@ void Esc::reset() {
   put16(reg::pdi_control, 0x0004);
   set_al(static_cast<std::uint8_t>(AlState::init), false, al_code::none);
   last_output_ns_ = 0;
+  od_.reset();
+  mailbox_counter_ = 0;
 }
 
-void Esc::read(std::uint16_t address, std::span<std::uint8_t> out) const noexcept {
+bool Esc::mailbox_sm(bool master_writes, MailboxSm& out) const noexcept {
+  for (std::size_t i = 0; i < kSyncManagers; ++i) {
+    const auto base = static_cast<std::uint16_t>(reg::sm + i * 8U);
+    const std::uint8_t control = mem_[base + 4U];
+    const bool enabled = (mem_[base + 6U] & 1U) != 0U;
+    // control bits 0..1: 2 = mailbox; bits 2..3: 1 = the master writes, 0 = it reads
+    if (enabled && (control & 0x03U) == 0x02U && ((control >> 2U) & 0x03U) == (master_writes ? 1U : 0U)) {
+      out = MailboxSm{base, u16(base), u16(static_cast<std::uint16_t>(base + 2U))};
+      return out.bytes > 0U && static_cast<std::size_t>(out.start) + out.bytes <= kEscMemory;
+    }
+  }
+  return false;
+}
+
+void Esc::set_mailbox_full(const MailboxSm& m, bool full) noexcept {
+  mem_[m.base + 5U] = static_cast<std::uint8_t>(full ? (mem_[m.base + 5U] | 0x08U) : (mem_[m.base + 5U] & ~0x08U));
+}
+
+// The application side of the mailbox: a full receive mailbox is taken and answered as soon
+// as the send mailbox is free (outside INIT, where there is no mailbox communication).
+void Esc::serve_mailbox() noexcept {
+  MailboxSm rx;
+  MailboxSm tx;
+  if (state() == AlState::init || !mailbox_sm(true, rx) || !mailbox_sm(false, tx) || !mailbox_full(rx) ||
+      mailbox_full(tx)) {
+    return;
+  }
+  const std::vector<std::uint8_t> reply =
+      coe::serve(od_, {&mem_[rx.start], rx.bytes}, {&mem_[desc_.out_address], desc_.rx.bytes()},
+                 {&mem_[desc_.in_address], desc_.tx.bytes()}, state(), tx.bytes, mailbox_counter_);
+  set_mailbox_full(rx, false);
+  if (reply.empty()) {
+    return;
+  }
+  std::fill(mem_.begin() + tx.start, mem_.begin() + tx.start + tx.bytes, 0);
+  std::copy_n(reply.begin(), std::min<std::size_t>(reply.size(), tx.bytes), mem_.begin() + tx.start);
+  set_mailbox_full(tx, true);
+}
+
+bool Esc::read(std::uint16_t address, std::span<std::uint8_t> out) noexcept {
+  MailboxSm tx;
+  const bool mbx = mailbox_sm(false, tx) && touches(address, out.size(), tx.start, static_cast<std::uint16_t>(tx.start + tx.bytes - 1U));
+  if (mbx && !mailbox_full(tx)) {
+    return false;  // nothing to read: the datagram is not counted
+  }
   for (std::size_t i = 0; i < out.size(); ++i) {
     const std::size_t a = static_cast<std::size_t>(address) + i;
     out[i] = (a < kEscMemory) ? mem_[a] : 0U;
   }
+  if (mbx && touches(address, out.size(), static_cast<std::uint16_t>(tx.start + tx.bytes - 1U),
+                     static_cast<std::uint16_t>(tx.start + tx.bytes - 1U))) {
+    set_mailbox_full(tx, false);  // the last byte read: the mailbox is free again
+    serve_mailbox();
+  }
+  return true;
 }
 
-void Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept {
+bool Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept {
+  MailboxSm rx;
+  const bool mbx = mailbox_sm(true, rx) && touches(address, in.size(), rx.start, static_cast<std::uint16_t>(rx.start + rx.bytes - 1U));
+  if (mbx && mailbox_full(rx)) {
+    return false;  // the previous request is not taken yet: not counted, nothing written
+  }
   for (std::size_t i = 0; i < in.size(); ++i) {
     const std::uint32_t a = static_cast<std::uint32_t>(address) + static_cast<std::uint32_t>(i);
     if (writable(a)) {
@@ -155,9 +217,25 @@ void Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::ui
     on_al_control();
     last_output_ns_ = now_ns;  // the watchdog counts from entering the state
   }
-  if (touches(address, in.size(), desc_.out_address, static_cast<std::uint16_t>(desc_.out_address + 0x7FFU))) {
+  if (!desc_.rx.entries.empty() &&
+      touches(address, in.size(), desc_.out_address, static_cast<std::uint16_t>(desc_.out_address + desc_.rx.bytes() - 1U))) {
     last_output_ns_ = now_ns;
   }
+  if (touches(address, in.size(), reg::sm, reg::sm + 0x7FU)) {
+    // A sync manager disabled (or reconfigured) loses what its mailbox held.
+    for (std::size_t i = 0; i < kSyncManagers; ++i) {
+      const auto base = static_cast<std::uint16_t>(reg::sm + i * 8U);
+      if ((mem_[base + 6U] & 1U) == 0U) {
+        mem_[base + 5U] = 0;
+      }
+    }
+  }
+  if (mbx && touches(address, in.size(), static_cast<std::uint16_t>(rx.start + rx.bytes - 1U),
+                     static_cast<std::uint16_t>(rx.start + rx.bytes - 1U))) {
+    set_mailbox_full(rx, true);  // the last byte written: the request is complete
+    serve_mailbox();
+  }
+  return true;
 }
 
 void Esc::set_al(std::uint8_t state, bool error, std::uint16_t code) noexcept {
@@ -211,7 +289,15 @@ void Esc::on_al_control() noexcept {
     set_al(static_cast<std::uint8_t>(cur), true, code);
     return;
   }
+  if (cur == AlState::init && req != static_cast<std::uint8_t>(AlState::init) && desc_.mailbox && !mailbox_configured()) {
+    set_al(static_cast<std::uint8_t>(cur), true, al_code::invalid_mailbox_config);
+    return;
+  }
   if (cur == AlState::preop && req == static_cast<std::uint8_t>(AlState::safeop)) {
+    if (const std::uint16_t c = preop_to_safeop_error(); c != al_code::none) {
+      set_al(static_cast<std::uint8_t>(cur), true, c);
+      return;
+    }
     if (!desc_.rx.entries.empty() && !sm_matches(desc_.out_address, desc_.rx.bytes())) {
       set_al(static_cast<std::uint8_t>(cur), true, al_code::invalid_output_config);
       return;
@@ -222,6 +308,43 @@ void Esc::on_al_control() noexcept {
     }
   }
   set_al(req, false, al_code::none);
+  if (req == static_cast<std::uint8_t>(AlState::init)) {
+    for (std::size_t i = 0; i < kSyncManagers; ++i) {
+      mem_[reg::sm + i * 8U + 5U] = 0;  // no mailbox communication in INIT: emptied
+    }
+  } else {
+    serve_mailbox();  // a request written in INIT is answered now
+  }
+}
+
+// The mailbox sync managers as the SII describes them (SM0 receive, SM1 send).
+bool Esc::mailbox_configured() const noexcept {
+  MailboxSm rx;
+  MailboxSm tx;
+  return mailbox_sm(true, rx) && mailbox_sm(false, tx) && rx.base == reg::sm && rx.start == kMailboxOut &&
+         rx.bytes == kMailboxBytes && tx.base == reg::sm + 8U && tx.start == kMailboxIn && tx.bytes == kMailboxBytes;
+}
+
+// What a CiA 402 drive checks of its start-up parameters before SAFE-OP: the PDOs assigned,
+// the mode of operation CSP (the only one it has), and its interpolation period its cycle.
+std::uint16_t Esc::preop_to_safeop_error() const noexcept {
+  if (od_.empty()) {
+    return al_code::none;
+  }
+  if (od_.value(0x1C12, 0) == 0) {
+    return al_code::invalid_output_config;
+  }
+  if (od_.value(0x1C13, 0) == 0) {
+    return al_code::invalid_input_config;
+  }
+  if (od_.value(0x6060, 0) != 8) {
+    return al_code::inconsistent_settings;
+  }
+  std::int64_t ns = od_.value(0x60C2, 1);
+  for (std::int64_t e = od_.value(0x60C2, 2) + 9; e > 0; --e) {
+    ns *= 10;
+  }
+  return ns == static_cast<std::int64_t>(desc_.cycle_us) * 1000 ? al_code::none : al_code::invalid_sync_cycle;
 }
 
 // ETG.1000.4 6.4: command in bits 8..10 of 0x0502 (1 read, 2 write, 4 reload), word

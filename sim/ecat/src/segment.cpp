@@ -136,54 +136,55 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
     switch (c) {
       case Cmd::APRD:
       case Cmd::FPRD:
-        if (addressed) {
-          e.read(ado, data);
+        if (addressed && e.read(ado, data)) {
           ++wkc;
         }
         break;
       case Cmd::APWR:
       case Cmd::FPWR:
-        if (addressed) {
-          e.write(ado, data, now_ns);
+        if (addressed && e.write(ado, data, now_ns)) {
           ++wkc;
         }
         break;
       case Cmd::APRW:
       case Cmd::FPRW:
         if (addressed) {
-          e.read(ado, tmp);
-          e.write(ado, data, now_ns);
-          std::copy(tmp.begin(), tmp.end(), data.begin());
-          wkc = static_cast<std::uint16_t>(wkc + 3U);
+          const bool r = e.read(ado, tmp);
+          const bool w = e.write(ado, data, now_ns);
+          if (r) {
+            std::copy(tmp.begin(), tmp.end(), data.begin());
+          }
+          wkc = static_cast<std::uint16_t>(wkc + (r ? 1U : 0U) + (w ? 2U : 0U));
         }
         break;
       case Cmd::BRD:
-        e.read(ado, tmp);
-        for (std::size_t i = 0; i < data.size(); ++i) {
-          data[i] = static_cast<std::uint8_t>(data[i] | tmp[i]);
+        if (e.read(ado, tmp)) {
+          for (std::size_t i = 0; i < data.size(); ++i) {
+            data[i] = static_cast<std::uint8_t>(data[i] | tmp[i]);
+          }
+          ++wkc;
         }
-        ++wkc;
         break;
       case Cmd::BWR:
-        e.write(ado, data, now_ns);
-        ++wkc;
+        if (e.write(ado, data, now_ns)) {
+          ++wkc;
+        }
         break;
-      case Cmd::BRW:
-        e.read(ado, tmp);
-        e.write(ado, data, now_ns);
-        for (std::size_t i = 0; i < data.size(); ++i) {
+      case Cmd::BRW: {
+        const bool r = e.read(ado, tmp);
+        const bool w = e.write(ado, data, now_ns);
+        for (std::size_t i = 0; i < data.size() && r; ++i) {
           data[i] = static_cast<std::uint8_t>(data[i] | tmp[i]);
         }
-        wkc = static_cast<std::uint16_t>(wkc + 3U);
+        wkc = static_cast<std::uint16_t>(wkc + (r ? 1U : 0U) + (w ? 2U : 0U));
         break;
+      }
       case Cmd::ARMW:
       case Cmd::FRMW:
-        if (addressed) {
-          e.read(ado, data);  // the addressed one reads, every other one writes what passes
-        } else {
-          e.write(ado, data, now_ns);
+        // the addressed one reads, every other one writes what passes
+        if (addressed ? e.read(ado, data) : e.write(ado, data, now_ns)) {
+          ++wkc;
         }
-        ++wkc;
         break;
       default: break;
     }

@@ -1,7 +1,9 @@
 // The SII EEPROM image of an emulated subdevice, laid out as ETG.2010 specifies: the
 // fixed header words (configuration area, identity, mailbox, size), then categories.
-// No mailbox is offered: the PDO layout is fixed and described by the TxPDO/RxPDO
-// categories, which is how masters map simple subdevices without CoE.
+// A subdevice without a mailbox (the I/O terminals) has its fixed PDO layout in the
+// TxPDO/RxPDO categories only, which is how masters map simple subdevices without CoE; one
+// with a mailbox (the drives) says so in the standard mailbox words and the CoE protocol
+// bit, lists its mailbox sync managers first, and masters read its PDO assignment by SDO.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -107,7 +109,7 @@ void sync_manager(Bytes& b, std::uint16_t start, std::size_t bytes, std::uint8_t
   b.u8(control);
   b.u8(0);     // status
   b.u8(0x01);  // enable
-  b.u8(type);  // 3 process data outputs, 4 process data inputs
+  b.u8(type);  // 1 mailbox out, 2 mailbox in, 3 process data outputs, 4 process data inputs
 }
 
 // CRC-8 (x^8 + x^2 + x + 1, initial 0xFF) over the first 14 bytes (ETG.2010 2.2).
@@ -135,7 +137,13 @@ std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d) {
   w[0x0D] = static_cast<std::uint16_t>(d.revision >> 16U);
   w[0x0E] = static_cast<std::uint16_t>(d.serial & 0xFFFFU);
   w[0x0F] = static_cast<std::uint16_t>(d.serial >> 16U);
-  w[0x1C] = 0;       // mailbox protocols: none
+  if (d.mailbox) {
+    w[0x18] = kMailboxOut;  // standard receive mailbox (master -> subdevice): offset, size
+    w[0x19] = kMailboxBytes;
+    w[0x1A] = kMailboxIn;   // standard send mailbox (subdevice -> master)
+    w[0x1B] = kMailboxBytes;
+    w[0x1C] = 0x0004;       // mailbox protocols: CoE
+  }
   w[0x3E] = 0x000F;  // EEPROM size: 16 Kbit
   w[0x3F] = 0x0001;  // SII version
   w[0x07] = config_crc(w);
@@ -144,8 +152,9 @@ std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d) {
   const std::uint8_t name = s.add(d.name);
   const bool has_out = !d.rx.entries.empty();
   const bool has_in = !d.tx.entries.empty();
-  const std::uint8_t sm_out = 0;
-  const std::uint8_t sm_in = has_out ? 1 : 0;
+  const std::uint8_t sm_first_pd = d.mailbox ? 2 : 0;  // SM0/SM1 are the mailbox
+  const auto sm_out = sm_first_pd;
+  const auto sm_in = static_cast<std::uint8_t>(sm_first_pd + (has_out ? 1 : 0));
 
   Bytes cats;
   Bytes general;
@@ -154,7 +163,7 @@ std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d) {
   general.u8(name);  // order
   general.u8(name);  // name
   general.u8(0);
-  general.u8(0);     // CoE details: none
+  general.u8(d.mailbox ? 0x01 : 0);  // CoE details: SDO (no SDO information, no complete access)
   general.u8(0);     // FoE
   general.u8(0);     // EoE
   general.u8(0);     // SoE channels
@@ -171,6 +180,10 @@ std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d) {
   }
   Bytes fmmu;
   Bytes syncm;
+  if (d.mailbox) {
+    sync_manager(syncm, kMailboxOut, kMailboxBytes, 0x26, 1);  // mailbox, master writes
+    sync_manager(syncm, kMailboxIn, kMailboxBytes, 0x22, 2);   // mailbox, master reads
+  }
   if (has_out) {
     fmmu.u8(1);  // outputs
     sync_manager(syncm, d.out_address, d.rx.bytes(), 0x64, 3);

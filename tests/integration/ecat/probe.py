@@ -10,6 +10,8 @@ import sys
 import time
 
 CW_SHUTDOWN, CW_SWITCH_ON, CW_ENABLE = 0x0006, 0x0007, 0x000F
+DRIVES = range(2, 8)  # bus positions (0-based) of the six emulated CiA 402 drives
+CSP = bytes([8])  # 0x6060 modes of operation: cyclic synchronous position
 
 
 def control(path, line):
@@ -41,6 +43,8 @@ class Soem:
 
     def to_op(self):
         p, m = self.p, self.m
+        for pos in DRIVES:  # the drives' start-up parameter, in PRE-OP: they refuse SAFE-OP without it
+            m.slaves[pos].sdo_write(0x6060, 0, CSP)
         m.config_map()
         if m.state_check(p.SAFEOP_STATE, 500000) != p.SAFEOP_STATE:
             return False
@@ -95,8 +99,21 @@ class Kick:
     def identities(self):
         return None  # kickcat's Python binding does not expose the SII identity
 
+    def sdo_write(self, pos, index, sub, data):
+        msg = self.bus.slaves()[pos].mailbox.write_sdo(index, sub, False, bytes(data), 0.5)
+        running = self.k.mailbox.request.MessageStatus.RUNNING
+        deadline = time.monotonic() + 2
+        while msg.status() == running and time.monotonic() < deadline:
+            self.bus.process_mailboxes()
+            time.sleep(0.001)
+        return msg.status()
+
     def to_op(self):
         k, bus = self.k, self.bus
+        for pos in DRIVES:  # as Soem.to_op
+            status = self.sdo_write(pos, 0x6060, 0, CSP)
+            if status != k.mailbox.request.MessageStatus.SUCCESS:
+                raise RuntimeError(f"kickcat: 0x6060 of subdevice {pos + 1}: status {status:#x}")
         bus.create_mapping()
         bus.request_state(k.State.SAFE_OP)
         bus.wait_for_state(k.State.SAFE_OP, 1.0)
@@ -188,6 +205,28 @@ def main():
         out["answer"] = control(args[0], "fault unplug " + args[1])
         out["wkc_after"] = m.cycle()
         out["expected_wkc"] = m.m.expected_wkc
+    elif action == "sdo":  # CoE in PRE-OP (pysoem): read, write and read back, refused writes
+        d = m.m.slaves[2]  # drive 1
+        out["vendor"] = int.from_bytes(d.sdo_read(0x1018, 1), "little")
+        out["product"] = int.from_bytes(d.sdo_read(0x1018, 2), "little")
+        out["name"] = d.sdo_read(0x1008, 0).decode()  # longer than 4 bytes: a normal upload
+        out["torque_before"] = int.from_bytes(d.sdo_read(0x6072, 0), "little")
+        d.sdo_write(0x6072, 0, (1234).to_bytes(2, "little"))
+        out["torque_after"] = int.from_bytes(d.sdo_read(0x6072, 0), "little")
+        out["aborts"] = {}
+        for what, index, sub, data in (("read_only", 0x1018, 1, bytes(4)), ("range", 0x6060, 0, bytes([3])),
+                                       ("length", 0x6072, 0, bytes(4)), ("no_object", 0x2000, 0, bytes(1))):
+            try:
+                d.sdo_write(index, sub, data)
+                out["aborts"][what] = None
+            except m.p.SdoError as e:
+                out["aborts"][what] = e.abort_code
+        out["op"] = m.to_op()
+        try:  # the PDO assignment cannot change once the drive left PRE-OP
+            d.sdo_write(0x1C12, 0, bytes([0]))
+            out["aborts"]["state"] = None
+        except m.p.SdoError as e:
+            out["aborts"]["state"] = e.abort_code
     elif action == "watchdog":
         out["op"] = m.to_op()
         run_cycles(m, 5)

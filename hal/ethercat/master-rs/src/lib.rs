@@ -10,7 +10,8 @@ mod txrx;
 use core::ffi::{c_char, CStr};
 use ethercrab::{
     std::ethercat_now,
-    subdevice_group::{Op, SafeOp},
+    error::{Error as EcError, MailboxError},
+    subdevice_group::{Op, PreOp, SafeOp},
     MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
 };
 use core::future::Future;
@@ -54,11 +55,13 @@ pub struct SsEcatCycle {
     pub al_state: [u8; MAX_SUBDEVICES],
 }
 
+type PreOpGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, PreOp>;
 type SafeGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, SafeOp>;
 type OpGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, Op>;
 
 pub struct SsEcatMaster {
     md: &'static MainDevice<'static>,
+    preop: Option<PreOpGroup>,
     safe: Option<SafeGroup>,
     op: Option<OpGroup>,
     expected_wkc: u16,
@@ -272,7 +275,7 @@ pub unsafe extern "C" fn ss_ecat_open(
     };
     let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Box::into_raw(Box::new(SsEcatMaster { md, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
+    Box::into_raw(Box::new(SsEcatMaster { md, preop: None, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
 }
 
 /// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
@@ -287,31 +290,20 @@ pub unsafe extern "C" fn ss_ecat_error(m: *const SsEcatMaster) -> *const c_char 
     (*m).error.as_ptr() as *const c_char
 }
 
-/// Scans the bus, reads every SII, maps the PDOs and brings the subdevices to SAFE-OP
-/// (outputs still safe). Fills up to `max` entries of `subs` in bus order; returns the
-/// number of subdevices found, or -1.
+/// Copies what the master knows of each subdevice into `subs` (up to `max`, bus order).
 ///
 /// # Safety
-/// `m` comes from `ss_ecat_open`; `subs` points to `max` entries.
-#[no_mangle]
-pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub, max: usize) -> i32 {
-    let Some(m) = m.as_mut() else { return -1 };
-    let md = m.md;
-    let group = match block_on(md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercat_now)) {
-        Ok(g) => g,
-        Err(e) => return m.fail(&format!("scan: {}", e)),
-    };
-    let group = match block_on(group.into_safe_op(md)) {
-        Ok(g) => g,
-        Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP: {}", e)),
-    };
+/// `subs` points to `max` entries (or is null).
+unsafe fn describe<'a, S: core::ops::Deref<Target = ethercrab::SubDevice>>(
+    subdevices: impl Iterator<Item = ethercrab::SubDeviceRef<'a, S>>,
+    mut bytes: impl FnMut(&ethercrab::SubDeviceRef<'a, S>) -> (u16, u16),
+    subs: *mut SsEcatSub,
+    max: usize,
+) -> usize {
     let mut n = 0usize;
-    let mut expected = 0u16;
-    for sd in group.iter(md) {
+    for sd in subdevices {
         let id = sd.identity();
-        let in_bytes = sd.inputs_raw().len() as u16;
-        let out_bytes = sd.outputs_raw().len() as u16;
-        expected += u16::from(in_bytes > 0) + 2 * u16::from(out_bytes > 0);
+        let (in_bytes, out_bytes) = bytes(&sd);
         if n < max && !subs.is_null() {
             let mut name = [0 as c_char; 64];
             for (d, s) in name.iter_mut().zip(sd.name().bytes().take(63)) {
@@ -330,6 +322,121 @@ pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub
         }
         n += 1;
     }
+    n
+}
+
+/// Scans the bus, reads every SII, configures the mailboxes and brings the subdevices to
+/// PRE-OP, where their start-up SDOs go (`ss_ecat_sdo_write`). Fills up to `max` entries of
+/// `subs` in bus order (identities; no PDO sizes yet: `ss_ecat_to_safe_op` maps them);
+/// returns the number of subdevices found, or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open`; `subs` points to `max` entries.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub, max: usize) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let group = match block_on(md.init_single_group::<MAX_SUBDEVICES, MAX_PDI>(ethercat_now)) {
+        Ok(g) => g,
+        Err(e) => return m.fail(&format!("scan: {}", e)),
+    };
+    let n = describe(group.iter(md), |_| (0, 0), subs, max);
+    m.preop = Some(group);
+    n as i32
+}
+
+/// One SDO download of a start-up list, in PRE-OP, to the subdevice at `position` (0-based):
+/// `size` (1, 2 or 4) bytes of `value` to `index`:`sub`, then an upload of the same object
+/// to see that it holds the value (skipped when the object cannot be read: abort 0x06010001).
+/// 0, or -1 with the reason in `ss_ecat_error` and, when the subdevice refused with an SDO
+/// abort, its code in `*abort` (else 0 there) and the code's standard text as the reason.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned; `abort` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_sdo_write(
+    m: *mut SsEcatMaster,
+    position: u16,
+    index: u16,
+    sub: u8,
+    value: u32,
+    size: u8,
+    abort: *mut u32,
+) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    if let Some(a) = abort.as_mut() {
+        *a = 0;
+    }
+    let md = m.md;
+    let Some(group) = m.preop.as_ref() else { return m.fail("not scanned (SDOs go in PRE-OP)") };
+    let sd = match group.subdevice(md, usize::from(position)) {
+        Ok(sd) => sd,
+        Err(e) => return m.fail(&format!("no subdevice {}: {}", usize::from(position) + 1, e)),
+    };
+    let r: Result<Option<u32>, EcError> = block_on(async {
+        match size {
+            1 => sd.sdo_write(index, sub, value as u8).await?,
+            2 => sd.sdo_write(index, sub, value as u16).await?,
+            4 => sd.sdo_write(index, sub, value).await?,
+            _ => return Err(EcError::Internal),
+        }
+        let back: Result<u32, EcError> = match size {
+            1 => sd.sdo_read::<u8>(index, sub).await.map(u32::from),
+            2 => sd.sdo_read::<u16>(index, sub).await.map(u32::from),
+            _ => sd.sdo_read::<u32>(index, sub).await,
+        };
+        match back {
+            Ok(v) => Ok(Some(v)),
+            Err(EcError::Mailbox(MailboxError::Aborted { code, .. })) if u32::from(code) == 0x0601_0001 => Ok(None),
+            Err(e) => Err(e),
+        }
+    });
+    match r {
+        Ok(Some(v)) if v != value => {
+            m.fail(&format!("SDO {:#06x}:{:02x} reads back {:#x} after writing {:#x}", index, sub, v, value))
+        }
+        Ok(_) => 0,
+        Err(EcError::Mailbox(MailboxError::Aborted { code, .. })) => {
+            if let Some(a) = abort.as_mut() {
+                *a = u32::from(code);
+            }
+            // The standard text alone (ethercrab's Display is "0x...: text"): the caller names
+            // the object and the code.
+            let text = code.to_string();
+            let text = text.split_once(": ").map_or(text.as_str(), |(_, t)| t).trim().to_owned();
+            m.fail(&text)
+        }
+        Err(e) if size != 1 && size != 2 && size != 4 => m.fail(&format!("SDO size {} (1, 2 or 4): {}", size, e)),
+        Err(e) => m.fail(&format!("SDO {:#06x}:{:02x}: {}", index, sub, e)),
+    }
+}
+
+/// Maps the PDOs (from the SII, or by SDO from the PDO assignment of a subdevice with CoE)
+/// and brings the subdevices from PRE-OP to SAFE-OP (outputs still safe). Fills `subs` as
+/// `ss_ecat_scan` does, now with the PDO sizes; returns the number of subdevices, or -1.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned; `subs` points to `max` entries.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_to_safe_op(m: *mut SsEcatMaster, subs: *mut SsEcatSub, max: usize) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let md = m.md;
+    let Some(group) = m.preop.take() else { return m.fail("not scanned") };
+    let group = match block_on(group.into_safe_op(md)) {
+        Ok(g) => g,
+        Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP: {}", e)),
+    };
+    let mut expected = 0u16;
+    let n = describe(
+        group.iter(md),
+        |sd| {
+            let (i, o) = (sd.inputs_raw().len() as u16, sd.outputs_raw().len() as u16);
+            expected += u16::from(i > 0) + 2 * u16::from(o > 0);
+            (i, o)
+        },
+        subs,
+        max,
+    );
     m.expected_wkc = expected;
     m.safe = Some(group);
     n as i32

@@ -30,6 +30,16 @@ inline constexpr std::size_t kOutputBits = 9;
 extern const char* const kInputBitNames[kInputBits];
 extern const char* const kOutputBitNames[kOutputBits];
 
+// One SDO download of a subdevice's start-up list, sent by the master in PRE-OP (before
+// SAFE-OP) in the order of the list and read back where the object is readable.
+struct StartupSdo {
+  std::uint16_t index = 0;  // 0x1000..0xFFFF
+  std::uint8_t sub = 0;
+  std::uint8_t size = 0;    // bytes: 1, 2 or 4
+  std::uint32_t value = 0;  // little-endian image, `size` bytes wide (a negative value in two's complement)
+};
+inline constexpr std::size_t kMaxStartupSdos = 32;  // per subdevice
+
 struct Subdevice {
   std::string name;
   Role role = Role::drive;
@@ -46,6 +56,7 @@ struct Subdevice {
   std::uint16_t controlword = 0, target_position = 0, max_torque = 0;   // RxPDO byte offsets (0x6040, 0x607A, 0x6072)
   std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0,
                 torque_actual = 0;  // TxPDO byte offsets (0x6041, 0x6064, 0x606C, 0x6077)
+  std::vector<StartupSdo> startup;  // "startup": written by SDO in PRE-OP (needs a CoE mailbox)
 };
 
 // The range of `watchdog_cycles` in a bus configuration.

@@ -25,6 +25,7 @@ struct EcatSimOptions {
   int cpu = -1;
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
   std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
+  std::string sdo_refuse;  // "POS INDEX:SUB ABORT": that drive refuses SDO downloads there from power-on (tests)
 };
 
 // One control line -> "OK" or "ERROR <why>"; `status` -> one JSON object. Exposed for tests.

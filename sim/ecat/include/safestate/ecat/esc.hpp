@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "safestate/ecat/coe.hpp"
+
 namespace safestate::ecat {
 
 // Register addresses of ETG.1000.4 / the ESC datasheets that the emulation gives meaning to.
@@ -51,11 +53,14 @@ enum class AlState : std::uint8_t { init = 1, preop = 2, boot = 3, safeop = 4, o
 namespace al_code {
 inline constexpr std::uint16_t none = 0x0000;
 inline constexpr std::uint16_t invalid_state_change = 0x0011;
+inline constexpr std::uint16_t invalid_mailbox_config = 0x0016;
 inline constexpr std::uint16_t unknown_state = 0x0012;
 inline constexpr std::uint16_t bootstrap_not_supported = 0x0013;
 inline constexpr std::uint16_t sm_watchdog = 0x001B;
 inline constexpr std::uint16_t invalid_output_config = 0x001D;
 inline constexpr std::uint16_t invalid_input_config = 0x001E;
+inline constexpr std::uint16_t inconsistent_settings = 0x0026;  // 0x6060 is not CSP
+inline constexpr std::uint16_t invalid_sync_cycle = 0x0035;     // 0x60C2 is not the drive's cycle
 }  // namespace al_code
 
 // One object entry of a PDO (SII PDO category entry, ETG.2010 table 15). index 0 = padding.
@@ -84,10 +89,20 @@ struct SubdeviceDesc {
   Pdo tx;                 // inputs (subdevice -> master)
   std::uint16_t out_address = 0x1000;  // process RAM of the output sync manager
   std::uint16_t in_address = 0x1800;   // process RAM of the input sync manager
+  // A CoE mailbox (SM0 receive at kMailboxOut, SM1 send at kMailboxIn, kMailboxBytes each;
+  // the process data then on SM2/SM3) and a CiA 402 object dictionary (coe.hpp). Without
+  // one (the digital I/O terminals, as simple real ones) the PDOs are on SM0/SM1.
+  bool mailbox = false;
+  std::uint32_t device_type = 0;  // 0x1000
+  std::uint32_t cycle_us = 1000;  // the drive's cycle: 0x60C2 must equal it before SAFE-OP
 };
 
+inline constexpr std::uint16_t kMailboxOut = 0x1000;  // master -> subdevice (SM0)
+inline constexpr std::uint16_t kMailboxIn = 0x1080;   // subdevice -> master (SM1)
+inline constexpr std::uint16_t kMailboxBytes = 128;
+
 // The SII EEPROM image (ETG.2010): identity, general, strings, FMMU, sync-manager and PDO
-// categories, no mailbox (the PDO layout is fixed, as on simple I/O terminals).
+// categories; the standard mailbox words and the CoE protocol bit when it has a mailbox.
 std::vector<std::uint16_t> build_sii(const SubdeviceDesc& d);
 
 class Esc {
@@ -99,8 +114,12 @@ class Esc {
 
   // ECAT-side access (what datagrams do). A write touches only the ECAT-writable bytes
   // and then runs the register side effects (AL control, EEPROM command).
-  void read(std::uint16_t address, std::span<std::uint8_t> out) const noexcept;
-  void write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept;
+  // Each returns false when the access was not carried out (no working counter): a read of
+  // a send mailbox that holds nothing, a write to a receive mailbox that is still full.
+  // Reading the last byte of a full send mailbox empties it; writing the last byte of the
+  // receive mailbox fills it, and the CoE server answers at once (coe.hpp).
+  bool read(std::uint16_t address, std::span<std::uint8_t> out) noexcept;
+  bool write(std::uint16_t address, std::span<const std::uint8_t> in, std::uint64_t now_ns) noexcept;
 
   // Logical addressing through the FMMUs. Each returns true when an active FMMU of the
   // direction mapped at least one bit of [logical, logical + data.size()).
@@ -124,8 +143,23 @@ class Esc {
   [[nodiscard]] std::uint16_t al_status_code() const noexcept;
   [[nodiscard]] std::uint16_t station_address() const noexcept;
   [[nodiscard]] const SubdeviceDesc& desc() const noexcept { return desc_; }
+  // The CoE object dictionary (empty without a mailbox).
+  [[nodiscard]] const coe::Dictionary& dictionary() const noexcept { return od_; }
+  coe::Dictionary& dictionary() noexcept { return od_; }
 
  private:
+  struct MailboxSm {
+    std::uint16_t base = 0;  // its registers
+    std::uint16_t start = 0;
+    std::uint16_t bytes = 0;
+  };
+  // The enabled mailbox sync manager of the direction (write: the master writes), if any.
+  [[nodiscard]] bool mailbox_sm(bool master_writes, MailboxSm& out) const noexcept;
+  [[nodiscard]] bool mailbox_full(const MailboxSm& m) const noexcept { return (mem_[m.base + 5U] & 0x08U) != 0U; }
+  void set_mailbox_full(const MailboxSm& m, bool full) noexcept;
+  void serve_mailbox() noexcept;
+  [[nodiscard]] bool mailbox_configured() const noexcept;
+  [[nodiscard]] std::uint16_t preop_to_safeop_error() const noexcept;
   void set_al(std::uint8_t state, bool error, std::uint16_t code) noexcept;
   void on_al_control() noexcept;
   void on_eeprom_control() noexcept;
@@ -139,6 +173,8 @@ class Esc {
   std::array<std::uint8_t, kEscMemory> mem_{};
   std::array<std::uint8_t, 512> zeros_{};
   std::uint64_t last_output_ns_ = 0;
+  coe::Dictionary od_;
+  std::uint8_t mailbox_counter_ = 0;
 };
 
 }  // namespace safestate::ecat
