@@ -136,6 +136,11 @@ TEST(Person, FollowsItsPathAtEachPointsSpeedAndStands) {
   EXPECT_NEAR(p.x_mm(), 1000.0F, 1e-3F);
   EXPECT_NEAR(p.y_mm(), 1000.0F, 1e-3F);
   EXPECT_EQ(p.waypoint(), 2);
+  EXPECT_TRUE(p.walking()) << "it moved in the cycle it arrived: still walking, at that cycle's speed";
+  EXPECT_GT(p.speed_mm_s(), 0.0F);
+  steps(p, 1);
+  EXPECT_FALSE(p.walking());
+  EXPECT_FLOAT_EQ(p.speed_mm_s(), 0.0F) << "not walking is standing still";
   steps(p, 1000);  // the walk is over: it stays
   EXPECT_FLOAT_EQ(p.x_mm(), 1000.0F);
   EXPECT_FLOAT_EQ(p.speed_mm_s(), 0.0F);

@@ -193,6 +193,22 @@ TEST(Orientation, TheToolAxisOutsideItsConeTripsAndRecoversOnlyTowardIt) {
   EXPECT_TRUE(r.orientation.hit) << "worse than the best reached since power came on";
 }
 
+// The cone's edge is the configured angle itself, not roughly it (the mutation run's
+// "orientation: 5 % slack" survived the 35-degree step above).
+// @req LIM-ORIENTATION
+TEST(Orientation, TheConesEdgeIsTheConfiguredAngle) {
+  core::SafetyLimits l = builtin();
+  l.orientation_enabled = true;
+  l.orientation_axis = {1.0F, 0.0F, 0.0F};
+  l.orientation_max_deviation_rad = 30.0F * kDeg;
+  for (const float deg : {29.5F, 30.5F, -29.5F, -30.5F}) {
+    SafeLimitMonitors m = monitors(l);
+    LimitReport r{};
+    m.evaluate(at({0, 0, 0, 0, deg * kDeg, 0}), true, false, 0, r);
+    EXPECT_EQ(r.orientation.hit, std::fabs(deg) > 30.0F) << deg << " degrees off the axis";
+  }
+}
+
 // @req LIM-ZONE LIM-RECOVERY
 TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
   core::SafetyLimits l = builtin();
@@ -232,6 +248,65 @@ TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
 // The zone monitor skips a zone while the arm provably cannot have reached it (conservative
 // advancement, zones.cpp). Over a random walk that keeps crossing zone faces, with jumps,
 // its verdict must equal a test of every zone on every point every cycle.
+// A keep_in box is left through each of its six faces, and the monitor (which skips a zone
+// while it is clear of the arm for certain) says so in the very cycle the zone's own
+// distance does. The random walk below leaves its keep_in box mostly through the faces the
+// stretched arm reaches (the mutation run's "bounding box lets 50 mm out of a keep_in box",
+// on the -x face, survived it); here axis 1 turns the arm full circle about a box smaller
+// than its reach, at three heights, and axis 2 raises and lowers it through the top and
+// bottom faces.
+// @req LIM-ZONE
+TEST(Zones, AKeepInBoxLeftThroughEachFaceTripsInThatCycle) {
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  l.orientation_enabled = false;
+  for (auto& j : l.joints) {
+    j = core::JointLimit{-10.0F, 10.0F, 100.0F};  // only the zone makes `outside`
+  }
+  const core::ArmPose home = home_pose(l);
+  // x and y: inside the tool sphere's circle about the base axis at home (so that the turning
+  // arm leaves the box where it points along an axis and is back in it on the diagonals);
+  // z: about the TCP's height at home.
+  const float reach = std::hypot(home.tcp[0], home.tcp[1]) + l.tool_radius_mm;
+  const float half = 0.9F * reach;
+  l.zones[0] = box("cell", core::ZoneKind::keep_in, {-half, -half, home.tcp[2] - 200.0F},
+                   {half, half, home.tcp[2] + 150.0F});
+  l.zone_count = 1;
+  SafeLimitMonitors m = monitors(l);
+  std::array<int, 6> beyond{};  // cycles the TCP sphere was beyond each face: -x, +x, -y, +y, -z, +z
+  int changes = 0;
+  bool was = false;
+  int cycle = 0;
+  const auto step = [&](const std::array<float, 6>& q) {
+    LimitReport r{};
+    m.evaluate(at(q), true, false, 0, r);
+    const core::ArmPose& pose = m.pose();
+    const bool outside = core::ZoneMonitor::outside_mm(l.zones[0], pose, l.tool_radius_mm) > 0.0F;
+    ASSERT_EQ(r.outside, outside) << "cycle " << cycle << ", tcp " << pose.tcp[0] << " " << pose.tcp[1] << " "
+                                  << pose.tcp[2];
+    for (std::size_t k = 0; k < 3U; ++k) {
+      beyond[2U * k] += (pose.tcp[k] - l.tool_radius_mm < l.zones[0].min_mm[k]) ? 1 : 0;
+      beyond[2U * k + 1U] += (pose.tcp[k] + l.tool_radius_mm > l.zones[0].max_mm[k]) ? 1 : 0;
+    }
+    changes += (outside != was) ? 1 : 0;
+    was = outside;
+    ++cycle;
+  };
+  constexpr float kTurn = 0.002F;  // rad per cycle: about 1 mm of TCP travel per cycle
+  for (const float q2 : {-0.2F, 0.0F, 0.2F}) {
+    for (float q1 = -3.1F; q1 <= 3.1F; q1 += kTurn) {
+      step({q1, q2, 0, 0, 0, 0});
+    }
+  }
+  for (float q2 = -0.8F; q2 <= 0.8F; q2 += kTurn) {
+    step({0.7F, q2, 0, 0, 0, 0});
+  }
+  for (std::size_t f = 0; f < beyond.size(); ++f) {
+    EXPECT_GT(beyond[f], 0) << "face " << f << " of the box was never crossed: the test would prove nothing there";
+  }
+  EXPECT_GT(changes, 12);
+}
+
 TEST(Zones, SkippingFarZonesNeverMissesAZoneOnARandomWalk) {
   core::SafetyLimits l = builtin();
   l.tool_radius_mm = 40.0F;

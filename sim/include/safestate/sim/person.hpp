@@ -97,7 +97,12 @@ class Person {
   void advance(float dt_s) noexcept;
 
   [[nodiscard]] bool present() const noexcept { return present_; }
-  [[nodiscard]] bool walking() const noexcept { return present_ && next_ < count_ && stand_left_s_ <= 0.0; }
+  // Heading for a waypoint, or it moved this cycle (the cycle it arrives: so that a view that
+  // says "not walking" always says speed 0; gateway_protocol once read walking false at
+  // 1599.9 mm/s).
+  [[nodiscard]] bool walking() const noexcept {
+    return present_ && ((next_ < count_ && stand_left_s_ <= 0.0) || speed_ > 0.0F);
+  }
   [[nodiscard]] float x_mm() const noexcept { return static_cast<float>(x_); }
   [[nodiscard]] float y_mm() const noexcept { return static_cast<float>(y_); }
   [[nodiscard]] float radius_mm() const noexcept { return radius_; }
