@@ -193,19 +193,22 @@ TEST(Orientation, TheToolAxisOutsideItsConeTripsAndRecoversOnlyTowardIt) {
   EXPECT_TRUE(r.orientation.hit) << "worse than the best reached since power came on";
 }
 
-// The cone's edge is the configured angle itself, not roughly it (the mutation run's
-// "orientation: 5 % slack" survived the 35-degree step above).
+// The cone's edge is the configured angle itself, not roughly it, whatever the length of the
+// configured axis (the mutation run's "orientation: 5 % slack" and "orientation axis not
+// normalised" survived the test above).
 // @req LIM-ORIENTATION
 TEST(Orientation, TheConesEdgeIsTheConfiguredAngle) {
   core::SafetyLimits l = builtin();
   l.orientation_enabled = true;
-  l.orientation_axis = {1.0F, 0.0F, 0.0F};
   l.orientation_max_deviation_rad = 30.0F * kDeg;
-  for (const float deg : {29.5F, 30.5F, -29.5F, -30.5F}) {
-    SafeLimitMonitors m = monitors(l);
-    LimitReport r{};
-    m.evaluate(at({0, 0, 0, 0, deg * kDeg, 0}), true, false, 0, r);
-    EXPECT_EQ(r.orientation.hit, std::fabs(deg) > 30.0F) << deg << " degrees off the axis";
+  for (const float length : {1.0F, 2.0F, 0.5F}) {
+    l.orientation_axis = {length, 0.0F, 0.0F};
+    for (const float deg : {29.5F, 30.5F, -29.5F, -30.5F}) {
+      SafeLimitMonitors m = monitors(l);
+      LimitReport r{};
+      m.evaluate(at({0, 0, 0, 0, deg * kDeg, 0}), true, false, 0, r);
+      EXPECT_EQ(r.orientation.hit, std::fabs(deg) > 30.0F) << deg << " degrees off an axis of length " << length;
+    }
   }
 }
 
