@@ -50,6 +50,17 @@ core::Zone box(const char* name, core::ZoneKind kind, std::array<float, 3> lo, s
   z.max_mm = hi;
   return z;
 }
+// The built-in limits with a 40 mm tool sphere, no orientation cone and joints free: only the
+// zones make `outside`.
+core::SafetyLimits zones_only() {
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  l.orientation_enabled = false;
+  for (auto& j : l.joints) {
+    j = core::JointLimit{-10.0F, 10.0F, 100.0F};
+  }
+  return l;
+}
 core::ArmPose home_pose(const core::SafetyLimits& l) {
   core::ArmPose p{};
   core::arm_forward(controller::Controller::arm_geometry(motion::kRobot), {}, l.tcp_mm, p);
@@ -260,12 +271,7 @@ TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
 // bottom faces.
 // @req LIM-ZONE
 TEST(Zones, AKeepInBoxLeftThroughEachFaceTripsInThatCycle) {
-  core::SafetyLimits l = builtin();
-  l.tool_radius_mm = 40.0F;
-  l.orientation_enabled = false;
-  for (auto& j : l.joints) {
-    j = core::JointLimit{-10.0F, 10.0F, 100.0F};  // only the zone makes `outside`
-  }
+  core::SafetyLimits l = zones_only();
   const core::ArmPose home = home_pose(l);
   // x and y: inside the tool sphere's circle about the base axis at home (so that the turning
   // arm leaves the box where it points along an axis and is back in it on the diagonals);
@@ -311,12 +317,7 @@ TEST(Zones, AKeepInBoxLeftThroughEachFaceTripsInThatCycle) {
 }
 
 TEST(Zones, SkippingFarZonesNeverMissesAZoneOnARandomWalk) {
-  core::SafetyLimits l = builtin();
-  l.tool_radius_mm = 40.0F;
-  l.orientation_enabled = false;
-  for (auto& j : l.joints) {
-    j = core::JointLimit{-10.0F, 10.0F, 100.0F};  // only the zones make `outside`
-  }
+  core::SafetyLimits l = zones_only();
   const core::ArmGeometry arm = controller::Controller::arm_geometry(motion::kRobot);
   std::mt19937 rng(20261126U);
   std::uniform_real_distribution<float> ang(-1.5F, 1.5F);
