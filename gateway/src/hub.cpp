@@ -183,7 +183,7 @@ void Hub::log_confirmation(const Pending& p, std::uint64_t t) {
   LogBatch batch;
   batch.rows.push_back(LogRow{t, time, "config_validated", dump(data), {}});
   Submitted sub;
-  sub.events.push_back(Submitted::Event{t, time, "config_validated", std::move(data)});
+  sub.data.push_back(std::move(data));
   sub.reply = true;
   sub.reply_client = p.client;
   sub.reply_seq = p.seq;
@@ -256,10 +256,9 @@ void Hub::record(const bridge::EventRecord& e, const std::string& time, std::str
       recent_.erase(it);
     }
   }
-  const char* kind = kind_name(e.kind);
   Json data = event_data(e, name, seq);
-  batch.rows.push_back(LogRow{e.t, time, kind, dump(data), std::move(blackbox)});
-  sub.events.push_back(Submitted::Event{e.t, time, kind, std::move(data)});
+  batch.rows.push_back(LogRow{e.t, time, kind_name(e.kind), dump(data), std::move(blackbox)});
+  sub.data.push_back(std::move(data));
 }
 
 void Hub::collect_log() {
@@ -280,16 +279,16 @@ void Hub::collect_log() {
       segment_.events().advance(s.ring_events);  // only now may the core reuse these slots
       ring_submitted_ -= s.ring_events;
     }
-    for (std::size_t i = 0; i < s.events.size(); ++i) {
-      Submitted::Event& ev = s.events[i];
-      const std::int64_t id = i < b.ids.size() ? b.ids[i] : -1;
+    for (std::size_t i = 0; i < b.rows.size(); ++i) {  // the writer gave every row its id (-1: not stored)
+      const LogRow& row = b.rows[i];
+      const std::int64_t id = b.ids[i];
       if (id >= 0) {
         ++events_stored_;
       }
-      if (std::string_view(ev.kind) == kind_name(bridge::EventKind::brake_test)) {
-        brake_test_record_ = brake_test_record(ev.time, ev.data);
+      if (row.kind == kind_name(bridge::EventKind::brake_test)) {
+        brake_test_record_ = brake_test_record(row.time, s.data[i]);
       }
-      broadcast_event(std::make_shared<const std::string>(dump(event_message(id, ev.t, ev.time, ev.kind, ev.data))));
+      broadcast_event(std::make_shared<const std::string>(dump(event_message(id, row.t, row.time, row.kind.c_str(), s.data[i]))));
     }
     if (s.reply) {
       if (const auto c = clients_.find(s.reply_client); c != clients_.end()) {
@@ -299,30 +298,26 @@ void Hub::collect_log() {
   }
 }
 
-void Hub::broadcast(const Frame& frame, const std::function<bool(Client&)>& take) {
-  std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
+void Hub::broadcast(const Frame& frame, const std::function<std::optional<Delivery>(Client&)>& how) {
+  std::vector<std::pair<Client*, Delivery>> targets;  // a send may close a client: not while iterating clients_
   targets.reserve(clients_.size());
   for (const auto& [id, c] : clients_) {
-    if (c->hello && take(*c)) {
-      targets.push_back(c);
+    if (!c->hello) {
+      continue;
+    }
+    if (const std::optional<Delivery> d = how(*c)) {
+      targets.emplace_back(c, *d);
     }
   }
-  for (Client* c : targets) {
-    c->send(frame, Delivery::status);
+  for (const auto& [c, d] : targets) {
+    c->send(frame, d);
   }
 }
 
 void Hub::broadcast_event(const Frame& frame) {
-  std::vector<Client*> targets;  // a send may close a client: not while iterating clients_
-  targets.reserve(clients_.size());
-  for (const auto& [id, c] : clients_) {
-    if (c->hello) {
-      targets.push_back(c);
-    }
-  }
-  for (Client* c : targets) {
-    c->send(frame, c->role == Role::observer ? Delivery::with_status : Delivery::at_once);
-  }
+  broadcast(frame, [](Client& c) -> std::optional<Delivery> {
+    return c.role == Role::observer ? Delivery::with_status : Delivery::at_once;
+  });
 }
 
 void Hub::sweep_pending(Clock::time_point now) {
@@ -380,16 +375,16 @@ void Hub::broadcast_status() {
   read_status();
   const auto frame = std::make_shared<const std::string>(dump(status_json(status_, extras(), true)));
   const auto now = Clock::now();
-  broadcast(frame, [&](Client& c) {
+  broadcast(frame, [&](Client& c) -> std::optional<Delivery> {
     // The same snapshot again within a period (the hello's status just before this tick)
     // tells the client nothing; a stalled core's snapshot is still repeated every period,
     // with the gateway's own fields (core_heartbeat_age_ms) moving on.
     if (c.status_t == status_.t && now - c.status_at < kStatusPeriod) {
-      return false;
+      return std::nullopt;
     }
     c.status_t = status_.t;
     c.status_at = now;
-    return true;
+    return Delivery::status;
   });
 }
 

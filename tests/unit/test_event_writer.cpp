@@ -39,6 +39,27 @@ std::unique_ptr<EventLog> open_log(const std::string& path) {
   return log;
 }
 
+// What a reader finds in the log: `rows` events (-1 when the read failed), the last id and
+// the events as JSON.
+struct Read {
+  std::int64_t rows = -1;
+  std::int64_t last = 0;
+  nlohmann::json events;
+};
+Read read_log(EventLog& log, std::int64_t limit) {
+  Read r;
+  std::string out;
+  std::string error;
+  std::int64_t rows = 0;
+  const bool ok = log.query_json(0, limit, out, r.last, rows, error);
+  EXPECT_TRUE(ok) << error;
+  if (ok) {
+    r.rows = rows;
+    r.events = nlohmann::json::parse(out);
+  }
+  return r;
+}
+
 LogBatch ring_batch(std::uint64_t first_t, int rows, std::uint64_t tail) {
   LogBatch b;
   for (int i = 0; i < rows; ++i) {
@@ -86,14 +107,10 @@ TEST(EventWriter, BatchesComeBackInOrderCommittedWithTheirIdsAndTheRingProgress)
     EXPECT_TRUE(writer.take_done().empty());
   }
   // The reader (the I/O thread's connection) sees every row and the last ring progress.
-  std::string out;
-  std::int64_t last = 0;
-  std::int64_t rows = 0;
-  std::string error;
-  ASSERT_TRUE(reader->query_json(0, 100, out, last, rows, error)) << error;
-  EXPECT_EQ(rows, 6);
-  EXPECT_EQ(last, 6);
-  const auto j = nlohmann::json::parse(out);
+  const Read got = read_log(*reader, 100);
+  ASSERT_EQ(got.rows, 6);
+  EXPECT_EQ(got.last, 6);
+  const nlohmann::json& j = got.events;
   EXPECT_EQ(j[0]["t"], 100);
   EXPECT_EQ(j[4]["t"], 201);
   EXPECT_EQ(j[5]["kind"], "config_validated");
@@ -123,12 +140,7 @@ TEST(EventWriter, StopWritesWhatIsQueuedAndCallsNoOneAfterwards) {
   }
   EXPECT_EQ(after_stop.load(), 0);
   auto reader = open_log(path);
-  std::string out;
-  std::int64_t last = 0;
-  std::int64_t rows = 0;
-  std::string error;
-  ASSERT_TRUE(reader->query_json(0, 500, out, last, rows, error)) << error;
-  EXPECT_EQ(rows, 100);
+  EXPECT_EQ(read_log(*reader, 500).rows, 100);
   EXPECT_EQ(reader->ring_progress(7), 100U);
   reader.reset();
   remove_db(path);
@@ -147,20 +159,14 @@ TEST(EventWriter, TheReaderDoesNotWaitForTheWriter) {
   writer.submit(ring_batch(10, 1, 1));
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_EQ(writer.take_done().size(), 0U);  // still waiting for the lock
-  std::string out;
-  std::int64_t last = 0;
-  std::int64_t rows = 0;
-  std::string error;
   // Without WAL this read would wait out the busy timeout and fail with SQLITE_BUSY.
-  ASSERT_TRUE(reader->query_json(0, 10, out, last, rows, error)) << error;
-  EXPECT_EQ(rows, 0);  // nothing committed yet
+  EXPECT_EQ(read_log(*reader, 10).rows, 0);  // nothing committed yet
   ASSERT_TRUE(blocker->commit());
   writer.wait_idle();
   const auto done = writer.take_done();
   ASSERT_EQ(done.size(), 1U);
   EXPECT_TRUE(done[0].committed) << done[0].error;
-  ASSERT_TRUE(reader->query_json(0, 10, out, last, rows, error)) << error;
-  EXPECT_EQ(rows, 2);
+  EXPECT_EQ(read_log(*reader, 10).rows, 2);
   writer.stop();
   reader.reset();
   blocker.reset();

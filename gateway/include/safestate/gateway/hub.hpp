@@ -167,18 +167,13 @@ class Hub {
     Json seq;
     std::string name;
   };
-  // A batch handed to the event log's writer, as the I/O thread needs it back: how many of
-  // the ring's events it holds, each event's message parts, and the reply that waits for
-  // its commit (validate_config: whoever sees OK finds the confirmation in the log).
+  // A batch handed to the event log's writer, as the I/O thread needs it back beside the
+  // batch itself (its rows: t, time, kind): how many of the ring's events it holds, each
+  // row's data as JSON (for the pushed message, not parsed again), and the reply that waits
+  // for its commit (validate_config: whoever sees OK finds the confirmation in the log).
   struct Submitted {
-    struct Event {
-      std::uint64_t t = 0;
-      std::string time;
-      const char* kind = "";
-      Json data;
-    };
     std::uint64_t ring_events = 0;
-    std::vector<Event> events;
+    std::vector<Json> data;
     bool reply = false;
     std::uint64_t reply_client = 0;
     Json reply_seq;
@@ -186,8 +181,8 @@ class Hub {
 
   void refuse(Client& c, ErrorCode code, const std::string& detail);
   void send(Client& c, const Json& message);
-  // To every client past its hello for which `take` (when given) says yes.
-  void broadcast(const Frame& frame, const std::function<bool(Client&)>& take);
+  // To every client past its hello, as `how` says for that client (nullopt: not to it).
+  void broadcast(const Frame& frame, const std::function<std::optional<Delivery>(Client&)>& how);
   // An event to every client past its hello: at once to the pendant and a remote client,
   // with their next status to observers.
   void broadcast_event(const Frame& frame);
