@@ -278,3 +278,30 @@ TEST(BusConfig, StartupEntriesAreCheckedOneByOne) {
   k["subdevices"][2]["startup"][0]["value"] = 4294967296LL;
   EXPECT_NE(refused(k).find("(-2147483648..4294967295)"), std::string::npos);
 }
+
+TEST(BusConfig, DistributedClocksPerSubdeviceAndTheSync0Shift) {
+  Json j = default_json();
+  j["subdevices"][2]["dc"] = {{"assign_activate", "0x0300"}};
+  j["sync0_shift_us"] = 250;
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.subdevices[2].dc_assign_activate, 0x0300);
+  EXPECT_EQ(c.subdevices[3].dc_assign_activate, 0) << "no dc key: free run";
+  EXPECT_EQ(c.sync0_shift_us, 250U);
+
+  Json bad = j;
+  bad["subdevices"][2]["dc"] = {{"assign_activate", "0x0300"}, {"sync1", 1}};
+  EXPECT_NE(refused(bad).find("subdevices[2] (drive axis 1).dc.sync1: unknown key"), std::string::npos) << refused(bad);
+  bad["subdevices"][2]["dc"] = Json::object();
+  EXPECT_NE(refused(bad).find(".dc.assign_activate: missing"), std::string::npos) << refused(bad);
+  bad["subdevices"][2]["dc"] = {{"assign_activate", "0x0"}};
+  EXPECT_NE(refused(bad).find(".dc.assign_activate: expected a non-zero 16-bit word"), std::string::npos);
+  bad["subdevices"][2]["dc"] = {{"assign_activate", "0x10300"}};
+  EXPECT_NE(refused(bad).find(".dc.assign_activate"), std::string::npos);
+  bad["subdevices"][2]["dc"] = "0x0300";
+  EXPECT_NE(refused(bad).find(".dc: expected an object"), std::string::npos);
+  bad = j;
+  bad["sync0_shift_us"] = 100001;
+  EXPECT_NE(refused(bad).find("sync0_shift_us"), std::string::npos);
+}

@@ -191,6 +191,35 @@ bool startup_list(const Json& s, const std::string& where, Subdevice& d, Checker
   return true;
 }
 
+// "dc": {"assign_activate": "0x0300"}: optional; no other key; a non-zero 16-bit word.
+bool dc_sync(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  const auto it = s.find("dc");
+  if (it == s.end()) {
+    return true;
+  }
+  const std::string at = where + " (" + d.name + ").dc";
+  if (!it->is_object()) {
+    return c.fail(at, "expected an object {\"assign_activate\": \"0x0300\"}");
+  }
+  for (const auto& [k, v] : it->items()) {
+    if (k != "assign_activate") {
+      return c.fail(at + "." + k, "unknown key (expected assign_activate)");
+    }
+  }
+  std::uint32_t aa = 0;
+  if (!it->contains("assign_activate")) {
+    return c.fail(at + ".assign_activate", "missing");
+  }
+  if (!id32((*it)["assign_activate"], at + ".assign_activate", aa, c)) {
+    return false;
+  }
+  if (aa == 0U || aa > 0xFFFFU) {
+    return c.fail(at + ".assign_activate", "expected a non-zero 16-bit word (e.g. \"0x0300\")");
+  }
+  d.dc_assign_activate = static_cast<std::uint16_t>(aa);
+  return true;
+}
+
 bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
   if (!s.is_object()) {
     return c.fail(where, "expected an object");
@@ -230,7 +259,7 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     return false;
   }
   d.out_bytes = static_cast<std::uint16_t>(v);
-  if (!startup_list(s, where, d, c)) {
+  if (!startup_list(s, where, d, c) || !dc_sync(s, where, d, c)) {
     return false;
   }
   switch (d.role) {
@@ -267,7 +296,8 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
   if (!setting("frame_timeout_us", 100, 100000, out.frame_timeout_us) ||
       !setting("scan_timeout_ms", 0, 120000, out.scan_timeout_ms) ||
       !setting("stale_cycles", 1, 1000, out.stale_cycles) ||
-      !setting("watchdog_cycles", kMinWatchdogCycles, kMaxWatchdogCycles, out.watchdog_cycles)) {
+      !setting("watchdog_cycles", kMinWatchdogCycles, kMaxWatchdogCycles, out.watchdog_cycles) ||
+      !setting("sync0_shift_us", 0, 100000, out.sync0_shift_us)) {
     err = c.err;
     return false;
   }

@@ -57,6 +57,10 @@ struct Subdevice {
   std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0,
                 torque_actual = 0;  // TxPDO byte offsets (0x6041, 0x6064, 0x606C, 0x6077)
   std::vector<StartupSdo> startup;  // "startup": written by SDO in PRE-OP (needs a CoE mailbox)
+  // "dc": {"assign_activate": "0x0300"}: the subdevice is synchronised by distributed
+  // clocks; the ESI's AssignActivate word (0x0980/0x0981: 0x0300 = cyclic unit on, SYNC0).
+  // 0 = free run (no "dc" key).
+  std::uint16_t dc_assign_activate = 0;
 };
 
 // The range of `watchdog_cycles` in a bus configuration.
@@ -75,6 +79,9 @@ struct BusConfig {
   // Each subdevice's process-data watchdog (0x0400/0x0420), in scan cycles: outputs not
   // written for that long go to their safe state by themselves (the master died).
   std::uint32_t watchdog_cycles = 10;
+  // SYNC0 of the DC-synchronised subdevices fires this long after the cycle's start in DC
+  // time (after the frame has passed them); checked against the cycle at start-up.
+  std::uint32_t sync0_shift_us = 0;
 };
 
 // The process-data watchdog registers for `cycles` scan cycles of `cycle_us`: the divider
