@@ -81,17 +81,19 @@ test-asan: deps $(VENV)/.stamp hmi/dist/index.html
 
 # libFuzzer (clang-19, ASan + UBSan): each target for FUZZ_SECONDS, starting from the
 # seed corpus in tests/fuzz/corpus; new inputs go to build-fuzz/corpus, findings to
-# build-fuzz/findings (and fail the target).
+# build-fuzz/findings (and fail the target). The engines are built in the asan tree
+# (compiled with -fsanitize=fuzzer-no-link): after `make test-asan` nothing is rebuilt.
 FUZZ_SECONDS ?= 60
+FUZZ_TARGETS := core scenario protocol safety
 fuzz: deps
 	@$(DEPS) fuzz
-	cmake --preset fuzz
-	cmake --build --preset fuzz
+	cmake --preset asan
+	cmake --build --preset asan --target $(foreach t,$(FUZZ_TARGETS),fuzz_$(t)_libfuzzer)
 	@mkdir -p build-fuzz/findings
-	@for t in core scenario protocol safety; do \
+	@for t in $(FUZZ_TARGETS); do \
 	  mkdir -p build-fuzz/corpus/$$t; \
 	  echo "fuzz_$$t: $(FUZZ_SECONDS) s"; \
-	  build-fuzz/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=4096 -timeout=10 -print_final_stats=1 \
+	  build-asan/bin/fuzz_$${t}_libfuzzer -max_total_time=$(FUZZ_SECONDS) -max_len=4096 -timeout=10 -print_final_stats=1 \
 	    -artifact_prefix=build-fuzz/findings/$$t- build-fuzz/corpus/$$t tests/fuzz/corpus/$$t 2>&1 | \
 	    grep -E "^(#[0-9]+ *DONE|stat::number_of_executed_units|stat::new_units_added|==|SUMMARY|fuzz_)" || exit 1; \
 	done
