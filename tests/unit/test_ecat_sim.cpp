@@ -1102,3 +1102,4 @@ TEST(EcatDc, DriftOptionIsValidated) {
     EXPECT_NE(err.find("--drift-ppm"), std::string::npos);
   }
 }
+

@@ -94,11 +94,15 @@ constexpr Range kWritable[] = {
 
 // The drift-control loop of the emulated ESC (the datasheets leave the loop to the chip; it
 // is bounded here): a PI controller on the difference between the system time received from
-// the reference clock (plus the delay 0x0928) and its own, as a rate correction of at most
-// +-200 ppm. Gains per input, relative to the time since the last one.
+// the reference clock (plus the delay 0x0928) and its own. The proportional part slews half
+// the difference out at 200 ppm (the clock is never stepped); the integral part is a rate
+// correction (at most +-200 ppm) that grows by kLoopI x difference x time, so that it takes up
+// the clock's drift against the reference whatever the rate of the inputs (conditional
+// integration against wind-up).
 constexpr double kLoopP = 0.5;
-constexpr double kLoopI = 0.1;
+constexpr double kLoopI = 2e-14;  // per ns of difference per ns of time
 constexpr double kMaxRate = 200e-6;
+constexpr double kSlewRate = 200e-6;
 constexpr std::uint64_t kTickNs = 10;  // a 100 MHz local clock
 
 bool writable(std::uint32_t a) noexcept {
@@ -151,7 +155,7 @@ void Esc::reset() {
   powered_ = false;
   corr_ns_ = 0.0;
   corr_host_ns_ = 0;
-  rate_p_ = 0.0;
+  slew_left_ns_ = 0.0;
   rate_i_ = 0.0;
   last_ctl_ns_ = 0;
   pending_op_ = false;
@@ -247,7 +251,7 @@ bool Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::ui
     dc_at(now_ns);  // the register shows the own time again, not what was written
   }
   if (touches(address, in.size(), reg::dc_speed_start, reg::dc_speed_start + 1U)) {
-    dc_reset_loop();
+    dc_reset_loop(now_ns);
   }
   if (touches(address, in.size(), reg::dc_activation, reg::dc_activation)) {
     // Activated with the start time still ahead, SYNC0 starts there; one already past is
@@ -529,9 +533,25 @@ std::uint64_t Esc::local_time(std::uint64_t now_ns) noexcept {
   return static_cast<std::uint64_t>(dt / static_cast<double>(kTickNs)) * kTickNs;
 }
 
+double Esc::slewed(double since) const noexcept {
+  const double most = since * kSlewRate;
+  return slew_left_ns_ >= 0.0 ? std::min(slew_left_ns_, most) : std::max(slew_left_ns_, -most);
+}
+
+void Esc::anchor(std::uint64_t now_ns) noexcept {
+  if (now_ns <= corr_host_ns_) {
+    return;
+  }
+  const double since = static_cast<double>(now_ns - corr_host_ns_);
+  const double a = slewed(since);
+  corr_ns_ += since * rate_i_ + a;
+  slew_left_ns_ -= a;
+  corr_host_ns_ = now_ns;
+}
+
 std::uint64_t Esc::system_time(std::uint64_t now_ns) noexcept {
   const double since = now_ns > corr_host_ns_ ? static_cast<double>(now_ns - corr_host_ns_) : 0.0;
-  const double corr = corr_ns_ + since * (rate_p_ + rate_i_);
+  const double corr = corr_ns_ + since * rate_i_ + slewed(since);
   return local_time(now_ns) + u64(reg::dc_offset) + static_cast<std::uint64_t>(std::llround(corr));
 }
 
@@ -583,10 +603,10 @@ void Esc::dc_latch_receive_times(std::uint64_t now_ns) noexcept {
   put64(reg::dc_recv_pu, t0);
 }
 
-void Esc::dc_reset_loop() noexcept {
-  corr_ns_ = static_cast<double>(std::llround(corr_ns_));  // the time so far stays
-  rate_p_ = 0.0;
+void Esc::dc_reset_loop(std::uint64_t now_ns) noexcept {
+  anchor(now_ns);  // the time so far stays
   rate_i_ = 0.0;
+  slew_left_ns_ = 0.0;
   last_ctl_ns_ = 0;
 }
 
@@ -610,14 +630,16 @@ void Esc::dc_control(std::span<const std::uint8_t> written, std::size_t first, s
   const std::int64_t delta = (n >= 8U) ? static_cast<std::int64_t>(received - own)
                                        : static_cast<std::int32_t>(static_cast<std::uint32_t>(received) -
                                                                    static_cast<std::uint32_t>(own));
-  const double since = now_ns > corr_host_ns_ ? static_cast<double>(now_ns - corr_host_ns_) : 0.0;
-  corr_ns_ += since * (rate_p_ + rate_i_);
-  corr_host_ns_ = now_ns;
-  const std::uint64_t h = (last_ctl_ns_ == 0U || now_ns <= last_ctl_ns_) ? 1000000U : now_ns - last_ctl_ns_;
-  const double h_eff = static_cast<double>(std::clamp<std::uint64_t>(h, 50000U, 10000000U));
+  anchor(now_ns);
+  const std::uint64_t h = (last_ctl_ns_ == 0U || now_ns <= last_ctl_ns_) ? 0U : now_ns - last_ctl_ns_;
   last_ctl_ns_ = now_ns;
-  rate_i_ = std::clamp(rate_i_ + kLoopI * static_cast<double>(delta) / h_eff, -kMaxRate, kMaxRate);
-  rate_p_ = std::clamp(kLoopP * static_cast<double>(delta) / h_eff, -kMaxRate - rate_i_, kMaxRate - rate_i_);
+  const double dt = static_cast<double>(std::min<std::uint64_t>(h, 10000000U));  // a pause is not a long input
+  // Anti-windup: the integral learns only while the slew can take out its part before the
+  // next input (a large difference is an offset being removed, not a drift to learn).
+  if (std::abs(kLoopP * static_cast<double>(delta)) <= dt * kSlewRate) {
+    rate_i_ = std::clamp(rate_i_ + kLoopI * static_cast<double>(delta) * dt, -kMaxRate, kMaxRate);
+  }
+  slew_left_ns_ = kLoopP * static_cast<double>(delta);
   const std::uint64_t mag = std::min<std::uint64_t>(static_cast<std::uint64_t>(delta < 0 ? -delta : delta), 0x7FFFFFFFU);
   const std::uint32_t diff = static_cast<std::uint32_t>(mag) | (delta > 0 ? 0x80000000U : 0U);
   put16(reg::dc_diff, static_cast<std::uint16_t>(diff & 0xFFFFU));

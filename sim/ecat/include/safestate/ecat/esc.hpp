@@ -202,7 +202,8 @@ class Esc {
   [[nodiscard]] bool sync0_running(std::uint64_t now_ns) noexcept;
   [[nodiscard]] bool sync0_activated() const noexcept;
   [[nodiscard]] std::uint32_t sync0_cycle_ns() const noexcept;
-  [[nodiscard]] double rate_correction_ppm() const noexcept { return (rate_p_ + rate_i_) * 1e6; }
+  // The drift-control loop's rate correction (its integral part), ppm.
+  [[nodiscard]] double rate_correction_ppm() const noexcept { return rate_i_ * 1e6; }
   DcStats& dc_stats() noexcept { return dc_stats_; }
   [[nodiscard]] const DcStats& dc_stats() const noexcept { return dc_stats_; }
 
@@ -231,7 +232,9 @@ class Esc {
   [[nodiscard]] std::uint16_t dc_op_error(std::uint64_t now_ns) noexcept;
   void dc_latch_receive_times(std::uint64_t now_ns) noexcept;
   void dc_control(std::span<const std::uint8_t> written, std::size_t first, std::uint64_t now_ns) noexcept;
-  void dc_reset_loop() noexcept;
+  void dc_reset_loop(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] double slewed(double since) const noexcept;
+  void anchor(std::uint64_t now_ns) noexcept;
   void dc_setpoint_taken(std::uint64_t now_ns) noexcept;
   [[nodiscard]] std::uint64_t u64(std::uint16_t a) const noexcept;
   void put64(std::uint16_t a, std::uint64_t v) noexcept;
@@ -260,8 +263,8 @@ class Esc {
   std::uint64_t power_ns_ = 0;
   double corr_ns_ = 0.0;           // the drift-control correction at corr_host_ns_
   std::uint64_t corr_host_ns_ = 0;
-  double rate_p_ = 0.0;            // proportional and integral rate corrections (parts)
-  double rate_i_ = 0.0;
+  double slew_left_ns_ = 0.0;      // the proportional correction still to slew out
+  double rate_i_ = 0.0;            // the integral part: a rate correction (parts)
   std::uint64_t last_ctl_ns_ = 0;  // host time of the last drift-control input
   bool pending_op_ = false;        // OP requested, waiting for the first SYNC0
   bool sync0_armed_ = false;       // activated with a start time still ahead (else it never starts)
