@@ -237,6 +237,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
     return 2;
   }
+  if (opt.drives_free_run) {
+    for (SubdeviceDesc& d : devs) {
+      d.dc_sync0_required = false;
+    }
+  }
   const int raw = open_raw(opt.ifname, err);
   if (raw < 0) {
     std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());

@@ -28,6 +28,9 @@ struct EcatSimOptions {
   std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
   std::string sdo_refuse;  // "POS INDEX:SUB ABORT": that drive refuses SDO downloads there from power-on (tests)
   std::string drift_ppm;   // "P" (every clock) or "P1,...,P8": the local clocks' drifts (ppm, -500..500)
+  // The drives also accept OP without DC SYNC0 (SM-synchronous), as drives whose ESI offers a
+  // free-run OpMode besides DC: for masters that configure no DC (kickcat's Python binding).
+  bool drives_free_run = false;
 };
 
 // `--drift-ppm`: one value for every subdevice or one per subdevice, each -500..500 ppm.
