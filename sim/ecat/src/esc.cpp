@@ -518,7 +518,7 @@ std::uint64_t DcStats::percentile_ns(double p) const noexcept {
   for (std::size_t b = 0; b < kBuckets; ++b) {
     seen += hist[b];
     if (seen >= want) {
-      return (b + 1U == kBuckets) ? max_abs_ns : (b + 1U) * 10U;
+      return (b + 1U == kBuckets) ? max_abs_ns : std::min<std::uint64_t>((b + 1U) * 10U - 1U, max_abs_ns);
     }
   }
   return max_abs_ns;

@@ -140,7 +140,7 @@ struct DcStats {
   std::int64_t last_lead_ns = 0;  // how long before the SYNC0 that takes it the last set-point arrived
   std::int64_t min_lead_ns = 0;
   void record(std::int64_t err_ns) noexcept;
-  [[nodiscard]] std::uint64_t percentile_ns(double p) const noexcept;  // upper edge of the bucket
+  [[nodiscard]] std::uint64_t percentile_ns(double p) const noexcept;  // its 10-ns bucket's top (at most the max)
 };
 
 inline constexpr std::uint16_t kMailboxOut = 0x1000;  // master -> subdevice (SM0)
