@@ -75,6 +75,9 @@ enum Running {
     Dc(OpGroupDc),
 }
 
+/// The AL state codes of one exchange (see `SsEcatCycle::al_state`) and how many there are.
+type AlStates = ([u8; MAX_SUBDEVICES], u16);
+
 /// The same code on either kind of group (their types differ by the DC typestate).
 macro_rules! on_group {
     ($e:expr, $Enum:ident, $g:ident => $body:expr) => {
@@ -309,11 +312,8 @@ pub unsafe extern "C" fn ss_ecat_open(
         wait_loop_delay: Duration::from_millis(1),
         ..Timeouts::default()
     };
-    let config = MainDeviceConfig {
-        retry_behaviour: RetryBehaviour::None,
-        dc_static_sync_iterations: DC_STATIC_SYNC_FRAMES,
-        ..MainDeviceConfig::default()
-    };
+    let config =
+        MainDeviceConfig { retry_behaviour: RetryBehaviour::None, dc_static_sync_iterations: DC_STATIC_SYNC_FRAMES };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
     Box::into_raw(Box::new(SsEcatMaster { md, preop: None, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
 }
@@ -685,7 +685,7 @@ pub unsafe extern "C" fn ss_ecat_exchange(
         }
         (a, s.len() as u16)
     };
-    let result: Result<(u16, ([u8; MAX_SUBDEVICES], u16), u64), EcError> = match running {
+    let result: Result<(u16, AlStates, u64), EcError> = match running {
         Running::Free(group) => run_until(group.tx_rx(md), deadline, io)
             .unwrap_or(Err(EcError::Timeout(ethercrab::error::TimeoutError::Pdu)))
             .map(|r| (r.working_counter, states(&r.subdevice_states), 0)),
