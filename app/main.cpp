@@ -157,6 +157,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1023));
   ecat_sim->add_option("--product", ecat_opt.product_override, "POS=CODE: give subdevice POS another product code (tests)");
   ecat_sim->add_option("--revision", ecat_opt.revision_override, "POS=REV: give subdevice POS another revision (tests)");
+  ecat_sim->add_flag("--drives-free-run", ecat_opt.drives_free_run,
+                     "the drives also go to OP without DC SYNC0 (for masters that configure no distributed clocks)");
+  ecat_sim->add_option("--drift-ppm", ecat_opt.drift_ppm,
+                       "the emulated ESCs' clock drifts, ppm: one value for all or one per subdevice, comma-separated "
+                       "(default 12,-25,31,-8,45,-37,19,-14)");
   ecat_sim->add_option("--sdo-refuse", ecat_opt.sdo_refuse,
                        "'POS INDEX:SUB ABORT': the drive at POS refuses SDO downloads to INDEX:SUB with ABORT (tests)");
   safestate::check::CheckOptions check_opt;

@@ -470,6 +470,10 @@ void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
       }
     }
     next += period;
+    if (opt_.cycle_adjust_ns != nullptr) {  // the cycle follows DC time (bounded by the bus: 1/20 cycle)
+      next = static_cast<std::uint64_t>(static_cast<std::int64_t>(next) +
+                                        opt_.cycle_adjust_ns->exchange(0, std::memory_order_relaxed));
+    }
     if (end > next) {  // the next deadline has already passed: count it, do not burst
       m.overruns.fetch_add(1, std::memory_order_relaxed);
       next = end + period - ((end - next) % period);

@@ -478,6 +478,12 @@ int run_main(const RunOptions& opt) {
                  bus->watchdog_time());
     if (!bus->booted()) {
       std::fprintf(stderr, "safestate run: BOOT will fail: %s\n", bus->boot_error().c_str());
+    } else if (bus->dc()) {
+      std::fprintf(stderr,
+                   "safestate run: distributed clocks: reference clock subdevice %d, SYNC0 every %u us, %u us after "
+                   "the cycle's start; the loop follows DC time\n",
+                   bus->dc_reference(), opt.rt.cycle_us, bc.sync0_shift_us);
+      rt.cycle_adjust_ns = bus->cycle_adjust();
     }
     publish_bus(*bus, bc, seg->header().bus);
     rt.simulated = !opt.ecat_sim_control.empty();

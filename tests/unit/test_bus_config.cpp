@@ -31,7 +31,10 @@ TEST(BusConfig, DefaultMatchesTheEmulatedSegment) {
     EXPECT_EQ(c.subdevices[i].product_code, segment[i].product_code) << i;
     EXPECT_EQ(c.subdevices[i].in_bytes, segment[i].tx.bytes()) << i;
     EXPECT_EQ(c.subdevices[i].out_bytes, segment[i].rx.bytes()) << i;
+    // DC SYNC0 (AssignActivate 0x0300) exactly on the subdevices whose operation mode needs it
+    EXPECT_EQ(c.subdevices[i].dc_assign_activate, segment[i].dc_sync0_required ? 0x0300 : 0) << i;
   }
+  EXPECT_EQ(c.sync0_shift_us, 500U);  // half the 1 ms cycle: docs/ethercat.md, "Distributed clocks"
   EXPECT_EQ(c.subdevices[0].in_bit[0], 0);   // estop.a
   EXPECT_EQ(c.subdevices[0].in_bit[11], 11); // contactor feedback
   // Every named input bit of the configuration is where the emulated DI terminal's TxPDO
@@ -282,9 +285,13 @@ TEST(BusConfig, StartupEntriesAreCheckedOneByOne) {
 TEST(BusConfig, DistributedClocksPerSubdeviceAndTheSync0Shift) {
   Json j = default_json();
   j["subdevices"][2]["dc"] = {{"assign_activate", "0x0300"}};
-  j["sync0_shift_us"] = 250;
+  j["subdevices"][3].erase("dc");  // the default has it on every drive
   BusConfig c;
   std::string err;
+  j.erase("sync0_shift_us");
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.sync0_shift_us, 500U) << "not in the file: the default, half the default cycle";
+  j["sync0_shift_us"] = 250;
   ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
   EXPECT_EQ(c.subdevices[2].dc_assign_activate, 0x0300);
   EXPECT_EQ(c.subdevices[3].dc_assign_activate, 0) << "no dc key: free run";

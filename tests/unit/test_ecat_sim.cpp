@@ -183,6 +183,35 @@ void drive_in_preop(Segment& seg, std::uint16_t station) {
   request(seg, station, 2);
 }
 
+std::vector<std::uint8_t> le_n(std::uint64_t v, std::size_t n) {
+  std::vector<std::uint8_t> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    d[i] = static_cast<std::uint8_t>(v >> (8 * i));
+  }
+  return d;
+}
+std::uint64_t le_u64(const std::vector<std::uint8_t>& d, std::size_t o = 0) {
+  std::uint64_t v = 0;
+  for (std::size_t i = 0; i < 8; ++i) {
+    v |= static_cast<std::uint64_t>(d[o + i]) << (8 * i);
+  }
+  return v;
+}
+
+std::uint64_t system_time(Segment& seg, std::uint16_t station, std::uint64_t t) {
+  return le_u64(exchange(seg, {{Cmd::FPRD, station, reg::dc_system_time, std::vector<std::uint8_t>(8)}}, t)[0].data);
+}
+
+// SYNC0 on a subdevice as a master configures it (ethercrab's configure_dc_sync): cyclic
+// unit off, the start time `lead_ns` ahead of its system time, the cycle, then activation.
+void dc_sync0(Segment& seg, std::uint16_t station, std::uint32_t cycle_ns, std::uint64_t t, std::uint64_t lead_ns = 1000) {
+  exchange(seg, {{Cmd::FPWR, station, reg::dc_activation, {0}}}, t);
+  const std::uint64_t start = system_time(seg, station, t) + lead_ns;
+  exchange(seg, {{Cmd::FPWR, station, reg::dc_start_time, le_n(start, 8)}}, t);
+  exchange(seg, {{Cmd::FPWR, station, reg::dc_sync0_cycle, le_n(cycle_ns, 4)}}, t);
+  exchange(seg, {{Cmd::FPWR, station, reg::dc_activation, {0x03}}}, t);
+}
+
 // The default segment mapped at logical 0x10000.. (inputs) and 0x20000.. (outputs) and in OP.
 // The drives get their CoE start-up parameter in PRE-OP (CSP: 0x6060 = 8) and their PDOs on
 // SM2 (0x1100) and SM3 (0x1800).
@@ -201,6 +230,11 @@ void bring_to_op(Segment& seg) {
     map(seg, st, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10004 + a * kDriveTxBytes, 1);
   }
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(4)}});
+  // The drives run CSP on DC: SYNC0 at their cycle (1 ms), its first pulse passed.
+  for (std::uint16_t a = 0; a < 6; ++a) {
+    dc_sync0(seg, static_cast<std::uint16_t>(0x1003 + a), 1000000, 0);
+  }
+  seg.poll(100000);  // its first SYNC0 has fired
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(8)}});
 }
 
@@ -766,6 +800,8 @@ TEST(EcatCoe, AnswersEveryRefusalWithItsAbortCode) {
   EXPECT_EQ(sdo_write(seg, 0x1003, 0x1C12, 0, {0}), coe::abort_code::state);
   EXPECT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), coe::abort_code::state);
   EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(900)), 0U);  // RW in SAFE-OP: no process data yet
+  dc_sync0(seg, 0x1003, 1000000, 0);
+  seg.poll(100000);  // its first SYNC0 has fired
   request(seg, 0x1003, 8);
   ASSERT_EQ(al_status(seg, 0x1003), 8);
   EXPECT_EQ(sdo_write(seg, 0x1003, 0x6072, 0, le16(800)), coe::abort_code::rxpdo_mapped);
@@ -851,3 +887,219 @@ TEST(EcatCoe, ARefusalFaultAndTheStatusOfTheDictionary) {
   }
   EXPECT_EQ(sdo_write(seg, 0x1005, 0x6072, 0, le16(1000)), 0U);  // no refusal left behind by the bad lines
 }
+
+// ---- Distributed clocks (issue 22 item 1) ----
+
+namespace {
+
+// What a master does at start-up (ethercrab's configure_dc): latch the receive times with a
+// BWR to 0x0900, read them, set every system time offset to (master time - receive time)
+// and the delay from the port receive times, then reset the control loops (0x0930).
+void dc_init(Segment& seg, std::uint64_t t, std::uint64_t master_ns) {
+  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 8);
+  std::vector<std::uint32_t> loop(8);
+  for (std::uint16_t p = 0; p < 8; ++p) {
+    const auto st = static_cast<std::uint16_t>(0x1001 + p);
+    const std::uint64_t recv = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
+    const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
+    loop[p] = p < 7 ? le32(ports, 4) - le32(ports, 0) : 0U;
+    exchange(seg, {{Cmd::FPWR, st, reg::dc_offset, le_n(master_ns - recv, 8)}}, t);
+  }
+  std::uint32_t delay = 0;
+  for (std::uint16_t p = 1; p < 8; ++p) {
+    delay += (loop[p - 1] - loop[p]) / 2;
+    exchange(seg, {{Cmd::FPWR, static_cast<std::uint16_t>(0x1001 + p), reg::dc_delay, le_n(delay, 4)}}, t);
+  }
+  exchange(seg, {{Cmd::BWR, 0, reg::dc_speed_start, le16(0x1000)}}, t);
+}
+
+// One cycle's FRMW of the reference clock's (station 0x1001) system time.
+std::uint16_t frmw(Segment& seg, std::uint64_t t) {
+  return exchange(seg, {{Cmd::FRMW, 0x1001, reg::dc_system_time, std::vector<std::uint8_t>(8)}}, t)[0].wkc;
+}
+
+}  // namespace
+
+TEST(EcatDc, EveryEscHasA64BitDcUnitAndLatchesItsPortTimes) {
+  Segment seg(default_segment());
+  address_all(seg);
+  const auto f = exchange(seg, {{Cmd::FPRD, 0x1005, reg::features, std::vector<std::uint8_t>(2)}})[0].data;
+  EXPECT_EQ(u16(f) & 0x010C, 0x010C);  // DC, 64 bit, enhanced SYNC activation
+  const std::uint64_t t = 50000000;
+  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 8);
+  for (std::uint16_t p = 0; p < 8; ++p) {
+    const auto st = static_cast<std::uint16_t>(0x1001 + p);
+    const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
+    const std::uint64_t pu = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
+    EXPECT_EQ(le32(ports, 0), static_cast<std::uint32_t>(pu)) << p;
+    // port 1: the frame back from the subdevices behind, 2 x 800 ns per hop (+-1 tick of drift)
+    const double loop = p < 7 ? 2.0 * kHopNs * (7 - p) : 0.0;
+    EXPECT_NEAR(p < 7 ? static_cast<double>(le32(ports, 4) - le32(ports, 0)) : 0.0, loop, 10.0) << p;
+    EXPECT_EQ(le32(ports, 4) == 0U, p == 7) << "the last one's port 1 is closed";
+  }
+  // Local times differ (each powered up at its own time) and run at their own speeds.
+  EXPECT_NE(seg.esc(2).local_time(t), seg.esc(3).local_time(t));
+  const double d2 = static_cast<double>(seg.esc(2).local_time(t + 1000000000) - seg.esc(2).local_time(t)) - 1e9;
+  EXPECT_NEAR(d2, kDefaultDriftPpm[2] * 1000.0, 10.0);  // ppm x 1 s = us -> ns
+}
+
+TEST(EcatDc, TheClocksDriftApartAndTheFrmwEveryCycleKeepsThemInStep) {
+  Segment seg(default_segment());
+  address_all(seg);
+  std::uint64_t t = 100000000;
+  dc_init(seg, t, 800000000000000000ULL);
+  // Just after the offsets each system time lags the reference's by its propagation delay
+  // (its receive time was latched that much later): the delay registers let the loops remove it.
+  for (std::size_t p = 1; p < 8; ++p) {
+    EXPECT_NEAR(static_cast<double>(seg.sync_error_ns(p, t)), -static_cast<double>(p * kHopNs), 20.0) << p;
+  }
+  // Left alone for 1 s each clock runs away by its drift against the reference's.
+  const std::uint64_t later = t + 1000000000;
+  for (std::size_t p = 1; p < 8; ++p) {
+    const double expect = (kDefaultDriftPpm[p] - kDefaultDriftPpm[0]) * 1000.0 - static_cast<double>(p * kHopNs);
+    EXPECT_NEAR(static_cast<double>(seg.sync_error_ns(p, later)), expect, 30.0) << p;
+  }
+  // With one FRMW per 1 ms cycle (a little jitter) the loops pull them together.
+  for (int k = 0; k < 3000; ++k) {
+    t += 1000000 + static_cast<std::uint64_t>((k * 37) % 50) * 1000;  // 1.00..1.05 ms
+    ASSERT_EQ(frmw(seg, t), 8);  // the reference reads, the seven others take it
+  }
+  std::int64_t worst = 0;
+  for (int k = 0; k < 1000; ++k) {
+    t += 1000000 + static_cast<std::uint64_t>((k * 37) % 50) * 1000;
+    frmw(seg, t);
+    for (std::size_t p = 1; p < 8; ++p) {
+      worst = std::max(worst, std::abs(seg.sync_error_ns(p, t)));
+    }
+  }
+  EXPECT_LT(worst, 50) << "ns, after convergence";
+  // Each loop's correction has taken up its clock's drift against the reference's (within
+  // what one 10-ns tick of difference moves the proportional part: 5 ppm at 1 ms).
+  for (std::size_t p = 1; p < 8; ++p) {
+    EXPECT_NEAR(seg.esc(p).rate_correction_ppm(), kDefaultDriftPpm[0] - kDefaultDriftPpm[p], 6.0) << p;
+  }
+  // 0x092C shows the last difference (small), the system time register the own time.
+  const auto diff = exchange(seg, {{Cmd::FPRD, 0x1005, reg::dc_diff, std::vector<std::uint8_t>(4)}}, t)[0].data;
+  EXPECT_LT(le32(diff, 0) & 0x7FFFFFFFU, 100U);
+}
+
+TEST(EcatDc, ADriveRefusesOpWithoutSync0WithTheStandardAlCode) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  address_all(seg);
+  for (std::uint16_t a = 0; a < 6; ++a) {
+    mailbox(seg, static_cast<std::uint16_t>(0x1003 + a));
+  }
+  exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
+  map(seg, 0x1001, 0, 0x1000, kDiBytes, 0x20, 0, 0x10000, 1);
+  ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
+  map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20002, 2);
+  map(seg, 0x1003, 3, 0x1800, kDriveTxBytes, 0x20, 1, 0x10004, 1);
+  request(seg, 0x1001, 4);
+  request(seg, 0x1003, 4);
+  ASSERT_EQ(al_status(seg, 0x1003), 4);
+  // No SYNC0: 0x0030 invalid DC SYNC configuration; the free-running DI terminal goes to OP.
+  request(seg, 0x1001, 8);
+  EXPECT_EQ(al_status(seg, 0x1001), 8);
+  request(seg, 0x1003, 8);
+  EXPECT_EQ(al_status(seg, 0x1003), 0x14);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_dc_sync_config);
+  // Activated without a cycle: the same.
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::dc_activation, {0x03}}});
+  request(seg, 0x1003, 0x18);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_dc_sync_config);
+  // A start time already past: SYNC0 would never start.
+  std::uint64_t t = 10000000;
+  dc_sync0(seg, 0x1003, 1000000, t, 0);
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::dc_start_time, le_n(1, 8)}}, t);
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::dc_activation, {0x03}}}, t);
+  request(seg, 0x1003, 0x18);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::invalid_dc_sync_config);
+  // Another cycle than the drive's (1 ms): 0x0036, DC Sync0 cycle time.
+  dc_sync0(seg, 0x1003, 2000000, t, 50000);
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::al_control, le16(0x18)}}, t);
+  EXPECT_EQ(seg.esc(2).al_status_code(), al_code::dc_sync0_cycle_time);
+  // Its own cycle, the first pulse 50 us ahead: SAFE-OP without an error until it fires.
+  dc_sync0(seg, 0x1003, 1000000, t, 50000);
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::al_control, le16(0x18)}}, t);
+  EXPECT_EQ(al_status(seg, 0x1003), 4);
+  EXPECT_EQ(seg.esc(2).al_status_code(), 0);
+  seg.poll(t + 20000);
+  EXPECT_EQ(al_status(seg, 0x1003), 4);
+  seg.poll(t + 60000);
+  EXPECT_EQ(al_status(seg, 0x1003), 8);
+  const auto sync0 = exchange(seg, {{Cmd::FPRD, 0x1003, reg::dc_sync0_status, std::vector<std::uint8_t>(1)}}, t + 60000)[0].data;
+  EXPECT_EQ(sync0[0] & 1, 1);
+  // SYNC0 switched off in OP: the drive stops with 0x002C, fatal sync error.
+  exchange(seg, {{Cmd::FPWR, 0x1003, reg::dc_activation, {0x00}}}, t + 70000);
+  EXPECT_EQ(al_status(seg, 0x1003), 0x14);
+  EXPECT_EQ(seg.esc(2).al_status_code(), 0x002C);
+}
+
+TEST(EcatDc, SetPointsAreTakenBySync0AndLateOrDoubleFramesAreCounted) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  bring_to_op(seg);  // SYNC0 1 ms, started ~1.6 us after t = 0 on the drives' clocks
+  const std::uint64_t start = le_u64(exchange(seg, {{Cmd::FPRD, 0x1003, reg::dc_start_time, std::vector<std::uint8_t>(8)}})[0].data);
+  const std::uint64_t s0 = seg.esc(2).system_time(0);
+  const std::uint64_t t0 = 10000000 + (start - s0) + 300000;  // 300 us after a SYNC0 (drift: ~us)
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  for (int k = 0; k < 5; ++k) {
+    exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, t0 + static_cast<std::uint64_t>(k) * 1000000);
+  }
+  const DcStats& st = seg.esc(2).dc_stats();
+  EXPECT_EQ(st.latched, 5U);
+  EXPECT_EQ(st.overwritten, 0U);
+  EXPECT_EQ(st.missed, 0U);
+  EXPECT_NEAR(static_cast<double>(st.last_lead_ns), 700000.0 - 1600.0, 2000.0);  // 700 us before its SYNC0
+  // Two frames in one cycle: the first set-point is replaced before a SYNC0 took it.
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, t0 + 4000000 + 400000);
+  EXPECT_EQ(st.overwritten, 1U);
+  // A cycle without a frame: its SYNC0 (0.7 ms after t0 + 5 ms) found no new set-point.
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, t0 + 6000000);
+  EXPECT_EQ(st.missed, 1U);
+  EXPECT_EQ(st.latched, 6U);
+  // Every process-data frame sampled each drive's sync error (no FRMW here: the drift shows).
+  EXPECT_EQ(st.samples, 7U);
+  EXPECT_EQ(cell.cycles(), 7U);  // the plant still steps once per exchange (lock-step)
+}
+
+TEST(EcatDc, TheControlChannelReportsSyncErrorsAndResetsTheFigures) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  bring_to_op(seg);
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, 5000000);
+  cell.set_time(5000000);
+  const nlohmann::json j = nlohmann::json::parse(control_line(cell, "status"));
+  const nlohmann::json& dc = j.at("dc");
+  EXPECT_EQ(dc.at("reference"), 1);
+  for (std::size_t i = 0; i < 8; ++i) {
+    const bool drive = i >= 2;
+    EXPECT_EQ(dc.at("sync0_active")[i].get<bool>(), drive) << i;
+    EXPECT_EQ(dc.at("sync_error_ns")[i].is_number(), drive) << i;
+    EXPECT_EQ(dc.at("stats")[i].is_object(), drive) << i;
+    EXPECT_DOUBLE_EQ(dc.at("drift_ppm")[i].get<double>(), kDefaultDriftPpm[i]);
+  }
+  EXPECT_EQ(dc.at("sync0_cycle_ns")[2], 1000000);
+  EXPECT_EQ(dc.at("stats")[2].at("samples"), 1);
+  EXPECT_EQ(control_line(cell, "dc reset"), "OK");
+  const nlohmann::json k = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_TRUE(k.at("dc").at("stats")[2].is_null());
+  EXPECT_EQ(control_line(cell, "dc reset now").rfind("ERROR", 0), 0U);
+  EXPECT_EQ(control_line(cell, "dc").rfind("ERROR", 0), 0U);
+}
+
+TEST(EcatDc, DriftOptionIsValidated) {
+  std::vector<double> d;
+  std::string err;
+  ASSERT_TRUE(parse_drift_ppm("20", 8, d, err));
+  EXPECT_EQ(d, std::vector<double>(8, 20.0));
+  ASSERT_TRUE(parse_drift_ppm("1,2,3,4,5,6,7,-8.5", 8, d, err));
+  EXPECT_DOUBLE_EQ(d[7], -8.5);
+  for (const char* bad : {"", "x", "1,2", "600", "-501", "nan", "1,,2,3,4,5,6,7", "1,2,3,4,5,6,7,8,9", "5ppm"}) {
+    EXPECT_FALSE(parse_drift_ppm(bad, 8, d, err)) << bad;
+    EXPECT_NE(err.find("--drift-ppm"), std::string::npos);
+  }
+}
+

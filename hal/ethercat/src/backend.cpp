@@ -25,6 +25,7 @@ struct SsEcatSub {
 struct SsEcatCycle {
   std::uint16_t wkc, expected_wkc, count;
   std::uint8_t al_state[16];
+  std::uint64_t dc_time;  // DC system time at which the frame's FRMW passed the reference clock (0: no DC)
 };
 SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std::uint32_t state_timeout_ms,
                            int tx_rx_priority, char* err, std::size_t errlen);
@@ -32,7 +33,9 @@ const char* ss_ecat_error(const SsEcatMaster* m);
 int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
 int ss_ecat_sdo_write(SsEcatMaster* m, std::uint16_t position, std::uint16_t index, std::uint8_t sub, std::uint32_t value,
                       std::uint8_t size, std::uint32_t* abort_code);
-int ss_ecat_to_safe_op(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
+int ss_ecat_to_safe_op(SsEcatMaster* m, SsEcatSub* subs, std::size_t max, const std::uint16_t* assign_activate,
+                       std::size_t n_assign, std::uint32_t sync0_ns, std::uint32_t shift_ns);
+int ss_ecat_dc_reference(const SsEcatMaster* m);
 int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
@@ -285,7 +288,20 @@ void Backend::boot(const std::string& ifname) {
       }
     }
   }
-  n = ss_ecat_to_safe_op(m, found.data(), found.size());
+  // Distributed clocks: SYNC0 on the subdevices whose configuration asks for it (the ESI's
+  // AssignActivate), at the scan cycle; it fires sync0_shift_us after the cycle's start.
+  std::vector<std::uint16_t> assign;
+  for (const Subdevice& sd : cfg_.subdevices) {
+    assign.push_back(sd.dc_assign_activate);
+    dc_ = dc_ || sd.dc_assign_activate != 0U;
+  }
+  if (dc_ && cfg_.sync0_shift_us >= cycle_us_) {
+    boot_error_ = "sync0_shift_us: " + std::to_string(cfg_.sync0_shift_us) + " us is not within the scan cycle of " +
+                  std::to_string(cycle_us_) + " us";
+    return;
+  }
+  n = ss_ecat_to_safe_op(m, found.data(), found.size(), assign.data(), assign.size(), cycle_us_ * 1000U,
+                         cfg_.sync0_shift_us * 1000U);
   if (n < 0) {
     boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
     return;
@@ -321,12 +337,50 @@ void Backend::boot(const std::string& ifname) {
   static_cast<void>(pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt));
   if (ss_ecat_to_op(m) != 0) {
     boot_error_ = std::string("EtherCAT: ") + ss_ecat_error(m);
+  } else if (dc_ && !await_dc_op()) {
+    // boot_error_ names the subdevice
   } else {
+    dc_reference_ = dc_ ? ss_ecat_dc_reference(m) : 0;
     keepalive_ = std::thread([this] { keep_alive(); });
   }
   if (restore) {
     static_cast<void>(pthread_setschedparam(pthread_self(), policy, &before));
   }
+}
+
+// With distributed clocks the synchronised subdevices enter OP at their first SYNC0 pulse
+// (the master set it ~100 ms ahead): meanwhile the (safe, all-zero) outputs are exchanged
+// every cycle, with the reference clock's time, so that the free-running subdevices already
+// in OP keep their watchdogs fed and the clocks stay in step. Up to 3 s; else BOOT fails
+// naming the first subdevice not in OP.
+bool Backend::await_dc_op() {
+  SsEcatCycle c{};
+  std::vector<std::uint8_t> out(out_buf_.size(), 0);
+  std::vector<std::uint8_t> in(in_buf_.size(), 0);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  auto next = std::chrono::steady_clock::now();
+  std::size_t not_op = 0;
+  while (std::chrono::steady_clock::now() < until) {
+    if (ss_ecat_exchange(master_->m, out.data(), out.size(), in.data(), in.size(), &c, exchange_timeout_us_, 1U) == 0) {
+      not_op = cfg_.subdevices.size();
+      for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+        if (i >= c.count || c.al_state[i] != 8U) {
+          not_op = i;
+          break;
+        }
+      }
+      if (not_op == cfg_.subdevices.size()) {
+        return true;
+      }
+    }
+    next += std::chrono::microseconds(cycle_us_);
+    std::this_thread::sleep_until(next);
+  }
+  health_.subdevice = static_cast<std::uint8_t>(not_op + 1U);
+  boot_error_ = "subdevice " + std::to_string(not_op + 1U) + " (" +
+                (not_op < cfg_.subdevices.size() ? cfg_.subdevices[not_op].name : std::string("?")) +
+                ") did not reach OP with distributed clocks (its SYNC0 did not start, or it refused it)";
+  return false;
 }
 
 std::uint64_t Backend::stray_frames() noexcept { return ss_ecat_stray_frames(); }
@@ -412,8 +466,28 @@ void Backend::read(ProcessImageIn& in) noexcept {
     if (c.wkc != c.expected_wkc) {
       lose(0, "working counter differs from the expected one");
     }
+    if (dc_ && c.dc_time != 0U) {
+      follow_dc(c.dc_time);
+    }
   }
   decode(in);
+}
+
+// The real-time loop takes its cycle from DC time: the frame should pass the reference clock
+// sync0_shift_us before SYNC0 (SYNC0 events at whole cycles of DC time, as the master set
+// their start). The phase error of this answer's frame moves the loop's next wake-up by a
+// quarter of it, at most 1/20 of a cycle per cycle (the loop never jumps, its cycle never
+// stretches by more than that): a phase-locked loop on the reference clock.
+void Backend::follow_dc(std::uint64_t dc_time) noexcept {
+  const auto period = static_cast<std::int64_t>(cycle_us_) * 1000;
+  std::int64_t phase = static_cast<std::int64_t>((dc_time + std::uint64_t{cfg_.sync0_shift_us} * 1000U) %
+                                                 static_cast<std::uint64_t>(period));
+  if (phase >= period / 2) {
+    phase -= period;  // early: negative
+  }
+  dc_phase_ns_.store(phase, std::memory_order_relaxed);
+  const std::int64_t bound = period / 20;
+  cycle_adjust_ns_.store(std::clamp<std::int64_t>(-phase / 4, -bound, bound), std::memory_order_relaxed);
 }
 
 void Backend::decode(ProcessImageIn& in) const noexcept {

@@ -67,6 +67,7 @@ SubdeviceDesc drive(std::size_t axis) {
   d.in_address = 0x1800;
   d.mailbox = true;
   d.device_type = 0x00020192;  // CiA 402 (0x0192), servo drive
+  d.dc_sync0_required = true;  // CSP with DC: its ESI's OpMode "DC", AssignActivate 0x0300
   return d;
 }
 

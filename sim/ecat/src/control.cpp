@@ -194,6 +194,50 @@ std::string json_line(EmulatedCell& cell, const std::string& line) {
   return scenario_line(cell, in);
 }
 
+// Distributed clocks, per subdevice (docs/ethercat.md, "Distributed clocks"): the SYNC0
+// registers as the master left them, and for each subdevice whose SYNC0 runs its sync error
+// (its system time minus the reference clock's at this instant, ns) and the figures since
+// SYNC0 started or the last `dc reset`.
+nlohmann::json dc_status(EmulatedCell& cell) {
+  Segment& seg = cell.segment();
+  const std::uint64_t now = cell.now();
+  nlohmann::json dc;
+  dc["reference"] = seg.dc_reference() < seg.size() ? nlohmann::json(seg.dc_reference() + 1U) : nlohmann::json(nullptr);
+  nlohmann::json drift = nlohmann::json::array();
+  nlohmann::json active = nlohmann::json::array();
+  nlohmann::json cycle = nlohmann::json::array();
+  nlohmann::json err = nlohmann::json::array();
+  nlohmann::json stats = nlohmann::json::array();
+  for (std::size_t i = 0; i < seg.size(); ++i) {
+    Esc& e = seg.esc(i);
+    const bool connected = i < seg.connected();
+    const bool running = connected && e.sync0_running(now);
+    drift.push_back(e.drift_ppm());
+    active.push_back(running);
+    cycle.push_back(e.sync0_cycle_ns());
+    err.push_back(running ? nlohmann::json(seg.sync_error_ns(i, now)) : nlohmann::json(nullptr));
+    const DcStats& s = e.dc_stats();
+    if (s.samples == 0U && s.latched == 0U) {
+      stats.push_back(nullptr);
+      continue;
+    }
+    stats.push_back({{"samples", s.samples},
+                     {"p99_ns", s.percentile_ns(0.99)},
+                     {"max_ns", s.max_abs_ns},
+                     {"latched", s.latched},
+                     {"overwritten", s.overwritten},
+                     {"missed", s.missed},
+                     {"lead_ns", s.last_lead_ns},
+                     {"min_lead_ns", s.min_lead_ns}});
+  }
+  dc["drift_ppm"] = drift;
+  dc["sync0_active"] = active;
+  dc["sync0_cycle_ns"] = cycle;
+  dc["sync_error_ns"] = err;
+  dc["stats"] = stats;
+  return dc;
+}
+
 std::string status(EmulatedCell& cell) {
   nlohmann::json j;
   const hal::ProcessImageOut& o = cell.last_outputs();
@@ -234,6 +278,7 @@ std::string status(EmulatedCell& cell) {
     sdo.push_back(objects);
   }
   j["sdo"] = sdo;
+  j["dc"] = dc_status(cell);
   const EmulatedCell::OutputDrop& d = cell.output_drop();
   j["output_drop"] = {{"contactor_us", d.contactor ? nlohmann::json(d.contactor_ns / 1000U) : nlohmann::json(nullptr)},
                       {"enable_us", d.enable ? nlohmann::json(d.enable_ns / 1000U) : nlohmann::json(nullptr)}};
@@ -281,6 +326,13 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (line == "status") {
     return status(cell);
   }
+  if (line == "dc reset") {  // the DC figures start again (the bench measures from here)
+    for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+      DcStats& s = cell.segment().esc(i).dc_stats();
+      s = DcStats{};
+    }
+    return "OK";
+  }
   if (!line.empty() && line.front() == '{') {
     return json_line(cell, line);
   }
@@ -303,7 +355,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (verb == "in" || verb == "fault") {
     return scenario_line(cell, line);
   }
-  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, status, or a JSON sim message)";
+  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, status, dc reset, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

@@ -195,6 +195,38 @@ void realtime(int priority, int cpu) {
 
 }  // namespace
 
+bool parse_drift_ppm(const std::string& spec, std::size_t subdevices, std::vector<double>& out, std::string& err) {
+  std::vector<double> v;
+  std::size_t from = 0;
+  bool ok = !spec.empty();
+  while (ok) {
+    const std::size_t comma = spec.find(',', from);
+    const std::string item = spec.substr(from, comma == std::string::npos ? std::string::npos : comma - from);
+    try {
+      std::size_t used = 0;
+      const double d = std::stod(item, &used);
+      ok = used == item.size() && !item.empty() && d >= -500.0 && d <= 500.0;  // NaN fails the range check
+      v.push_back(d);
+    } catch (...) {
+      ok = false;
+    }
+    if (comma == std::string::npos) {
+      break;
+    }
+    from = comma + 1U;
+  }
+  if (!ok || (v.size() != 1U && v.size() != subdevices)) {
+    err = "--drift-ppm expects one value or " + std::to_string(subdevices) +
+          " comma-separated values, each -500..500 (ppm), got '" + spec + "'";
+    return false;
+  }
+  out.assign(subdevices, v.front());
+  if (v.size() == subdevices) {
+    out = v;
+  }
+  return true;
+}
+
 int ecat_sim_main(const EcatSimOptions& opt) {
   std::vector<SubdeviceDesc> devs = default_segment();
   std::string err;
@@ -204,6 +236,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
        !apply_override(devs, opt.revision_override, "--revision", &SubdeviceDesc::revision, err))) {
     std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
     return 2;
+  }
+  if (opt.drives_free_run) {
+    for (SubdeviceDesc& d : devs) {
+      d.dc_sync0_required = false;
+    }
   }
   const int raw = open_raw(opt.ifname, err);
   if (raw < 0) {
@@ -219,7 +256,20 @@ int ecat_sim_main(const EcatSimOptions& opt) {
   realtime(opt.priority, opt.cpu);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::vector<double> drifts;
+  if (!opt.drift_ppm.empty() && !parse_drift_ppm(opt.drift_ppm, devs.size(), drifts, err)) {
+    std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
+    close(raw);
+    if (ctl >= 0) {
+      close(ctl);
+      unlink(opt.control.c_str());
+    }
+    return 2;
+  }
   EmulatedCell cell(opt.cycle_us, devs);
+  for (std::size_t i = 0; i < drifts.size(); ++i) {
+    cell.segment().esc(i).set_drift_ppm(drifts[i]);
+  }
   if (!opt.sdo_refuse.empty()) {
     const std::string r = control_line(cell, "fault sdo-refuse " + opt.sdo_refuse);
     if (r != "OK") {

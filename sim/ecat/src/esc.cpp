@@ -2,6 +2,7 @@
 // (ETG.1000.4 6.4), FMMUs (ETG.1000.4 6.6), sync-manager checks and the process-data
 // watchdog.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <utility>
 
@@ -81,8 +82,28 @@ constexpr Range kWritable[] = {
     {0x0502, 0x050F},  // EEPROM control, address, data
     {0x0600, 0x06FF},  // FMMUs
     {0x0800, 0x087F},  // sync managers (status and PDI control bytes excepted below)
-    {0x0900, 0x09FF},  // distributed clocks: plain memory, no DC function behind it
+    // distributed clocks: 0x0900..0x0917 are written for their side effects only (a write
+    // to 0x0900 latches the receive times, one to 0x0910 is the drift-control input)
+    {0x0920, 0x092B},  // system time offset, system time delay
+    {0x0930, 0x0931},  // speed counter start
+    {0x0934, 0x0935},  // filter depths
+    {0x0980, 0x0983},  // cyclic unit control, activation, pulse length
+    {0x0990, 0x0997},  // start time of cyclic operation
+    {0x09A0, 0x09A9},  // SYNC0 / SYNC1 cycle times, latch control
 };
+
+// The drift-control loop of the emulated ESC (the datasheets leave the loop to the chip; it
+// is bounded here): a PI controller on the difference between the system time received from
+// the reference clock (plus the delay 0x0928) and its own. The proportional part slews half
+// the difference out at 200 ppm (the clock is never stepped); the integral part is a rate
+// correction (at most +-200 ppm) that grows by kLoopI x difference x time, so that it takes up
+// the clock's drift against the reference whatever the rate of the inputs (conditional
+// integration against wind-up).
+constexpr double kLoopP = 0.5;
+constexpr double kLoopI = 2e-14;  // per ns of difference per ns of time
+constexpr double kMaxRate = 200e-6;
+constexpr double kSlewRate = 200e-6;
+constexpr std::uint64_t kTickNs = 10;  // a 100 MHz local clock
 
 bool writable(std::uint32_t a) noexcept {
   if (a >= reg::process_ram) {
@@ -127,7 +148,21 @@ void Esc::reset() {
   mem_[reg::sm_count] = kSyncManagers;
   mem_[reg::ram_size] = 8;       // KiB of process RAM
   mem_[reg::port_desc] = 0x0F;   // ports 0 and 1: MII
-  put16(reg::features, 0x0000);  // bit-wise FMMU mapping, no DC
+  // bit-wise FMMU mapping; DC supported (bit 2) with 64-bit system time (bit 3) and
+  // enhanced DC SYNC activation, 0x0981..0x0984 (bit 8)
+  put16(reg::features, 0x010C);
+  put16(reg::dc_speed_start, 0x1000);
+  powered_ = false;
+  corr_ns_ = 0.0;
+  corr_host_ns_ = 0;
+  slew_left_ns_ = 0.0;
+  rate_i_ = 0.0;
+  last_ctl_ns_ = 0;
+  pending_op_ = false;
+  sync0_armed_ = false;
+  sync0_started_ = false;
+  last_sync0_k_ = 0;
+  dc_stats_ = DcStats{};
   put16(reg::wdg_divider, 2498); // 100 us watchdog ticks
   put16(0x0410, 1000);
   put16(reg::wdg_time_pd, 1000);  // 100 ms
@@ -207,6 +242,26 @@ bool Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::ui
       mem_[a] = in[i];
     }
   }
+  dc_at(now_ns);
+  if (touches(address, in.size(), reg::dc_recv_port0, reg::dc_recv_port0 + 3U)) {
+    dc_latch_receive_times(now_ns);
+  }
+  if (touches(address, in.size(), reg::dc_system_time, reg::dc_system_time + 7U)) {
+    dc_control(in, static_cast<std::size_t>(reg::dc_system_time > address ? reg::dc_system_time - address : 0U), now_ns);
+    dc_at(now_ns);  // the register shows the own time again, not what was written
+  }
+  if (touches(address, in.size(), reg::dc_speed_start, reg::dc_speed_start + 1U)) {
+    dc_reset_loop(now_ns);
+  }
+  if (touches(address, in.size(), reg::dc_activation, reg::dc_activation)) {
+    // Activated with the start time still ahead, SYNC0 starts there; one already past is
+    // never reached (a real ESC waits for its 32-bit time to wrap, ~4.3 s, at best).
+    sync0_armed_ = sync0_activated() && u64(reg::dc_start_time) > system_time(now_ns);
+    sync0_started_ = false;
+    last_sync0_k_ = 0;
+    pending_op_ = pending_op_ && sync0_armed_;
+    dc_at(now_ns);
+  }
   if (touches(address, in.size(), 0x0300, 0x0313)) {
     std::fill(mem_.begin() + 0x0300, mem_.begin() + 0x0314, 0);  // a write clears the counters
   }
@@ -214,7 +269,8 @@ bool Esc::write(std::uint16_t address, std::span<const std::uint8_t> in, std::ui
     on_eeprom_control();
   }
   if (touches(address, in.size(), reg::al_control, reg::al_control + 1U)) {
-    on_al_control();
+    pending_op_ = false;  // a new request replaces one that waited for SYNC0
+    on_al_control(now_ns);
     last_output_ns_ = now_ns;  // the watchdog counts from entering the state
   }
   if (!desc_.rx.entries.empty() &&
@@ -270,7 +326,7 @@ bool Esc::sm_matches(std::uint16_t start, std::size_t bytes) const noexcept {
 
 // ETG.1000.6 6.4.1: an error indication is cleared only by a request with the
 // acknowledge bit; a request without it is ignored while the error is shown.
-void Esc::on_al_control() noexcept {
+void Esc::on_al_control(std::uint64_t now_ns) noexcept {
   const std::uint16_t ctl = u16(reg::al_control);
   const auto req = static_cast<std::uint8_t>(ctl & 0x0FU);
   const bool ack = (ctl & 0x10U) != 0U;
@@ -292,6 +348,17 @@ void Esc::on_al_control() noexcept {
   if (cur == AlState::init && req != static_cast<std::uint8_t>(AlState::init) && desc_.mailbox && !mailbox_configured()) {
     set_al(static_cast<std::uint8_t>(cur), true, al_code::invalid_mailbox_config);
     return;
+  }
+  if (cur == AlState::safeop && req == static_cast<std::uint8_t>(AlState::op) && desc_.dc_sync0_required) {
+    if (const std::uint16_t c = dc_op_error(now_ns); c != al_code::none) {
+      set_al(static_cast<std::uint8_t>(cur), true, c);
+      return;
+    }
+    if (!sync0_running(now_ns)) {
+      set_al(static_cast<std::uint8_t>(cur), false, al_code::none);  // acknowledged
+      pending_op_ = true;  // SAFE-OP until its first SYNC0 (dc_at), without an error
+      return;
+    }
   }
   if (cur == AlState::preop && req == static_cast<std::uint8_t>(AlState::safeop)) {
     if (const std::uint16_t c = preop_to_safeop_error(); c != al_code::none) {
@@ -373,6 +440,9 @@ bool Esc::logical_write(std::uint32_t logical, std::span<const std::uint8_t> dat
                                        });
   if (hit) {
     last_output_ns_ = now_ns;
+    if (desc_.dc_sync0_required) {
+      dc_setpoint_taken(now_ns);
+    }
   }
   return hit;
 }
@@ -407,11 +477,213 @@ std::uint64_t Esc::watchdog_ns() const noexcept {
 
 void Esc::poll_watchdog(std::uint64_t now_ns) noexcept {
   const std::uint64_t limit = watchdog_ns();
-  if (state() != AlState::op || desc_.rx.entries.empty() || limit == 0U || now_ns - last_output_ns_ <= limit) {
+  // (last_output_ns_ can lie a few forwarding delays after now_ns: the frame reached this
+  // subdevice that much later than the first)
+  if (state() != AlState::op || desc_.rx.entries.empty() || limit == 0U || now_ns <= last_output_ns_ ||
+      now_ns - last_output_ns_ <= limit) {
     return;
   }
   set_al(static_cast<std::uint8_t>(AlState::safeop), true, al_code::sm_watchdog);
   ++mem_[reg::wdg_counter_pd];
+}
+
+std::uint64_t Esc::u64(std::uint16_t a) const noexcept {
+  std::uint64_t v = 0;
+  for (unsigned i = 0; i < 8U; ++i) {
+    v |= static_cast<std::uint64_t>(mem_[a + i]) << (8U * i);
+  }
+  return v;
+}
+
+void Esc::put64(std::uint16_t a, std::uint64_t v) noexcept {
+  for (unsigned i = 0; i < 8U; ++i) {
+    mem_[a + i] = static_cast<std::uint8_t>(v >> (8U * i));
+  }
+}
+
+void DcStats::record(std::int64_t err_ns) noexcept {
+  const std::uint64_t a = static_cast<std::uint64_t>(err_ns < 0 ? -err_ns : err_ns);
+  ++samples;
+  last_ns = err_ns;
+  max_abs_ns = std::max(max_abs_ns, a);
+  ++hist[std::min<std::uint64_t>(a / 10U, kBuckets - 1U)];
+}
+
+std::uint64_t DcStats::percentile_ns(double p) const noexcept {
+  if (samples == 0U) {
+    return 0;
+  }
+  const auto want = static_cast<std::uint64_t>(std::ceil(p * static_cast<double>(samples)));
+  std::uint64_t seen = 0;
+  for (std::size_t b = 0; b < kBuckets; ++b) {
+    seen += hist[b];
+    if (seen >= want) {
+      return (b + 1U == kBuckets) ? max_abs_ns : std::min<std::uint64_t>((b + 1U) * 10U - 1U, max_abs_ns);
+    }
+  }
+  return max_abs_ns;
+}
+
+std::uint64_t Esc::local_time(std::uint64_t now_ns) noexcept {
+  if (!powered_) {
+    powered_ = true;
+    power_ns_ = now_ns > power_lag_ns_ ? now_ns - power_lag_ns_ : 0U;
+  }
+  const double dt = static_cast<double>(now_ns > power_ns_ ? now_ns - power_ns_ : 0U) * (1.0 + drift_ppm_ * 1e-6);
+  return static_cast<std::uint64_t>(dt / static_cast<double>(kTickNs)) * kTickNs;
+}
+
+double Esc::slewed(double since) const noexcept {
+  const double most = since * kSlewRate;
+  return slew_left_ns_ >= 0.0 ? std::min(slew_left_ns_, most) : std::max(slew_left_ns_, -most);
+}
+
+void Esc::anchor(std::uint64_t now_ns) noexcept {
+  if (now_ns <= corr_host_ns_) {
+    return;
+  }
+  const double since = static_cast<double>(now_ns - corr_host_ns_);
+  const double a = slewed(since);
+  corr_ns_ += since * rate_i_ + a;
+  slew_left_ns_ -= a;
+  corr_host_ns_ = now_ns;
+}
+
+std::uint64_t Esc::system_time(std::uint64_t now_ns) noexcept {
+  const double since = now_ns > corr_host_ns_ ? static_cast<double>(now_ns - corr_host_ns_) : 0.0;
+  const double corr = corr_ns_ + since * rate_i_ + slewed(since);
+  return local_time(now_ns) + u64(reg::dc_offset) + static_cast<std::uint64_t>(std::llround(corr));
+}
+
+bool Esc::sync0_activated() const noexcept {
+  return (mem_[reg::dc_activation] & 0x03U) == 0x03U && u32(reg::dc_sync0_cycle) != 0U &&
+         (mem_[reg::dc_cyclic_unit] & 0x01U) == 0U;  // the SYNC unit assigned to ECAT, not to the PDI
+}
+
+std::uint32_t Esc::sync0_cycle_ns() const noexcept { return u32(reg::dc_sync0_cycle); }
+
+bool Esc::sync0_running(std::uint64_t now_ns) noexcept {
+  if (!sync0_armed_ || !sync0_activated()) {
+    return false;
+  }
+  sync0_started_ = sync0_started_ || system_time(now_ns) >= u64(reg::dc_start_time);
+  return sync0_started_;
+}
+
+void Esc::dc_at(std::uint64_t now_ns) noexcept {
+  put64(reg::dc_system_time, system_time(now_ns));
+  const bool running = sync0_running(now_ns);
+  mem_[reg::dc_activation_status] = sync0_activated() && sync0_armed_ ? 0x01U : 0x00U;
+  mem_[reg::dc_sync0_status] = running ? 0x01U : 0x00U;
+  if (pending_op_ && running) {
+    pending_op_ = false;
+    set_al(static_cast<std::uint8_t>(AlState::op), false, al_code::none);
+    last_output_ns_ = now_ns;  // the watchdog counts from entering the state
+  }
+  // A drive that needs SYNC0 and loses it in OP stops (ETG.1000.6 table 11: fatal sync error).
+  if (desc_.dc_sync0_required && state() == AlState::op && !running) {
+    set_al(static_cast<std::uint8_t>(AlState::safeop), true, 0x002C);
+  }
+}
+
+// A write to 0x0900 latches, on every port, the local time at which that frame passed it
+// (port 0 on the way out, port 1 on its way back from the subdevices behind), and the
+// processing unit's receive time (0x0918): what the master computes propagation delays from.
+void Esc::dc_latch_receive_times(std::uint64_t now_ns) noexcept {
+  const std::uint64_t t0 = local_time(now_ns);
+  const std::uint64_t t1 = downstream_ns_ > 0U ? local_time(now_ns + downstream_ns_) : 0U;
+  const auto put32 = [this](std::uint16_t a, std::uint32_t v) {
+    put16(a, static_cast<std::uint16_t>(v & 0xFFFFU));
+    put16(static_cast<std::uint16_t>(a + 2U), static_cast<std::uint16_t>(v >> 16U));
+  };
+  put32(reg::dc_recv_port0, static_cast<std::uint32_t>(t0));
+  put32(reg::dc_recv_port0 + 4U, static_cast<std::uint32_t>(t1));
+  put32(reg::dc_recv_port0 + 8U, 0);
+  put32(reg::dc_recv_port0 + 12U, 0);
+  put64(reg::dc_recv_pu, t0);
+}
+
+void Esc::dc_reset_loop(std::uint64_t now_ns) noexcept {
+  anchor(now_ns);  // the time so far stays
+  rate_i_ = 0.0;
+  slew_left_ns_ = 0.0;
+  last_ctl_ns_ = 0;
+}
+
+// ETG.1000.4 6.8: a system time written to 0x0910 (by the ARMW/FRMW that carries the
+// reference clock's time, or any write) is compared with the own system time at the frame's
+// arrival, the delay 0x0928 added; the difference (0x092C) drives the clock's speed.
+void Esc::dc_control(std::span<const std::uint8_t> written, std::size_t first, std::uint64_t now_ns) noexcept {
+  if (first >= written.size()) {
+    return;
+  }
+  const std::size_t n = std::min<std::size_t>(written.size() - first, 8U);
+  if (n < 4U) {
+    return;  // less than the 32-bit time: no input
+  }
+  std::uint64_t v = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    v |= static_cast<std::uint64_t>(written[first + i]) << (8U * i);
+  }
+  const std::uint64_t own = system_time(now_ns);
+  const std::uint64_t received = v + u32(reg::dc_delay);
+  const std::int64_t delta = (n >= 8U) ? static_cast<std::int64_t>(received - own)
+                                       : static_cast<std::int32_t>(static_cast<std::uint32_t>(received) -
+                                                                   static_cast<std::uint32_t>(own));
+  anchor(now_ns);
+  const std::uint64_t h = (last_ctl_ns_ == 0U || now_ns <= last_ctl_ns_) ? 0U : now_ns - last_ctl_ns_;
+  last_ctl_ns_ = now_ns;
+  const double dt = static_cast<double>(std::min<std::uint64_t>(h, 10000000U));  // a pause is not a long input
+  // Anti-windup: the integral learns only while the slew can take out its part before the
+  // next input (a large difference is an offset being removed, not a drift to learn).
+  if (std::abs(kLoopP * static_cast<double>(delta)) <= dt * kSlewRate) {
+    rate_i_ = std::clamp(rate_i_ + kLoopI * static_cast<double>(delta) * dt, -kMaxRate, kMaxRate);
+  }
+  slew_left_ns_ = kLoopP * static_cast<double>(delta);
+  const std::uint64_t mag = std::min<std::uint64_t>(static_cast<std::uint64_t>(delta < 0 ? -delta : delta), 0x7FFFFFFFU);
+  const std::uint32_t diff = static_cast<std::uint32_t>(mag) | (delta > 0 ? 0x80000000U : 0U);
+  put16(reg::dc_diff, static_cast<std::uint16_t>(diff & 0xFFFFU));
+  put16(reg::dc_diff + 2U, static_cast<std::uint16_t>(diff >> 16U));
+}
+
+// What a drive that needs SYNC0 checks before OP (the register side: the master configured
+// the SYNC unit): activated with a cycle and a start ahead, at its own cycle.
+std::uint16_t Esc::dc_op_error(std::uint64_t now_ns) noexcept {
+  static_cast<void>(now_ns);
+  if (!sync0_activated() || !sync0_armed_) {
+    return al_code::invalid_dc_sync_config;
+  }
+  if (sync0_cycle_ns() != static_cast<std::uint64_t>(desc_.cycle_us) * 1000U) {
+    return al_code::dc_sync0_cycle_time;
+  }
+  return al_code::none;
+}
+
+// A set-point written by process data is applied by the drive at the next SYNC0 (its output
+// latched there): which SYNC0 takes it, how long before it arrived, and whether the one
+// before was replaced before any SYNC0 took it or SYNC0 events passed without a new one.
+void Esc::dc_setpoint_taken(std::uint64_t now_ns) noexcept {
+  if (!sync0_running(now_ns)) {
+    return;
+  }
+  const std::uint64_t s = system_time(now_ns);
+  const std::uint64_t start = u64(reg::dc_start_time);
+  const std::uint64_t cycle = sync0_cycle_ns();
+  // the next SYNC0: event k - 1 at start + (k - 1) x cycle (k = 0 stands for none)
+  const std::uint64_t k = (s < start) ? 1U : (s - start) / cycle + 2U;
+  const auto lead = static_cast<std::int64_t>(start + (k - 1U) * cycle - s);
+  DcStats& st = dc_stats_;
+  if (last_sync0_k_ == k) {
+    ++st.overwritten;
+  } else {
+    if (last_sync0_k_ != 0U && k > last_sync0_k_ + 1U) {
+      st.missed += k - last_sync0_k_ - 1U;
+    }
+    ++st.latched;
+    st.min_lead_ns = (st.latched == 1U) ? lead : std::min(st.min_lead_ns, lead);
+  }
+  st.last_lead_ns = lead;
+  last_sync0_k_ = k;
 }
 
 AlState Esc::state() const noexcept { return static_cast<AlState>(mem_[reg::al_status] & 0x0FU); }

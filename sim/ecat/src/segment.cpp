@@ -19,6 +19,10 @@ Segment::Segment(const std::vector<SubdeviceDesc>& devices) {
   escs_.reserve(devices.size());
   for (const SubdeviceDesc& d : devices) {
     escs_.emplace_back(d);
+    const std::size_t p = escs_.size() - 1U;
+    escs_.back().set_drift_ppm(kDefaultDriftPpm[p % std::size(kDefaultDriftPpm)]);
+    // powered up one after the other, so that their local times differ (as on a real line)
+    escs_.back().set_power_on_lag_ns(5000000U + 1300000U * (devices.size() - p));
   }
   scratch_.resize(2048);
   update_dl_status();
@@ -45,6 +49,7 @@ void Segment::update_dl_status() noexcept {
     std::uint16_t s = 0x0001 | 0x0010 | 0x0200;  // PDI operational, port 0 link, port 0 communication
     s |= next ? (0x0020 | 0x0800) : 0x0400;     // port 1: link + communication, or loop closed
     s |= 0x1000 | 0x4000;                        // ports 2 and 3: loop closed
+    escs_[i].set_downstream_loop_ns(next ? 2U * kHopNs * (n - 1U - i) : 0U);
     std::uint8_t b[2];
     put16(b, s);
     // DL status is read-only from the wire: set it through the application side.
@@ -129,6 +134,8 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
   std::span<std::uint8_t> tmp(scratch_.data(), data.size());
   for (std::size_t p = 0; p < n; ++p) {
     Esc& e = escs_[p];
+    const std::uint64_t t = now_ns + kHopNs * p;  // when the frame reaches it
+    e.dc_at(t);
     const bool auto_inc = c == Cmd::APRD || c == Cmd::APWR || c == Cmd::APRW || c == Cmd::ARMW;
     const bool fixed = c == Cmd::FPRD || c == Cmd::FPWR || c == Cmd::FPRW || c == Cmd::FRMW;
     const bool addressed = (auto_inc && static_cast<std::uint16_t>(adp + p) == 0U) ||
@@ -142,7 +149,7 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
         break;
       case Cmd::APWR:
       case Cmd::FPWR:
-        if (addressed && e.write(ado, data, now_ns)) {
+        if (addressed && e.write(ado, data, t)) {
           ++wkc;
         }
         break;
@@ -150,7 +157,7 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
       case Cmd::FPRW:
         if (addressed) {
           const bool r = e.read(ado, tmp);
-          const bool w = e.write(ado, data, now_ns);
+          const bool w = e.write(ado, data, t);
           if (r) {
             std::copy(tmp.begin(), tmp.end(), data.begin());
           }
@@ -166,13 +173,13 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
         }
         break;
       case Cmd::BWR:
-        if (e.write(ado, data, now_ns)) {
+        if (e.write(ado, data, t)) {
           ++wkc;
         }
         break;
       case Cmd::BRW: {
         const bool r = e.read(ado, tmp);
-        const bool w = e.write(ado, data, now_ns);
+        const bool w = e.write(ado, data, t);
         for (std::size_t i = 0; i < data.size() && r; ++i) {
           data[i] = static_cast<std::uint8_t>(data[i] | tmp[i]);
         }
@@ -182,7 +189,7 @@ void Segment::physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<st
       case Cmd::ARMW:
       case Cmd::FRMW:
         // the addressed one reads, every other one writes what passes
-        if (addressed ? e.read(ado, data) : e.write(ado, data, now_ns)) {
+        if (addressed ? e.read(ado, data) : e.write(ado, data, t)) {
           ++wkc;
         }
         break;
@@ -200,7 +207,7 @@ void Segment::logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, s
   bool wrote = false;
   if (c == Cmd::LWR || c == Cmd::LRW) {
     for (std::size_t p = 0; p < n; ++p) {
-      if (p + 1U != no_pd_ && escs_[p].logical_write(addr, data, now_ns)) {
+      if (p + 1U != no_pd_ && escs_[p].logical_write(addr, data, now_ns + kHopNs * p)) {
         wkc = static_cast<std::uint16_t>(wkc + ((c == Cmd::LRW) ? 2U : 1U));
         wrote = true;
       }
@@ -208,6 +215,7 @@ void Segment::logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, s
   }
   if (wrote && !pd_written) {
     pd_written = true;
+    sample_sync_errors(now_ns);
     if (on_pd_) {
       on_pd_();
     }
@@ -223,7 +231,25 @@ void Segment::logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, s
 
 void Segment::poll(std::uint64_t now_ns) noexcept {
   for (std::size_t p = 0; p < connected(); ++p) {
+    escs_[p].dc_at(now_ns);
     escs_[p].poll_watchdog(now_ns);
+  }
+}
+
+std::int64_t Segment::sync_error_ns(std::size_t i, std::uint64_t now_ns) noexcept {
+  const std::size_t ref = dc_reference();
+  if (ref >= escs_.size() || i >= escs_.size()) {
+    return 0;
+  }
+  return static_cast<std::int64_t>(escs_[i].system_time(now_ns) - escs_[ref].system_time(now_ns));
+}
+
+// Every process-data frame: each subdevice whose SYNC0 runs records its sync error.
+void Segment::sample_sync_errors(std::uint64_t now_ns) noexcept {
+  for (std::size_t p = 0; p < connected(); ++p) {
+    if (escs_[p].desc().dc_sync0_required && escs_[p].sync0_running(now_ns)) {
+      escs_[p].dc_stats().record(sync_error_ns(p, now_ns));
+    }
   }
 }
 

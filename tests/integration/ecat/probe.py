@@ -41,13 +41,17 @@ class Soem:
     def identities(self):
         return [{"vendor": s.man, "product": s.id, "revision": s.rev, "name": s.name} for s in self.m.slaves]
 
-    def to_op(self):
+    def to_op(self, dc=True):
         p, m = self.p, self.m
         for pos in DRIVES:  # the drives' start-up parameter, in PRE-OP: they refuse SAFE-OP without it
             m.slaves[pos].sdo_write(0x6060, 0, CSP)
         m.config_map()
         if m.state_check(p.SAFEOP_STATE, 500000) != p.SAFEOP_STATE:
             return False
+        if dc:  # the drives run CSP on distributed clocks: SOEM's DC set-up, SYNC0 at 1 ms
+            m.config_dc()
+            for pos in DRIVES:
+                m.slaves[pos].dc_sync(True, 1000000)
         m.state = p.OP_STATE
         m.write_state()
         for _ in range(2000):
@@ -227,6 +231,21 @@ def main():
             out["aborts"]["state"] = None
         except m.p.SdoError as e:
             out["aborts"]["state"] = e.abort_code
+    elif action == "nodc":  # OP requested without configuring DC: the drives' answer
+        out["op"] = m.to_op(dc=False)
+        out["al"] = m.al_states()
+    elif action == "dcregs":  # SOEM's own DC set-up, then the registers it left, as it reads them
+        out["op"] = m.to_op()
+        run_cycles(m, 200)
+        regs = []
+        for pos in DRIVES:
+            s = m.m.slaves[pos]
+            regs.append({"activation": s._fprd(0x0981, 1)[0],
+                         "cycle": int.from_bytes(s._fprd(0x09A0, 4), "little"),
+                         "system_time": int.from_bytes(s._fprd(0x0910, 8), "little"),
+                         "start": int.from_bytes(s._fprd(0x0990, 8), "little")})
+        out["regs"] = regs
+        out["reference_time"] = int.from_bytes(m.m.slaves[0]._fprd(0x0910, 8), "little")
     elif action == "watchdog":
         out["op"] = m.to_op()
         run_cycles(m, 5)

@@ -11,8 +11,8 @@ use core::ffi::{c_char, CStr};
 use ethercrab::{
     std::ethercat_now,
     error::{Error as EcError, MailboxError},
-    subdevice_group::{Op, PreOp, SafeOp},
-    MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
+    subdevice_group::{DcConfiguration, HasDc, Op, PreOp, SafeOp},
+    DcSync, MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
 };
 use core::future::Future;
 use core::pin::pin;
@@ -53,17 +53,56 @@ pub struct SsEcatCycle {
     pub count: u16,
     /// AL state per subdevice (1 INIT, 2 PREOP, 4 SAFEOP, 8 OP, 0 unknown).
     pub al_state: [u8; MAX_SUBDEVICES],
+    /// With distributed clocks: the DC system time (ns) at which this frame's FRMW passed
+    /// the reference clock (0 without DC).
+    pub dc_time: u64,
 }
 
 type PreOpGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, PreOp>;
 type SafeGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, SafeOp>;
 type OpGroup = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, Op>;
+type SafeGroupDc = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, SafeOp, HasDc>;
+type OpGroupDc = SubDeviceGroup<MAX_SUBDEVICES, MAX_PDI, ethercrab::DefaultLock, Op, HasDc>;
+
+/// The group once mapped: free-running, or with distributed clocks (SYNC0 configured on the
+/// subdevices that asked for it, the reference clock's time carried by every exchange).
+enum Safe {
+    Free(SafeGroup),
+    Dc(SafeGroupDc),
+}
+enum Running {
+    Free(OpGroup),
+    Dc(OpGroupDc),
+}
+
+/// The AL state codes of one exchange (see `SsEcatCycle::al_state`) and how many there are.
+type AlStates = ([u8; MAX_SUBDEVICES], u16);
+
+/// The same code on either kind of group (their types differ by the DC typestate).
+macro_rules! on_group {
+    ($e:expr, $Enum:ident, $g:ident => $body:expr) => {
+        match $e {
+            $Enum::Free($g) => $body,
+            $Enum::Dc($g) => $body,
+        }
+    };
+}
+
+/// How long after the SYNC configuration the first SYNC0 pulse comes (ethercrab rounds it to
+/// a whole number of cycles): room for the SAFE-OP transition and the watchdog writes before
+/// OP, which the DC drives enter at their first pulse.
+const DC_START_DELAY: Duration = Duration::from_millis(100);
+
+/// FRMW frames of the reference clock's time sent at start-up, before SYNC0 is configured
+/// (ethercrab's static drift compensation; ETG.1020 suggests ~15000, ethercrab 10000): the
+/// clocks' loops settle there and are kept in step by the FRMW of every exchange after.
+const DC_STATIC_SYNC_FRAMES: u32 = 3000;
 
 pub struct SsEcatMaster {
     md: &'static MainDevice<'static>,
     preop: Option<PreOpGroup>,
-    safe: Option<SafeGroup>,
-    op: Option<OpGroup>,
+    safe: Option<Safe>,
+    op: Option<Running>,
     expected_wkc: u16,
     pdu_timeout: Duration,
     io: Arc<Mutex<txrx::TxRx<'static>>>,
@@ -273,7 +312,8 @@ pub unsafe extern "C" fn ss_ecat_open(
         wait_loop_delay: Duration::from_millis(1),
         ..Timeouts::default()
     };
-    let config = MainDeviceConfig { retry_behaviour: RetryBehaviour::None, ..MainDeviceConfig::default() };
+    let config =
+        MainDeviceConfig { retry_behaviour: RetryBehaviour::None, dc_static_sync_iterations: DC_STATIC_SYNC_FRAMES };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
     Box::into_raw(Box::new(SsEcatMaster { md, preop: None, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
 }
@@ -415,19 +455,74 @@ pub unsafe extern "C" fn ss_ecat_sdo_write(
 /// and brings the subdevices from PRE-OP to SAFE-OP (outputs still safe). Fills `subs` as
 /// `ss_ecat_scan` does, now with the PDO sizes; returns the number of subdevices, or -1.
 ///
+/// Distributed clocks: `assign_activate` holds `n_assign` words in bus order (the ESI's
+/// AssignActivate, 0 = free run). When one is non-zero, SYNC0 is configured on those
+/// subdevices (0x0981 activation, 0x0990 start time `DC_START_DELAY` ahead, 0x09A0 =
+/// `sync0_ns`) in PRE-OP, and every exchange carries the FRMW of the reference clock's system
+/// time (ethercrab's `tx_rx_dc`). The reference clock (the first subdevice with a DC unit),
+/// the propagation delays and the offsets were set by the scan. SYNC1 (0x0400) is refused.
+///
 /// # Safety
-/// `m` comes from `ss_ecat_open` and was scanned; `subs` points to `max` entries.
+/// `m` comes from `ss_ecat_open` and was scanned; `subs` points to `max` entries;
+/// `assign_activate` to `n_assign` words (or is null with `n_assign` 0).
 #[no_mangle]
-pub unsafe extern "C" fn ss_ecat_to_safe_op(m: *mut SsEcatMaster, subs: *mut SsEcatSub, max: usize) -> i32 {
+pub unsafe extern "C" fn ss_ecat_to_safe_op(
+    m: *mut SsEcatMaster,
+    subs: *mut SsEcatSub,
+    max: usize,
+    assign_activate: *const u16,
+    n_assign: usize,
+    sync0_ns: u32,
+    shift_ns: u32,
+) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
-    let Some(group) = m.preop.take() else { return m.fail("not scanned") };
-    let group = match block_on(group.into_safe_op(md)) {
-        Ok(g) => g,
-        Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP: {}", e)),
+    let Some(mut group) = m.preop.take() else { return m.fail("not scanned") };
+    let assign = if assign_activate.is_null() { &[][..] } else { core::slice::from_raw_parts(assign_activate, n_assign) };
+    let dc = assign.iter().any(|&a| a != 0);
+    let mut refused: Option<String> = None;
+    for (i, mut sd) in group.iter_mut(md).enumerate() {
+        let aa = assign.get(i).copied().unwrap_or(0);
+        if aa == 0 {
+            continue;
+        }
+        if aa & 0x0400 != 0 {
+            refused = Some(format!("subdevice {}: AssignActivate {:#06x} asks for SYNC1, which this master does not configure", i + 1, aa));
+        } else if aa & 0x0200 == 0 {
+            refused = Some(format!("subdevice {}: AssignActivate {:#06x} activates no SYNC0", i + 1, aa));
+        } else if !sd.dc_support().enhanced() {
+            refused = Some(format!("subdevice {} ({}): configured for DC but it has no DC SYNC unit", i + 1, sd.name()));
+        }
+        if refused.is_some() {
+            break;
+        }
+        sd.set_dc_sync(DcSync::Sync0);
+    }
+    if let Some(msg) = refused {
+        m.preop = Some(group);
+        return m.fail(&msg);
+    }
+    let safe = if dc {
+        let conf = DcConfiguration {
+            start_delay: DC_START_DELAY,
+            sync0_period: Duration::from_nanos(u64::from(sync0_ns)),
+            sync0_shift: Duration::from_nanos(u64::from(shift_ns)),
+        };
+        let r = block_on(async {
+            group.into_pre_op_pdi(md).await?.configure_dc_sync(md, conf).await?.into_safe_op(md).await
+        });
+        match r {
+            Ok(g) => Safe::Dc(g),
+            Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP with distributed clocks: {}", e)),
+        }
+    } else {
+        match block_on(group.into_safe_op(md)) {
+            Ok(g) => Safe::Free(g),
+            Err(e) => return m.fail(&format!("PRE-OP -> SAFE-OP: {}", e)),
+        }
     };
     let mut expected = 0u16;
-    let n = describe(
+    let n = on_group!(&safe, Safe, group => describe(
         group.iter(md),
         |sd| {
             let (i, o) = (sd.inputs_raw().len() as u16, sd.outputs_raw().len() as u16);
@@ -436,10 +531,28 @@ pub unsafe extern "C" fn ss_ecat_to_safe_op(m: *mut SsEcatMaster, subs: *mut SsE
         },
         subs,
         max,
-    );
+    ));
     m.expected_wkc = expected;
-    m.safe = Some(group);
+    m.safe = Some(safe);
     n as i32
+}
+
+/// The position (1-based) of the DC reference clock: the first subdevice with a DC unit, as
+/// ethercrab chooses it; 0 when none has one.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open`.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_dc_reference(m: *const SsEcatMaster) -> i32 {
+    let Some(m) = m.as_ref() else { return 0 };
+    let md = m.md;
+    let pos = match (&m.preop, &m.safe, &m.op) {
+        (Some(g), _, _) => g.iter(md).position(|sd| sd.dc_support().any()),
+        (_, Some(s), _) => on_group!(s, Safe, g => g.iter(md).position(|sd| sd.dc_support().any())),
+        (_, _, Some(o)) => on_group!(o, Running, g => g.iter(md).position(|sd| sd.dc_support().any())),
+        _ => None,
+    };
+    pos.map_or(0, |p| p as i32 + 1)
 }
 
 /// The process-data watchdog of every subdevice (ETG.1000.4 6.3): `divider` into 0x0400
@@ -454,16 +567,22 @@ pub unsafe extern "C" fn ss_ecat_to_safe_op(m: *mut SsEcatMaster, subs: *mut SsE
 pub unsafe extern "C" fn ss_ecat_set_watchdog(m: *mut SsEcatMaster, divider: u16, time: u16) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
-    let Some(group) = m.safe.as_ref() else { return m.fail("not scanned") };
+    let Some(safe) = m.safe.as_ref() else { return m.fail("not scanned") };
     let mut failed: Option<String> = None;
-    for (i, sd) in group.iter(md).enumerate() {
-        let r = block_on(async {
-            sd.register_write(0x0400u16, divider).await?;
-            sd.register_write(0x0420u16, time).await?;
-            let d: u16 = sd.register_read(0x0400u16).await?;
-            let t: u16 = sd.register_read(0x0420u16).await?;
-            Ok::<(u16, u16), ethercrab::error::Error>((d, t))
-        });
+    // Written in bus order, read back (allocates: start-up only).
+    let results: Vec<Result<(u16, u16), EcError>> = on_group!(safe, Safe, group => group
+        .iter(md)
+        .map(|sd| {
+            block_on(async {
+                sd.register_write(0x0400u16, divider).await?;
+                sd.register_write(0x0420u16, time).await?;
+                let d: u16 = sd.register_read(0x0400u16).await?;
+                let t: u16 = sd.register_read(0x0420u16).await?;
+                Ok::<(u16, u16), EcError>((d, t))
+            })
+        })
+        .collect());
+    for (i, r) in results.into_iter().enumerate() {
         match r {
             Ok((d, t)) if d == divider && t == time => {}
             Ok((d, t)) => {
@@ -489,15 +608,23 @@ pub unsafe extern "C" fn ss_ecat_set_watchdog(m: *mut SsEcatMaster, divider: u16
     }
 }
 
-/// SAFE-OP -> OP for every subdevice. 0 or -1.
+/// SAFE-OP -> OP for every subdevice (with DC: requested, not waited for; see below). 0 or -1.
 ///
 /// # Safety
 /// `m` comes from `ss_ecat_open` and was scanned.
 #[no_mangle]
 pub unsafe extern "C" fn ss_ecat_to_op(m: *mut SsEcatMaster) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
-    let Some(group) = m.safe.take() else { return m.fail("not scanned") };
-    match block_on(group.into_op(m.md)) {
+    let Some(safe) = m.safe.take() else { return m.fail("not scanned") };
+    // With DC the drives enter OP at their first SYNC0 pulse (up to DC_START_DELAY after the
+    // SYNC configuration): OP is only requested here, and the caller exchanges process data
+    // every cycle until every subdevice shows OP (the free-running ones are in OP at once,
+    // their process-data watchdogs counting: they must not wait for the drives' first pulse).
+    let r = match safe {
+        Safe::Free(g) => block_on(g.into_op(m.md)).map(Running::Free),
+        Safe::Dc(g) => block_on(g.request_into_op(m.md)).map(Running::Dc),
+    };
+    match r {
         Ok(g) => {
             m.op = Some(g);
             0
@@ -534,45 +661,61 @@ pub unsafe extern "C" fn ss_ecat_exchange(
 ) -> i32 {
     let Some(m) = m.as_mut() else { return -1 };
     let md = m.md;
-    let Some(group) = m.op.as_ref().or(None) else { return -1 };
+    let Some(running) = m.op.as_ref() else { return -1 };
     let outs = if outputs.is_null() { &[][..] } else { core::slice::from_raw_parts(outputs, out_len) };
     let mut off = 0usize;
-    for sd in group.iter(md) {
+    on_group!(running, Running, group => for sd in group.iter(md) {
         let mut o = sd.outputs_raw_mut();
         let k = o.len().min(outs.len().saturating_sub(off));
         o[..k].copy_from_slice(&outs[off..off + k]);
         off += o.len();
-    }
+    });
     // Past the deadline the future is dropped, which releases its frame (ethercrab's
     // ReceiveFrameFut::drop) and the PDI lock; the PDI (our inputs) is only written from a
     // frame that came back.
     let wait = if timeout_us == 0 { m.pdu_timeout } else { Duration::from_micros(u64::from(timeout_us)) };
     let io = (drive != 0).then_some(&*m.io);
-    let result = run_until(group.tx_rx(md), Instant::now() + wait, io)
-        .unwrap_or(Err(ethercrab::error::Error::Timeout(ethercrab::error::TimeoutError::Pdu)));
+    let deadline = Instant::now() + wait;
+    // (working counter, AL states, DC time): the FRMW of the reference clock's system time
+    // rides in the same frame as the LRW when the group has DC.
+    let states = |s: &[SubDeviceState]| {
+        let mut a = [0u8; MAX_SUBDEVICES];
+        for (d, st) in a.iter_mut().zip(s.iter()) {
+            *d = state_code(*st);
+        }
+        (a, s.len() as u16)
+    };
+    let result: Result<(u16, AlStates, u64), EcError> = match running {
+        Running::Free(group) => run_until(group.tx_rx(md), deadline, io)
+            .unwrap_or(Err(EcError::Timeout(ethercrab::error::TimeoutError::Pdu)))
+            .map(|r| (r.working_counter, states(&r.subdevice_states), 0)),
+        Running::Dc(group) => run_until(group.tx_rx_dc(md), deadline, io)
+            .unwrap_or(Err(EcError::Timeout(ethercrab::error::TimeoutError::Pdu)))
+            .map(|r| (r.working_counter, states(&r.subdevice_states), r.extra.dc_system_time)),
+    };
     let ins = if inputs.is_null() { &mut [][..] } else { core::slice::from_raw_parts_mut(inputs, in_len) };
     let mut off = 0usize;
-    for sd in group.iter(md) {
+    on_group!(running, Running, group => for sd in group.iter(md) {
         let i = sd.inputs_raw();
         let k = i.len().min(ins.len().saturating_sub(off));
         ins[off..off + k].copy_from_slice(&i[..k]);
         off += i.len();
-    }
+    });
     let Some(c) = cycle.as_mut() else { return if result.is_ok() { 0 } else { -1 } };
     c.expected_wkc = m.expected_wkc;
     c.al_state = [0; MAX_SUBDEVICES];
     match result {
-        Ok(r) => {
-            c.wkc = r.working_counter;
-            c.count = r.subdevice_states.len() as u16;
-            for (d, s) in c.al_state.iter_mut().zip(r.subdevice_states.iter()) {
-                *d = state_code(*s);
-            }
+        Ok((wkc, (al, count), dc_time)) => {
+            c.wkc = wkc;
+            c.count = count;
+            c.dc_time = dc_time;
+            c.al_state = al;
             0
         }
         Err(_) => {
             c.wkc = 0;
             c.count = 0;
+            c.dc_time = 0;
             -1
         }
     }

@@ -44,6 +44,9 @@ struct RtOptions {
   std::uint32_t max_records_per_cycle = 16;
   bool simulated = true;            // sim messages are accepted (in-process cell, or forwarded)
   SimForward* sim_forward = nullptr;  // non-null: sim records go there instead of to the cell
+  // Non-null (EtherCAT with distributed clocks): a correction of the next wake-up (ns) the
+  // bus posts from DC time; the loop takes it (exchanging it for 0) once per cycle.
+  std::atomic<std::int64_t>* cycle_adjust_ns = nullptr;
 };
 
 // Copies one cycle of the cell into the bridge. Fixed work, no allocation.

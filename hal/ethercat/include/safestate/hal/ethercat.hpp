@@ -80,8 +80,10 @@ struct BusConfig {
   // written for that long go to their safe state by themselves (the master died).
   std::uint32_t watchdog_cycles = 10;
   // SYNC0 of the DC-synchronised subdevices fires this long after the cycle's start in DC
-  // time (after the frame has passed them); checked against the cycle at start-up.
-  std::uint32_t sync0_shift_us = 0;
+  // time (after the frame has passed them); checked against the cycle at start-up. Default
+  // 500: half the default 1 ms cycle, so that a frame sent up to that late still reaches the
+  // drives before the SYNC0 that applies it (docs/ethercat.md, "Distributed clocks").
+  std::uint32_t sync0_shift_us = 500;
 };
 
 // The process-data watchdog registers for `cycles` scan cycles of `cycle_us`: the divider
@@ -161,6 +163,14 @@ class Backend final : public hal::Backend {
     const char* why = lost_why_.load(std::memory_order_acquire);  // published after the rest
     return {lost_position_.load(std::memory_order_relaxed), lost_silent_.load(std::memory_order_relaxed), why};
   }
+  // Distributed clocks: whether any subdevice is synchronised, the reference clock's
+  // position (1-based; 0 = none), the last frame's phase against SYNC0 minus the shift (ns,
+  // negative = early), and the correction the real-time loop takes for its next wake-up
+  // (RtOptions::cycle_adjust_ns: it exchanges it for 0).
+  [[nodiscard]] bool dc() const noexcept { return dc_; }
+  [[nodiscard]] int dc_reference() const noexcept { return dc_reference_; }
+  [[nodiscard]] std::int64_t dc_phase_ns() const noexcept { return dc_phase_ns_.load(std::memory_order_relaxed); }
+  std::atomic<std::int64_t>* cycle_adjust() noexcept { return dc_ ? &cycle_adjust_ns_ : nullptr; }
   [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
     static const std::string none = "the bus";
     return (position >= 1U && position <= cfg_.subdevices.size()) ? cfg_.subdevices[position - 1U].name : none;
@@ -171,6 +181,8 @@ class Backend final : public hal::Backend {
   void decode(ProcessImageIn& in) const noexcept;
   void lose(std::uint8_t position, const char* why, bool silent = false) noexcept;
   void keep_alive() noexcept;
+  void follow_dc(std::uint64_t dc_time) noexcept;
+  bool await_dc_op();
   void hand_over() noexcept;
   void stop_exchanges() noexcept;
 
@@ -217,6 +229,10 @@ class Backend final : public hal::Backend {
   std::uint64_t ans_id_ = 0;
   std::uint64_t ans_ns_ = 0;
   std::uint64_t taken_id_ = 0;
+  bool dc_ = false;
+  int dc_reference_ = 0;
+  std::atomic<std::int64_t> dc_phase_ns_{0};
+  std::atomic<std::int64_t> cycle_adjust_ns_{0};
 };
 
 }  // namespace safestate::hal::ethercat

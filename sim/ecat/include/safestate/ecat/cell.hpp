@@ -79,6 +79,7 @@ class EmulatedCell {
   // Idle work: watchdogs, and free-running physics when the master is silent.
   void poll(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
+  [[nodiscard]] std::uint64_t now() const noexcept { return now_ns_; }
   void step() noexcept;  // one plant cycle on the outputs the subdevices hold
   // The input terminals show a changed contact at once, as real ones do between cycles.
   void latch_inputs() noexcept;

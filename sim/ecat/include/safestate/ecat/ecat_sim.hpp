@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "safestate/ecat/cell.hpp"
 
@@ -26,7 +27,15 @@ struct EcatSimOptions {
   std::string product_override;  // "POS=PRODUCT": a subdevice with another product code (tests)
   std::string revision_override;  // "POS=REVISION": a subdevice with another revision (tests)
   std::string sdo_refuse;  // "POS INDEX:SUB ABORT": that drive refuses SDO downloads there from power-on (tests)
+  std::string drift_ppm;   // "P" (every clock) or "P1,...,P8": the local clocks' drifts (ppm, -500..500)
+  // The drives also accept OP without DC SYNC0 (SM-synchronous), as drives whose ESI offers a
+  // free-run OpMode besides DC: for masters that configure no DC (kickcat's Python binding).
+  bool drives_free_run = false;
 };
+
+// `--drift-ppm`: one value for every subdevice or one per subdevice, each -500..500 ppm.
+// False (and `err` says why) on anything else; `out` then unchanged.
+bool parse_drift_ppm(const std::string& spec, std::size_t subdevices, std::vector<double>& out, std::string& err);
 
 // One control line -> "OK" or "ERROR <why>"; `status` -> one JSON object. Exposed for tests.
 std::string control_line(EmulatedCell& cell, const std::string& line);

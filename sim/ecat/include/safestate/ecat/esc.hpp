@@ -40,6 +40,23 @@ inline constexpr std::uint16_t eep_address = 0x0504;
 inline constexpr std::uint16_t eep_data = 0x0508;
 inline constexpr std::uint16_t fmmu = 0x0600;
 inline constexpr std::uint16_t sm = 0x0800;
+// Distributed clocks (ETG.1000.4 6.8, the ESC datasheets' DC chapter).
+inline constexpr std::uint16_t dc_recv_port0 = 0x0900;   // 4 x 32-bit receive times, latched by a write here
+inline constexpr std::uint16_t dc_system_time = 0x0910;  // 64-bit; a write is the drift-control input
+inline constexpr std::uint16_t dc_recv_pu = 0x0918;      // 64-bit receive time of the processing unit
+inline constexpr std::uint16_t dc_offset = 0x0920;       // 64-bit system time offset
+inline constexpr std::uint16_t dc_delay = 0x0928;        // 32-bit system time delay (from the reference)
+inline constexpr std::uint16_t dc_diff = 0x092C;         // 32-bit system time difference (bit 31: local smaller)
+inline constexpr std::uint16_t dc_speed_start = 0x0930;  // speed counter start: a write resets the control loop
+inline constexpr std::uint16_t dc_speed_diff = 0x0932;
+inline constexpr std::uint16_t dc_cyclic_unit = 0x0980;  // AssignActivate low byte
+inline constexpr std::uint16_t dc_activation = 0x0981;   // bit 0 cyclic operation, bit 1 SYNC0, bit 2 SYNC1
+inline constexpr std::uint16_t dc_activation_status = 0x0984;
+inline constexpr std::uint16_t dc_sync0_status = 0x098E;
+inline constexpr std::uint16_t dc_start_time = 0x0990;   // 64-bit start time of cyclic operation (system time)
+inline constexpr std::uint16_t dc_next_sync1 = 0x0998;
+inline constexpr std::uint16_t dc_sync0_cycle = 0x09A0;  // 32-bit, ns
+inline constexpr std::uint16_t dc_sync1_cycle = 0x09A4;
 inline constexpr std::uint16_t process_ram = 0x1000;
 }  // namespace reg
 
@@ -61,6 +78,12 @@ inline constexpr std::uint16_t invalid_output_config = 0x001D;
 inline constexpr std::uint16_t invalid_input_config = 0x001E;
 inline constexpr std::uint16_t inconsistent_settings = 0x0026;  // 0x6060 is not CSP
 inline constexpr std::uint16_t invalid_sync_cycle = 0x0035;     // 0x60C2 is not the drive's cycle
+// ETG.1000.6 table 11 (ETG.1020, synchronisation): a subdevice that needs DC SYNC0 in its
+// operation mode and finds it not activated (0x0981), without a cycle (0x09A0 = 0) or with a
+// start time already past is refused SAFE-OP -> OP with "invalid DC SYNC configuration";
+// a SYNC0 cycle other than the drive's cycle with "DC Sync0 cycle time".
+inline constexpr std::uint16_t invalid_dc_sync_config = 0x0030;
+inline constexpr std::uint16_t dc_sync0_cycle_time = 0x0036;
 }  // namespace al_code
 
 // One object entry of a PDO (SII PDO category entry, ETG.2010 table 15). index 0 = padding.
@@ -95,6 +118,29 @@ struct SubdeviceDesc {
   bool mailbox = false;
   std::uint32_t device_type = 0;  // 0x1000
   std::uint32_t cycle_us = 1000;  // the drive's cycle: 0x60C2 must equal it before SAFE-OP
+  // Its operation mode needs DC SYNC0 (the ESI's OpMode "DC", AssignActivate 0x0300): no OP
+  // without SYNC0 active at its cycle (AL status code 0x0030 / 0x0036). The I/O terminals
+  // run free (SM-synchronous); every emulated ESC has a DC unit (can be the reference clock).
+  bool dc_sync0_required = false;
+};
+
+// One subdevice's distributed-clock figures as the emulation sees them from outside (the
+// "truth" no real ESC can report): its sync error against the reference clock's system
+// time at the same instant, sampled at every process-data frame while its SYNC0 runs, and
+// the SYNC0 events that took (or missed) a set-point.
+struct DcStats {
+  static constexpr std::size_t kBuckets = 2001;  // |error| in 10-ns buckets up to 20 us, the last = more
+  std::uint64_t samples = 0;
+  std::int64_t last_ns = 0;
+  std::uint64_t max_abs_ns = 0;
+  std::array<std::uint32_t, kBuckets> hist{};
+  std::uint64_t latched = 0;      // set-points taken by a SYNC0 (one per frame that reached it in time)
+  std::uint64_t overwritten = 0;  // a set-point replaced by the next frame before any SYNC0 took it
+  std::uint64_t missed = 0;       // SYNC0 events that found no new set-point (a late or lost frame)
+  std::int64_t last_lead_ns = 0;  // how long before the SYNC0 that takes it the last set-point arrived
+  std::int64_t min_lead_ns = 0;
+  void record(std::int64_t err_ns) noexcept;
+  [[nodiscard]] std::uint64_t percentile_ns(double p) const noexcept;  // its 10-ns bucket's top (at most the max)
 };
 
 inline constexpr std::uint16_t kMailboxOut = 0x1000;  // master -> subdevice (SM0)
@@ -139,6 +185,28 @@ class Esc {
   // Its time as the registers hold it: (0x0400 divider + 2) x 40 ns x 0x0420.
   [[nodiscard]] std::uint64_t watchdog_ns() const noexcept;
 
+  // Distributed clocks. The local clock runs from power-on at (1 + drift) times the host's
+  // monotonic clock in 10-ns ticks (a 100 MHz ESC clock); system time = local time + offset
+  // (0x0920) + the drift-control correction. `now_ns` is the host time at which the frame
+  // reaches this ESC (the segment adds the forwarding delay of the subdevices before it).
+  void set_drift_ppm(double ppm) noexcept { drift_ppm_ = ppm; }
+  [[nodiscard]] double drift_ppm() const noexcept { return drift_ppm_; }
+  // Power-on this long before the first frame that reaches it (distinct local times per ESC).
+  void set_power_on_lag_ns(std::uint64_t ns) noexcept { power_lag_ns_ = ns; }
+  // The loop time through the subdevices behind it (its port 1), 0 when port 1 is closed.
+  void set_downstream_loop_ns(std::uint64_t ns) noexcept { downstream_ns_ = ns; }
+  void dc_at(std::uint64_t now_ns) noexcept;  // brings the DC registers to this instant
+  [[nodiscard]] std::uint64_t local_time(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] std::uint64_t system_time(std::uint64_t now_ns) noexcept;
+  // SYNC0 generated: cyclic operation and SYNC0 activated with a cycle, its start reached.
+  [[nodiscard]] bool sync0_running(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] bool sync0_activated() const noexcept;
+  [[nodiscard]] std::uint32_t sync0_cycle_ns() const noexcept;
+  // The drift-control loop's rate correction (its integral part), ppm.
+  [[nodiscard]] double rate_correction_ppm() const noexcept { return rate_i_ * 1e6; }
+  DcStats& dc_stats() noexcept { return dc_stats_; }
+  [[nodiscard]] const DcStats& dc_stats() const noexcept { return dc_stats_; }
+
   [[nodiscard]] AlState state() const noexcept;
   [[nodiscard]] std::uint16_t al_status_code() const noexcept;
   [[nodiscard]] std::uint16_t station_address() const noexcept;
@@ -161,11 +229,23 @@ class Esc {
   [[nodiscard]] bool mailbox_configured() const noexcept;
   [[nodiscard]] std::uint16_t preop_to_safeop_error() const noexcept;
   void set_al(std::uint8_t state, bool error, std::uint16_t code) noexcept;
-  void on_al_control() noexcept;
+  [[nodiscard]] std::uint16_t dc_op_error(std::uint64_t now_ns) noexcept;
+  void dc_latch_receive_times(std::uint64_t now_ns) noexcept;
+  void dc_control(std::span<const std::uint8_t> written, std::size_t first, std::uint64_t now_ns) noexcept;
+  void dc_reset_loop(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] double slewed(double since) const noexcept;
+  void anchor(std::uint64_t now_ns) noexcept;
+  void dc_setpoint_taken(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] std::uint64_t u64(std::uint16_t a) const noexcept;
+  void put64(std::uint16_t a, std::uint64_t v) noexcept;
+  void on_al_control(std::uint64_t now_ns) noexcept;
   void on_eeprom_control() noexcept;
   [[nodiscard]] std::uint16_t transition_error(AlState from, std::uint8_t to) const noexcept;
   [[nodiscard]] bool sm_matches(std::uint16_t start, std::size_t bytes) const noexcept;
   [[nodiscard]] std::uint16_t u16(std::uint16_t a) const noexcept;
+  [[nodiscard]] std::uint32_t u32(std::uint16_t a) const noexcept {
+    return static_cast<std::uint32_t>(u16(a)) | (static_cast<std::uint32_t>(u16(static_cast<std::uint16_t>(a + 2U))) << 16U);
+  }
   void put16(std::uint16_t a, std::uint16_t v) noexcept;
 
   SubdeviceDesc desc_;
@@ -175,6 +255,22 @@ class Esc {
   std::uint64_t last_output_ns_ = 0;
   coe::Dictionary od_;
   std::uint8_t mailbox_counter_ = 0;
+  // Distributed clocks.
+  double drift_ppm_ = 0.0;
+  std::uint64_t power_lag_ns_ = 0;
+  std::uint64_t downstream_ns_ = 0;
+  bool powered_ = false;           // the host time of power-on is taken at the first frame
+  std::uint64_t power_ns_ = 0;
+  double corr_ns_ = 0.0;           // the drift-control correction at corr_host_ns_
+  std::uint64_t corr_host_ns_ = 0;
+  double slew_left_ns_ = 0.0;      // the proportional correction still to slew out
+  double rate_i_ = 0.0;            // the integral part: a rate correction (parts)
+  std::uint64_t last_ctl_ns_ = 0;  // host time of the last drift-control input
+  bool pending_op_ = false;        // OP requested, waiting for the first SYNC0
+  bool sync0_armed_ = false;       // activated with a start time still ahead (else it never starts)
+  bool sync0_started_ = false;     // its first pulse has fired (until deactivated or reset)
+  std::uint64_t last_sync0_k_ = 0; // the SYNC0 event that took the last set-point (+1; 0 = none)
+  DcStats dc_stats_{};
 };
 
 }  // namespace safestate::ecat

@@ -15,6 +15,12 @@
 namespace safestate::ecat {
 
 inline constexpr std::uint16_t kEtherTypeEcat = 0x88A4;
+// The time a frame takes from one emulated subdevice to the next (forwarding through an ESC
+// and its cable), the same both ways: what the master's propagation-delay measurement finds.
+inline constexpr std::uint64_t kHopNs = 800;
+// The emulated clocks' default drifts (ppm, by position): a few tens, both signs, as quartz
+// oscillators of +-50 ppm are; `ecat-sim --drift-ppm` sets others.
+inline constexpr double kDefaultDriftPpm[] = {12.0, -25.0, 31.0, -8.0, 45.0, -37.0, 19.0, -14.0};
 
 enum class Cmd : std::uint8_t {
   NOP = 0, APRD, APWR, APRW, FPRD, FPWR, FPRW, BRD, BWR, BRW, LRD, LWR, LRW, ARMW, FRMW
@@ -32,7 +38,13 @@ class Segment {
   // (not EtherCAT, malformed, dropped, or nothing connected).
   bool process(std::span<std::uint8_t> frame, std::uint64_t now_ns) noexcept;
 
-  void poll(std::uint64_t now_ns) noexcept;  // process-data watchdogs
+  void poll(std::uint64_t now_ns) noexcept;  // process-data watchdogs, DC (pending OP)
+  // The position (0-based) of the DC reference clock: the first connected subdevice with a
+  // DC unit (every emulated ESC has one, so the first), or size() when none is connected.
+  [[nodiscard]] std::size_t dc_reference() const noexcept { return connected() > 0U ? 0U : escs_.size(); }
+  // The sync error of subdevice `i` at host time `now_ns`: its system time minus the
+  // reference clock's at the same instant (ns).
+  [[nodiscard]] std::int64_t sync_error_ns(std::size_t i, std::uint64_t now_ns) noexcept;
 
   // Wire faults.
   void cut_before(std::size_t position) noexcept;  // 1-based; 0 = every cable plugged
@@ -74,6 +86,7 @@ class Segment {
   void logical(Cmd c, std::uint32_t addr, std::span<std::uint8_t> data, std::uint16_t& wkc, std::uint64_t now_ns,
                bool& pd_written) noexcept;
   void update_dl_status() noexcept;
+  void sample_sync_errors(std::uint64_t now_ns) noexcept;
 
   std::vector<Esc> escs_;
   std::size_t cut_ = 0;
