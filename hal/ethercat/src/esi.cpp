@@ -199,8 +199,11 @@ bool read_pdo(Reader& r, const pugi::xml_node& p, const std::string& where, Pdo&
   return true;
 }
 
-// "08", "e803", "fd": the bytes of the value, little-endian, as ESI InitCmds write them.
-bool init_cmd(Reader& r, const pugi::xml_node& c, const std::string& where, Device& d) {
+// One <InitCmd>: IP (INIT -> PRE-OP) and PS (PRE-OP -> SAFE-OP) commands become the start-up
+// list, which our master writes in PRE-OP; the others (SO, OS, ...: writes in SAFE-OP or
+// on the way down) are skipped with a warning. <Data> "08", "e803", "fd": the value's bytes,
+// little-endian.
+bool init_cmd(Reader& r, const pugi::xml_node& c, const std::string& where, Device& d, std::size_t& ip_count) {
   std::vector<std::string> transitions;
   for (const pugi::xml_node& t : c.children("Transition")) {
     transitions.push_back(trim(t.child_value()));
@@ -220,13 +223,15 @@ bool init_cmd(Reader& r, const pugi::xml_node& c, const std::string& where, Devi
     return false;
   }
   const std::string obj = where + " (" + hex(index, 4) + ":" + std::to_string(sub) + ")";
-  if (std::find(transitions.begin(), transitions.end(), "PS") == transitions.end()) {
+  const bool ip = std::find(transitions.begin(), transitions.end(), "IP") != transitions.end();
+  const bool ps = std::find(transitions.begin(), transitions.end(), "PS") != transitions.end();
+  if (!ip && !ps) {
     std::string ts;
     for (const std::string& t : transitions) {
       ts += (ts.empty() ? "" : ",") + t;
     }
     r.warn(c, obj + ": transition " + (ts.empty() ? "(none)" : ts) +
-                  " skipped: only PS (PRE-OP -> SAFE-OP) start-up commands are written by the master");
+                  " skipped: the master writes the start-up list in PRE-OP, so only IP and PS commands are taken");
     return true;
   }
   if (c.attribute("CompleteAccess").as_bool(false)) {
@@ -260,7 +265,13 @@ bool init_cmd(Reader& r, const pugi::xml_node& c, const std::string& where, Devi
   for (std::size_t i = 0; i < n; ++i) {
     s.value |= static_cast<std::uint32_t>(std::stoul(hexs.substr(i * 2U, 2), nullptr, 16)) << (8U * i);
   }
-  d.startup.push_back(s);
+  // IP commands go before the PS ones, as a master sends them (INIT->PRE-OP first); each in file order.
+  if (ip) {
+    d.startup.insert(d.startup.begin() + static_cast<std::ptrdiff_t>(ip_count), s);
+    ++ip_count;
+  } else {
+    d.startup.push_back(s);
+  }
   return true;
 }
 
@@ -362,8 +373,9 @@ bool read_device(Reader& r, const pugi::xml_node& dev, std::uint32_t vendor, Dev
   const pugi::xml_node coe = dev.child("Mailbox").child("CoE");
   d.coe = static_cast<bool>(coe);
   int k = 0;
+  std::size_t ip_count = 0;
   for (const pugi::xml_node& c : coe.children("InitCmd")) {
-    if (!init_cmd(r, c, where + " <Mailbox><CoE><InitCmd> " + std::to_string(++k), d)) {
+    if (!init_cmd(r, c, where + " <Mailbox><CoE><InitCmd> " + std::to_string(++k), d, ip_count)) {
       return false;
     }
   }
@@ -691,10 +703,6 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
         pdo[o.key] = off;
       }
       s["pdo"] = pdo;
-      if (!d.coe && !d.startup.empty()) {
-        err = where + ": start-up commands without a CoE mailbox";
-        return false;
-      }
     } else {
       OJson in_bits;
       OJson out_bits;

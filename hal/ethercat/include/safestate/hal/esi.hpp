@@ -59,7 +59,8 @@ struct Device {
   std::vector<Pdo> rx;  // outputs (master -> subdevice)
   std::vector<Pdo> tx;  // inputs
   bool coe = false;     // <Mailbox><CoE>
-  // <Mailbox><CoE><InitCmd> with Transition PS: the start-up list, in file order.
+  // <Mailbox><CoE><InitCmd> with Transition IP or PS: the start-up list (the IP ones first,
+  // each in file order).
   std::vector<ethercat::StartupSdo> startup;
   // <Dc><OpMode>: the first mode with a non-zero AssignActivate (0 = no DC mode) and its
   // ShiftTimeSync0 in ns (0 when absent).
