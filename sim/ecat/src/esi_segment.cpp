@@ -1,6 +1,6 @@
 #include "safestate/ecat/esi_segment.hpp"
 
-#include <cstdio>
+#include <algorithm>
 
 #include "safestate/ecat/cell.hpp"
 
@@ -97,18 +97,19 @@ bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err) {
   if (!hal::esi::parse_esi(hal::esi::builtin_esi(), hal::esi::kBuiltinEsiName, lib, err, warnings)) {
     return false;
   }
+  // The line of default_segment(): the DI terminal, the DO terminal, then one drive per axis.
+  std::vector<std::uint32_t> products{kProductDigitalIn, kProductDigitalOut};
+  products.insert(products.end(), hal::kAxes, kProductDrive);
   std::vector<const hal::esi::Device*> bus;
-  const std::string drives = "0x" + [] {
-    char b[16];
-    std::snprintf(b, sizeof b, "%08X", kProductDrive);
-    return std::string(b);
-  }();
-  char di[16];
-  char dout[16];
-  std::snprintf(di, sizeof di, "0x%08X", kProductDigitalIn);
-  std::snprintf(dout, sizeof dout, "0x%08X", kProductDigitalOut);
-  if (!hal::esi::resolve_bus(lib, {di, dout, drives + "*" + std::to_string(hal::kAxes)}, bus, err)) {
-    return false;
+  for (const std::uint32_t product : products) {
+    const auto it = std::find_if(lib.begin(), lib.end(), [&](const hal::esi::Device& d) {
+      return d.vendor_id == kVendorId && d.product_code == product && d.revision == kRevision;
+    });
+    if (it == lib.end()) {
+      err = std::string(hal::esi::kBuiltinEsiName) + ": no device of product " + std::to_string(product);
+      return false;
+    }
+    bus.push_back(&*it);
   }
   std::vector<SubdeviceDesc> v;
   for (std::size_t i = 0; i < bus.size(); ++i) {
