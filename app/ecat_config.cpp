@@ -91,6 +91,9 @@ int ecat_config_main(const EcatConfigOptions& opt) {
   }
   std::vector<const hal::esi::Device*> bus;
   std::string err;
+  if (!hal::esi::check_library(library, err)) {
+    return refuse(err);
+  }
   std::string source;
   if (!opt.scan.empty()) {
     std::vector<hal::esi::Identity> found;

@@ -88,6 +88,7 @@ with tempfile.TemporaryDirectory() as tmp:
                          (("--esi", ESI, "--counts-per-rev", "1048576"), "give the bus order"),
                          (("--esi", ESI, "--device", "0x00402001*6"), "give --counts-per-rev N"),
                          (("--esi", ESI, "--device", "0x99"), "--device 0x99: no device of the ESI files"),
+                         (("--esi", ESI, ESI, "--device", "0x00D10018"), "is already described at " + ESI),
                          (("--esi", os.path.join(tmp, "missing.xml"), "--device", "0x1"), "missing.xml: cannot read the file"),
                          (("--esi", ESI, "--device", "0x00D10018", "--counts-per-rev", "1048576"),
                           "the configuration made from these devices is refused: subdevices: no drive for axis 1")]:

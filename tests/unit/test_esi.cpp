@@ -395,6 +395,19 @@ TEST(EsiBus, DeviceSpecs) {
                   "described by none of the ESI files");
 }
 
+TEST(EsiBad, OneDeviceDescribedTwice) {
+  std::vector<esi::Device> lib;
+  std::vector<std::string> warnings;
+  std::string err;
+  ASSERT_TRUE(esi::parse_esi(builtin(), "a.xml", lib, err, warnings)) << err;
+  EXPECT_TRUE(esi::check_library(lib, err)) << err;
+  ASSERT_TRUE(esi::parse_esi(builtin(), "b.xml", lib, err, warnings)) << err;
+  EXPECT_FALSE(esi::check_library(lib, err));
+  const std::string line = std::to_string(line_of(builtin(), "<Device Physics=\"YY\">\n        <Type ProductCode=\"#x00D10018\""));
+  EXPECT_EQ(err, "b.xml:" + line + ": <Device> \"SS-EMU-DI24\" (vendor 0x00005AFE product 0x00D10018 rev 0x00010000) is "
+                 "already described at a.xml:" + line + ": give each device once");
+}
+
 TEST(EsiBad, UnreadableFile) {
   std::vector<esi::Device> lib;
   std::vector<std::string> warnings;

@@ -466,6 +466,22 @@ bool load_esi(const std::string& path, std::vector<Device>& out, std::string& er
   return parse_esi(ss.str(), path, out, err, warnings);
 }
 
+bool check_library(const std::vector<Device>& library, std::string& err) {
+  for (std::size_t i = 0; i < library.size(); ++i) {
+    for (std::size_t k = 0; k < i; ++k) {
+      const Device& a = library[k];
+      const Device& b = library[i];
+      if (a.vendor_id == b.vendor_id && a.product_code == b.product_code && a.revision == b.revision) {
+        err = b.file + ":" + std::to_string(b.line) + ": <Device> \"" + b.type + "\" (vendor " + hex(b.vendor_id) +
+              " product " + hex(b.product_code) + " rev " + hex(b.revision) + ") is already described at " + a.file +
+              ":" + std::to_string(a.line) + ": give each device once";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 Image image(const Device& d) {
   Image im;
   // Per direction: the sync managers in order, each one's assigned PDOs in file order.

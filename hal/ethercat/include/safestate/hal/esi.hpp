@@ -92,6 +92,10 @@ bool parse_esi(const std::string& text, const std::string& file, std::vector<Dev
                std::vector<std::string>& warnings);
 bool load_esi(const std::string& path, std::vector<Device>& out, std::string& err, std::vector<std::string>& warnings);
 
+// Refuses a library in which two devices have the same identity (vendor, product, revision):
+// the same file given twice, or two files describing one device; the error names both.
+bool check_library(const std::vector<Device>& library, std::string& err);
+
 // The ESI of the emulated segment (hal/ethercat/esi/SafeState-Emulated.xml), built in.
 const char* builtin_esi() noexcept;
 inline constexpr const char* kBuiltinEsiName = "hal/ethercat/esi/SafeState-Emulated.xml";
