@@ -408,6 +408,28 @@ TEST(EsiBad, OneDeviceDescribedTwice) {
                  "already described at a.xml:" + line + ": give each device once");
 }
 
+// Vendors' files are often ISO 8859-1 (spelt "ISO8859-1"): names come out as UTF-8. A file
+// that says UTF-8 but is not still gives a valid configuration (U+FFFD in the name).
+TEST(EsiEmulated, Latin1FilesAndStrayBytes) {
+  std::string text = with(builtin(), "<?xml version=\"1.0\" encoding=\"UTF-8\"?>",
+                          "<?xml version=\"1.0\" encoding=\"ISO8859-1\"?>");
+  text = with(text, "SafeState emu DI24 safety contacts", "DI24 24 V \xB1 10 %");
+  std::vector<esi::Device> lib;
+  std::vector<std::string> warnings;
+  std::string err;
+  ASSERT_TRUE(esi::parse_esi(text, "latin1.xml", lib, err, warnings)) << err;
+  ASSERT_EQ(lib.size(), 3U);
+  EXPECT_EQ(lib[0].name, "DI24 24 V \xC2\xB1 10 %");
+  EXPECT_EQ(lib[2].line, line_of(text, "<Device Physics=\"YY\">\n        <Type ProductCode=\"#x00402001\""));
+
+  const std::string stray = with(builtin(), "SafeState emu DI24 safety contacts", "DI24 \xB1");
+  std::string json;
+  ASSERT_TRUE(generate(stray, json, err, warnings)) << err;
+  ethercat::BusConfig c;
+  ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
+  EXPECT_EQ(c.subdevices[0].name, "DI24 \xEF\xBF\xBD");
+}
+
 TEST(EsiBad, UnreadableFile) {
   std::vector<esi::Device> lib;
   std::vector<std::string> warnings;

@@ -104,7 +104,8 @@ class Reader {
       } else if (base == 16 && c >= 'A' && c <= 'F') {
         d = c - 'A' + 10;
       }
-      if (d < 0 || v > (max - static_cast<std::uint64_t>(d)) / static_cast<std::uint64_t>(base)) {
+      if (d < 0 || static_cast<std::uint64_t>(d) > max ||
+          v > (max - static_cast<std::uint64_t>(d)) / static_cast<std::uint64_t>(base)) {
         return false;
       }
       v = v * static_cast<std::uint64_t>(base) + static_cast<std::uint64_t>(d);
@@ -408,12 +409,53 @@ std::string Device::label() const {
          std::to_string(line) + ")";
 }
 
-bool parse_esi(const std::string& text, const std::string& file, std::vector<Device>& out, std::string& err,
+namespace {
+
+// Vendors' ESI files are often ISO 8859-1 ("ISO8859-1", a spelling pugixml does not detect by
+// itself): such a file is converted to UTF-8 first, so that names stay readable (and valid in
+// the JSON made from them) and line numbers are counted in the text that was parsed.
+std::string as_utf8(const std::string& text) {
+  const auto end = text.find("?>");
+  if (text.rfind("<?xml", 0) != 0 || end == std::string::npos) {
+    return text;
+  }
+  std::string decl = text.substr(0, end);
+  std::transform(decl.begin(), decl.end(), decl.begin(), [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); });
+  const auto at = decl.find("encoding");
+  if (at == std::string::npos) {
+    return text;
+  }
+  const std::string enc = decl.substr(at);
+  const bool latin1 = enc.find("8859-1") != std::string::npos || enc.find("latin1") != std::string::npos ||
+                      enc.find("latin-1") != std::string::npos || enc.find("1252") != std::string::npos;
+  if (!latin1) {
+    return text;
+  }
+  std::string out;
+  out.reserve(text.size() + text.size() / 8U);
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x80U) {
+      out.push_back(ch);
+    } else {
+      out.push_back(static_cast<char>(0xC0U | (c >> 6U)));
+      out.push_back(static_cast<char>(0x80U | (c & 0x3FU)));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+bool parse_esi(const std::string& raw, const std::string& file, std::vector<Device>& out, std::string& err,
                std::vector<std::string>& warnings) {
+  const std::string text = as_utf8(raw);
+  const bool converted = text.size() != raw.size();
   Reader r(text, file);
   pugi::xml_document doc;
-  const pugi::xml_parse_result res =
-      doc.load_buffer(text.data(), text.size(), pugi::parse_default & ~pugi::parse_eol);
+  // Converted text is UTF-8 now; its declaration still names the old encoding, so say it.
+  const pugi::xml_parse_result res = doc.load_buffer(text.data(), text.size(), pugi::parse_default & ~pugi::parse_eol,
+                                                     converted ? pugi::encoding_utf8 : pugi::encoding_auto);
   if (!res) {
     err = file + ":" + std::to_string(r.line_at(res.offset)) + ": not well-formed XML: " + res.description();
     return false;
@@ -772,7 +814,9 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
     root["sync0_shift_us"] = (shift_ns + 999U) / 1000U;
   }
   root["subdevices"] = subs;
-  std::string text = root.dump(2);
+  // A name with bytes that are not UTF-8 (a file that says UTF-8 but is not) is written with
+  // U+FFFD in their place rather than refused: names are labels.
+  std::string text = root.dump(2, ' ', false, OJson::error_handler_t::replace);
   ethercat::BusConfig check;
   std::string why;
   if (!ethercat::parse_bus_config(text, check, why)) {
