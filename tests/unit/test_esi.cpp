@@ -39,13 +39,23 @@ int line_of(const std::string& text, const std::string& needle) {
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
 }
 
-// The error of reading `text` as "bad.xml" (which must fail and leave the library as it was).
+// The error of reading `text` as "bad.xml" and making the emulated segment's bus of it. A
+// mistake of the document or of an identity refuses the file (and leaves the library as it
+// was); one further inside a device is that device's error, refused when the bus uses it.
 std::string esi_error(const std::string& text) {
   std::vector<esi::Device> lib(1);
   std::vector<std::string> warnings;
   std::string err;
-  EXPECT_FALSE(esi::parse_esi(text, "bad.xml", lib, err, warnings));
-  EXPECT_EQ(lib.size(), 1U) << "a refused file added devices";
+  if (!esi::parse_esi(text, "bad.xml", lib, err, warnings)) {
+    EXPECT_EQ(lib.size(), 1U) << "a refused file added devices";
+    return err;
+  }
+  EXPECT_TRUE(err.empty());
+  lib.erase(lib.begin());
+  const bool some_refused = std::any_of(lib.begin(), lib.end(), [](const esi::Device& d) { return !d.error.empty(); });
+  EXPECT_TRUE(some_refused) << "no device of the file was refused";
+  std::vector<const esi::Device*> bus;
+  EXPECT_FALSE(esi::resolve_bus(lib, kBusOrder, bus, err));
   return err;
 }
 
@@ -328,10 +338,50 @@ TEST(EsiWarn, InitCmdOfAnotherTransitionIsSkipped) {
   ASSERT_TRUE(esi::parse_esi(text, "w.xml", lib, err, warnings)) << err;
   ASSERT_EQ(lib.size(), 3U);
   EXPECT_EQ(lib[2].startup.size(), 3U);
-  ASSERT_EQ(warnings.size(), 1U);
+  EXPECT_TRUE(lib[0].warnings.empty());
+  ASSERT_EQ(lib[2].warnings.size(), 1U);
   const int init_cmd_line = line_of(text, "<Transition>SO") - 1;  // the <InitCmd> element above it
-  expect_has(warnings[0], "w.xml:" + std::to_string(init_cmd_line) +
+  expect_has(lib[2].warnings[0], "w.xml:" + std::to_string(init_cmd_line) +
                               ": <Device> \"SS-EMU-CSP\" <Mailbox><CoE><InitCmd> 4 (0x6072:0): transition SO skipped");
+}
+
+// A device's warnings are reported once when the bus uses it (six drives, one warning).
+TEST(EsiWarn, ReportedOncePerDeviceUsed) {
+  const std::string text = with(builtin(), "<Transition>PS</Transition>\n              <Index>#x6072</Index>",
+                                "<Transition>SO</Transition>\n              <Index>#x6072</Index>");
+  std::string json;
+  std::string err;
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(generate(text, json, err, warnings)) << err;
+  ASSERT_EQ(warnings.size(), 1U);
+  expect_has(warnings[0], "transition SO skipped");
+}
+
+// One odd device does not make the rest of its file unusable: it is refused when used.
+TEST(EsiBad, OneBadDeviceOnlyRefusedWhenUsed) {
+  const std::string text = with(builtin(), "<Name>contactor</Name><DataType>BOOL</DataType>",
+                                "<Name>contactor</Name><DataType>STRING(1)</DataType>");
+  std::vector<esi::Device> lib;
+  std::vector<std::string> warnings;
+  std::string err;
+  ASSERT_TRUE(esi::parse_esi(text, "lib.xml", lib, err, warnings)) << err;
+  ASSERT_EQ(lib.size(), 3U);
+  EXPECT_TRUE(lib[0].error.empty());
+  EXPECT_TRUE(lib[2].error.empty());
+  expect_has(lib[1].error, "lib.xml:" + std::to_string(line_of(text, "STRING(1)")) +
+                               ": <Device> \"SS-EMU-DO3\" <RxPdo> 0x1600 <Entry> 1 (0x7000:1 \"contactor\"): unknown or "
+                               "unsupported <DataType> \"STRING(1)\"");
+  std::vector<const esi::Device*> bus;
+  EXPECT_TRUE(esi::resolve_bus(lib, {"0x00D10018", "0x00402001*6"}, bus, err)) << err;
+  EXPECT_EQ(bus.size(), 7U);
+  EXPECT_FALSE(esi::resolve_bus(lib, {"0x00D00003"}, bus, err));
+  expect_has(err, "--device 0x00D00003: lib.xml:");
+  EXPECT_EQ(bus.size(), 7U);  // refused: unchanged
+  EXPECT_FALSE(esi::resolve_scanned(lib, {{0x5AFE, 0x00D10018, 0x00010000}, {0x5AFE, 0x00D00003, 0x00010000}}, bus, err));
+  expect_has(err, "subdevice 2 on the segment: lib.xml:");
+  safestate::ecat::SubdeviceDesc desc;
+  EXPECT_FALSE(safestate::ecat::desc_from_esi(lib[1], 2, desc, err));
+  expect_has(err, "unknown or unsupported <DataType> \"STRING(1)\"");
 }
 
 TEST(EsiBad, RolesFromNames) {

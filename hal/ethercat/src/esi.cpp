@@ -306,6 +306,14 @@ bool read_device(Reader& r, const pugi::xml_node& dev, std::uint32_t vendor, Dev
       d.name = trim(n.child_value());
     }
   }
+  return true;
+}
+
+// The rest of a device: a mistake here makes that device unusable (Device::error), not the
+// whole file, so that one odd device in a vendor's file of hundreds does not block the others.
+bool read_body(Reader& r, const pugi::xml_node& dev, Device& d) {
+  const std::string where = "<Device> \"" + d.type + "\"";
+  std::uint64_t v = 0;
   // <Profile><ProfileNo>, also inside <ChannelInfo> (one per channel of a multi-axis device).
   int drives = 0;
   for (const pugi::xml_node& prof : dev.children("Profile")) {
@@ -485,6 +493,12 @@ bool parse_esi(const std::string& raw, const std::string& file, std::vector<Devi
       err = r.err;
       return false;
     }
+    r.warnings.clear();
+    if (!read_body(r, dev, d)) {
+      d.error = r.err;
+      r.err.clear();
+    }
+    d.warnings = r.warnings;
     got.push_back(std::move(d));
   }
   if (got.empty()) {
@@ -493,7 +507,7 @@ bool parse_esi(const std::string& raw, const std::string& file, std::vector<Devi
     return false;
   }
   out.insert(out.end(), got.begin(), got.end());
-  warnings.insert(warnings.end(), r.warnings.begin(), r.warnings.end());
+  (void)warnings;  // the devices' own warnings are reported when a device is used (make_bus_config)
   return true;
 }
 
@@ -624,6 +638,10 @@ bool resolve_bus(const std::vector<Device>& library, const std::vector<std::stri
       err += "): name the revision (PRODUCT/REVISION)";
       return false;
     }
+    if (!match.front()->error.empty()) {
+      err = "--device " + spec + ": " + match.front()->error;
+      return false;
+    }
     out.insert(out.end(), count, match.front());
   }
   if (out.size() > 16U) {
@@ -645,6 +663,10 @@ bool resolve_scanned(const std::vector<Device>& library, const std::vector<Ident
     if (it == library.end()) {
       err = "subdevice " + std::to_string(i + 1U) + " on the segment (vendor " + hex(id.vendor_id) + " product " +
             hex(id.product_code) + " revision " + hex(id.revision) + ") is described by none of the ESI files";
+      return false;
+    }
+    if (!it->error.empty()) {
+      err = "subdevice " + std::to_string(i + 1U) + " on the segment: " + it->error;
       return false;
     }
     out.push_back(&*it);
@@ -711,9 +733,17 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
   std::uint32_t axis = 0;
   std::uint32_t shift_ns = 0;
   bool shift_set = false;
+  std::set<const Device*> reported;
   for (std::size_t i = 0; i < bus.size(); ++i) {
     const Device& d = *bus[i];
     const std::string where = "subdevice " + std::to_string(i + 1U) + " " + d.label();
+    if (!d.error.empty()) {
+      err = where + ": " + d.error;
+      return false;
+    }
+    if (reported.insert(&d).second) {
+      warnings.insert(warnings.end(), d.warnings.begin(), d.warnings.end());
+    }
     const Image im = image(d);
     OJson s;
     s["name"] = d.name.empty() ? d.type : d.name;

@@ -46,6 +46,10 @@ bool one_pdo(const hal::esi::Device& d, const std::vector<hal::esi::Pdo>& pdos, 
 }  // namespace
 
 bool desc_from_esi(const hal::esi::Device& d, std::uint32_t serial, SubdeviceDesc& out, std::string& err) {
+  if (!d.error.empty()) {
+    err = d.error;
+    return false;
+  }
   SubdeviceDesc s;
   s.vendor_id = d.vendor_id;
   s.product_code = d.product_code;

@@ -66,6 +66,11 @@ struct Device {
   // ShiftTimeSync0 in ns (0 when absent).
   std::uint16_t assign_activate = 0;
   std::uint32_t shift_sync0_ns = 0;
+  // A mistake in the device's description past its identity (a PDO entry, an InitCmd, ...):
+  // "FILE:LINE: what" as parse_esi's errors. Such a device is refused when the bus uses it;
+  // the other devices of its file stay usable.
+  std::string error;
+  std::vector<std::string> warnings;  // what of it is read but not used, reported when it is used
   [[nodiscard]] bool drive() const noexcept { return profile_no == 402U; }
   [[nodiscard]] std::string label() const;  // "SS-EMU-CSP (product 0x00402001 rev 0x00010000, FILE:LINE)"
 };
@@ -85,9 +90,12 @@ struct Image {
 };
 Image image(const Device& d);
 
-// Reads one ESI document (`file` names it in errors). Appends its devices to `out`;
-// warnings (what is read but not used) go to `warnings`. On error returns false with `err`
-// = "FILE:LINE: what is wrong (element)" and leaves `out` unchanged.
+// Reads one ESI document (`file` names it in errors). Appends its devices to `out`. On an
+// error of the document (not XML, not ESI, no vendor id, no devices) or of a device's
+// identity (Type, ProductCode, RevisionNo) returns false with `err` = "FILE:LINE: what is
+// wrong (element)" and leaves `out` unchanged; a mistake further inside one device is kept
+// in that Device::error (refused when the bus uses it). `warnings` is kept for the API's
+// sake: the devices carry their own (Device::warnings).
 bool parse_esi(const std::string& text, const std::string& file, std::vector<Device>& out, std::string& err,
                std::vector<std::string>& warnings);
 bool load_esi(const std::string& path, std::vector<Device>& out, std::string& err, std::vector<std::string>& warnings);
