@@ -480,6 +480,42 @@ TEST(EsiEmulated, Latin1FilesAndStrayBytes) {
   EXPECT_EQ(c.subdevices[0].name, "DI24 \xEF\xBF\xBD");
 }
 
+// Forms found in vendors' files: InitCmds inside <InitCmds>, an entry without <SubIndex>
+// (0), a negative ShiftTimeSync0 (taken as 0, with a warning), a positive one (the bus shift).
+TEST(EsiEmulated, VendorForms) {
+  std::string text = with(builtin(), "<CoE SdoInfo=\"0\" PdoAssign=\"0\" PdoConfig=\"0\" CompleteAccess=\"0\">",
+                          "<CoE SdoInfo=\"0\" PdoAssign=\"0\" PdoConfig=\"0\" CompleteAccess=\"0\"><InitCmds>");
+  text = with(text, "</CoE>", "</InitCmds></CoE>");
+  text = with(text, "<Index>#x6041</Index><SubIndex>0</SubIndex>", "<Index>#x6041</Index>");
+  const std::string negative = with(text, "<ShiftTimeSync0>0</ShiftTimeSync0>", "<ShiftTimeSync0>-1000</ShiftTimeSync0>");
+  std::vector<esi::Device> lib;
+  std::vector<std::string> warnings;
+  std::string err;
+  ASSERT_TRUE(esi::parse_esi(negative, "v.xml", lib, err, warnings)) << err;
+  ASSERT_EQ(lib.size(), 3U);
+  EXPECT_TRUE(lib[2].error.empty()) << lib[2].error;
+  EXPECT_EQ(lib[2].startup.size(), 4U);
+  EXPECT_EQ(lib[2].shift_sync0_ns, 0U);
+  ASSERT_EQ(lib[2].warnings.size(), 1U);
+  expect_has(lib[2].warnings[0], "v.xml:" + std::to_string(line_of(negative, "<ShiftTimeSync0>-1000")) +
+                                     ": <Device> \"SS-EMU-CSP\" <Dc><OpMode> \"DC\" <ShiftTimeSync0> -1000 ns: a negative "
+                                     "shift is not supported, 0 is used");
+  std::string json;
+  ASSERT_TRUE(generate(negative, json, err, warnings)) << err;
+  ethercat::BusConfig c;
+  ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
+  EXPECT_EQ(c.subdevices[2].statusword, 0U);  // 0x6041 found with subindex 0
+  EXPECT_EQ(c.sync0_shift_us, 0U);
+  ASSERT_EQ(c.subdevices[2].startup.size(), 4U);
+
+  const std::string positive = with(text, "<ShiftTimeSync0>0</ShiftTimeSync0>", "<ShiftTimeSync0>250500</ShiftTimeSync0>");
+  warnings.clear();
+  ASSERT_TRUE(generate(positive, json, err, warnings)) << err;
+  EXPECT_TRUE(warnings.empty());
+  ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
+  EXPECT_EQ(c.sync0_shift_us, 251U);  // rounded up: never earlier than the device asks
+}
+
 TEST(EsiBad, UnreadableFile) {
   std::vector<esi::Device> lib;
   std::vector<std::string> warnings;

@@ -168,11 +168,10 @@ bool read_pdo(Reader& r, const pugi::xml_node& p, const std::string& where, Pdo&
     }
     en.bits = static_cast<std::uint8_t>(v);
     if (en.index != 0U) {
+      // <SubIndex> is optional in ETG.2000 (absent = 0).
       const pugi::xml_node si = e.child("SubIndex");
-      if (!si) {
-        return r.fail(e, at + " (" + hex(en.index, 4) + "): missing <SubIndex>");
-      }
-      if (!r.number(si, at + " <SubIndex>", 255, v)) {
+      v = 0;
+      if (si && !r.number(si, at + " <SubIndex>", 255, v)) {
         return false;
       }
       en.sub = static_cast<std::uint8_t>(v);
@@ -383,8 +382,9 @@ bool read_body(Reader& r, const pugi::xml_node& dev, Device& d) {
   d.coe = static_cast<bool>(coe);
   int k = 0;
   std::size_t ip_count = 0;
-  for (const pugi::xml_node& c : coe.children("InitCmd")) {
-    if (!init_cmd(r, c, where + " <Mailbox><CoE><InitCmd> " + std::to_string(++k), d, ip_count)) {
+  // <InitCmd> directly in <CoE>, or (as many vendors' files have them) inside <InitCmds>.
+  for (const pugi::xpath_node& x : coe.select_nodes("InitCmd | InitCmds/InitCmd")) {
+    if (!init_cmd(r, x.node(), where + " <Mailbox><CoE><InitCmd> " + std::to_string(++k), d, ip_count)) {
       return false;
     }
   }
@@ -401,8 +401,17 @@ bool read_body(Reader& r, const pugi::xml_node& dev, Device& d) {
       continue;  // free run, or a later synchronous mode: the first one is the device's default
     }
     d.assign_activate = static_cast<std::uint16_t>(v);
+    // ShiftTimeSync0 (ns) may be negative in vendors' files (SYNC0 before the cycle's start):
+    // the bus-wide sync0_shift_us cannot be, so a negative one is taken as 0, with a warning.
     const pugi::xml_node shift = m.child("ShiftTimeSync0");
-    if (shift && !r.number(shift, at + " <ShiftTimeSync0>", 0xFFFFFFFFULL, v)) {
+    const std::string text = trim(shift.child_value());
+    if (shift && !text.empty() && text[0] == '-') {
+      if (!r.text_number(shift, text.substr(1), at + " <ShiftTimeSync0>", 0xFFFFFFFFULL, v)) {
+        return false;
+      }
+      r.warn(shift, at + " <ShiftTimeSync0> " + text + " ns: a negative shift is not supported, 0 is used");
+      v = 0;
+    } else if (shift && !r.number(shift, at + " <ShiftTimeSync0>", 0xFFFFFFFFULL, v)) {
       return false;
     }
     d.shift_sync0_ns = shift ? static_cast<std::uint32_t>(v) : 0U;
