@@ -1,4 +1,4 @@
-// `safestate ecat-config --esi FILE... (--device SPEC... | --scan IF) [--counts-per-rev N] [--out FILE]`:
+// `safestate ecat-config --esi FILE... (--device SPEC... | --scan IF) [--counts-per-rev N|AXIS=N...] [--out FILE]`:
 // ETG.2000 ESI files -> the bus configuration of `safestate run --fieldbus ethercat
 // --bus-config FILE` (docs/ethercat.md "ESI"). Exit 0 written, 2 bad input (nothing written).
 #include <CLI/CLI.hpp>
@@ -31,7 +31,7 @@ struct EcatConfigOptions {
   std::vector<std::string> esi;
   std::vector<std::string> devices;
   std::string scan;
-  std::uint32_t counts_per_revolution = 0;
+  std::vector<std::string> counts;  // "N" for every drive, "AXIS=N" for one
   std::uint32_t frame_timeout_us = 20000;
   std::string out;
 };
@@ -115,7 +115,33 @@ int ecat_config_main(const EcatConfigOptions& opt) {
     files += (files.empty() ? "" : ", ") + f;
   }
   hal::esi::GenOptions g;
-  g.counts_per_revolution = opt.counts_per_revolution;
+  // --counts-per-rev N (every drive) and AXIS=N (that axis), each N 1..2^31.
+  for (const std::string& c : opt.counts) {
+    const auto eq = c.find('=');
+    const std::string a = eq == std::string::npos ? "" : c.substr(0, eq);
+    const std::string n = eq == std::string::npos ? c : c.substr(eq + 1U);
+    const auto whole = [](const std::string& t, std::uint64_t lo, std::uint64_t hi, std::uint32_t& v) {
+      if (t.empty() || t.size() > 10U || t.find_first_not_of("0123456789") != std::string::npos) {
+        return false;
+      }
+      const std::uint64_t x = std::stoull(t);
+      v = static_cast<std::uint32_t>(x);
+      return x >= lo && x <= hi;
+    };
+    std::uint32_t axis = 0;
+    std::uint32_t counts = 0;
+    if ((eq != std::string::npos && !whole(a, 1, 16, axis)) || !whole(n, 1, 1ULL << 31U, counts)) {
+      return refuse("--counts-per-rev " + c + ": expected N or AXIS=N (N increments per revolution, 1..2147483648)");
+    }
+    if (eq == std::string::npos) {
+      if (g.counts_per_revolution != 0U) {
+        return refuse("--counts-per-rev " + c + ": the resolution of every drive is given twice");
+      }
+      g.counts_per_revolution = counts;
+    } else if (!g.counts_by_axis.emplace(axis, counts).second) {
+      return refuse("--counts-per-rev " + c + ": axis " + std::to_string(axis) + " is given twice");
+    }
+  }
   g.frame_timeout_us = opt.frame_timeout_us;
   g.source = files + " (bus order: " + source + ")";
   std::string json;
@@ -157,9 +183,10 @@ CLI::App* add_ecat_config_command(CLI::App& app) {
                 "(e.g. --device 0x00D10018 --device 0x00402001*6)")
       ->expected(1, -1);
   c->add_option("--scan", g_ecat_config.scan, "take the bus order from a scan of the segment on this interface");
-  c->add_option("--counts-per-rev", g_ecat_config.counts_per_revolution,
-                "the drives' encoder increments per revolution (an ESI does not carry it)")
-      ->check(CLI::Range(1U, 1U << 31U));
+  c->add_option("--counts-per-rev", g_ecat_config.counts,
+                "the drives' encoder increments per revolution, N for every drive or AXIS=N for one (an ESI does not "
+                "carry it)")
+      ->expected(1, -1);
   c->add_option("--frame-timeout-us", g_ecat_config.frame_timeout_us, "the start-up frames' timeout (default 20000)")
       ->check(CLI::Range(100, 100000));
   c->add_option("--out", g_ecat_config.out, "write the configuration here (default: standard output)");

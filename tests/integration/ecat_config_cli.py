@@ -49,6 +49,13 @@ with tempfile.TemporaryDirectory() as tmp:
     p = subprocess.run([BIN, "rta", "--bus-config", out], capture_output=True, text=True, timeout=60)
     check(p.returncode == 0, f"rta --bus-config: exit {p.returncode}, {p.stderr!r}")
 
+    # One drive with another encoder: AXIS=N beside the resolution of the others.
+    rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576", "3=4096")
+    check(rc == 0, f"3=4096: exit {rc} {se!r}")
+    if rc == 0:
+        cpr = [s.get("counts_per_revolution") for s in json.loads(so)["subdevices"]]
+        check(cpr == [None, None, 1048576, 1048576, 4096, 1048576, 1048576, 1048576], f"3=4096: {cpr}")
+
     # Standard output without --out.
     rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576")
     check(rc == 0 and json.loads(so)["subdevices"][2]["name"] == "drive axis 1", f"stdout: exit {rc} {se!r}")
@@ -89,6 +96,10 @@ with tempfile.TemporaryDirectory() as tmp:
                          (("--esi", ESI, "--device", "0x00402001*6"), "give --counts-per-rev N"),
                          (("--esi", ESI, "--device", "0x99"), "--device 0x99: no device of the ESI files"),
                          (("--esi", ESI, ESI, "--device", "0x00D10018"), "is already described at " + ESI),
+                         (("--esi", ESI, *ORDER, "--counts-per-rev", "0"), "--counts-per-rev 0: expected N or AXIS=N"),
+                         (("--esi", ESI, *ORDER, "--counts-per-rev", "x=4"), "--counts-per-rev x=4: expected N or AXIS=N"),
+                         (("--esi", ESI, *ORDER, "--counts-per-rev", "4096", "2=1", "2=8"), "axis 2 is given twice"),
+                         (("--esi", ESI, *ORDER, "--counts-per-rev", "4096", "9=1"), "there is no drive axis 9"),
                          (("--esi", os.path.join(tmp, "missing.xml"), "--device", "0x1"), "missing.xml: cannot read the file"),
                          (("--esi", ESI, "--device", "0x00D10018", "--counts-per-rev", "1048576"),
                           "the configuration made from these devices is refused: subdevices: no drive for axis 1")]:

@@ -289,7 +289,7 @@ TEST(EsiBad, DriveWithoutTheCia402ObjectsItNeeds) {
   text = with(builtin(), "<RxPdo Fixed=\"1\" Mandatory=\"1\" Sm=\"2\">", "<RxPdo Fixed=\"1\">");
   expect_has(generate_error(text), "has no 0x6040 (controlword) in its default PDO assignment");
   // The encoder resolution is not in an ESI: it must be given.
-  expect_has(generate_error(builtin(), 0), "a drive needs its encoder resolution: give --counts-per-rev N");
+  expect_has(generate_error(builtin(), 0), "drive axis 1 needs its encoder resolution: give --counts-per-rev N or AXIS=N");
 }
 
 TEST(EsiBad, InitCmds) {
@@ -514,6 +514,36 @@ TEST(EsiEmulated, VendorForms) {
   EXPECT_TRUE(warnings.empty());
   ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
   EXPECT_EQ(c.sync0_shift_us, 251U);  // rounded up: never earlier than the device asks
+}
+
+// The encoder resolution: one for every drive, and per axis where a drive differs.
+TEST(EsiBus, CountsPerRevolutionPerAxis) {
+  std::vector<esi::Device> lib;
+  std::vector<std::string> warnings;
+  std::string err;
+  ASSERT_TRUE(esi::parse_esi(builtin(), "emu.xml", lib, err, warnings)) << err;
+  std::vector<const esi::Device*> bus;
+  ASSERT_TRUE(esi::resolve_bus(lib, kBusOrder, bus, err)) << err;
+  esi::GenOptions opt;
+  opt.counts_per_revolution = kCounts;
+  opt.counts_by_axis = {{3, 4096}};
+  std::string json;
+  ASSERT_TRUE(esi::make_bus_config(bus, opt, json, err, warnings)) << err;
+  ethercat::BusConfig c;
+  ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
+  EXPECT_DOUBLE_EQ(c.subdevices[4].counts_per_rad * 6.283185307179586, 4096.0);  // axis 3
+  EXPECT_DOUBLE_EQ(c.subdevices[5].counts_per_rad * 6.283185307179586, static_cast<double>(kCounts));
+
+  opt.counts_per_revolution = 0;  // only axis 3 given: axis 1 has none
+  json.clear();
+  EXPECT_FALSE(esi::make_bus_config(bus, opt, json, err, warnings));
+  expect_has(err, "subdevice 3 ");
+  expect_has(err, "drive axis 1 needs its encoder resolution: give --counts-per-rev N or AXIS=N");
+  EXPECT_TRUE(json.empty());
+  opt.counts_per_revolution = kCounts;
+  opt.counts_by_axis = {{7, 4096}};
+  EXPECT_FALSE(esi::make_bus_config(bus, opt, json, err, warnings));
+  EXPECT_EQ(err, "--counts-per-rev 7=4096: there is no drive axis 7 on this bus (6 drives)");
 }
 
 TEST(EsiBad, UnreadableFile) {

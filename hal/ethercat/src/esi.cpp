@@ -775,12 +775,15 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
       s["role"] = "drive";
       s["axis"] = axis;
       s["name"] = "drive axis " + std::to_string(axis);
-      if (opt.counts_per_revolution == 0U) {
-        err = where + ": a drive needs its encoder resolution: give --counts-per-rev N (increments per revolution; "
-                      "an ESI does not carry it)";
+      const auto own = opt.counts_by_axis.find(axis);
+      const std::uint32_t counts = own != opt.counts_by_axis.end() ? own->second : opt.counts_per_revolution;
+      if (counts == 0U) {
+        err = where + ": drive axis " + std::to_string(axis) +
+              " needs its encoder resolution: give --counts-per-rev N or AXIS=N (increments per revolution; an ESI "
+              "does not carry it)";
         return false;
       }
-      s["counts_per_revolution"] = opt.counts_per_revolution;
+      s["counts_per_revolution"] = counts;
       struct Obj {
         const char* key;
         std::uint16_t index;
@@ -848,6 +851,13 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
       shift_set = true;
     }
     subs.push_back(s);
+  }
+  for (const auto& [a, n] : opt.counts_by_axis) {
+    if (a == 0U || a > axis) {
+      err = "--counts-per-rev " + std::to_string(a) + "=" + std::to_string(n) + ": there is no drive axis " +
+            std::to_string(a) + " on this bus (" + std::to_string(axis) + " drives)";
+      return false;
+    }
   }
   if (shift_ns > 0U) {
     root["sync0_shift_us"] = (shift_ns + 999U) / 1000U;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -125,6 +126,7 @@ bool resolve_scanned(const std::vector<Device>& library, const std::vector<Ident
 
 struct GenOptions {
   std::uint32_t counts_per_revolution = 0;  // the drives' encoder resolution; 0 = not given
+  std::map<std::uint32_t, std::uint32_t> counts_by_axis;  // axis -> its own resolution (overrides the above)
   std::uint32_t frame_timeout_us = 20000;   // the built-in configuration's (docs/ethercat.md)
   std::string source;                       // what the comment says it was made from
 };
