@@ -84,7 +84,7 @@ test-asan: deps $(VENV)/.stamp hmi/dist/index.html
 # build-fuzz/findings (and fail the target). The engines are built in the asan tree
 # (compiled with -fsanitize=fuzzer-no-link): after `make test-asan` nothing is rebuilt.
 FUZZ_SECONDS ?= 60
-FUZZ_TARGETS := core scenario protocol safety
+FUZZ_TARGETS := core scenario protocol safety esi
 fuzz: deps
 	@$(DEPS) fuzz
 	cmake --preset asan

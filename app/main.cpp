@@ -25,6 +25,8 @@ int safety_check_main(const std::string& file, bool builtin);
 int safety_canonical_main(const std::string& file, bool with_checksum);
 CLI::App* add_rta_command(CLI::App& app);
 int run_rta_command();
+CLI::App* add_ecat_config_command(CLI::App& app);
+int run_ecat_config_command();
 }
 
 namespace {
@@ -185,9 +187,13 @@ int main(int argc, char** argv) {
   safety_canonical->add_option("FILE", safety_file, "JSON file")->required();
   safety_canonical->add_flag("--checksum", canonical_checksum, "also print its SHA-256 and checksum");
   auto* rta = safestate::app::add_rta_command(app);
+  auto* ecat_config = safestate::app::add_ecat_config_command(app);
   CLI11_PARSE(app, argc, argv);
   if (rta->parsed()) {
     return safestate::app::run_rta_command();
+  }
+  if (ecat_config->parsed()) {
+    return safestate::app::run_ecat_config_command();
   }
   if (safety_check->parsed()) {
     return safestate::app::safety_check_main(safety_file, safety_default);
