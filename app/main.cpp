@@ -9,6 +9,7 @@
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/transitions.hpp"
 #include "safestate/ecat/ecat_sim.hpp"
+#include "safestate/ecat/esi_segment.hpp"
 #include "checker.hpp"
 #include "safestate/gateway/admission.hpp"
 #include "safestate/gateway/gateway.hpp"
@@ -206,6 +207,13 @@ int main(int argc, char** argv) {
     return safestate::check::check_main(check_opt, stats);
   }
   if (ecat_sim->parsed()) {
+    // The emulated subdevices and their SII come from the shipped ESI (one description for
+    // both ends of the wire: ecat-config reads the same file).
+    std::string esi_error;
+    if (!safestate::ecat::esi_segment(ecat_opt.devices, esi_error)) {
+      std::fprintf(stderr, "ecat-sim: the built-in ESI: %s\n", esi_error.c_str());
+      return 2;
+    }
     return safestate::ecat::ecat_sim_main(ecat_opt);
   }
   if (gateway->parsed()) {

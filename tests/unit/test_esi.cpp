@@ -112,6 +112,7 @@ TEST(EsiEmulated, DescribesTheEmulatedSegment) {
     EXPECT_EQ(a.in_address, b.in_address) << i;
     EXPECT_EQ(a.mailbox, b.mailbox) << i;
     EXPECT_EQ(a.device_type, b.device_type) << i;
+    EXPECT_EQ(a.dc_sync0_required, b.dc_sync0_required) << i;
     for (const auto& [pa, pb] : {std::pair{&a.rx, &b.rx}, std::pair{&a.tx, &b.tx}}) {
       EXPECT_EQ(pa->index, pb->index) << i;
       ASSERT_EQ(pa->entries.size(), pb->entries.size()) << i;
@@ -180,13 +181,10 @@ TEST(EsiEmulated, MakesTheBuiltInBusConfig) {
       EXPECT_EQ(g.startup[k].size, w.startup[k].size) << i << "/" << k;
       EXPECT_EQ(g.startup[k].value, w.startup[k].value) << i << "/" << k;  // -3 and 0xFD: the same byte
     }
-    // DC: the drives' ESI has AssignActivate 0x0300, the I/O terminals none. The built-in
-    // default-bus.json on main predates distributed clocks (issue 22 item 1 adds "dc" to its
-    // drives on its own branch), so it may lack the key; where it has it, it must agree.
+    // DC: the drives' ESI has AssignActivate 0x0300, the I/O terminals none; the built-in
+    // default-bus.json says the same.
     EXPECT_EQ(g.dc_assign_activate, g.role == ethercat::Role::drive ? 0x0300U : 0U) << i;
-    if (w.dc_assign_activate != 0U) {
-      EXPECT_EQ(g.dc_assign_activate, w.dc_assign_activate) << i;
-    }
+    EXPECT_EQ(g.dc_assign_activate, w.dc_assign_activate) << i;
     if (g.role == ethercat::Role::drive) {
       EXPECT_EQ(g.name, w.name) << i;  // "drive axis N": the axes in bus order
     }

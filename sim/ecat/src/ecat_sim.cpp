@@ -228,7 +228,7 @@ bool parse_drift_ppm(const std::string& spec, std::size_t subdevices, std::vecto
 }
 
 int ecat_sim_main(const EcatSimOptions& opt) {
-  std::vector<SubdeviceDesc> devs = default_segment();
+  std::vector<SubdeviceDesc> devs = opt.devices.empty() ? default_segment() : opt.devices;
   std::string err;
   if ((!opt.product_override.empty() &&
        !apply_override(devs, opt.product_override, "--product", &SubdeviceDesc::product_code, err)) ||

@@ -57,6 +57,9 @@ bool desc_from_esi(const hal::esi::Device& d, std::uint32_t serial, SubdeviceDes
   s.serial = serial;
   s.name = d.name;
   s.mailbox = d.coe;
+  // The emulated drive offers one operation mode, DC-synchronous (its ESI's <Dc><OpMode>
+  // AssignActivate): without SYNC0 it refuses OP (AL 0x0030), as such drives do.
+  s.dc_sync0_required = d.assign_activate != 0U;
   if (d.coe) {
     int mo = -1;
     int mi = -1;

@@ -31,6 +31,9 @@ struct EcatSimOptions {
   // The drives also accept OP without DC SYNC0 (SM-synchronous), as drives whose ESI offers a
   // free-run OpMode besides DC: for masters that configure no DC (kickcat's Python binding).
   bool drives_free_run = false;
+  // The subdevices served (their SII built from these): `safestate ecat-sim` passes the ones
+  // made from the shipped ESI (hal/ethercat/esi, esi_segment()); empty = default_segment().
+  std::vector<SubdeviceDesc> devices;
 };
 
 // `--drift-ppm`: one value for every subdevice or one per subdevice, each -500..500 ppm.
