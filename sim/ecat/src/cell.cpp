@@ -231,6 +231,7 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
   unpack_outputs(dout.data(), rx, out_);
   time_reaction(was_closed);
   if (exchange) {
+    timing_.exchange(cycles_, now_ns_, out_, in_, cycle_us_);  // in_: still the inputs this exchange carried
     last_exchange_ns_ = now_ns_;
     if (out_.contactor) {
       drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
@@ -245,6 +246,7 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
 }
 
 void EmulatedCell::mark_input_change() noexcept {
+  timing_.input_changed();
   if (out_.contactor) {
     reaction_ = Reaction{true, false, false, now_ns_, cycles_, 0, 0, 0};
   }
