@@ -230,3 +230,20 @@ TEST(EcatWireTiming, TheControlLineIsValidatedAndABadOneChangesNothing) {
   EXPECT_EQ(control_line(cell, "time off"), "OK");
   EXPECT_EQ(armed(), false);
 }
+
+// The bench arms and opens the contact between two exchanges: the start is then the first
+// exchange after arming, and the fall is judged against the speed the targets had then.
+TEST(EcatWireTiming, TheTargetsHistoryOutlivesArmingSoTheFirstExchangeMayStart) {
+  Wire w;
+  const double cruise = 167.3 * kCount;
+  for (int i = 0; i < 5; ++i) w.go(cruise);  // not armed yet: the history is kept all the same
+  w.arm("cat1 from=input");
+  w.t.input_changed();
+  w.go(cruise);  // 5: the start, at cruise
+  EXPECT_EQ(w.t.start().exchange, 5U);
+  w.go(cruise);
+  EXPECT_FALSE(w.t.reaction().seen);
+  w.go(cruise - 4.0 * kCount);
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.reaction().exchange - w.t.start().exchange, 2U);
+}

@@ -231,7 +231,6 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
   unpack_outputs(dout.data(), rx, out_);
   time_reaction(was_closed);
   if (exchange) {
-    timing_.exchange(cycles_, now_ns_, out_, in_, cycle_us_);  // in_: still the inputs this exchange carried
     last_exchange_ns_ = now_ns_;
     if (out_.contactor) {
       drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
@@ -243,6 +242,9 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();
+  if (exchange) {  // the outputs it brought, the inputs its reply carries back (segment.cpp logical())
+    timing_.exchange(cycles_ - 1U, now_ns_, out_, in_, cycle_us_);
+  }
 }
 
 void EmulatedCell::mark_input_change() noexcept {

@@ -27,15 +27,21 @@ core::ArmPose pose_of(const core::JointArray& q, const std::array<float, 3>& tcp
   return p;
 }
 
+// A position or velocity as the wire carries it (0x6064, 0x606C: whole counts) and the
+// master reads it back: the limits are judged on what the core sees, not on the plant's float.
+float on_wire(float rad) {
+  return static_cast<float>(static_cast<double>(std::lround(static_cast<double>(rad) * kCountsPerRad)) / kCountsPerRad);
+}
+
 core::JointArray positions(const hal::ProcessImageIn& in) {
   core::JointArray q{};
-  for (std::size_t a = 0; a < hal::kAxes; ++a) q[a] = in.drive[a].position_rad;
+  for (std::size_t a = 0; a < hal::kAxes; ++a) q[a] = on_wire(in.drive[a].position_rad);
   return q;
 }
 
 core::JointArray velocities(const hal::ProcessImageIn& in) {
   core::JointArray v{};
-  for (std::size_t a = 0; a < hal::kAxes; ++a) v[a] = in.drive[a].velocity_rad_s;
+  for (std::size_t a = 0; a < hal::kAxes; ++a) v[a] = on_wire(in.drive[a].velocity_rad_s);
   return v;
 }
 
@@ -137,9 +143,13 @@ std::string WireTiming::parse(std::string_view words, Spec& out) {
 }
 
 void WireTiming::arm(const Spec& s) noexcept {
-  const std::array<float, 3> tcp = tcp_;
-  *this = WireTiming{};
-  tcp_ = tcp;
+  // The targets' history is kept: the exchange right after arming may already be the start,
+  // and its commanded speed is the reference of the fall.
+  WireTiming fresh{};
+  fresh.tcp_ = tcp_;
+  fresh.have_prev_ = have_prev_;
+  fresh.prev_target_ = prev_target_;
+  *this = fresh;
   spec_ = s;
   armed_ = true;
 }
@@ -158,8 +168,8 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
       fault_pending_ = false;
       return c;
     }
-    case From::joint: return in.drive[i].position_rad > t;
-    case From::speed: return std::fabs(in.drive[i].velocity_rad_s) > t;
+    case From::joint: return positions(in)[i] > t;
+    case From::speed: return std::fabs(velocities(in)[i]) > t;
     case From::tcp_speed: {
       const core::ArmPose p = pose_of(positions(in), tcp_);
       return core::point_speed(p, p.tcp, core::kAxes, velocities(in)) > t;
@@ -197,10 +207,6 @@ bool WireTiming::reacted(const hal::ProcessImageOut& out, double speed_counts, f
 
 void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::ProcessImageOut& out,
                           const hal::ProcessImageIn& in, std::uint32_t cycle_us) noexcept {
-  if (!armed_) {
-    have_prev_ = false;
-    return;
-  }
   // The commanded motion of this exchange: the targets' step since the last one.
   std::array<float, hal::kAxes> target{};
   double step2 = 0.0;
@@ -225,6 +231,7 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
   prev_target_ = target;
   const bool had_prev = have_prev_;
   have_prev_ = true;
+  if (!armed_) return;
 
   if (!start_.seen) {
     if (had_prev && !out.contactor && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger

@@ -65,8 +65,9 @@ class WireTiming {
   void input_changed() noexcept { input_pending_ = armed_ && !start_.seen; }
   void fault_injected() noexcept { fault_pending_ = armed_ && !start_.seen; }
   void set_tcp(const std::array<float, 3>& tcp_flange_mm) noexcept { tcp_ = tcp_flange_mm; }
-  // Exchange n: `out` the outputs it brought (already unpacked), `in` the inputs it carried
-  // back (latched before it).
+  // Exchange n: `out` the outputs it brought (already unpacked), `in` the inputs its reply
+  // carries back (latched after the plant cycle it ran: the segment's inputs are one
+  // exchange fresher, segment.cpp logical()).
   void exchange(std::uint64_t n, std::uint64_t now_ns, const hal::ProcessImageOut& out,
                 const hal::ProcessImageIn& in, std::uint32_t cycle_us) noexcept;
 
