@@ -20,8 +20,13 @@ computed worst case is `safestate rta --json --bus-config hal/ethercat/default-b
 
 A measurement, not a test: it asserts nothing, but a function whose run did not do what it
 needs (the cell did not arm, another alarm stopped the arm first, no figure within 10 s) is
-recorded as not measured, with why. Needs a network namespace: as root `unshare -n`, else an
-unprivileged user namespace (`unshare -rn`), as far as the kernel allows them.
+recorded as not measured, with why. Needs a network namespace (as root `unshare -n`, else an
+unprivileged user namespace, `unshare -rn`, where the kernel allows them) and, for the bus as
+shipped (FIELDBUS_LOST after 3 stale cycles), real-time scheduling of the master and the
+emulator: tried here as an unprivileged user (2026-11-27), the namespace and the veth pair came
+up, but without SCHED_FIFO the master lost the bus at boot ("FIELDBUS_LOST after 3 stale cycles,
+3.2 ms after the last answered frame") on this shared 2-core VM: root (or CAP_SYS_NICE /
+RLIMIT_RTPRIO) is still what a run needs, for the scheduling, not for the namespace.
 
   .venv/bin/python bench/ecat_response.py --bin build/bin/safestate --json build/bench/ecat_response.json
 """
@@ -362,7 +367,11 @@ def inside(a):
                     row["measured"] = True
                     row["alarm"] = alarm or ""
             except (RuntimeError, SystemExit, OSError, asyncio.TimeoutError, subprocess.CalledProcessError) as e:
-                row["why"] = f"setup failed: {e}"
+                row["why"] = f"setup failed: {str(e)[:300]}"
+                log = os.path.join(d, "run.log")
+                if os.path.exists(log):  # what the master said about it
+                    tail = [l for l in open(log).read().splitlines() if l.strip()][-3:]
+                    row["why"] += " (run.log: " + " / ".join(tail) + ")"
             finally:
                 cell.close()
             rows.append(row)

@@ -91,6 +91,11 @@ TEST(EcatWireTiming, Cat1ReactionIsTheCommandedSpeedFallingBeyondTheWiresQuantis
   w.go(cruise - 3.0 * kCount);  // 8: three counts below the start's: the ramp has begun
   ASSERT_TRUE(w.t.reaction().seen);
   EXPECT_EQ(w.t.reaction().exchange, 8U);
+  // The commanded speed from the start on, as `status` shows it (the fall's evidence).
+  const nlohmann::json tr = w.t.to_json(w.in)["speed_counts"];
+  ASSERT_EQ(tr.size(), 4U);
+  EXPECT_EQ(tr[0], 167.0);
+  EXPECT_EQ(tr[3], 164.0);
   for (double s = cruise - 6.0 * kCount; s > 0.0; s -= 3.0 * kCount) w.go(s);
   EXPECT_FALSE(w.t.safe().seen);  // standstill is not the end of a Cat 1: the contactor is
   w.go();

@@ -238,9 +238,12 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
     if (crossed(in)) {
       start_ = Mark{true, n, now_ns};
       start_speed_counts_ = speed_counts;
+      trace_[0] = static_cast<float>(speed_counts);
+      traced_ = 1;
     }
     return;
   }
+  if (traced_ < kTrace) trace_[traced_++] = static_cast<float>(speed_counts);
   if (!reaction_.seen && reacted(out, speed_counts, tcp_mm_s)) reaction_ = Mark{true, n, now_ns};
   if (!reaction_.seen || safe_.seen) return;
   switch (spec_.stop) {
@@ -285,6 +288,9 @@ nlohmann::json WireTiming::to_json(const hal::ProcessImageIn& last_in) const {
   j["reaction"] = mark(reaction_);
   j["safe"] = mark(safe_);
   j["early_exchange"] = early_.seen ? nlohmann::json(early_.exchange) : nlohmann::json(nullptr);
+  nlohmann::json tr = nlohmann::json::array();
+  for (std::size_t k = 0; k < traced_; ++k) tr.push_back(std::round(trace_[k] * 10.0F) / 10.0F);
+  j["speed_counts"] = tr;
   return j;
 }
 

@@ -101,6 +101,11 @@ class WireTiming {
   Mark safe_{};
   Mark early_{};
   Mark still_{};  // the first exchange of the current run of unchanged targets
+  // The commanded speed (counts per cycle) of the start exchange and the ones after it: the
+  // evidence behind a reaction read from a fall (`status` → `wire_timing.speed_counts`).
+  static constexpr std::size_t kTrace = 12;
+  std::array<float, kTrace> trace_{};
+  std::size_t traced_ = 0;
 };
 
 }  // namespace safestate::ecat
