@@ -64,7 +64,7 @@ def wire_intro(wfun):
         "0x6064, velocities 0x606C, through the core's kinematics and the tool's TCP) are past it.",
         "- **Reaction** (exchanges after the start; the scan wait before the start is not in it): Cat 0 the contactor "
         "output bit cleared; Cat 1, Cat 2 and reduce the commanded speed (the targets 0x607A, exchange to exchange, all "
-        "axes, in encoder counts) more than 2.5 counts per cycle below the start's, or the contactor bit cleared "
+        "axes, in encoder counts) more than 2.5 counts per cycle below the highest since the start (a program may still be accelerating), or the contactor bit cleared "
         "(reduce: or the commanded TCP speed already at the limit). The targets travel in counts (2^20 per turn), whose "
         "rounding alone moves that speed by up to about 2.5 counts per cycle: a gentle ramp (Cat 2 at half the "
         "acceleration limit, about 1.5 counts per cycle on axis 1 at 1 rad/s) is seen up to one exchange after it began.",
@@ -194,14 +194,16 @@ def main():
     if problems:
         L += ["## Check", "", "**Measured above computed:**", ""] + [f"- {p}" for p in problems] + [""]
         if any(p.startswith("ethercat:") and "commanded speed" in p for p in problems):
-            L += ["On the wire a stop that is a ramp (Cat 1, Cat 2, reduced mode) shows only in the targets: its onset "
-                  "is seen once the commanded speed has fallen by more than the counts' rounding (2.5 counts per "
-                  "cycle). The reduced-mode ramp (from the speed of the moment to 0.95 x the limit over ramp_ms) and "
-                  "the Cat 2 ramp (half the acceleration limit) take several cycles to fall that far, so the reaction "
-                  "read on the wire is the core's reaction plus that wait; in-process, where the core's own flags are "
-                  "read, the same functions react within the computed figure (tables above). Whether the wire's "
-                  "figure or the analysis should change (e.g. a term for the ramp's first visible step, or an output "
-                  "bit that announces reduced mode / a stop on the wire) is open.", ""]
+            L += ["A finding, not a slower core: on the wire a stop that is a ramp (Cat 1, Cat 2, reduced mode) shows "
+                  "only in the targets, and its onset is counted once the commanded speed has fallen by more than the "
+                  "counts' rounding (2.5 counts per cycle). The reduced-mode ramp (from the speed of the moment to "
+                  "0.95 x the limit over ramp_ms) takes the speed down by well under a count per cycle at first: the "
+                  "traces above fall from the first exchange after the start on, but within the rounding, so the "
+                  "reaction read on the wire is the core's reaction plus the wait until the ramp is that deep. "
+                  "In-process, where the core's own reduced flag is read, the same functions react within the computed "
+                  "figure (tables above), and their safe state on the wire is well inside the computed worst case. "
+                  "Whether the analysis should gain a term for this (the first step of the ramp the wire can show), or "
+                  "the segment an output that announces reduced mode, is open.", ""]
     else:
         L += ["## Check", "", "Every measured figure is at or below the computed one.", ""]
     with open(DOC, "w") as f:

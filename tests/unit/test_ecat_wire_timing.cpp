@@ -252,3 +252,17 @@ TEST(EcatWireTiming, TheTargetsHistoryOutlivesArmingSoTheFirstExchangeMayStart) 
   ASSERT_TRUE(w.t.reaction().seen);
   EXPECT_EQ(w.t.reaction().exchange - w.t.start().exchange, 2U);
 }
+
+// A program still accelerating when the trigger came: the fall is judged against the highest
+// commanded speed since the start, not the start's own (which would see the ramp late).
+TEST(EcatWireTiming, TheFallIsJudgedAgainstTheHighestSpeedSinceTheStart) {
+  Wire w;
+  w.arm("cat2 from=fault");
+  w.go(170.0 * kCount);
+  w.t.fault_injected();
+  w.go(170.0 * kCount);  // 1: the start
+  w.go(175.0 * kCount);  // 2: still accelerating
+  w.go(172.0 * kCount);  // 3: 3 counts below the peak, only 2 above the start's
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.reaction().exchange, 3U);
+}

@@ -201,7 +201,7 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
 bool WireTiming::reacted(const hal::ProcessImageOut& out, double speed_counts, float tcp_mm_s) const noexcept {
   if (!out.contactor) return true;  // power removed: a Cat 0 (also when a stop escalates to it)
   if (spec_.stop == Stop::cat0) return false;
-  if (speed_counts < start_speed_counts_ - kFallCounts) return true;
+  if (speed_counts < peak_speed_counts_ - kFallCounts) return true;
   return spec_.stop == Stop::reduce && tcp_mm_s <= spec_.reduce_mm_s;
 }
 
@@ -237,7 +237,7 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
     if (had_prev && !out.contactor && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
     if (crossed(in)) {
       start_ = Mark{true, n, now_ns};
-      start_speed_counts_ = speed_counts;
+      peak_speed_counts_ = speed_counts;
       trace_[0] = static_cast<float>(speed_counts);
       traced_ = 1;
     }
@@ -245,6 +245,7 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
   }
   if (traced_ < kTrace) trace_[traced_++] = static_cast<float>(speed_counts);
   if (!reaction_.seen && reacted(out, speed_counts, tcp_mm_s)) reaction_ = Mark{true, n, now_ns};
+  peak_speed_counts_ = std::max(peak_speed_counts_, speed_counts);  // a program still accelerating at the start
   if (!reaction_.seen || safe_.seen) return;
   switch (spec_.stop) {
     case Stop::cat0: {
@@ -289,7 +290,7 @@ nlohmann::json WireTiming::to_json(const hal::ProcessImageIn& last_in) const {
   j["safe"] = mark(safe_);
   j["early_exchange"] = early_.seen ? nlohmann::json(early_.exchange) : nlohmann::json(nullptr);
   nlohmann::json tr = nlohmann::json::array();
-  for (std::size_t k = 0; k < traced_; ++k) tr.push_back(std::round(trace_[k] * 10.0F) / 10.0F);
+  for (std::size_t k = 0; k < traced_; ++k) tr.push_back(std::round(static_cast<double>(trace_[k]) * 10.0) / 10.0);
   j["speed_counts"] = tr;
   return j;
 }

@@ -14,9 +14,10 @@
 //           10 exchanges (the figure is the first of them);
 //   reduce  reaction: as cat1, or the commanded TCP speed already at or below the limit; safe:
 //           the commanded TCP speed (forward kinematics of the targets) at or below the limit.
-// A "fall" is more than kFallCounts below the commanded speed of the start exchange: the
-// targets travel in encoder counts, whose rounding alone moves the speed by up to about 2.5
-// counts per cycle, so a gentle ramp is seen up to one exchange after it began.
+// A "fall" is more than kFallCounts below the highest commanded speed since the start (the
+// start's own, or higher while a program still accelerates): the targets travel in encoder
+// counts, whose rounding alone moves the speed by up to about 2.5 counts per cycle, so a
+// gentle ramp is seen only once it has fallen that far.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -95,7 +96,7 @@ class WireTiming {
   std::array<float, 3> tcp_{};
   std::array<float, 3> ref_axis_{};
   std::array<float, hal::kAxes> prev_target_{};
-  double start_speed_counts_ = 0.0;
+  double peak_speed_counts_ = 0.0;  // the highest commanded speed from the start on
   Mark start_{};
   Mark reaction_{};
   Mark safe_{};
