@@ -261,6 +261,7 @@ def ecat_only():
         r["ecat"] = e
         json.dump(r, open(res, "w"), indent=1)
     patch_ecat(e)
+    response_time()  # the EtherCAT table of docs/response-time.md, from the response times just measured
 
 
 def patch_ecat(e):
