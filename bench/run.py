@@ -14,7 +14,10 @@
      and output drop                             (safestate ecat-bench, bench/ecat_reaction.py,
                                                   bench/ecat_loss.py; root)
   9. response time of every safety function, computed and measured (bench/response_time.py,
-     which writes docs/response-time.md and fails when a measured figure is above the computed),
+     which writes docs/response-time.md and fails when a measured figure is above the computed;
+     measured in-process and on the wire, bench/ecat_response.py: `run.py --ecat-rta` alone, its
+     namespace needs no root where user namespaces are allowed, the bus as shipped needs
+     real-time scheduling, so in practice root),
      and the stopping data of axes 1-3 (bench/stopping.py: docs/stopping-data.md, its SVG plots,
      the checker's generated safety/include/safestate/safety/stopping_data.hpp)
  10. collaborative operation, SSM against fields only with the simulated person walking in from
@@ -24,10 +27,7 @@ Measurements, not tests: nothing here fails because a goal is missed; the docume
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
 them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta` and `run.py --collab` measure only
-their part and patch its rows in the document in place; `run.py --ecat-rta` measures every safety
-function's response time on the wire (bench/ecat_response.py: its namespace needs no root where the
-kernel allows unprivileged user namespaces, but the bus as shipped needs real-time scheduling, so in
-practice root) and rewrites docs/response-time.md. ECAT_PRESSES (default 100): E-stop presses;
+their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses;
 ECAT_LOSS_TRIALS (default 5): emulators killed, and masters killed with -9.
 """
 import datetime

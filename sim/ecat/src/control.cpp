@@ -322,7 +322,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (verb == "in" || verb == "fault") {
     return scenario_line(cell, line);
   }
-  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, time STOP from=WHAT, status, or a JSON sim message)";
+  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, status, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat
