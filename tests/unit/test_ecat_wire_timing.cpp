@@ -266,3 +266,41 @@ TEST(EcatWireTiming, TheFallIsJudgedAgainstTheHighestSpeedSinceTheStart) {
   ASSERT_TRUE(w.t.reaction().seen);
   EXPECT_EQ(w.t.reaction().exchange, 3U);
 }
+
+// A ramp of ~0.6 counts per exchange on one axis: its rounded speeds step 375, 374, 374,
+// 373, 373, 372. The fall is seen 5 exchanges in; a plateau (two equal speeds) is not a
+// decline, so the reaction cannot be dated back across one: it stays where the fall was seen
+// (dating back never makes a reaction earlier than the wire shows it began).
+TEST(EcatWireTiming, ADeclineIsNotDatedBackAcrossAPlateau) {
+  Wire w;
+  w.arm("reduce=250 from=input");
+  const double cruise = 375.0 * kCount;
+  for (int i = 0; i < 5; ++i) w.go(cruise);
+  w.t.input_changed();
+  w.go(cruise);  // 5: start
+  for (int k = 1; k <= 4; ++k) {
+    w.go(cruise - 0.6 * k * kCount);  // 6..9: rounded 374, 374, 373, 373
+  }
+  EXPECT_FALSE(w.t.reaction().seen) << "not 2.5 counts below yet";
+  w.go(cruise - 3.0 * kCount);  // 10: 372
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.to_json(w.in)["reaction"]["detected_cycles"], 5);
+  EXPECT_EQ(w.t.reaction().exchange, 10U);
+}
+
+TEST(EcatWireTiming, AStrictlyFallingRampIsDatedBackToItsFirstExchange) {
+  Wire w;
+  w.arm("reduce=250 from=input");
+  const double cruise = 375.0 * kCount;
+  for (int i = 0; i < 5; ++i) w.go(cruise);
+  w.t.input_changed();
+  w.go(cruise);  // 5: start
+  w.go(cruise - 1.0 * kCount);  // 6: 374
+  w.go(cruise - 2.0 * kCount);  // 7: 373
+  EXPECT_FALSE(w.t.reaction().seen);
+  w.go(cruise - 3.0 * kCount);  // 8: 372, 3 below the start's 375
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.reaction().exchange, 6U) << "the decline began in the first exchange after the start";
+  EXPECT_EQ(w.t.to_json(w.in)["reaction"]["detected_cycles"], 3);
+  EXPECT_EQ(w.t.to_json(w.in)["reaction"]["cycles"], 1);
+}
