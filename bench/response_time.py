@@ -66,22 +66,13 @@ def wire_intro(wfun):
         "output bit cleared; Cat 1, Cat 2 and reduce the commanded speed (the targets 0x607A, exchange to exchange, all "
         "axes, in encoder counts) more than 2.5 counts per cycle below the highest since the start (a program may still be accelerating), or the contactor bit cleared "
         "(reduce: or the commanded TCP speed already at the limit). The targets travel in counts (2^20 per turn), whose "
-        "rounding alone moves that speed by up to about 2.5 counts per cycle, so a gentle ramp is seen later than it "
-        "began (a reduced-mode ramp, ~0.6 counts per cycle, 4 exchanges later): the reaction is then the first exchange "
-        "of the uninterrupted decline that led to the fall (each exchange's commanded speed below the one before, never "
-        "the start's own exchange; a plateau ends it), and the exchange where the fall was seen is shown beside it "
-        "(\"seen at\").",
+        "rounding alone moves that speed by up to about 2.5 counts per cycle: a gentle ramp (Cat 2 at half the "
+        "acceleration limit, about 1.5 counts per cycle on axis 1 at 1 rad/s) is seen up to one exchange after it began.",
         "- **Safe state** on the wire: Cat 0 contactor feedback open and every velocity actual under 0.01 rad/s in the "
         "inputs the same exchange carries back; Cat 1 the contactor output bit cleared at "
         "the end of the stop; Cat 2 the targets unchanged, held over 10 exchanges (the first of them counts); reduce the "
         "commanded TCP speed (forward kinematics of two consecutive targets) at or below the reduced limit.",
         "- The alarm must be the function's own (else the row says so and is not measured).", ""]
-
-
-def seen_at(r):
-    """ " (seen at N)" when a fall was dated back to where its decline began."""
-    d = r.get("detected_cycles")
-    return f" (seen at {d})" if d is not None and d != r["cycles"] else ""
 
 
 def main():
@@ -187,8 +178,7 @@ def main():
             problems.append(f"ethercat: {f['id']}: safe state {ms(safe_us)} ms on the wire above computed {ms(c['total_us'])}")
         alarm = f" ({r['alarm']})" if r.get("alarm") else ""
         L.append(f"| {c['name']} | {c['stop']} | {c['reaction_cycles']} | {ms(c['total_us'])} | "
-                 f"{rc}{'' if ok_r else ' **above computed**'}"
-                 f"{seen_at(w['reaction'])}; {w['reaction']['us']} | "
+                 f"{rc}{'' if ok_r else ' **above computed**'}; {w['reaction']['us']} | "
                  f"{ms(safe_us)}{'' if ok_s else ' **above computed**'} ({w['safe']['cycles']} exchanges) | "
                  f"{r['how']}{alarm}; `{r['time']}` |")
     if wire is not None:

@@ -239,31 +239,12 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
       start_ = Mark{true, n, now_ns};
       peak_speed_counts_ = speed_counts;
       trace_[0] = static_cast<float>(speed_counts);
-      trace_ns_[0] = now_ns;
       traced_ = 1;
     }
     return;
   }
-  const bool traced = traced_ < kTrace;
-  if (traced) {
-    trace_ns_[traced_] = now_ns;
-    trace_[traced_++] = static_cast<float>(speed_counts);
-  }
-  if (!reaction_.seen && reacted(out, speed_counts, tcp_mm_s)) {
-    reaction_ = Mark{true, n, now_ns};
-    detected_ = reaction_;
-    const bool fell = out.contactor && speed_counts < peak_speed_counts_ - kFallCounts;
-    if (fell && traced) {
-      // Back to the first exchange of the decline that led here (index 0 is the start).
-      // Exchange j is in the decline when its speed is below exchange j-1's; this one is
-      // (it is the first below the fall's threshold).
-      std::size_t j = traced_ - 1U;
-      while (j >= 2U && trace_[j - 2U] > trace_[j - 1U]) {
-        --j;
-      }
-      reaction_ = Mark{true, start_.exchange + j, trace_ns_[j]};
-    }
-  }
+  if (traced_ < kTrace) trace_[traced_++] = static_cast<float>(speed_counts);
+  if (!reaction_.seen && reacted(out, speed_counts, tcp_mm_s)) reaction_ = Mark{true, n, now_ns};
   peak_speed_counts_ = std::max(peak_speed_counts_, speed_counts);  // a program still accelerating at the start
   if (!reaction_.seen || safe_.seen) return;
   switch (spec_.stop) {
@@ -306,9 +287,6 @@ nlohmann::json WireTiming::to_json(const hal::ProcessImageIn& last_in) const {
   };
   j["start_exchange"] = start_.seen ? nlohmann::json(start_.exchange) : nlohmann::json(nullptr);
   j["reaction"] = mark(reaction_);
-  if (reaction_.seen && start_.seen) {
-    j["reaction"]["detected_cycles"] = detected_.exchange - start_.exchange;
-  }
   j["safe"] = mark(safe_);
   j["early_exchange"] = early_.seen ? nlohmann::json(early_.exchange) : nlohmann::json(nullptr);
   nlohmann::json tr = nlohmann::json::array();

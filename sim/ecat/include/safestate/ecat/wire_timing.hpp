@@ -17,11 +17,7 @@
 // A "fall" is more than kFallCounts below the highest commanded speed since the start (the
 // start's own, or higher while a program still accelerates): the targets travel in encoder
 // counts, whose rounding alone moves the speed by up to about 2.5 counts per cycle, so a
-// gentle ramp is seen only once it has fallen that far. The reaction is then the first
-// exchange of the uninterrupted decline that led to the fall (each exchange's commanded speed
-// below the one before, never the start's own exchange): a reduced-mode ramp of 0.6 counts
-// per cycle crosses 2.5 counts 4 exchanges after it began. The exchange where the fall was
-// seen is reported beside it (`reaction.detected_cycles`).
+// gentle ramp is seen only once it has fallen that far.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -103,7 +99,6 @@ class WireTiming {
   double peak_speed_counts_ = 0.0;  // the highest commanded speed from the start on
   Mark start_{};
   Mark reaction_{};
-  Mark detected_{};  // where the reaction was seen (a fall: later than where it began)
   Mark safe_{};
   Mark early_{};
   Mark still_{};  // the first exchange of the current run of unchanged targets
@@ -111,7 +106,6 @@ class WireTiming {
   // evidence behind a reaction read from a fall (`status` → `wire_timing.speed_counts`).
   static constexpr std::size_t kTrace = 12;
   std::array<float, kTrace> trace_{};
-  std::array<std::uint64_t, kTrace> trace_ns_{};
   std::size_t traced_ = 0;
 };
 
