@@ -235,6 +235,35 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
+def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
+    """Issue 21 item 4: the guard opened while the demo program runs, timed by the emulator
+    per exchange (`time cat1 from=input`, sim/ecat/src/wire_timing.cpp): the reaction is the
+    first exchange whose commanded targets slow down, the safe state the contactor bit cleared
+    at the end of the Cat 1 ramp."""
+    cell.wait_state("ESTOP_RESET_NEEDED")
+    s = cell.pendant("reset,servo_on,start", "OPERATIONAL")
+    assert s["sub"] == "AUTO_RUNNING", s
+
+    def axis1_turning():
+        q0, t0 = cell.wire()["joints"][0], time.monotonic()
+        time.sleep(0.02)
+        return abs(cell.wire()["joints"][0] - q0) / (time.monotonic() - t0) > 0.5
+    cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+    assert cell.control_line("time cat1 from=input") == "OK"
+    assert cell.control_line("in gate.a=0") == "OK"
+    time.sleep(0.005)  # the second channel within discrepancy_ms
+    assert cell.control_line("in gate.b=0") == "OK"
+    cell.wait(lambda: cell.wire()["wire_timing"]["safe"] is not None, "the contactor bit cleared after the ramp", 10)
+    w = cell.wire()["wire_timing"]
+    print("guard on the wire:", w)
+    assert w["stop"] == "cat1" and w["early_exchange"] is None, w
+    # `safestate rta --bus-config hal/ethercat/default-bus.json`: 2 cycles, worst case 1435 ms
+    assert 1 <= w["reaction"]["cycles"] <= 2, w
+    assert w["reaction"]["cycles"] < w["safe"]["cycles"], w  # a ramp first, the power off at its end
+    assert w["safe"]["us"] <= 1435000, w
+    assert "PROTECTIVE_STOP" in cell.status()["alarms"]
+
+
 def test_t1_jog_moves_the_emulated_axis(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"

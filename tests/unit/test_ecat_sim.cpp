@@ -468,6 +468,35 @@ TEST(EcatReaction, FromTheExchangeCarryingTheContactToTheFirstClearedContactorBi
   EXPECT_FALSE(cell.reaction().armed);
 }
 
+// Issue 21 item 4: the response-time measurement is fed by every process-data exchange
+// (sim/ecat/src/wire_timing.cpp; its logic in test_ecat_wire_timing.cpp).
+TEST(EcatWireTiming, EveryExchangeFeedsTheMeasurementArmedOnTheControlSocket) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  for (std::uint64_t t = 1; t <= 20; ++t) {  // exchanges 0..19: the contactor closes (10 ms pick-up)
+    exchange_contactor(cell, true, t * 1'000'000);
+  }
+  ASSERT_EQ(nlohmann::json::parse(control_line(cell, "status"))["contactor_closed"], true);
+  ASSERT_EQ(control_line(cell, "time cat0 from=input"), "OK");
+  exchange_contactor(cell, true, 21'000'000);
+  ASSERT_EQ(control_line(cell, "in estop.b=0"), "OK");
+  exchange_contactor(cell, true, 22'000'000);   // exchange 21 carries estop.b=0 out to the master
+  exchange_contactor(cell, false, 23'000'000);  // the cleared bit
+  const nlohmann::json w = nlohmann::json::parse(control_line(cell, "status"))["wire_timing"];
+  EXPECT_EQ(w["start_exchange"], 21);
+  EXPECT_EQ(w["reaction"]["cycles"], 1);
+  EXPECT_EQ(w["reaction"]["us"], 1000);
+  EXPECT_TRUE(w["safe"].is_null());  // the plant's contactor feedback has not opened yet
+  for (std::uint64_t t = 24; t < 60 && nlohmann::json::parse(control_line(cell, "status"))["wire_timing"]["safe"].is_null(); ++t) {
+    exchange_contactor(cell, false, t * 1'000'000);
+  }
+  const nlohmann::json s = nlohmann::json::parse(control_line(cell, "status"))["wire_timing"]["safe"];
+  ASSERT_FALSE(s.is_null());
+  // The contactor's drop-out (sim kContactorFeedbackMs 10), seen with the next exchange.
+  EXPECT_GE(s["cycles"].get<int>(), 10);
+  EXPECT_LE(s["cycles"].get<int>(), 13);
+}
+
 TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
   EmulatedCell cell(1000);
   bring_to_op(cell.segment());

@@ -243,9 +243,13 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();
+  if (exchange) {  // the outputs it brought, the inputs its reply carries back (segment.cpp logical())
+    timing_.exchange(cycles_ - 1U, now_ns_, out_, in_, cycle_us_);
+  }
 }
 
 void EmulatedCell::mark_input_change() noexcept {
+  timing_.input_changed();
   if (out_.contactor) {
     reaction_ = Reaction{true, false, false, now_ns_, cycles_, 0, 0, 0};
   }

@@ -129,6 +129,21 @@ std::string tool_line(EmulatedCell& cell, const std::string& line) {
   return "OK";
 }
 
+// `time STOP from=WHAT` arms a response-time measurement on the wire; `time off` disarms it.
+std::string time_line(EmulatedCell& cell, const std::string& words) {
+  if (words == "off") {
+    cell.wire_timing().disarm();
+    return "OK";
+  }
+  WireTiming::Spec s{};
+  const std::string err = WireTiming::parse(words, s);
+  if (!err.empty()) {
+    return "ERROR " + err;
+  }
+  cell.wire_timing().arm(s);
+  return "OK";
+}
+
 std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   scenario::ParseResult r = scenario::parse("@0 " + line + "\n", "control");
   if (!r.ok()) {
@@ -310,6 +325,7 @@ std::string status(EmulatedCell& cell) {
   } else {
     j["reaction"] = nullptr;
   }
+  j["wire_timing"] = cell.wire_timing().to_json(in);
   return j.dump();
 }
 
@@ -341,6 +357,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   }
   if (line.rfind("tool ", 0) == 0) {
     return tool_line(cell, line);
+  }
+  if (line.rfind("time ", 0) == 0) {  // arm a response-time measurement (wire_timing.hpp)
+    return time_line(cell, line.substr(5));
   }
   std::istringstream words(line);
   std::string verb, what, arg, extra;

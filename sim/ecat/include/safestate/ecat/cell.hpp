@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "safestate/ecat/segment.hpp"
+#include "safestate/ecat/wire_timing.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/sim/cell.hpp"
 #include "safestate/sim/plant.hpp"
@@ -70,11 +71,15 @@ class EmulatedCell {
   explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment());
   Segment& segment() noexcept { return segment_; }
   core::RawInputs& inputs() noexcept { return plant_.inputs(); }
-  void inject(const sim::Fault& f) noexcept { plant_.inject(f); }
+  void inject(const sim::Fault& f) noexcept {
+    plant_.inject(f);
+    timing_.fault_injected();
+  }
   // The tool the emulated arm carries (SPEC §11 dynamics: the drives' torque), as the
   // safety configuration declares it: a point mass at the TCP (tool0 frame, mm).
   void set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept {
     plant_.set_tool(payload_kg, tcp_tool0_mm);
+    timing_.set_tcp(tcp_tool0_mm);
   }
   // Idle work: watchdogs, and free-running physics when the master is silent.
   void poll(std::uint64_t now_ns) noexcept;
@@ -116,6 +121,9 @@ class EmulatedCell {
     std::uint64_t enable_ns = 0;
   };
   [[nodiscard]] const OutputDrop& output_drop() const noexcept { return drop_; }
+  // Any safety function's response time on the wire (issue 21 item 4, wire_timing.hpp).
+  [[nodiscard]] WireTiming& wire_timing() noexcept { return timing_; }
+  [[nodiscard]] std::uint32_t cycle_us() const noexcept { return cycle_us_; }
 
  private:
   void time_reaction(bool was_closed) noexcept;
@@ -135,6 +143,7 @@ class EmulatedCell {
   bool free_running_ = false;
   Reaction reaction_{};
   OutputDrop drop_{};
+  WireTiming timing_{};
   std::uint64_t next_free_ns_ = 0;
   std::uint64_t last_exchange_ns_ = 0;
 };
