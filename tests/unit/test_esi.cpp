@@ -503,7 +503,10 @@ TEST(EsiEmulated, VendorForms) {
   ethercat::BusConfig c;
   ASSERT_TRUE(ethercat::parse_bus_config(json, c, err)) << err;
   EXPECT_EQ(c.subdevices[2].statusword, 0U);  // 0x6041 found with subindex 0
-  EXPECT_EQ(c.sync0_shift_us, 0U);
+  // No shift from the ESI (the negative one taken as 0): the key is not written and the bus
+  // gets the master's default (half the 1 ms cycle, docs/ethercat.md "Distributed clocks").
+  EXPECT_EQ(json.find("sync0_shift_us"), std::string::npos);
+  EXPECT_EQ(c.sync0_shift_us, ethercat::BusConfig{}.sync0_shift_us);
   ASSERT_EQ(c.subdevices[2].startup.size(), 4U);
 
   const std::string positive = with(text, "<ShiftTimeSync0>0</ShiftTimeSync0>", "<ShiftTimeSync0>250500</ShiftTimeSync0>");
