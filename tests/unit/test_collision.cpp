@@ -218,6 +218,24 @@ TEST(CollisionMonitor, AForceBelowFqsNeverTrips) {
 }
 
 // @req COL-COLLISION
+TEST(CollisionMonitor, AnEstimateThatIsNotANumberCountsAsOver) {
+  // A drive whose velocity reads NaN (a corrupted sample) leaves the force unknown: unknown
+  // is unsafe (SPEC §2's principle), so it counts as over F_qs and trips like a force would.
+  CollisionMonitor m;
+  m.configure(pfl_limits(), 1000U);
+  CollisionReport r{};
+  m.check(drives_for(kPose, {}, {}, {}), true, r);
+  ASSERT_FALSE(r.hit.hit);
+  Feedback bad = drives_for(kPose, {}, {}, {});
+  bad.drive[1].velocity_rad_s = std::numeric_limits<float>::quiet_NaN();
+  m.check(bad, true, r);
+  EXPECT_FALSE(r.hit.hit) << "one sample never trips";
+  m.check(bad, true, r);
+  EXPECT_TRUE(std::isnan(r.force_n)) << r.force_n;
+  EXPECT_TRUE(r.hit.hit) << "a NaN estimate is over the limit";
+}
+
+// @req COL-COLLISION
 TEST(CollisionMonitor, ATorqueBiasIsReadAsTheForceItWouldTake) {
   // 5 % of rated on axis 2 (3 N m): far below what 140 N at the TCP would take.
   CollisionMonitor m;
