@@ -315,9 +315,9 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
 namespace {
 
 struct PflCell {
-  safestate::sim::Cell cell{Config{}};
+  safestate::sim::Cell cell;
   std::uint32_t seq = 0;
-  PflCell() {
+  explicit PflCell(const Config& cfg = Config{}) : cell{cfg} {
     SafetyLimits l = safestate::safety::default_safety().limits;
     l.collaborative.enabled = true;
     l.collaborative.pfl_enabled = true;
@@ -372,9 +372,11 @@ TEST(CollisionCell, TheRunningProgramShowsNoForceWithoutAContact) {
   EXPECT_LT(worst, 5.0F);
 }
 
-// @req TR-C8 COL-BACKOFF COL-SIM-CONTACT
-TEST(CollisionCell, AContactStopsTheArmWhichBacksOffTenMillimetresSlowlyAndHolds) {
-  PflCell c;
+namespace {
+
+// Runs the program at speed, pushes 150 N against the TCP and follows rule 8 through: Cat 2,
+// the turn, the 10 mm back-off at <= 100 mm/s, AUTO_PAUSED only once it is done, and the hold.
+void contact_backs_off_and_holds(PflCell& c) {
   c.run_auto();
   for (int k = 0; k < 3000 && c.cell.view().tcp_speed_mm_s < 300.0F; ++k) c.cell.step();
   ASSERT_EQ(c.cell.out().sub, Sub::AUTO_RUNNING);
@@ -416,4 +418,23 @@ TEST(CollisionCell, AContactStopsTheArmWhichBacksOffTenMillimetresSlowlyAndHolds
   for (int j = 0; j < 500; ++j) c.cell.step();
   EXPECT_LT(dist(c.tcp(), held), 0.01F);
   EXPECT_EQ(c.cell.out().sub, Sub::AUTO_PAUSED);
+}
+
+}  // namespace
+
+// @req TR-C8 COL-BACKOFF COL-SIM-CONTACT
+TEST(CollisionCell, AContactStopsTheArmWhichBacksOffTenMillimetresSlowlyAndHolds) {
+  PflCell c;
+  contact_backs_off_and_holds(c);
+}
+
+// @req TR-C8 COL-BACKOFF
+TEST(CollisionCell, TheStopLastsUntilTheBackOffIsDoneEvenWhereTheArmReadsAsStill) {
+  // With a standstill threshold above the back-off's joint speeds (0.5 rad/s), the arm is
+  // "at standstill" through the whole retrace: the Cat 2 stop must still wait for the motion
+  // layer's back-off to finish (SPEC §11 rule 8), not end at the turn and cut it short.
+  Config cfg{};
+  cfg.standstill_rad_s = 0.5F;
+  PflCell c(cfg);
+  contact_backs_off_and_holds(c);
 }
