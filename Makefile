@@ -162,6 +162,10 @@ ECAT_CONTROL ?= /tmp/safestate-ecat-sim.sock
 ECAT_PORT ?= 8080
 # The real-time loop and the emulated segment on one CPU (docs/ethercat.md, "Timing on a shared host").
 ECAT_CPU ?= $(shell echo $$(( $$(nproc) - 1 )))
+# BUS=FILE: the master uses that bus configuration (e.g. one made by `safestate ecat-config`
+# from ESI files, docs/ethercat.md "ESI"); without it, the built-in one.
+BUS ?=
+BUS_ARG = $(if $(BUS),--bus-config $(BUS))
 .PHONY: run-ethercat
 run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	@[ "$$(id -u)" = 0 ] || { echo "run-ethercat: needs root (a network namespace, a veth pair and raw sockets): sudo make run-ethercat" >&2; exit 1; }
@@ -178,4 +182,4 @@ run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
 	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
 	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --cpu $(ECAT_CPU) --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
-	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG)
+	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(BUS_ARG)
