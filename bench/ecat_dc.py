@@ -27,6 +27,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import in_namespace  # noqa: E402
 from ecat_loss import Cell  # noqa: E402
 from ecat_reaction import Control  # noqa: E402
 
@@ -75,19 +76,8 @@ def main():
         return inside(a)
     if os.geteuid() != 0:
         raise SystemExit("ecat_dc: needs root (network namespace, raw sockets)")
-    ns = f"ssdc-{os.getpid()}"
-    subprocess.run(["ip", "netns", "add", ns], check=True)
-    try:
-        subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
-        cmd = ["ip", "netns", "exec", ns, sys.executable, os.path.abspath(__file__), "--inside", "--bin", a.bin,
-               "--seconds", str(a.seconds)]
-        if a.json:
-            cmd += ["--json", os.path.abspath(a.json)]
-        return subprocess.run(cmd).returncode
-    finally:
-        subprocess.run(["ip", "netns", "del", ns], check=False)
+    args = ["--bin", a.bin, "--seconds", str(a.seconds)] + (["--json", os.path.abspath(a.json)] if a.json else [])
+    return in_namespace("ssdc", __file__, args)
 
 
 if __name__ == "__main__":

@@ -33,6 +33,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import in_namespace  # noqa: E402
 from ecat_reaction import PIN, Control, Pendant, arm, figures, free_port, wait_http  # noqa: E402
 
 LOST = re.compile(r"FIELDBUS_LOST after (\d+) stale cycles, ([0-9.]+) ms after the last answered frame")
@@ -176,19 +177,8 @@ def main():
         return inside(a)
     if os.geteuid() != 0:
         raise SystemExit("ecat_loss: needs root (network namespace, raw sockets)")
-    ns = f"ssloss-{os.getpid()}"
-    subprocess.run(["ip", "netns", "add", ns], check=True)
-    try:
-        subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
-        cmd = ["ip", "netns", "exec", ns, sys.executable, os.path.abspath(__file__), "--inside", "--bin", a.bin,
-               "--trials", str(a.trials)]
-        if a.json:
-            cmd += ["--json", os.path.abspath(a.json)]
-        return subprocess.run(cmd).returncode
-    finally:
-        subprocess.run(["ip", "netns", "del", ns], check=False)
+    args = ["--bin", a.bin, "--trials", str(a.trials)] + (["--json", os.path.abspath(a.json)] if a.json else [])
+    return in_namespace("ssloss", __file__, args)
 
 
 if __name__ == "__main__":

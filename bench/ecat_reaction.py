@@ -27,6 +27,9 @@ import tempfile
 import time
 import urllib.request
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import in_namespace  # noqa: E402
+
 DISCREPANCY_S = 0.050  # SPEC §2 default: the second channel must follow well within it
 # The real-time loop and the emulated segment on one CPU (docs/ethercat.md, "Timing on a shared host").
 PIN = str(os.cpu_count() - 1)
@@ -223,19 +226,8 @@ def main():
         return inside(a)
     if os.geteuid() != 0:
         raise SystemExit("ecat_reaction: needs root (network namespace, raw sockets)")
-    ns = f"ssreact-{os.getpid()}"
-    subprocess.run(["ip", "netns", "add", ns], check=True)
-    try:
-        subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
-        cmd = ["ip", "netns", "exec", ns, sys.executable, os.path.abspath(__file__), "--inside", "--bin", a.bin,
-               "--presses", str(a.presses)]
-        if a.json:
-            cmd += ["--json", os.path.abspath(a.json)]
-        return subprocess.run(cmd).returncode
-    finally:
-        subprocess.run(["ip", "netns", "del", ns], check=False)
+    args = ["--bin", a.bin, "--presses", str(a.presses)] + (["--json", os.path.abspath(a.json)] if a.json else [])
+    return in_namespace("ssreact", __file__, args)
 
 
 if __name__ == "__main__":
