@@ -1,4 +1,5 @@
 """What the bench scripts share: where things are, running a tool, naming the machine."""
+import argparse
 import os
 import platform
 import subprocess
@@ -40,3 +41,25 @@ def in_namespace(prefix, script, args):
                                *args]).returncode
     finally:
         subprocess.run(["ip", "netns", "del", ns], check=False)
+
+
+def namespace_bench(doc, prog, prefix, script, count, default, top, inside):
+    """The command line of an EtherCAT bench: --bin, --COUNT (1..top), --json; run as root it
+    re-runs itself (--inside) in a namespace of its own (in_namespace), where `inside(args)`
+    measures. Its exit code."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
+    ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
+    ap.add_argument(f"--{count}", type=int, default=default)
+    ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    a.bin = os.path.abspath(a.bin)
+    n = getattr(a, count)
+    if not 1 <= n <= top:
+        ap.error(f"--{count} must be 1..{top}")
+    if a.inside:
+        return inside(a)
+    if os.geteuid() != 0:
+        raise SystemExit(f"{prog}: needs root (network namespace, raw sockets)")
+    args = ["--bin", a.bin, f"--{count}", str(n)] + (["--json", os.path.abspath(a.json)] if a.json else [])
+    return in_namespace(prefix, script, args)

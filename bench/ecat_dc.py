@@ -18,7 +18,6 @@ a test: it asserts nothing. Needs root.
 
   sudo .venv/bin/python bench/ecat_dc.py --bin build/bin/safestate --seconds 60
 """
-import argparse
 import json
 import os
 import subprocess
@@ -27,7 +26,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import in_namespace  # noqa: E402
+from common import namespace_bench  # noqa: E402
 from ecat_loss import Cell  # noqa: E402
 from ecat_reaction import Control  # noqa: E402
 
@@ -63,22 +62,7 @@ def inside(a):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
-    ap.add_argument("--seconds", type=int, default=60)
-    ap.add_argument("--json", help="write the figures to this file")
-    ap.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)
-    a = ap.parse_args()
-    a.bin = os.path.abspath(a.bin)
-    if not 1 <= a.seconds <= 3600:
-        ap.error("--seconds must be 1..3600")
-    if a.inside:
-        return inside(a)
-    if os.geteuid() != 0:
-        raise SystemExit("ecat_dc: needs root (network namespace, raw sockets)")
-    args = ["--bin", a.bin, "--seconds", str(a.seconds)] + (["--json", os.path.abspath(a.json)] if a.json else [])
-    return in_namespace("ssdc", __file__, args)
-
+    return namespace_bench(__doc__, "ecat_dc", "ssdc", __file__, "seconds", 60, 3600, inside)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -20,7 +20,6 @@ but stops with an error if the cell does not do what a trial needs. Needs root.
 
   sudo .venv/bin/python bench/ecat_loss.py --bin build/bin/safestate --trials 5
 """
-import argparse
 import asyncio
 import json
 import os
@@ -33,7 +32,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import in_namespace  # noqa: E402
+from common import namespace_bench  # noqa: E402
 from ecat_reaction import PIN, Control, Pendant, arm, figures, free_port, wait_http  # noqa: E402
 
 LOST = re.compile(r"FIELDBUS_LOST after (\d+) stale cycles, ([0-9.]+) ms after the last answered frame")
@@ -164,22 +163,7 @@ def inside(a):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
-    ap.add_argument("--trials", type=int, default=5)
-    ap.add_argument("--json", help="write the figures to this file")
-    ap.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)
-    a = ap.parse_args()
-    a.bin = os.path.abspath(a.bin)
-    if not 1 <= a.trials <= 1000:
-        ap.error("--trials must be 1..1000")
-    if a.inside:
-        return inside(a)
-    if os.geteuid() != 0:
-        raise SystemExit("ecat_loss: needs root (network namespace, raw sockets)")
-    args = ["--bin", a.bin, "--trials", str(a.trials)] + (["--json", os.path.abspath(a.json)] if a.json else [])
-    return in_namespace("ssloss", __file__, args)
-
+    return namespace_bench(__doc__, "ecat_loss", "ssloss", __file__, "trials", 5, 1000, inside)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -16,7 +16,6 @@ something else). Needs root (namespaces, raw sockets).
 
   sudo .venv/bin/python bench/ecat_reaction.py --bin build/bin/safestate --presses 50
 """
-import argparse
 import asyncio
 import json
 import os
@@ -28,7 +27,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import in_namespace  # noqa: E402
+from common import namespace_bench  # noqa: E402
 
 DISCREPANCY_S = 0.050  # SPEC §2 default: the second channel must follow well within it
 # The real-time loop and the emulated segment on one CPU (docs/ethercat.md, "Timing on a shared host").
@@ -213,22 +212,7 @@ def inside(a):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--bin", default=os.environ.get("SAFESTATE_BIN", "build/bin/safestate"))
-    ap.add_argument("--presses", type=int, default=50)
-    ap.add_argument("--json", help="write the figures to this file")
-    ap.add_argument("--inside", action="store_true", help=argparse.SUPPRESS)
-    a = ap.parse_args()
-    a.bin = os.path.abspath(a.bin)
-    if not 1 <= a.presses <= 10000:
-        ap.error("--presses must be 1..10000")
-    if a.inside:
-        return inside(a)
-    if os.geteuid() != 0:
-        raise SystemExit("ecat_reaction: needs root (network namespace, raw sockets)")
-    args = ["--bin", a.bin, "--presses", str(a.presses)] + (["--json", os.path.abspath(a.json)] if a.json else [])
-    return in_namespace("ssreact", __file__, args)
-
+    return namespace_bench(__doc__, "ecat_reaction", "ssreact", __file__, "presses", 50, 10000, inside)
 
 if __name__ == "__main__":
     sys.exit(main())
