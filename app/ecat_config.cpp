@@ -10,20 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "safestate/hal/ecat_master.hpp"
 #include "safestate/hal/esi.hpp"
-
-extern "C" {
-struct SsEcatMaster;
-struct SsEcatSub {
-  std::uint32_t vendor_id, product_code, revision, serial;
-  std::uint16_t configured_address, in_bytes, out_bytes;
-  char name[64];
-};
-SsEcatMaster* ss_ecat_open(const char* ifname, std::uint32_t pdu_timeout_us, std::uint32_t state_timeout_ms,
-                           int tx_rx_priority, char* err, std::size_t errlen);
-const char* ss_ecat_error(const SsEcatMaster* m);
-int ss_ecat_scan(SsEcatMaster* m, SsEcatSub* subs, std::size_t max);
-}
 
 namespace safestate::app {
 
