@@ -175,28 +175,22 @@ def main():
         # resolve this reaction (it only shows when the fall was seen). Reported as such, not as
         # a reaction figure; the safe state (the commanded TCP speed at the limit) is still measured
         # and held to the computed worst case, and the in-process table measures the reaction.
-        unresolved = not ok_r and r["stop"] == "reduce"
-        if unresolved:
-            trace = ", ".join(f"{v:g}" for v in w.get("speed_counts", []))
+        trace = ", ".join(f"{v:g}" for v in w.get("speed_counts", []))
+        if not ok_r and r["stop"] == "reduce":
             unresolved_notes.append(f"{c['name']}: the fall was seen {rc} exchanges after the start; the commanded "
                                     f"speed from the start exchange on, counts per cycle: {trace}")
-            L.append(f"| {c['name']} | {c['stop']} | {c['reaction_cycles']} | {ms(c['total_us'])} | "
-                     f"not resolvable on the wire (seen at {rc}, see below) | "
-                     f"{ms(safe_us)}{'' if ok_s else ' **above computed**'} ({w['safe']['cycles']} exchanges) | "
-                     f"{r['how']}{' (' + r['alarm'] + ')' if r.get('alarm') else ''}; `{r['time']}` |")
-            if not ok_s:
-                problems.append(f"ethercat: {f['id']}: safe state {ms(safe_us)} ms on the wire above computed {ms(c['total_us'])}")
-            continue
-        if not ok_r:
-            trace = ", ".join(f"{v:g}" for v in w.get("speed_counts", []))
-            problems.append(f"ethercat: {f['id']}: reaction {rc} exchanges on the wire above computed {c['reaction_cycles']}"
-                            + (f" (the commanded speed from the start exchange on, counts per cycle: {trace}; a fall "
-                               "counts once it is more than 2.5 counts)" if trace and r["stop"] != "cat0" else ""))
+            reaction = f"not resolvable on the wire (seen at {rc}, see below)"
+        else:
+            if not ok_r:
+                problems.append(f"ethercat: {f['id']}: reaction {rc} exchanges on the wire above computed "
+                                f"{c['reaction_cycles']}"
+                                + (f" (the commanded speed from the start exchange on, counts per cycle: {trace}; a "
+                                   "fall counts once it is more than 2.5 counts)" if trace and r["stop"] != "cat0" else ""))
+            reaction = f"{rc}{'' if ok_r else ' **above computed**'}; {w['reaction']['us']}"
         if not ok_s:
             problems.append(f"ethercat: {f['id']}: safe state {ms(safe_us)} ms on the wire above computed {ms(c['total_us'])}")
         alarm = f" ({r['alarm']})" if r.get("alarm") else ""
-        L.append(f"| {c['name']} | {c['stop']} | {c['reaction_cycles']} | {ms(c['total_us'])} | "
-                 f"{rc}{'' if ok_r else ' **above computed**'}; {w['reaction']['us']} | "
+        L.append(f"| {c['name']} | {c['stop']} | {c['reaction_cycles']} | {ms(c['total_us'])} | {reaction} | "
                  f"{ms(safe_us)}{'' if ok_s else ' **above computed**'} ({w['safe']['cycles']} exchanges) | "
                  f"{r['how']}{alarm}; `{r['time']}` |")
     if unresolved_notes:
