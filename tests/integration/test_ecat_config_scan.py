@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from veth_ns import veth_namespace
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
@@ -25,15 +26,8 @@ ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x0040
 
 @pytest.fixture
 def ns():
-    name = "ssesi-" + uuid.uuid4().hex[:8]
-    subprocess.run(["ip", "netns", "add", name], check=True)
-    try:
-        subprocess.run(["ip", "-n", name, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", name, "link", "set", dev, "up"], check=True)
+    with veth_namespace("ssesi") as name:
         yield name
-    finally:
-        subprocess.run(["ip", "netns", "del", name], check=False)
 
 
 @contextmanager

@@ -12,10 +12,10 @@ import os
 import re
 import subprocess
 import time
-import uuid
 from pathlib import Path
 
 import pytest
+from veth_ns import veth_namespace
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.path.abspath(os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate")))
@@ -56,15 +56,8 @@ pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network n
 
 @pytest.fixture(scope="module")
 def ns():
-    name = "ssscn-" + uuid.uuid4().hex[:8]
-    subprocess.run(["ip", "netns", "add", name], check=True)
-    try:
-        subprocess.run(["ip", "-n", name, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", name, "link", "set", dev, "up"], check=True)
+    with veth_namespace("ssscn") as name:
         yield name
-    finally:
-        subprocess.run(["ip", "netns", "del", name], check=False)
 
 
 def segment_for_cycle(scn, tmp_path):
