@@ -310,6 +310,11 @@ pub unsafe extern "C" fn ss_ecat_open(
         pdu: pdu_timeout,
         state_transition: Duration::from_millis(u64::from(state_timeout_ms.max(100))),
         wait_loop_delay: Duration::from_millis(1),
+        // ethercrab's 10 ms for an EEPROM (SII) read, polled every wait_loop_delay, is less
+        // than one frame may take here (the frame timeout): a host that delays one poll's
+        // frame by 10 ms failed the boot with `timeout: EEPROM` (ecat_replay, 2026-11-27).
+        // Two frame timeouts: a read survives one frame as late as a frame may be.
+        eeprom: (2 * pdu_timeout).max(Timeouts::default().eeprom),
         ..Timeouts::default()
     };
     let config =
