@@ -20,6 +20,9 @@ from veth_ns import veth_namespace
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.path.abspath(os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate")))
 SCENARIOS = sorted((ROOT / "tests" / "scenarios").glob("*.scn"))
+# SPEC §11 over the wire: every scenario that sets the separation must run here (none may
+# be skipped for want of a distance sensor), the shared collaborative ones as well.
+SHARED = Path(os.environ.get("SAFESTATE_SHARED_SCENARIOS", ROOT.parent / "shared" / "scenarios"))
 
 # Timing-dependent over a real bus, with the reason:
 TIMING = {
@@ -35,17 +38,10 @@ TIMING = {
     # a silent bus is found after the fieldbus watchdog (100 lost frames), not in the cycle of the fault
     "row01-fieldbus-lost.scn": "bus loss detected after the fieldbus watchdog",
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
-    # SPEC §11 SSM: the emulated segment has no distance sensor yet (ecat-sim refuses
-    # separation_mm / separation_valid); the protective fields are on DI bits 20..23 and run
-    "collab-ssm-v-allowed.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-hold.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-invalid.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-violated.scn": "no distance sensor on the emulated segment yet",
-    "collab-rule9-auto-resume.scn": "no distance sensor on the emulated segment yet",
-    "collab-field-discrepancy.scn": "no distance sensor on the emulated segment yet",
-    "collab-outer-reduced.scn": "no distance sensor on the emulated segment yet",
     # the simulated person feeds only the in-process plant (docs/collaborative.md "The
-    # simulated person"): behind a bus its `person` lines fail the run by design
+    # simulated person"): behind a bus its `person` lines fail the run by design. The
+    # scenarios that set the separation with `in separation_mm=` run: the emulated segment's
+    # distance sensor (a subdevice of its own, role distance_sensor) carries it.
     "collab-person-walk-in.scn": "the simulated person is not behind the emulated segment",
     "collab-person-far.scn": "the simulated person is not behind the emulated segment",
     "collab-person-ssm-hold.scn": "the simulated person is not behind the emulated segment",
@@ -108,6 +104,29 @@ def test_scenario_passes_over_ethercat(ns, scn, tmp_path):
     r = replay(ns, scn, tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "over EtherCAT" in r.stdout
+
+
+def uses_distance_sensor(scn):
+    return re.search(r"\bseparation_(mm|valid)=", scn.read_text()) is not None
+
+
+SHARED_SSM = sorted(s for s in SHARED.glob("*.scn") if uses_distance_sensor(s)) if SHARED.is_dir() else []
+
+
+@pytest.mark.parametrize("scn", SHARED_SSM, ids=lambda s: "shared/" + s.name)
+def test_shared_distance_sensor_scenario_passes_over_ethercat(ns, scn, tmp_path):
+    r = replay(ns, scn, tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "over EtherCAT" in r.stdout
+
+
+def test_no_separation_scenario_is_left_out():
+    """The distance sensor is on the emulated segment: a scenario that sets the separation is
+    skipped here only for a reason that is not the sensor (the simulated person's lines)."""
+    left_out = [s.name for s in SCENARIOS if s.name in TIMING and uses_distance_sensor(s)
+                and not re.search(r"^@\S+\s+person\b", s.read_text(), re.M)]
+    assert left_out == []
+    assert any(uses_distance_sensor(s) for s in SCENARIOS if s.name not in TIMING)
 
 
 def test_a_wrong_expectation_still_fails_over_ethercat(ns, tmp_path):

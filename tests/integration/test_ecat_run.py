@@ -211,7 +211,7 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert "(EtherCAT," in cell.log("run")
     assert s["alarms"] == []
     assert all(sw & 0x4F == 0x40 for sw in s["statusword"])  # read from the emulated drives' TxPDOs
-    assert cell.wire()["al_state"] == [8] * 8
+    assert cell.wire()["al_state"] == [8] * 9  # the distance sensor too
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
@@ -477,7 +477,7 @@ def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     for pos in range(2, 8):
         d = w["sdo"][pos]
         assert (d["6060:00"], d["60C2:01"], d["60C2:02"], d["6072:00"]) == (8, 1, -3, 1000), (pos, d)
-    assert w["al_state"] == [8] * 8
+    assert w["al_state"] == [8] * 9
 
 
 def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
@@ -495,7 +495,7 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         # In order: the drive took 0x6060 before refusing 0x6072; the next drive got nothing,
         # and no subdevice went on to SAFE-OP.
         assert w["sdo"][4]["6060:00"] == 8 and w["sdo"][5]["6060:00"] == 0, w["sdo"]
-        assert w["al_state"] == [2] * 8, w["al_state"]
+        assert w["al_state"] == [2] * 9, w["al_state"]
     finally:
         c.close()
 

@@ -155,10 +155,10 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   }
   const scenario::Directive& d = r.scenario.steps.front().what;
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
-    // SPEC §11's distance sensor has no channel on the emulated segment yet (the fields do:
-    // DI bits 20..23): refuse it rather than take it and never put it on the wire.
-    if (in->separation_mm || in->separation_valid) {
-      return "ERROR the emulated segment has no distance sensor (separation_mm, separation_valid) yet";
+    // SPEC §11's distance sensor is a subdevice of its own (kPosDistance): a segment built
+    // without it refuses a separation rather than take it and never put it on the wire.
+    if ((in->separation_mm || in->separation_valid) && cell.segment().size() <= kPosDistance) {
+      return "ERROR this emulated segment has no distance sensor (separation_mm, separation_valid)";
     }
     scenario::apply(*in, cell.inputs());
     cell.latch_inputs();
@@ -300,6 +300,10 @@ std::string status(EmulatedCell& cell) {
   j["contactor"] = o.contactor;
   j["brakes_release"] = o.brakes_release;
   j["reset_lamp"] = o.reset_lamp;
+  j["reduced_active"] = o.reduced_active;
+  // What the distance sensor reports (its TxPDO): mm and whether valid.
+  j["separation_mm"] = in.safety.separation_mm;
+  j["separation_valid"] = in.safety.separation_valid;
   nlohmann::json cw = nlohmann::json::array();
   nlohmann::json sw = nlohmann::json::array();
   nlohmann::json q = nlohmann::json::array();
