@@ -51,6 +51,17 @@ with tempfile.TemporaryDirectory() as tmp:
     # The backend's own reader takes it (rta reads the bus configuration with parse_bus_config).
     p = subprocess.run([BIN, "rta", "--bus-config", out], capture_output=True, text=True, timeout=60)
     check(p.returncode == 0, f"rta --bus-config: exit {p.returncode}, {p.stderr!r}")
+    # SPEC §11: a bus without the distance sensor is a bus (the sensor is optional), and the
+    # analysis says what SSM then does; with it, it says nothing of the kind.
+    collab = os.path.join(SRC, "examples/safety/collaborative.json")
+    no_sensor = os.path.join(tmp, "no-sensor.json")
+    with open(no_sensor, "w") as f:
+        json.dump({**got, "subdevices": [s for s in got["subdevices"] if s["role"] != "distance_sensor"]}, f)
+    note = "the bus configuration has no distance_sensor"
+    for path, has in ((out, False), (no_sensor, True)):
+        p = subprocess.run([BIN, "rta", "--bus-config", path, "--safety", collab], capture_output=True, text=True,
+                           timeout=60)
+        check(p.returncode == 0 and (note in p.stdout) == has, f"rta --bus-config {path}: {p.returncode} {p.stderr!r}")
 
     # One drive with another encoder: AXIS=N beside the resolution of the others.
     rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576", "3=4096")
