@@ -80,12 +80,12 @@ def segment_for_cycle(scn, tmp_path):
     return ["--cycle-us", str(cycle)], ["--bus-config", str(path)]
 
 
-def replay(ns, scn, tmp_path, bus_for_cycle=True):
+def replay(ns, scn, tmp_path, bus_for_cycle=True, sim_extra=(), replay_extra=()):
     control = str(tmp_path / "ctl.sock")
     sim_args, replay_args = segment_for_cycle(scn, tmp_path)
-    replay_args = replay_args if bus_for_cycle else []
+    replay_args = [*(replay_args if bus_for_cycle else []), *replay_extra]
     sim = subprocess.Popen(["ip", "netns", "exec", ns, BIN, "ecat-sim", "--ifname", "ecs", "--control", control,
-                            *sim_args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            *sim_args, *sim_extra], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 10
         while not os.path.exists(control):
@@ -127,6 +127,30 @@ def test_no_separation_scenario_is_left_out():
                 and not re.search(r"^@\S+\s+person\b", s.read_text(), re.M)]
     assert left_out == []
     assert any(uses_distance_sensor(s) for s in SCENARIOS if s.name not in TIMING)
+
+
+def test_a_segment_without_the_distance_sensor_keeps_the_separation_invalid(ns, tmp_path):
+    """The sensor is optional: a bus configuration without a distance_sensor, on a segment
+    without one, boots and runs; SSM sees the separation invalid (0: v_allowed 0, the program
+    holds, no alarm), and the emulator refuses a reading it could not put on the wire."""
+    (tmp_path / "configs").mkdir()
+    (tmp_path / "configs" / "collab-ssm.json").write_text(
+        (ROOT / "tests" / "scenarios" / "configs" / "collab-ssm.json").read_text())
+    cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    cfg["subdevices"] = [d for d in cfg["subdevices"] if d["role"] != "distance_sensor"]
+    bus = tmp_path / "no-sensor.json"
+    bus.write_text(json.dumps(cfg))
+    head = (ROOT / "tests" / "scenarios" / "collab-ssm-invalid.scn").read_text().splitlines()
+    config = next(l for l in head if l.startswith("config safety="))
+    scn = tmp_path / "no-sensor.scn"
+    scn.write_text(config + "\n@100 cmd reset\n@110 cmd servo_on\n@1500 cmd start\n"
+                   "@1510..2300 expect tcp_speed<0.5 v_allowed<=0 sub=AUTO_RUNNING noalarm=SEPARATION_VIOLATED\n")
+    r = replay(ns, scn, tmp_path, sim_extra=["--no-distance-sensor"], replay_extra=["--bus-config", str(bus)])
+    assert r.returncode == 0, r.stdout + r.stderr
+    # The same lines with a reading: the emulator cannot carry it, the run fails (and says so).
+    scn.write_text(scn.read_text() + "@1600 in separation_mm=4000\n")
+    r = replay(ns, scn, tmp_path, sim_extra=["--no-distance-sensor"], replay_extra=["--bus-config", str(bus)])
+    assert r.returncode != 0 and "no distance sensor" in r.stdout, r.stdout + r.stderr
 
 
 def test_a_wrong_expectation_still_fails_over_ethercat(ns, tmp_path):

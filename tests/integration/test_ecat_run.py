@@ -337,7 +337,7 @@ def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
     master locks out at once, for the bus as a whole, before the drive's own process-data
     watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
     cell.wait_state("ESTOP_RESET_NEEDED")
-    assert cell.control_line("fault no-pd 9") == "ERROR no-pd needs a subdevice position 1..8"
+    assert cell.control_line("fault no-pd 10") == "ERROR no-pd needs a subdevice position 1..9"
     assert cell.control_line("fault no-pd 8") == "OK"
     s = cell.wait_state("ERROR_LOCKOUT", 10)
     assert "FIELDBUS_LOST" in s["alarms"], s
@@ -381,7 +381,7 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
     exchange."""
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
-    assert cell.wire()["watchdog_us"] == [10000] * 8  # as the master wrote them (ESC default: 100000)
+    assert cell.wire()["watchdog_us"] == [10000] * 9  # as the master wrote them (ESC default: 100000)
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
     w = cell.wire()
