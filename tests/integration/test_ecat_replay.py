@@ -38,13 +38,6 @@ TIMING = {
     # a silent bus is found after the fieldbus watchdog (100 lost frames), not in the cycle of the fault
     "row01-fieldbus-lost.scn": "bus loss detected after the fieldbus watchdog",
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
-    # the simulated person feeds only the in-process plant (docs/collaborative.md "The
-    # simulated person"): behind a bus its `person` lines fail the run by design. The
-    # scenarios that set the separation with `in separation_mm=` run: the emulated segment's
-    # distance sensor (a subdevice of its own, role distance_sensor) carries it.
-    "collab-person-walk-in.scn": "the simulated person is not behind the emulated segment",
-    "collab-person-far.scn": "the simulated person is not behind the emulated segment",
-    "collab-person-ssm-hold.scn": "the simulated person is not behind the emulated segment",
 }
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")
@@ -121,10 +114,10 @@ def test_shared_distance_sensor_scenario_passes_over_ethercat(ns, scn, tmp_path)
 
 
 def test_no_separation_scenario_is_left_out():
-    """The distance sensor is on the emulated segment: a scenario that sets the separation is
-    skipped here only for a reason that is not the sensor (the simulated person's lines)."""
-    left_out = [s.name for s in SCENARIOS if s.name in TIMING and uses_distance_sensor(s)
-                and not re.search(r"^@\S+\s+person\b", s.read_text(), re.M)]
+    """The distance sensor is on the emulated segment, and the simulated person behind it: no
+    scenario that sets the separation or walks the person is skipped here."""
+    left_out = [s.name for s in SCENARIOS if s.name in TIMING and
+                (uses_distance_sensor(s) or re.search(r"^@\S+\s+person\b", s.read_text(), re.M))]
     assert left_out == []
     assert any(uses_distance_sensor(s) for s in SCENARIOS if s.name not in TIMING)
 

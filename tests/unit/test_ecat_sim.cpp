@@ -794,6 +794,43 @@ TEST(EcatProcessData, DistanceSensorAndReducedActiveCrossTheWire) {
   EXPECT_FALSE(back.contactor);
 }
 
+// SPEC §11's simulated person behind the segment: its `person` lines (the scenario format's)
+// move it, it walks one step per plant cycle, and the scanner's bits and the distance
+// sensor's reading show it while it is in the cell, over what `in` lines set.
+// @req COL-SIM-PERSON
+TEST(EcatControl, TheSimulatedPersonFeedsTheScannerAndTheDistanceSensor) {
+  EmulatedCell cell(1000);
+  ASSERT_EQ(control_line(cell, "in separation_mm=300"), "OK");
+  for (const char* bad : {"person walk 0 0 1000", "person stand", "person leave", "person at 1 2 3",
+                          "person at 50000 0", "person dance", "config person_fields=300,400",
+                          "config person_fields=x", "config cycle_us=2000"}) {
+    const std::string r = control_line(cell, bad);
+    EXPECT_EQ(r.rfind("ERROR", 0), 0U) << bad << " -> " << r;
+  }
+  EXPECT_TRUE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_EQ(cell.last_inputs().safety.separation_mm, 300);
+  ASSERT_EQ(control_line(cell, "person at 0 5000"), "OK");  // far: outside both fields
+  EXPECT_TRUE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_TRUE(cell.last_inputs().safety.separation_valid);
+  EXPECT_GT(cell.last_inputs().safety.separation_mm, 4000);
+  ASSERT_EQ(control_line(cell, "config person_fields=6000,5000"), "OK");  // now it is in both
+  EXPECT_FALSE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_FALSE(cell.last_inputs().safety.field_inner_b);
+  ASSERT_EQ(control_line(cell, "config person_fields=2000,1000"), "OK");
+  ASSERT_EQ(control_line(cell, "person walk 0 1500 1000"), "OK");  // 1 m/s towards the arm
+  const std::int32_t before = cell.last_inputs().safety.separation_mm;
+  for (int k = 0; k < 1000; ++k) {
+    cell.step();  // one second of plant cycles: 1 m nearer
+  }
+  const nlohmann::json st = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_NEAR(st["person"]["y_mm"].get<double>(), 4000.0, 1.0);
+  EXPECT_TRUE(st["person"]["walking"].get<bool>());
+  EXPECT_NEAR(before - cell.last_inputs().safety.separation_mm, 1000, 2);
+  ASSERT_EQ(control_line(cell, "person leave"), "OK");  // what `in` set applies again
+  EXPECT_EQ(cell.last_inputs().safety.separation_mm, 300);
+  EXPECT_TRUE(nlohmann::json::parse(control_line(cell, "status"))["person"].is_null());
+}
+
 // A segment built without the sensor refuses a separation rather than drop it.
 TEST(EcatControl, ASegmentWithoutTheDistanceSensorRefusesASeparation) {
   std::vector<SubdeviceDesc> devs = default_segment();

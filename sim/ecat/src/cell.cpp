@@ -5,6 +5,7 @@
 #include <string>
 
 #include "safestate/hal/pdo_bytes.hpp"
+#include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/robot.hpp"
 
 namespace safestate::ecat {
@@ -194,6 +195,17 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
 
 void EmulatedCell::latch_inputs() noexcept {
   plant_.read(in_);
+  // @req COL-SIM-PERSON
+  // The person's devices see it against the arm where the drives' positions put it.
+  motion::RobotModel model = motion::kRobot;
+  model.tcp_offset_mm = tcp_mm_;
+  motion::Joints q{};
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    q[a] = in_.drive[a].position_rad;
+  }
+  motion::Frames frames{};
+  motion::forward(model, q, frames);
+  person_.sense(person_sensors_, frames, in_.safety, person_view_);
   std::uint8_t di[kDiBytes];
   std::uint8_t tx[hal::kAxes][kDriveTxBytes];
   pack_inputs(in_, di, tx);
@@ -265,6 +277,7 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
     time_output_drop(was_closed, was_enabled);
   }
   plant_.write(out_);
+  person_.advance(static_cast<float>(cycle_us_) * 1.0e-6F);  // one step per plant cycle, as in-process
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();

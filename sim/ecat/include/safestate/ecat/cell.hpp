@@ -11,6 +11,7 @@
 #include "safestate/ecat/wire_timing.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/sim/cell.hpp"
+#include "safestate/sim/person.hpp"
 #include "safestate/sim/plant.hpp"
 
 namespace safestate::ecat {
@@ -90,7 +91,21 @@ class EmulatedCell {
   void set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept {
     plant_.set_tool(payload_kg, tcp_tool0_mm);
     timing_.set_tcp(tcp_tool0_mm);
+    tcp_mm_ = tcp_tool0_mm;
   }
+  // SPEC §11, the simulated person (sim/person.hpp) behind the segment: it walks one step per
+  // plant cycle, and while it is in the cell the scanner's OSSD pairs (DI bits 20..23) and the
+  // distance sensor's reading show it (against the arm as the drives' positions place it, with
+  // the tool's TCP), over what `in` lines set, which apply again once it has left: as in-process.
+  sim::Person& person() noexcept { return person_; }
+  bool set_person_sensors(const sim::PersonSensors& s) noexcept {
+    if (!sim::valid(s)) {
+      return false;
+    }
+    person_sensors_ = s;
+    return true;
+  }
+  [[nodiscard]] const sim::PersonView& person_view() const noexcept { return person_view_; }
   // Idle work: watchdogs, and free-running physics when the master is silent.
   void poll(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
@@ -156,6 +171,10 @@ class EmulatedCell {
   WireTiming timing_{};
   std::uint64_t next_free_ns_ = 0;
   std::uint64_t last_exchange_ns_ = 0;
+  std::array<float, 3> tcp_mm_ = motion::kRobot.tcp_offset_mm;
+  sim::Person person_{};
+  sim::PersonSensors person_sensors_{};
+  sim::PersonView person_view_{};
 };
 
 }  // namespace safestate::ecat
