@@ -162,6 +162,9 @@ int main(int argc, char** argv) {
   ecat_sim->add_option("--revision", ecat_opt.revision_override, "POS=REV: give subdevice POS another revision (tests)");
   ecat_sim->add_flag("--drives-free-run", ecat_opt.drives_free_run,
                      "the drives also go to OP without DC SYNC0 (for masters that configure no distributed clocks)");
+  ecat_sim->add_flag("--no-distance-sensor", ecat_opt.no_distance_sensor,
+                     "a segment without the distance sensor (its bus configuration has no distance_sensor: the "
+                     "separation stays invalid)");
   ecat_sim->add_option("--drift-ppm", ecat_opt.drift_ppm,
                        "the emulated ESCs' clock drifts, ppm: one value for all or one per subdevice, comma-separated "
                        "(default 12,-25,31,-8,45,-37,19,-14)");

@@ -129,6 +129,18 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
       return 2;
     }
   }
+  // SPEC §11: the simulated person's scanner fields, as the scenario configures them (the
+  // person itself walks in the emulator: its `person` lines go there as the `in` lines do).
+  {
+    const sim::PersonSensors& ps = parsed.scenario.person_sensors;
+    std::ostringstream fields;
+    fields << "config person_fields=" << ps.outer_mm << ',' << ps.inner_mm;
+    const std::string answer = ctl.ask(fields.str());
+    if (answer != "OK") {
+      std::cerr << "safestate replay: ecat-sim refused '" << fields.str() << "': " << answer << '\n';
+      return 2;
+    }
+  }
   scenario::RunOptions opts{trace, &std::cout, trace ? &std::cerr : &std::cout, &bus, {}};
   opts.world = [&](const scenario::Step& step) {
     const std::string line = directive(lines, step.line);

@@ -3,6 +3,7 @@
 // by add_rta_command, run when parsed.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 
@@ -56,6 +57,9 @@ int rta_main(const RtaOptions& o) {
     bus.source = o.bus_file;
     bus.frame_timeout_us = bc.frame_timeout_us;
     bus.watchdog_ms = o.watchdog_ms;
+    bus.distance_sensor = std::any_of(bc.subdevices.begin(), bc.subdevices.end(), [](const hal::ethercat::Subdevice& d) {
+      return d.role == hal::ethercat::Role::distance_sensor;
+    });
   }
   const rta::Analysis a = rta::analyse(cfg, *r.config, bus);
   const std::string text = o.json ? rta::json(a) : rta::table(a);

@@ -12,9 +12,10 @@ times it, per exchange, with its own clock and exchange counter (`time STOP from
 `status` -> `wire_timing`, sim/ecat/src/wire_timing.cpp); this script only waits for the
 figures.
 
-Configuration: examples/safety/collaborative.json (fields, PFL) with SSM off (the emulated
-segment has no distance sensor yet) and without the brake-test schedule (nobody tested the
-brakes of a cell started a second ago); per function the one limit under test changed. The
+Configuration: examples/safety/collaborative.json (fields, PFL) with SSM off (on only for its
+own row: the emulated segment's distance sensor, a subdevice of its own, carries the
+separation) and without the brake-test schedule (nobody tested the brakes of a cell started a
+second ago); per function the one limit under test changed. The
 computed worst case is `safestate rta --json --bus-config hal/ethercat/default-bus.json
 --safety` of that same file.
 
@@ -72,13 +73,11 @@ FUNCTIONS = [
     ("orientation", "ORIENTATION_LIMIT", "cat0"),
     ("field_outer", "REDUCED_SPEED", "reduce"),
     ("field_inner", "PERSON_IN_FIELD", "cat2"),
-    ("ssm", None, "cat0"),
+    ("ssm", None, "cat2"),
     ("collision", "COLLISION", "cat2"),
     ("bus_loss", None, "cat0"),
 ]
 NOT_ON_THE_WIRE = {
-    "ssm": "not measured on the wire: the emulated segment has no distance sensor yet (ecat-sim refuses "
-           "separation_mm); in-process above",
     "bus_loss": "not timed per exchange: on the wire a bus loss is the exchanges stopping (bench/ecat_loss.py times "
                 "the lockout from the last answered frame, docs/performance.md)",
 }
@@ -92,10 +91,26 @@ def base_config():
     return c
 
 
+def protective_distance(c, v):
+    """SPEC §11 S_p for the robot at `v` mm/s (core::ssm_protective_distance_mm, v_h for d > 500)."""
+    p = c["collaborative"]["ssm"]
+    t_r, a = p["reaction_ms"] / 1000.0, p["decel_mm_s2"]
+    t_s = v / a
+    return p["human_speed_mm_s"] * (t_r + t_s) + v * t_r + v * t_s / 2 + p["intrusion_mm"] + p["uncertainty_mm"]
+
+
+SSM_FAR_MM = 5000  # where the person stands before it steps in (v_allowed above every limit)
+
+
 def bench_config(fid, home, pose):
     """The configuration of one function and what it says about it (`how` of the table)."""
     c = base_config()
     radius = c["tool"]["radius_mm"]
+    if fid == "ssm":
+        c["collaborative"]["ssm"]["enabled"] = True
+        c["name"] = "rta wire bench: collaborative.json"
+        sp = protective_distance(c, c["tcp_max_speed_mm_s"])
+        return c, f"S_p {sp:.0f} mm (at the TCP limit {c['tcp_max_speed_mm_s']:g} mm/s)", f"separation<{sp:.0f}"
     if fid == "joint_range":
         mx = home[0] + KBESIDE * JOINT_MARGIN_RAD
         c["joints"][0]["max_deg"] = math.degrees(mx)
@@ -257,7 +272,7 @@ async def wait_figures(p, ctl, timeout=10.0):
     return ctl.status()["wire_timing"], alarms
 
 
-async def one(cell, fid, stop, frm):
+async def one(cell, fid, stop, frm, ssm_params=None):
     """Arms the cell, the measurement and the trigger; the emulator's figures and the alarms."""
     from websockets.asyncio.client import connect
 
@@ -269,7 +284,7 @@ async def one(cell, fid, stop, frm):
         await arm(p, ctl, mode)
         jog_stop = asyncio.Event()
         jog = None
-        if fid in ("estop", "guard", "reduced_speed", "field_outer", "field_inner", "collision"):
+        if fid in ("estop", "guard", "reduced_speed", "field_outer", "field_inner", "collision", "ssm"):
             await running(p, ctl)
             how = "AUTO, demo program at speed: "
         elif fid == "enable":
@@ -291,6 +306,16 @@ async def one(cell, fid, stop, frm):
         elif fid == "enable":
             await two_channels(ctl, "enable.a", "enable.b")
             how += "enable.a released, enable.b 5 ms later"
+        elif fid == "ssm":
+            ssm = ssm_params
+            near = ssm["intrusion_mm"] + ssm["uncertainty_mm"]
+            ctl.ok(f"in separation_mm={near:g}")
+            how = (f"AUTO, SSM on, demo program at speed, the person at {SSM_FAR_MM} mm: the distance sensor's reading "
+                   f"falls to C + Z = {near:g} mm (v_allowed 0), counted from the exchange carrying it below the "
+                   f"protective distance ({frm.split('<')[1]} mm, S_p at the TCP limit); timed as the function's own "
+                   "reaction, the motion layer's hold (reaction: the commanded speed falls; safe: the targets still, "
+                   "held 10 exchanges). The computed row is the monitor behind it (SEPARATION_VIOLATED, Cat 0 after "
+                   "T_r, for a drive that does not follow), which a healthy arm does not reach: no alarm")
         elif fid == "collision":
             ctl.ok(f"fault contact {2 * F_QS_HAND_N:g}")
             how = f"AUTO, pfl on, demo program at speed: a contact of 2 x F_qs ({2 * F_QS_HAND_N:g} N) against the TCP"
@@ -350,9 +375,11 @@ def inside(a):
                 frm = cross or ("fault" if fid == "collision" else "input")
                 if stop == "reduce":
                     stop = f"reduce={cfg['reduced']['tcp_max_speed_mm_s'] if fid == 'reduced_speed' else cfg['collaborative']['reduced_speed_mm_s']:g}"
+                if fid == "ssm":  # a valid reading, far: SSM keeps every limit until the person steps in
+                    cell.ctl.ok(f"in separation_mm={SSM_FAR_MM}")
                 cell.run(safety)
-                w, alarms, how = asyncio.run(one(cell, fid, stop, frm))
-                if limit_how:
+                w, alarms, how = asyncio.run(one(cell, fid, stop, frm, cfg["collaborative"]["ssm"]))
+                if limit_how and fid != "ssm":
                     how = how.replace("held at home, ", f"held at home, {limit_how}: ")
                 if fid in CROSS_WHAT:
                     how += "; " + CROSS_WHAT[fid]

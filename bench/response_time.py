@@ -52,18 +52,21 @@ def wire_intro(wfun):
         "`safestate run --fieldbus ethercat --safety FILE` (1 ms cycle) against `safestate ecat-sim` (the EMULATED "
         "segment) on a veth pair, a fresh pair per function. These are figures of an emulated segment on a veth pair, "
         "not of real hardware. FILE is "
-        f"{wfun['base']} with SSM off (the segment has no distance sensor yet) and without the brake-test schedule, and "
+        f"{wfun['base']} with SSM off (on for its own row only: the segment's distance sensor, a subdevice of its own, "
+        "carries the separation) and without the brake-test schedule, and "
         "for a limit that one limit moved beside the pose exactly as in-process (above); the computed columns are "
         "`safestate rta --bus-config` of that same file. Each function is triggered as in-process: contacts through "
-        "the emulator's control socket (channel b 5 ms after a), drive faults of the scenario format (`fault drive 1 "
-        "runaway`, `fault contact N`). The emulator itself times it, per process-data exchange with its own exchange "
+        "the emulator's control socket (channel b 5 ms after a), the distance sensor's reading (`in separation_mm=`), "
+        "drive faults of the scenario format (`fault drive 1 runaway`, `fault contact N`). The emulator itself times it, per process-data exchange with its own exchange "
         "counter and clock (`time STOP from=WHAT`, then `status` → `wire_timing`; sim/ecat/src/wire_timing.cpp):",
         "",
-        "- **Start**: the exchange that carries the trigger to the master: the changed contact; for a fault the first "
+        "- **Start**: the exchange that carries the trigger to the master: the changed contact; for SSM the distance "
+        "sensor's reading below the protective distance; for a fault the first "
         "exchange after it (its plant cycle runs with the fault); for a limit the first exchange whose inputs (positions "
         "0x6064, velocities 0x606C, through the core's kinematics and the tool's TCP) are past it.",
         "- **Reaction** (exchanges after the start; the scan wait before the start is not in it): Cat 0 the contactor "
-        "output bit cleared; Cat 1, Cat 2 and reduce the commanded speed (the targets 0x607A, exchange to exchange, all "
+        "output bit cleared; reduce the DO terminal's `reduced_active` bit set (reduced mode on, as in-process); Cat 1, "
+        "Cat 2 and reduce the commanded speed (the targets 0x607A, exchange to exchange, all "
         "axes, in encoder counts) more than 2.5 counts per cycle below the highest since the start (a program may still be accelerating), or the contactor bit cleared "
         "(reduce: or the commanded TCP speed already at the limit). The targets travel in counts (2^20 per turn), whose "
         "rounding alone moves that speed by up to about 2.5 counts per cycle: a gentle ramp (Cat 2 at half the "
@@ -200,9 +203,9 @@ def main():
               "to about 2.5 counts per exchange: the onset cannot be told from the rounding until the speed has "
               "fallen that far, several exchanges later. The exchange where the fall was seen is an upper bound of "
               "the wire's resolution, not of the reaction; the in-process table above measures the reaction (1 cycle) "
-              "and the safe state here is measured on the wire. A safety output announcing reduced mode (as "
-              "SafeMove's and DCS's configurable safe outputs do) would make it measurable on the wire; the "
-              "emulated DO terminal has none yet.", ""] + [f"- {n}" for n in unresolved_notes]
+              "and the safe state here is measured on the wire. The DO terminal's `reduced_active` bit (a safe output "
+              "announcing reduced mode, as SafeMove's and DCS's configurable safe outputs do) times it on a bus "
+              "configuration that maps it; this one's did not show it.", ""] + [f"- {n}" for n in unresolved_notes]
     if wire is not None:
         rc = wire["reaction"]["cycles"]
         L += ["", f"The E-stop over many presses (bench/ecat_reaction.py, {wire.get('date', '?')}): {rc['max']} "
@@ -224,8 +227,8 @@ def main():
                   "reaction read on the wire is the core's reaction plus the wait until the ramp is that deep. "
                   "In-process, where the core's own reduced flag is read, the same functions react within the computed "
                   "figure (tables above), and their safe state on the wire is well inside the computed worst case. "
-                  "Whether the analysis should gain a term for this (the first step of the ramp the wire can show), or "
-                  "the segment an output that announces reduced mode, is open.", ""]
+                  "Whether the analysis should gain a term for this (the first step of the ramp the wire can show) is "
+                  "open; the DO terminal's `reduced_active` bit times reduced mode itself.", ""]
     else:
         L += ["## Check", "", "Every measured figure is at or below the computed one.", ""]
     with open(DOC, "w") as f:

@@ -45,6 +45,7 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   out.brakes_release = status_.brakes_release;
   out.brake_test_axis = status_.brake_test_axis;
   out.reset_lamp = status_.reset_lamp;
+  out.reduced_active = status_.safety.reduced;
   return taken;
 }
 

@@ -269,6 +269,9 @@ Analysis analyse(const core::Config& cfg_in, const safety::Loaded& s, const BusT
   f.reaction_cycles += persist;
   b.cat0(f);
   f.note = f.active ? "" : "not configured";
+  if (f.active && !bus.distance_sensor) {
+    f.note = "the bus configuration has no distance_sensor: the separation is invalid (0), SSM holds the program";
+  }
   a.functions.push_back(f);
 
   // SPEC §11 rule 8: the drives' torque reaches the core with the positions (one

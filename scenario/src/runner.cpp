@@ -343,8 +343,13 @@ class Runner {
     } else if (const auto* f = std::get_if<FaultStep>(&step.what)) {
       cell_.inject(f->fault);
     } else if (const auto* p = std::get_if<PersonStep>(&step.what)) {
-      // The simulated person feeds only the simulated plant: behind a real bus it cannot
-      // act, which fails the run rather than pass it unseen.
+      // The simulated person feeds the simulated plant, or the world behind the bus where
+      // that world has one (the emulated segment: opts_.world); behind a bus without it it
+      // cannot act, which fails the run rather than pass it unseen.
+      if (opts_.bus != nullptr && opts_.world) {
+        world_failures_ += opts_.world(step) ? 0U : 1U;
+        return;
+      }
       const bool took = person_ok_ && opts_.bus == nullptr && person_keys::apply(*p, cell_);
       world_failures_ += took ? 0U : 1U;
       if (!took && opts_.report != nullptr) {

@@ -11,7 +11,7 @@ import tempfile
 
 BIN, SRC = sys.argv[1], sys.argv[2]
 ESI = os.path.join(SRC, "hal/ethercat/esi/SafeState-Emulated.xml")
-ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6"]
+ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6", "--device", "0x00D15001"]
 failures = []
 
 
@@ -30,12 +30,15 @@ with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "bus.json")
     rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576", "--out", out)
     check(rc == 0, f"shipped ESI: exit {rc}, stderr {se!r}")
-    check("8 subdevices written to" in se, f"shipped ESI: stderr {se!r}")
+    check("9 subdevices written to" in se, f"shipped ESI: stderr {se!r}")
     with open(out) as f:
         got = json.load(f)
     with open(os.path.join(SRC, "hal/ethercat/default-bus.json")) as f:
         want = json.load(f)
-    check(len(got["subdevices"]) == 8, "8 subdevices")
+    check(len(got["subdevices"]) == 9, "9 subdevices")
+    # SPEC §11's distance sensor is found by its entry names; the DO's reduced_active bit too.
+    check(got["subdevices"][8]["role"] == "distance_sensor", f"distance sensor: {got['subdevices'][8]}")
+    check(got["subdevices"][1]["bits"].get("reduced_active") == 9, f"reduced_active: {got['subdevices'][1]['bits']}")
     for g, w in zip(got["subdevices"], want["subdevices"]):
         for key in ("role", "vendor_id", "product_code", "in_bytes", "out_bytes", "bits", "axis", "pdo",
                     "counts_per_revolution"):
@@ -48,13 +51,24 @@ with tempfile.TemporaryDirectory() as tmp:
     # The backend's own reader takes it (rta reads the bus configuration with parse_bus_config).
     p = subprocess.run([BIN, "rta", "--bus-config", out], capture_output=True, text=True, timeout=60)
     check(p.returncode == 0, f"rta --bus-config: exit {p.returncode}, {p.stderr!r}")
+    # SPEC §11: a bus without the distance sensor is a bus (the sensor is optional), and the
+    # analysis says what SSM then does; with it, it says nothing of the kind.
+    collab = os.path.join(SRC, "examples/safety/collaborative.json")
+    no_sensor = os.path.join(tmp, "no-sensor.json")
+    with open(no_sensor, "w") as f:
+        json.dump({**got, "subdevices": [s for s in got["subdevices"] if s["role"] != "distance_sensor"]}, f)
+    note = "the bus configuration has no distance_sensor"
+    for path, has in ((out, False), (no_sensor, True)):
+        p = subprocess.run([BIN, "rta", "--bus-config", path, "--safety", collab], capture_output=True, text=True,
+                           timeout=60)
+        check(p.returncode == 0 and (note in p.stdout) == has, f"rta --bus-config {path}: {p.returncode} {p.stderr!r}")
 
     # One drive with another encoder: AXIS=N beside the resolution of the others.
     rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576", "3=4096")
     check(rc == 0, f"3=4096: exit {rc} {se!r}")
     if rc == 0:
         cpr = [s.get("counts_per_revolution") for s in json.loads(so)["subdevices"]]
-        check(cpr == [None, None, 1048576, 1048576, 4096, 1048576, 1048576, 1048576], f"3=4096: {cpr}")
+        check(cpr == [None, None, 1048576, 1048576, 4096, 1048576, 1048576, 1048576, None], f"3=4096: {cpr}")
 
     # Standard output without --out.
     rc, so, se = run("--esi", ESI, *ORDER, "--counts-per-rev", "1048576")
@@ -90,6 +104,11 @@ with tempfile.TemporaryDirectory() as tmp:
     nt = text.replace("<Entry><Index>#x6077</Index><SubIndex>0</SubIndex><BitLen>16</BitLen><Name>Torque actual value</Name>"
                       "<DataType>INT</DataType></Entry>", "")
     bad("no6077.xml", nt, expect="has no 0x6077 (torque_actual)")
+    bad("sensor16.xml", text.replace("<BitLen>32</BitLen><Name>separation_mm</Name><DataType>DINT</DataType>",
+                                      "<BitLen>16</BitLen><Name>separation_mm</Name><DataType>INT</DataType>"),
+        expect="separation_mm is 16 bits at bit 0 (INT); expected a 32-bit DINT on a byte boundary")
+    bad("sensorvalid.xml", text.replace("<Name>separation_valid</Name>", "<Name>Status</Name>"),
+        expect="a distance sensor's TxPDO needs both separation_mm and separation_valid; it lacks separation_valid")
     # Arguments.
     for args, expect in [((), "give the ESI files with --esi"),
                          (("--esi", ESI, "--counts-per-rev", "1048576"), "give the bus order"),

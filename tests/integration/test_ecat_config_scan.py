@@ -21,7 +21,7 @@ from veth_ns import veth_namespace
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
 ESI = str(ROOT / "hal" / "ethercat" / "esi" / "SafeState-Emulated.xml")
-ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6"]
+ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6", "--device", "0x00D15001"]
 
 
 @pytest.fixture

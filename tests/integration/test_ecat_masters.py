@@ -26,10 +26,10 @@ sys.path.insert(0, str(PROBE.parent))
 from probe import control  # noqa: E402  (one line to the emulator's control socket)
 
 VENDOR = 0x5AFE
-PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6
+PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6 + [0xD15001]  # the distance sensor last (SPEC §11)
 REVISION = 0x10000
-IN_BYTES = [4, 0] + [12] * 6  # drives: 0x6041, 0x6064, 0x606C, 0x6077
-OUT_BYTES = [0, 2] + [8] * 6  # drives: 0x6040, 0x607A, 0x6072
+IN_BYTES = [4, 0] + [12] * 6 + [5]  # drives: 0x6041, 0x6064, 0x606C, 0x6077; sensor: mm (i32), valid
+OUT_BYTES = [0, 2] + [8] * 6 + [0]  # drives: 0x6040, 0x607A, 0x6072
 
 
 def sh(*args, check=True):
@@ -104,12 +104,12 @@ def free_run_segment():
 
 def test_pysoem_scans_identities_and_reaches_op(segment):
     r = segment.probe("soem", "scan")
-    assert r["count"] == 8
-    assert [i["vendor"] for i in r["identities"]] == [VENDOR] * 8
+    assert r["count"] == 9
+    assert [i["vendor"] for i in r["identities"]] == [VENDOR] * 9
     assert [i["product"] for i in r["identities"]] == PRODUCTS
-    assert [i["revision"] for i in r["identities"]] == [REVISION] * 8
+    assert [i["revision"] for i in r["identities"]] == [REVISION] * 9
     assert r["op"] is True
-    assert r["wkc"] == r["expected_wkc"] == 21  # SOEM: 7 outputs x 2 + 7 inputs
+    assert r["wkc"] == r["expected_wkc"] == 22  # SOEM: 7 outputs x 2 + 8 inputs
     assert r["input_bytes"] == IN_BYTES
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]  # Switch on disabled
@@ -120,7 +120,7 @@ def test_pysoem_scans_identities_and_reaches_op(segment):
 
 def test_kickcat_scans_and_reaches_op_with_the_same_layout(free_run_segment):
     r = free_run_segment.probe("kick", "scan")
-    assert r["count"] == 8
+    assert r["count"] == 9
     assert r["op"] is True
     assert r["sizes"] == [[i, o] for i, o in zip(IN_BYTES, OUT_BYTES)]  # from the SII PDO categories
     assert r["ready"] is True
@@ -153,7 +153,7 @@ def test_unplugged_drive_lowers_the_working_counter(segment):
     r = segment.probe("soem", "unplug", segment.control, "8")
     assert r["answer"] == "OK"
     assert r["wkc_before"] == r["expected_wkc"]
-    assert r["wkc_after"] == r["expected_wkc"] - 3  # drive 6 neither read nor written
+    assert r["wkc_after"] == r["expected_wkc"] - 4  # drive 6 neither read nor written, the sensor behind it not read
 
 
 def test_pysoem_reads_and_writes_the_drives_sdos(segment):
@@ -175,6 +175,7 @@ def test_watchdog_drops_silent_outputs_to_safeop(segment):
     for pos in range(1, 8):  # every subdevice with outputs
         assert al[pos]["state"] == 0x14 and al[pos]["code"] == 0x1B, al
     assert al[0]["state"] == 0x08  # the input terminal has no output watchdog
+    assert al[8]["state"] == 0x08  # nor has the distance sensor
 
 
 def test_wrong_product_code_is_what_the_master_reads():

@@ -20,6 +20,9 @@ from veth_ns import veth_namespace
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.path.abspath(os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate")))
 SCENARIOS = sorted((ROOT / "tests" / "scenarios").glob("*.scn"))
+# SPEC §11 over the wire: every scenario that sets the separation must run here (none may
+# be skipped for want of a distance sensor), the shared collaborative ones as well.
+SHARED = Path(os.environ.get("SAFESTATE_SHARED_SCENARIOS", ROOT.parent / "shared" / "scenarios"))
 
 # Timing-dependent over a real bus, with the reason:
 TIMING = {
@@ -35,20 +38,6 @@ TIMING = {
     # a silent bus is found after the fieldbus watchdog (100 lost frames), not in the cycle of the fault
     "row01-fieldbus-lost.scn": "bus loss detected after the fieldbus watchdog",
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
-    # SPEC §11 SSM: the emulated segment has no distance sensor yet (ecat-sim refuses
-    # separation_mm / separation_valid); the protective fields are on DI bits 20..23 and run
-    "collab-ssm-v-allowed.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-hold.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-invalid.scn": "no distance sensor on the emulated segment yet",
-    "collab-ssm-violated.scn": "no distance sensor on the emulated segment yet",
-    "collab-rule9-auto-resume.scn": "no distance sensor on the emulated segment yet",
-    "collab-field-discrepancy.scn": "no distance sensor on the emulated segment yet",
-    "collab-outer-reduced.scn": "no distance sensor on the emulated segment yet",
-    # the simulated person feeds only the in-process plant (docs/collaborative.md "The
-    # simulated person"): behind a bus its `person` lines fail the run by design
-    "collab-person-walk-in.scn": "the simulated person is not behind the emulated segment",
-    "collab-person-far.scn": "the simulated person is not behind the emulated segment",
-    "collab-person-ssm-hold.scn": "the simulated person is not behind the emulated segment",
 }
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")
@@ -84,12 +73,12 @@ def segment_for_cycle(scn, tmp_path):
     return ["--cycle-us", str(cycle)], ["--bus-config", str(path)]
 
 
-def replay(ns, scn, tmp_path, bus_for_cycle=True):
+def replay(ns, scn, tmp_path, bus_for_cycle=True, sim_extra=(), replay_extra=()):
     control = str(tmp_path / "ctl.sock")
     sim_args, replay_args = segment_for_cycle(scn, tmp_path)
-    replay_args = replay_args if bus_for_cycle else []
+    replay_args = [*(replay_args if bus_for_cycle else []), *replay_extra]
     sim = subprocess.Popen(["ip", "netns", "exec", ns, BIN, "ecat-sim", "--ifname", "ecs", "--control", control,
-                            *sim_args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            *sim_args, *sim_extra], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 10
         while not os.path.exists(control):
@@ -108,6 +97,53 @@ def test_scenario_passes_over_ethercat(ns, scn, tmp_path):
     r = replay(ns, scn, tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "over EtherCAT" in r.stdout
+
+
+def uses_distance_sensor(scn):
+    return re.search(r"\bseparation_(mm|valid)=", scn.read_text()) is not None
+
+
+SHARED_SSM = sorted(s for s in SHARED.glob("*.scn") if uses_distance_sensor(s)) if SHARED.is_dir() else []
+
+
+@pytest.mark.parametrize("scn", SHARED_SSM, ids=lambda s: "shared/" + s.name)
+def test_shared_distance_sensor_scenario_passes_over_ethercat(ns, scn, tmp_path):
+    r = replay(ns, scn, tmp_path)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "over EtherCAT" in r.stdout
+
+
+def test_no_separation_scenario_is_left_out():
+    """The distance sensor is on the emulated segment, and the simulated person behind it: no
+    scenario that sets the separation or walks the person is skipped here."""
+    left_out = [s.name for s in SCENARIOS if s.name in TIMING and
+                (uses_distance_sensor(s) or re.search(r"^@\S+\s+person\b", s.read_text(), re.M))]
+    assert left_out == []
+    assert any(uses_distance_sensor(s) for s in SCENARIOS if s.name not in TIMING)
+
+
+def test_a_segment_without_the_distance_sensor_keeps_the_separation_invalid(ns, tmp_path):
+    """The sensor is optional: a bus configuration without a distance_sensor, on a segment
+    without one, boots and runs; SSM sees the separation invalid (0: v_allowed 0, the program
+    holds, no alarm), and the emulator refuses a reading it could not put on the wire."""
+    (tmp_path / "configs").mkdir()
+    (tmp_path / "configs" / "collab-ssm.json").write_text(
+        (ROOT / "tests" / "scenarios" / "configs" / "collab-ssm.json").read_text())
+    cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    cfg["subdevices"] = [d for d in cfg["subdevices"] if d["role"] != "distance_sensor"]
+    bus = tmp_path / "no-sensor.json"
+    bus.write_text(json.dumps(cfg))
+    head = (ROOT / "tests" / "scenarios" / "collab-ssm-invalid.scn").read_text().splitlines()
+    config = next(l for l in head if l.startswith("config safety="))
+    scn = tmp_path / "no-sensor.scn"
+    scn.write_text(config + "\n@100 cmd reset\n@110 cmd servo_on\n@1500 cmd start\n"
+                   "@1510..2300 expect tcp_speed<0.5 v_allowed<=0 sub=AUTO_RUNNING noalarm=SEPARATION_VIOLATED\n")
+    r = replay(ns, scn, tmp_path, sim_extra=["--no-distance-sensor"], replay_extra=["--bus-config", str(bus)])
+    assert r.returncode == 0, r.stdout + r.stderr
+    # The same lines with a reading: the emulator cannot carry it, the run fails (and says so).
+    scn.write_text(scn.read_text() + "@1600 in separation_mm=4000\n")
+    r = replay(ns, scn, tmp_path, sim_extra=["--no-distance-sensor"], replay_extra=["--bus-config", str(bus)])
+    assert r.returncode != 0 and "no distance sensor" in r.stdout, r.stdout + r.stderr
 
 
 def test_a_wrong_expectation_still_fails_over_ethercat(ns, tmp_path):

@@ -211,7 +211,7 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert "(EtherCAT," in cell.log("run")
     assert s["alarms"] == []
     assert all(sw & 0x4F == 0x40 for sw in s["statusword"])  # read from the emulated drives' TxPDOs
-    assert cell.wire()["al_state"] == [8] * 8
+    assert cell.wire()["al_state"] == [8] * 9  # the distance sensor too
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
@@ -337,7 +337,7 @@ def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
     master locks out at once, for the bus as a whole, before the drive's own process-data
     watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
     cell.wait_state("ESTOP_RESET_NEEDED")
-    assert cell.control_line("fault no-pd 9") == "ERROR no-pd needs a subdevice position 1..8"
+    assert cell.control_line("fault no-pd 10") == "ERROR no-pd needs a subdevice position 1..9"
     assert cell.control_line("fault no-pd 8") == "OK"
     s = cell.wait_state("ERROR_LOCKOUT", 10)
     assert "FIELDBUS_LOST" in s["alarms"], s
@@ -381,7 +381,7 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
     exchange."""
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
-    assert cell.wire()["watchdog_us"] == [10000] * 8  # as the master wrote them (ESC default: 100000)
+    assert cell.wire()["watchdog_us"] == [10000] * 9  # as the master wrote them (ESC default: 100000)
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
     w = cell.wire()
@@ -477,7 +477,7 @@ def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     for pos in range(2, 8):
         d = w["sdo"][pos]
         assert (d["6060:00"], d["60C2:01"], d["60C2:02"], d["6072:00"]) == (8, 1, -3, 1000), (pos, d)
-    assert w["al_state"] == [8] * 8
+    assert w["al_state"] == [8] * 9
 
 
 def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
@@ -495,7 +495,7 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         # In order: the drive took 0x6060 before refusing 0x6072; the next drive got nothing,
         # and no subdevice went on to SAFE-OP.
         assert w["sdo"][4]["6060:00"] == 8 and w["sdo"][5]["6060:00"] == 0, w["sdo"]
-        assert w["al_state"] == [2] * 8, w["al_state"]
+        assert w["al_state"] == [2] * 9, w["al_state"]
     finally:
         c.close()
 

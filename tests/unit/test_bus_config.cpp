@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
+
 #include "safestate/ecat/cell.hpp"
 #include "safestate/hal/ethercat.hpp"
 
@@ -311,4 +313,63 @@ TEST(BusConfig, DistributedClocksPerSubdeviceAndTheSync0Shift) {
   bad = j;
   bad["sync0_shift_us"] = 100001;
   EXPECT_NE(refused(bad).find("sync0_shift_us"), std::string::npos);
+}
+
+// SPEC §11's distance sensor: a subdevice of its own (role distance_sensor), optional and at
+// most one, its separation (INT32) and valid bit inside its input image; and the DO
+// terminal's reduced_active bit (SPEC §10), optional too.
+TEST(BusConfig, DistanceSensorAndReducedActive) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  const Subdevice& s = c.subdevices.at(safestate::ecat::kPosDistance);
+  EXPECT_EQ(s.role, Role::distance_sensor);
+  EXPECT_EQ(s.in_bytes, safestate::ecat::kDistanceBytes);
+  EXPECT_EQ(s.separation_mm, 0U);
+  EXPECT_EQ(s.separation_valid_bit, safestate::ecat::kDistanceValidBit);
+  EXPECT_EQ(c.subdevices[1].out_bit[9], static_cast<std::uint16_t>(safestate::ecat::DoBit::reduced_active));
+
+  // Optional: a segment without the sensor, or a DO terminal without the bit, is a bus.
+  Json j = default_json();
+  j["subdevices"].erase(safestate::ecat::kPosDistance);
+  j["subdevices"][1]["bits"].erase("reduced_active");
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.subdevices.size(), safestate::ecat::kPosDistance);
+  EXPECT_EQ(c.subdevices[1].out_bit[9], kNoBit);
+  for (const Subdevice& d : c.subdevices) {
+    EXPECT_NE(d.role, Role::distance_sensor);
+  }
+
+  const Json sensor = default_json()["subdevices"][safestate::ecat::kPosDistance];
+  const std::string at = "subdevices[" + std::to_string(safestate::ecat::kPosDistance) + "]";
+  const auto with = [&](const std::function<void(Json&)>& change) {
+    Json k = default_json();
+    change(k["subdevices"][safestate::ecat::kPosDistance]);
+    return k;
+  };
+  j = default_json();
+  j["subdevices"].push_back(sensor);  // two sensors: which separation counts?
+  EXPECT_NE(refused(j).find("a second distance_sensor"), std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["pdo"]["separation_mm"] = 2; })).find(at + ".pdo.separation_mm"),
+            std::string::npos);  // 4 bytes at 2 of a 5-byte image
+  EXPECT_NE(refused(with([](Json& d) { d["pdo"].erase("separation_mm"); })).find(at + ".pdo.separation_mm"),
+            std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d.erase("pdo"); })).find(at + ".pdo"), std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["pdo"]["distance"] = 0; })).find(at + ".pdo.distance: unknown object"),
+            std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["bits"].erase("separation_valid"); })).find(at + ".bits.separation_valid"),
+            std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["bits"]["separation_valid"] = 40; })).find(at + ".bits.separation_valid"),
+            std::string::npos);  // past the 5 bytes
+  EXPECT_NE(refused(with([](Json& d) { d["bits"]["separation_valid"] = 7; })).find("lies inside separation_mm"),
+            std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["bits"]["fault"] = 33; })).find(at + ".bits.fault: unknown signal"),
+            std::string::npos);
+  EXPECT_NE(refused(with([](Json& d) { d["in_bytes"] = 4; })).find(at + ".in_bytes"), std::string::npos);
+
+  j = default_json();
+  j["subdevices"][1]["bits"]["reduced_active"] = 16;  // past the terminal's 2 bytes
+  EXPECT_NE(refused(j).find("subdevices[1].bits.reduced_active"), std::string::npos);
+  j["subdevices"][1]["bits"]["reduced_active"] = 0;  // the contactor's bit
+  EXPECT_NE(refused(j).find("used twice"), std::string::npos);
 }

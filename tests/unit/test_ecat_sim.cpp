@@ -246,8 +246,8 @@ constexpr std::size_t kOutBytes = kDoBytes + 6 * kDriveRxBytes;
 TEST(EcatSegment, BroadcastReadCountsEverySubdevice) {
   Segment seg(default_segment());
   auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
-  EXPECT_EQ(r[0].wkc, 8);
-  EXPECT_EQ(r[0].adp, 8);  // every subdevice increments the position field
+  EXPECT_EQ(r[0].wkc, 9);
+  EXPECT_EQ(r[0].adp, 9);  // every subdevice increments the position field
 }
 
 TEST(EcatSegment, AutoIncrementAddressesOnePositionOnly) {
@@ -529,7 +529,7 @@ TEST(EcatWire, CutBeforeADriveHidesItAndEverythingBehind) {
   EXPECT_EQ(r[0].wkc, 4);
   seg.cut_before(0);
   r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
-  EXPECT_EQ(r[0].wkc, 8);
+  EXPECT_EQ(r[0].wkc, 9);
   EXPECT_EQ(seg.esc(6).state(), AlState::init);  // re-powered
 }
 
@@ -546,7 +546,7 @@ TEST(EcatWire, DroppedAndCorruptedFrames) {
   EXPECT_TRUE(answered);
   EXPECT_EQ(r[0].wkc, 0);
   r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
-  EXPECT_EQ(r[0].wkc, 8);
+  EXPECT_EQ(r[0].wkc, 9);
 }
 
 TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
@@ -558,7 +558,7 @@ TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
   ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
   auto r = exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
   EXPECT_TRUE(answered);
-  EXPECT_EQ(r[0].wkc, 8);
+  EXPECT_EQ(r[0].wkc, 9);
 }
 
 TEST(EcatWire, ASubdeviceIgnoringProcessDataStaysInOpWithAShortWorkingCounter) {
@@ -575,7 +575,7 @@ TEST(EcatWire, ASubdeviceIgnoringProcessDataStaysInOpWithAShortWorkingCounter) {
   EXPECT_EQ(r[0].wkc, 6);  // DI terminal + five drives
   EXPECT_EQ(al_status(seg, 0x1008) & 0x0F, 8);  // still in OP: only the working counter tells
   auto b = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
-  EXPECT_EQ(b[0].wkc, 8);  // every other datagram is answered as before
+  EXPECT_EQ(b[0].wkc, 9);  // every other datagram is answered as before
   ASSERT_EQ(control_line(cell, "fault clear all"), "OK");
   w = exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}}, 2000);
   EXPECT_EQ(w[0].wkc, 7);
@@ -605,10 +605,10 @@ TEST(EcatControl, ValidatesEveryLine) {
   EXPECT_EQ(control_line(cell, "fault unplug 4"), "OK");
   EXPECT_EQ(cell.segment().connected(), 3U);
   EXPECT_EQ(control_line(cell, "fault replug"), "OK");
-  EXPECT_EQ(cell.segment().connected(), 8U);
+  EXPECT_EQ(cell.segment().connected(), 9U);
   const core::RawInputs before = cell.inputs();
-  for (const char* bad : {"in gate=ajar", "fault unplug 9", "fault drop 0", "fault corrupt x", "fault no-pd 0",
-                          "fault no-pd 9", "launch",
+  for (const char* bad : {"in gate=ajar", "fault unplug 10", "fault drop 0", "fault corrupt x", "fault no-pd 0",
+                          "fault no-pd 10", "launch",
                           R"({"set":{"gate":[1]}})", "{oops", "fault drive 7 fault",
                           // SPEC §11 the emulated arm's tool: four numbers, in range
                           "tool", "tool 1.5", "tool 1.5 0 0", "tool 1.5 0 0 120 7", "tool -1 0 0 0", "tool 101 0 0 0",
@@ -617,7 +617,7 @@ TEST(EcatControl, ValidatesEveryLine) {
     EXPECT_EQ(r.rfind("ERROR ", 0), 0U) << bad << " -> " << r;
   }
   EXPECT_EQ(cell.inputs().gate_a, before.gate_a);
-  EXPECT_EQ(cell.segment().connected(), 8U);
+  EXPECT_EQ(cell.segment().connected(), 9U);
   EXPECT_NE(control_line(cell, "status").find("\"al_state\""), std::string::npos);
   EXPECT_EQ(control_line(cell, "tool 1.5 0 0 120"), "OK");
 }
@@ -725,6 +725,119 @@ TEST(EcatProcessData, BrakeTestObjectsCrossTheWire) {
   unpack_outputs(dout, rx, back);
   EXPECT_EQ(back.brake_test_axis, 6);
   EXPECT_EQ(back.drive[5].max_torque_permille, 1300);
+}
+
+// SPEC §11 over EtherCAT: the distance sensor (a subdevice of its own at the end of the
+// line) carries what `in separation_mm=` / `separation_valid=` set, INT32 mm and a valid bit;
+// SPEC §10: the DO terminal's reduced_active bit reaches the plant's view of the outputs.
+TEST(EcatProcessData, DistanceSensorAndReducedActiveCrossTheWire) {
+  EmulatedCell cell(1000);
+  Segment& seg = cell.segment();
+  bring_to_op(seg);
+  const auto st = static_cast<std::uint16_t>(0x1001 + kPosDistance);
+  EXPECT_EQ(sii_u32(seg, st, 0x0A), kProductDistance);
+  // bring_to_op() maps the DI, DO and drives only: the sensor refused SAFE-OP without its
+  // sync manager (PRE-OP + error); mapped, the error acknowledged, it goes on to OP.
+  EXPECT_EQ(al_status(seg, st), 0x12);
+  map(seg, st, 0, 0x1000, kDistanceBytes, 0x20, 0, 0x30000, 1);
+  request(seg, st, 0x12);
+  request(seg, st, 4);
+  request(seg, st, 8);
+  ASSERT_EQ(al_status(seg, st), 8);
+  const auto reading = [&seg](std::int32_t& mm, bool& valid) {
+    const auto r = exchange(seg, {{Cmd::LRD, 0x0000, 0x0003, std::vector<std::uint8_t>(kDistanceBytes)}});
+    ASSERT_EQ(r[0].wkc, 1);
+    mm = static_cast<std::int32_t>(r[0].data[0] | (r[0].data[1] << 8U) | (r[0].data[2] << 16U) |
+                                   (static_cast<std::uint32_t>(r[0].data[3]) << 24U));
+    valid = (r[0].data[4] & 0x01U) != 0U;
+  };
+  std::int32_t mm = -1;
+  bool valid = true;
+  reading(mm, valid);
+  EXPECT_FALSE(valid);  // no reading yet: invalid (unknown is unsafe)
+  ASSERT_EQ(control_line(cell, "in separation_mm=1234"), "OK");
+  reading(mm, valid);
+  EXPECT_EQ(mm, 1234);
+  EXPECT_TRUE(valid);
+  ASSERT_EQ(control_line(cell, "in separation_valid=0"), "OK");
+  reading(mm, valid);
+  EXPECT_EQ(mm, 1234);
+  EXPECT_FALSE(valid);
+  ASSERT_EQ(control_line(cell, "{\"type\":\"sim\",\"set\":{\"separation_mm\":70000}}"), "OK");
+  reading(mm, valid);
+  EXPECT_EQ(mm, 70000);
+  EXPECT_TRUE(valid);
+  const nlohmann::json status = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_EQ(status["separation_mm"], 70000);
+  EXPECT_EQ(status["separation_valid"], true);
+  EXPECT_EQ(control_line(cell, "in separation_mm=-5").rfind("ERROR", 0), 0U);  // refused, nothing changed
+  reading(mm, valid);
+  EXPECT_EQ(mm, 70000);
+
+  std::vector<std::uint8_t> out(kOutBytes, 0);
+  out[1] = static_cast<std::uint8_t>(1U << (static_cast<unsigned>(DoBit::reduced_active) - 8U));
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_TRUE(cell.last_outputs().reduced_active);
+  EXPECT_TRUE(nlohmann::json::parse(control_line(cell, "status"))["reduced_active"].get<bool>());
+  out[1] = 0;
+  exchange(seg, {{Cmd::LWR, 0x0000, 0x0002, out}});
+  EXPECT_FALSE(cell.last_outputs().reduced_active);
+
+  hal::ProcessImageOut o{};
+  o.reduced_active = true;
+  std::uint8_t dout[kDoBytes];
+  std::uint8_t rx[6][kDriveRxBytes];
+  pack_outputs(o, dout, rx);
+  hal::ProcessImageOut back{};
+  unpack_outputs(dout, rx, back);
+  EXPECT_TRUE(back.reduced_active);
+  EXPECT_FALSE(back.contactor);
+}
+
+// SPEC §11's simulated person behind the segment: its `person` lines (the scenario format's)
+// move it, it walks one step per plant cycle, and the scanner's bits and the distance
+// sensor's reading show it while it is in the cell, over what `in` lines set.
+// @req COL-SIM-PERSON
+TEST(EcatControl, TheSimulatedPersonFeedsTheScannerAndTheDistanceSensor) {
+  EmulatedCell cell(1000);
+  ASSERT_EQ(control_line(cell, "in separation_mm=300"), "OK");
+  for (const char* bad : {"person walk 0 0 1000", "person stand", "person leave", "person at 1 2 3",
+                          "person at 50000 0", "person dance", "config person_fields=300,400",
+                          "config person_fields=x", "config cycle_us=2000"}) {
+    const std::string r = control_line(cell, bad);
+    EXPECT_EQ(r.rfind("ERROR", 0), 0U) << bad << " -> " << r;
+  }
+  EXPECT_TRUE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_EQ(cell.last_inputs().safety.separation_mm, 300);
+  ASSERT_EQ(control_line(cell, "person at 0 5000"), "OK");  // far: outside both fields
+  EXPECT_TRUE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_TRUE(cell.last_inputs().safety.separation_valid);
+  EXPECT_GT(cell.last_inputs().safety.separation_mm, 4000);
+  ASSERT_EQ(control_line(cell, "config person_fields=6000,5000"), "OK");  // now it is in both
+  EXPECT_FALSE(cell.last_inputs().safety.field_outer_a);
+  EXPECT_FALSE(cell.last_inputs().safety.field_inner_b);
+  ASSERT_EQ(control_line(cell, "config person_fields=2000,1000"), "OK");
+  ASSERT_EQ(control_line(cell, "person walk 0 1500 1000"), "OK");  // 1 m/s towards the arm
+  const std::int32_t before = cell.last_inputs().safety.separation_mm;
+  for (int k = 0; k < 1000; ++k) {
+    cell.step();  // one second of plant cycles: 1 m nearer
+  }
+  const nlohmann::json st = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_NEAR(st["person"]["y_mm"].get<double>(), 4000.0, 1.0);
+  EXPECT_TRUE(st["person"]["walking"].get<bool>());
+  EXPECT_NEAR(before - cell.last_inputs().safety.separation_mm, 1000, 2);
+  ASSERT_EQ(control_line(cell, "person leave"), "OK");  // what `in` set applies again
+  EXPECT_EQ(cell.last_inputs().safety.separation_mm, 300);
+  EXPECT_TRUE(nlohmann::json::parse(control_line(cell, "status"))["person"].is_null());
+}
+
+// A segment built without the sensor refuses a separation rather than drop it.
+TEST(EcatControl, ASegmentWithoutTheDistanceSensorRefusesASeparation) {
+  std::vector<SubdeviceDesc> devs = default_segment();
+  devs.pop_back();
+  EmulatedCell cell(1000, devs);
+  EXPECT_NE(control_line(cell, "in separation_mm=800").find("no distance sensor"), std::string::npos);
+  EXPECT_EQ(control_line(cell, "in estop.a=0"), "OK");
 }
 
 // Issue 22 item 4: the drives' CoE mailbox and object dictionary.
@@ -925,17 +1038,18 @@ namespace {
 // BWR to 0x0900, read them, set every system time offset to (master time - receive time)
 // and the delay from the port receive times, then reset the control loops (0x0930).
 void dc_init(Segment& seg, std::uint64_t t, std::uint64_t master_ns) {
-  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 8);
-  std::vector<std::uint32_t> loop(8);
-  for (std::uint16_t p = 0; p < 8; ++p) {
+  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 9);
+  constexpr std::uint16_t kLast = kSubdevices - 1U;
+  std::vector<std::uint32_t> loop(kSubdevices);
+  for (std::uint16_t p = 0; p < kSubdevices; ++p) {
     const auto st = static_cast<std::uint16_t>(0x1001 + p);
     const std::uint64_t recv = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
     const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
-    loop[p] = p < 7 ? le32(ports, 4) - le32(ports, 0) : 0U;
+    loop[p] = p < kLast ? le32(ports, 4) - le32(ports, 0) : 0U;
     exchange(seg, {{Cmd::FPWR, st, reg::dc_offset, le_n(master_ns - recv, 8)}}, t);
   }
   std::uint32_t delay = 0;
-  for (std::uint16_t p = 1; p < 8; ++p) {
+  for (std::uint16_t p = 1; p < kSubdevices; ++p) {
     delay += (loop[p - 1] - loop[p]) / 2;
     exchange(seg, {{Cmd::FPWR, static_cast<std::uint16_t>(0x1001 + p), reg::dc_delay, le_n(delay, 4)}}, t);
   }
@@ -955,16 +1069,17 @@ TEST(EcatDc, EveryEscHasA64BitDcUnitAndLatchesItsPortTimes) {
   const auto f = exchange(seg, {{Cmd::FPRD, 0x1005, reg::features, std::vector<std::uint8_t>(2)}})[0].data;
   EXPECT_EQ(u16(f) & 0x010C, 0x010C);  // DC, 64 bit, enhanced SYNC activation
   const std::uint64_t t = 50000000;
-  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 8);
-  for (std::uint16_t p = 0; p < 8; ++p) {
+  ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 9);
+  constexpr std::uint16_t kLast = kSubdevices - 1U;
+  for (std::uint16_t p = 0; p < kSubdevices; ++p) {
     const auto st = static_cast<std::uint16_t>(0x1001 + p);
     const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
     const std::uint64_t pu = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
     EXPECT_EQ(le32(ports, 0), static_cast<std::uint32_t>(pu)) << p;
     // port 1: the frame back from the subdevices behind, 2 x 800 ns per hop (+-1 tick of drift)
-    const double loop = p < 7 ? 2.0 * kHopNs * (7 - p) : 0.0;
-    EXPECT_NEAR(p < 7 ? static_cast<double>(le32(ports, 4) - le32(ports, 0)) : 0.0, loop, 10.0) << p;
-    EXPECT_EQ(le32(ports, 4) == 0U, p == 7) << "the last one's port 1 is closed";
+    const double loop = p < kLast ? 2.0 * kHopNs * (kLast - p) : 0.0;
+    EXPECT_NEAR(p < kLast ? static_cast<double>(le32(ports, 4) - le32(ports, 0)) : 0.0, loop, 10.0) << p;
+    EXPECT_EQ(le32(ports, 4) == 0U, p == kLast) << "the last one's port 1 is closed";
   }
   // Local times differ (each powered up at its own time) and run at their own speeds.
   EXPECT_NE(seg.esc(2).local_time(t), seg.esc(3).local_time(t));
@@ -991,7 +1106,7 @@ TEST(EcatDc, TheClocksDriftApartAndTheFrmwEveryCycleKeepsThemInStep) {
   // With one FRMW per 1 ms cycle (a little jitter) the loops pull them together.
   for (int k = 0; k < 3000; ++k) {
     t += 1000000 + static_cast<std::uint64_t>((k * 37) % 50) * 1000;  // 1.00..1.05 ms
-    ASSERT_EQ(frmw(seg, t), 8);  // the reference reads, the seven others take it
+    ASSERT_EQ(frmw(seg, t), 9);  // the reference reads, the eight others take it
   }
   std::int64_t worst = 0;
   for (int k = 0; k < 1000; ++k) {

@@ -266,3 +266,81 @@ TEST(EcatWireTiming, TheFallIsJudgedAgainstTheHighestSpeedSinceTheStart) {
   ASSERT_TRUE(w.t.reaction().seen);
   EXPECT_EQ(w.t.reaction().exchange, 3U);
 }
+
+// SPEC §10 on the wire: the DO terminal's reduced_active bit is the reaction of reduced mode,
+// for `reduced` alone and for `reduce=` (before the commanded speed has fallen at all).
+TEST(EcatWireTiming, ReducedModeReactionIsTheReducedActiveBit) {
+  Wire w;
+  w.arm("reduced from=input");
+  w.go(0.001);
+  w.t.input_changed();
+  w.go(0.001);  // 1: start
+  w.go(0.001);  // 2: not yet
+  EXPECT_FALSE(w.t.reaction().seen);
+  w.out.contactor = false;  // power removal is not reduced mode
+  w.go(0.001);  // 3
+  EXPECT_FALSE(w.t.reaction().seen);
+  w.out.contactor = true;
+  w.out.reduced_active = true;
+  w.go(0.001);  // 4: the bit
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.reaction().exchange - w.t.start().exchange, 3U);
+  ASSERT_TRUE(w.t.safe().seen);
+  EXPECT_EQ(w.t.safe().exchange, w.t.reaction().exchange);
+  EXPECT_EQ(w.t.to_json(w.in)["stop"], "reduced");
+
+  Wire r;
+  r.t.set_tcp({0.0F, 0.0F, 120.0F});
+  r.arm("reduce=250 from=input");
+  for (int i = 0; i < 3; ++i) r.go(0.001);
+  r.t.input_changed();
+  r.go(0.001);  // 3: start
+  r.out.reduced_active = true;
+  r.go(0.001);  // 4: the bit, the speed unchanged
+  ASSERT_TRUE(r.t.reaction().seen);
+  EXPECT_EQ(r.t.reaction().exchange, 4U);
+  EXPECT_FALSE(r.t.safe().seen);  // the TCP is still far above 250 mm/s
+
+  // Already on before the trigger: the arm was reduced before, nothing to time.
+  Wire e;
+  e.arm("reduced from=input");
+  e.out.reduced_active = true;
+  e.go();
+  e.go();
+  EXPECT_TRUE(e.t.early().seen);
+}
+
+// SPEC §11 on the wire: the distance sensor's reading below the protective distance (or
+// invalid: unknown is unsafe) carried to the master starts the count.
+TEST(EcatWireTiming, TheSeparationBelowAThresholdStartsTheCount) {
+  Wire w;
+  w.arm("cat2 from=separation<2372");
+  w.in.safety.separation_mm = 5000;
+  w.in.safety.separation_valid = true;
+  w.go(0.001);
+  w.go(0.001);
+  EXPECT_FALSE(w.t.start().seen);
+  w.in.safety.separation_mm = 2372;  // at it: not below
+  w.go(0.001);
+  EXPECT_FALSE(w.t.start().seen);
+  w.in.safety.separation_mm = 300;
+  w.go(0.001);  // 3
+  ASSERT_TRUE(w.t.start().seen);
+  EXPECT_EQ(w.t.start().exchange, 3U);
+  EXPECT_EQ(w.t.to_json(w.in)["from"], "separation");
+
+  Wire v;
+  v.arm("cat2 from=separation<1000");
+  v.in.safety.separation_mm = 5000;
+  v.in.safety.separation_valid = false;  // far, but not valid
+  v.go();
+  EXPECT_TRUE(v.t.start().seen);
+
+  EmulatedCell cell(kCycleUs);
+  for (const char* bad : {"time cat2 from=separation<0", "time cat2 from=separation<x", "time cat2 from=separation>5",
+                          "time reduced from=separation<", "time reducedx from=input"}) {
+    EXPECT_EQ(control_line(cell, bad).rfind("ERROR", 0), 0U) << bad;
+  }
+  EXPECT_EQ(control_line(cell, "time cat2 from=separation<1200"), "OK");
+  EXPECT_EQ(control_line(cell, "time reduced from=input"), "OK");
+}

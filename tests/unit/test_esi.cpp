@@ -17,7 +17,7 @@ using safestate::ecat::SubdeviceDesc;
 
 namespace {
 
-const std::vector<std::string> kBusOrder = {"0x00D10018", "0x00D00003", "0x00402001*6"};
+const std::vector<std::string> kBusOrder = {"0x00D10018", "0x00D00003", "0x00402001*6", "0x00D15001"};
 constexpr std::uint32_t kCounts = 1048576;  // the emulated drives' 2^20 increments per revolution
 
 std::string builtin() { return esi::builtin_esi(); }
@@ -174,6 +174,8 @@ TEST(EsiEmulated, MakesTheBuiltInBusConfig) {
     EXPECT_EQ(g.position_actual, w.position_actual) << i;
     EXPECT_EQ(g.velocity_actual, w.velocity_actual) << i;
     EXPECT_EQ(g.torque_actual, w.torque_actual) << i;
+    EXPECT_EQ(g.separation_mm, w.separation_mm) << i;
+    EXPECT_EQ(g.separation_valid_bit, w.separation_valid_bit) << i;
     ASSERT_EQ(g.startup.size(), w.startup.size()) << i;
     for (std::size_t k = 0; k < w.startup.size(); ++k) {
       EXPECT_EQ(g.startup[k].index, w.startup[k].index) << i << "/" << k;
@@ -196,7 +198,7 @@ TEST(EsiEmulated, ReadsIdentityProfileMailboxAndDc) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(builtin(), "emu.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   const esi::Device& drive = lib[2];
   EXPECT_EQ(drive.vendor_id, 0x00005AFEU);
   EXPECT_EQ(drive.product_code, 0x00402001U);
@@ -317,7 +319,7 @@ TEST(EsiEmulated, InitCmdsOfIpComeBeforePs) {
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "ip.xml", lib, err, warnings)) << err;
   EXPECT_TRUE(warnings.empty());
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   ASSERT_EQ(lib[2].startup.size(), 4U);
   EXPECT_EQ(lib[2].startup[0].index, 0x6072U);
   EXPECT_EQ(lib[2].startup[1].index, 0x6060U);
@@ -334,7 +336,7 @@ TEST(EsiWarn, InitCmdOfAnotherTransitionIsSkipped) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "w.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   EXPECT_EQ(lib[2].startup.size(), 3U);
   EXPECT_TRUE(lib[0].warnings.empty());
   ASSERT_EQ(lib[2].warnings.size(), 1U);
@@ -363,7 +365,7 @@ TEST(EsiBad, OneBadDeviceOnlyRefusedWhenUsed) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "lib.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   EXPECT_TRUE(lib[0].error.empty());
   EXPECT_TRUE(lib[2].error.empty());
   expect_has(lib[1].error, "lib.xml:" + std::to_string(line_of(text, "STRING(1)")) +
@@ -394,8 +396,38 @@ TEST(EsiBad, RolesFromNames) {
   for (int a = 1; a <= 6; ++a) {
     text = with(text, "<Name>brake_hold." + std::to_string(a) + "</Name>", "<Name>Output " + std::to_string(a + 3) + "</Name>");
   }
+  text = with(text, "<Name>reduced_active</Name>", "<Name>Output 10</Name>");
   expect_has(generate_error(text), "subdevice 2 \"SS-EMU-DO3\"");
   expect_has(generate_error(text), "no role: neither a CiA 402 drive");
+}
+
+// SPEC §11's distance sensor is found by its entry names (separation_mm, separation_valid),
+// checked for size; the DO terminal's reduced_active bit (SPEC §10) is optional.
+TEST(EsiBad, DistanceSensorAndReducedActiveFromNames) {
+  std::string json;
+  std::string err;
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(generate(builtin(), json, err, warnings)) << err;
+  expect_has(json, "\"role\": \"distance_sensor\"");
+
+  std::string text = with(builtin(), "<Name>separation_valid</Name>", "<Name>Status</Name>");
+  expect_has(generate_error(text), "subdevice 9 \"SS-EMU-DIST\"");
+  expect_has(generate_error(text), "needs both separation_mm and separation_valid; it lacks separation_valid");
+
+  text = with(builtin(), "<BitLen>32</BitLen><Name>separation_mm</Name><DataType>DINT</DataType>",
+              "<BitLen>16</BitLen><Name>separation_mm</Name><DataType>INT</DataType>");
+  expect_has(generate_error(text), "separation_mm is 16 bits at bit 0 (INT); expected a 32-bit DINT");
+
+  text = with(builtin(), "<Name>separation_mm</Name>", "<Name>estop.a</Name>");
+  expect_has(generate_error(text), "one subdevice has one role");
+
+  // A DO terminal without reduced_active still is the safety outputs, without that bit.
+  text = with(builtin(), "<Name>reduced_active</Name>", "<Name>Output 10</Name>");
+  ASSERT_TRUE(generate(text, json, err, warnings)) << err;
+  ethercat::BusConfig cfg;
+  ASSERT_TRUE(ethercat::parse_bus_config(json, cfg, err)) << err;
+  EXPECT_EQ(cfg.subdevices[1].out_bit[9], ethercat::kNoBit);
+  EXPECT_EQ(cfg.subdevices[1].out_bit[0], 0U);
 }
 
 TEST(EsiBus, DeviceSpecs) {
@@ -466,7 +498,7 @@ TEST(EsiEmulated, Latin1FilesAndStrayBytes) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "latin1.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   EXPECT_EQ(lib[0].name, "DI24 24 V \xC2\xB1 10 %");
   EXPECT_EQ(lib[2].line, line_of(text, "<Device Physics=\"YY\">\n        <Type ProductCode=\"#x00402001\""));
 
@@ -490,7 +522,7 @@ TEST(EsiEmulated, VendorForms) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(negative, "v.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 3U);
+  ASSERT_EQ(lib.size(), 4U);
   EXPECT_TRUE(lib[2].error.empty()) << lib[2].error;
   EXPECT_EQ(lib[2].startup.size(), 4U);
   EXPECT_EQ(lib[2].shift_sync0_ns, 0U);

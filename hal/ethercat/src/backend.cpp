@@ -467,6 +467,22 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
   in.fieldbus_ok = health_.ok;
   in.fieldbus_subdevice = health_.subdevice;
   in.fieldbus_silent = health_.silent;
+  // A subdevice still answering: a silent bus takes every subdevice from its position on.
+  const auto online = [this](std::size_t pos) {
+    return health_.ok || (health_.subdevice != 0U && (health_.silent ? pos < health_.subdevice : pos != health_.subdevice));
+  };
+  // SPEC §11: without a distance sensor on the bus (or with one that is lost) the separation
+  // is invalid: unknown is unsafe.
+  std::int32_t separation = 0;
+  bool separation_valid = false;
+  for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+    const Subdevice& s = cfg_.subdevices[i];
+    const std::uint8_t* p = in_buf_.data() + in_off_[i];
+    if (s.role == Role::distance_sensor) {
+      separation = static_cast<std::int32_t>(get32(p + s.separation_mm));
+      separation_valid = get_bit(p, s.separation_valid_bit) && online(i + 1U);
+    }
+  }
   for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
     const Subdevice& s = cfg_.subdevices[i];
     const std::uint8_t* p = in_buf_.data() + in_off_[i];
@@ -477,6 +493,8 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       }
       in.safety = core::RawInputs{v[0], v[1], v[2],  v[3],  v[4],  v[5],  v[6],  v[7],  v[8],
                                   v[9], v[10], v[18], v[19], v[20], v[21], v[22], v[23]};
+      in.safety.separation_mm = separation;
+      in.safety.separation_valid = separation_valid;
       in.contactor_closed = v[11];
       for (std::size_t a = 0; a < kAxes; ++a) {
         in.brake_released[a] = v[12U + a];
@@ -487,8 +505,7 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       d.position_rad = static_cast<float>(get32(p + s.position_actual) / s.counts_per_rad);
       d.velocity_rad_s = static_cast<float>(get32(p + s.velocity_actual) / s.counts_per_rad);
       d.torque_permille = static_cast<std::int16_t>(get16(p + s.torque_actual));
-      const std::size_t pos = i + 1U;  // a silent bus takes every subdevice from its position on
-      d.online = health_.ok || (health_.subdevice != 0U && (health_.silent ? pos < health_.subdevice : pos != health_.subdevice));
+      d.online = online(i + 1U);
     }
   }
 }
@@ -503,6 +520,9 @@ void Backend::write(const ProcessImageOut& out) noexcept {
       set_bit(p, s.out_bit[2], out.reset_lamp);
       for (std::size_t a = 0; a < kAxes; ++a) {
         set_bit(p, s.out_bit[3U + a], out.brake_test_axis == a + 1U);
+      }
+      if (s.out_bit[9] != kNoBit) {
+        set_bit(p, s.out_bit[9], out.reduced_active);
       }
     } else if (s.role == Role::drive) {
       const DriveOut& d = out.drive[s.axis - 1U];

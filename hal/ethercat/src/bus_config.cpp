@@ -19,7 +19,8 @@ const char* const kInputBitNames[kInputBits] = {
     "reduced.a",    "reduced.b",    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
 const char* const kOutputBitNames[kOutputBits] = {"contactor",    "brakes_release", "reset_lamp",
                                                   "brake_hold.1", "brake_hold.2",   "brake_hold.3",
-                                                  "brake_hold.4", "brake_hold.5",   "brake_hold.6"};
+                                                  "brake_hold.4", "brake_hold.5",   "brake_hold.6",
+                                                  "reduced_active"};
 
 namespace {
 
@@ -66,9 +67,10 @@ bool uint_in(const Json& obj, const char* key, const std::string& where, std::ui
   return true;
 }
 
+// The first `required` names must be given; the rest may be left out (kNoBit: not mapped).
 template <std::size_t N>
-bool bit_map(const Json& obj, const std::string& where, const char* const (&names)[N], std::uint16_t bytes,
-             std::array<std::uint16_t, N>& out, Checker& c) {
+bool bit_map(const Json& obj, const std::string& where, const char* const (&names)[N], std::size_t required,
+             std::uint16_t bytes, std::array<std::uint16_t, N>& out, Checker& c) {
   const auto it = obj.find("bits");
   if (it == obj.end() || !it->is_object()) {
     return c.fail(where + ".bits", "expected an object naming the bit of each signal");
@@ -76,6 +78,10 @@ bool bit_map(const Json& obj, const std::string& where, const char* const (&name
   std::set<std::uint64_t> used;
   for (std::size_t i = 0; i < N; ++i) {
     std::uint64_t b = 0;
+    if (i >= required && !it->contains(names[i])) {
+      out[i] = kNoBit;
+      continue;
+    }
     if (!uint_in(*it, names[i], where + ".bits", 0, bytes * 8U - 1U, b, c)) {
       return false;
     }
@@ -89,6 +95,47 @@ bool bit_map(const Json& obj, const std::string& where, const char* const (&name
       return c.fail(where + ".bits." + k, "unknown signal");
     }
   }
+  return true;
+}
+
+// SPEC §11's distance sensor: "pdo": {"separation_mm": BYTE} (INT32 in the TxPDO image) and
+// "bits": {"separation_valid": BIT}, nothing else, inside the input image and not overlapping.
+bool distance_sensor(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  if (d.in_bytes < 5U) {
+    return c.fail(where + ".in_bytes", "a distance sensor needs at least 5 input bytes (INT32 separation_mm and a valid bit)");
+  }
+  const auto pdo = s.find("pdo");
+  if (pdo == s.end() || !pdo->is_object()) {
+    return c.fail(where + ".pdo", "expected {\"separation_mm\": BYTE}, the byte offset of the INT32 separation in mm");
+  }
+  for (const auto& [k, v] : pdo->items()) {
+    if (k != "separation_mm") {
+      return c.fail(where + ".pdo." + k, "unknown object (a distance sensor has separation_mm)");
+    }
+  }
+  std::uint64_t v = 0;
+  if (!uint_in(*pdo, "separation_mm", where + ".pdo", 0, d.in_bytes - 4U, v, c)) {
+    return false;
+  }
+  d.separation_mm = static_cast<std::uint16_t>(v);
+  const auto bits = s.find("bits");
+  if (bits == s.end() || !bits->is_object()) {
+    return c.fail(where + ".bits", "expected {\"separation_valid\": BIT}, the bit of the reading's valid flag");
+  }
+  for (const auto& [k, b] : bits->items()) {
+    if (k != "separation_valid") {
+      return c.fail(where + ".bits." + k, "unknown signal (a distance sensor has separation_valid)");
+    }
+  }
+  if (!uint_in(*bits, "separation_valid", where + ".bits", 0, d.in_bytes * 8U - 1U, v, c)) {
+    return false;
+  }
+  if (v >= d.separation_mm * 8U && v < (d.separation_mm + 4U) * 8U) {
+    return c.fail(where + ".bits.separation_valid", "bit " + std::to_string(v) + " lies inside separation_mm (bytes " +
+                                                        std::to_string(d.separation_mm) + ".." +
+                                                        std::to_string(d.separation_mm + 3U) + ")");
+  }
+  d.separation_valid_bit = static_cast<std::uint16_t>(v);
   return true;
 }
 
@@ -234,8 +281,10 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     d.role = Role::safety_outputs;
   } else if (r == "drive") {
     d.role = Role::drive;
+  } else if (r == "distance_sensor") {
+    d.role = Role::distance_sensor;
   } else {
-    return c.fail(where + ".role", "expected safety_inputs, safety_outputs or drive");
+    return c.fail(where + ".role", "expected safety_inputs, safety_outputs, drive or distance_sensor");
   }
   for (const char* k : {"vendor_id", "product_code"}) {
     if (s.find(k) == s.end()) {
@@ -264,12 +313,13 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
   }
   switch (d.role) {
     case Role::safety_inputs:
-      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, d.in_bytes, d.in_bit, c)
+      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, kInputBits, d.in_bytes, d.in_bit, c)
                             : c.fail(where + ".in_bytes", "safety inputs need input bytes");
     case Role::safety_outputs:
-      return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, d.out_bytes, d.out_bit, c)
+      return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, kRequiredOutputBits, d.out_bytes, d.out_bit, c)
                              : c.fail(where + ".out_bytes", "safety outputs need output bytes");
     case Role::drive: return drive(s, where, d, c);
+    case Role::distance_sensor: return distance_sensor(s, where, d, c);
   }
   return false;
 }
@@ -309,6 +359,7 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
   std::array<int, kAxes> axes{};
   int inputs = 0;
   int outputs = 0;
+  int sensors = 0;
   for (std::size_t i = 0; i < subs->size(); ++i) {
     Subdevice d;
     const std::string where = "subdevices[" + std::to_string(i) + "]";
@@ -322,6 +373,10 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     }
     inputs += d.role == Role::safety_inputs ? 1 : 0;
     outputs += d.role == Role::safety_outputs ? 1 : 0;
+    if (d.role == Role::distance_sensor && ++sensors > 1) {
+      err = where + ".role: a second distance_sensor (the separation comes from one sensor; at most one)";
+      return false;
+    }
     out.subdevices.push_back(std::move(d));
   }
   for (std::size_t a = 0; a < kAxes; ++a) {

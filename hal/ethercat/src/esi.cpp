@@ -710,13 +710,19 @@ bool offset_of(const Device& d, const std::vector<Placed>& placed, std::uint16_t
   return false;
 }
 
+// The bits of `names` found among the entries; the first `required` missing are listed in
+// `missing` (the others are optional signals: left out of the configuration).
 template <std::size_t N>
-int named_bits(const std::vector<Placed>& placed, const char* const (&names)[N], OJson& bits, std::string& missing) {
+int named_bits(const std::vector<Placed>& placed, const char* const (&names)[N], std::size_t required, OJson& bits,
+               std::string& missing) {
   int found = 0;
-  for (const char* n : names) {
+  for (std::size_t k = 0; k < N; ++k) {
+    const char* n = names[k];
     const auto it = std::find_if(placed.begin(), placed.end(), [&](const Placed& p) { return p.entry->name == n; });
     if (it == placed.end()) {
-      missing += (missing.empty() ? "" : ", ") + std::string(n);
+      if (k < required) {
+        missing += (missing.empty() ? "" : ", ") + std::string(n);
+      }
       continue;
     }
     bits[n] = it->bit;
@@ -808,13 +814,44 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
       OJson out_bits;
       std::string in_missing;
       std::string out_missing;
-      const int ins = named_bits(im.in, ethercat::kInputBitNames, in_bits, in_missing);
-      const int outs = named_bits(im.out, ethercat::kOutputBitNames, out_bits, out_missing);
-      if (ins > 0 && outs > 0) {
-        err = where + ": its PDO entries name both safety inputs and safety outputs; one subdevice has one role";
+      const int ins = named_bits(im.in, ethercat::kInputBitNames, ethercat::kInputBits, in_bits, in_missing);
+      const int outs =
+          named_bits(im.out, ethercat::kOutputBitNames, ethercat::kRequiredOutputBits, out_bits, out_missing);
+      const auto sep = std::find_if(im.in.begin(), im.in.end(), [](const Placed& p) { return p.entry->name == "separation_mm"; });
+      const auto valid =
+          std::find_if(im.in.begin(), im.in.end(), [](const Placed& p) { return p.entry->name == "separation_valid"; });
+      const bool sensor = sep != im.in.end() || valid != im.in.end();
+      if (sensor && (ins > 0 || outs > 0)) {
+        err = where + ": its PDO entries name both the distance sensor's separation and safety inputs or outputs; one "
+                      "subdevice has one role";
         return false;
       }
-      if (ins > 0) {
+      if (sensor) {
+        // SPEC §11's distance sensor: separation_mm a 32-bit integer on a byte, separation_valid one bit.
+        if (sep == im.in.end() || valid == im.in.end()) {
+          err = where + ": a distance sensor's TxPDO needs both separation_mm and separation_valid; it lacks " +
+                (sep == im.in.end() ? "separation_mm" : "separation_valid");
+          return false;
+        }
+        if (sep->entry->bits != 32U || (sep->bit % 8U) != 0U ||
+            (sep->entry->data_type != 0x0004U && sep->entry->data_type != 0x0007U)) {
+          err = where + ": " + d.file + ":" + std::to_string(sep->entry->line) + ": separation_mm is " +
+                std::to_string(sep->entry->bits) + " bits at bit " + std::to_string(sep->bit) + " (" +
+                sep->entry->type_name + "); expected a 32-bit DINT on a byte boundary";
+          return false;
+        }
+        if (valid->entry->bits != 1U) {
+          err = where + ": " + d.file + ":" + std::to_string(valid->entry->line) + ": separation_valid is " +
+                std::to_string(valid->entry->bits) + " bits; expected one (BOOL)";
+          return false;
+        }
+        s["role"] = "distance_sensor";
+        s["pdo"] = {{"separation_mm", sep->bit / 8U}};
+        s["bits"] = {{"separation_valid", valid->bit}};
+      } else if (ins > 0 && outs > 0) {
+        err = where + ": its PDO entries name both safety inputs and safety outputs; one subdevice has one role";
+        return false;
+      } else if (ins > 0) {
         if (!in_missing.empty()) {
           err = where + ": the safety inputs' TxPDO entries lack " + in_missing;
           return false;
@@ -830,7 +867,7 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
         s["bits"] = out_bits;
       } else {
         err = where + ": no role: neither a CiA 402 drive (<Profile><ProfileNo>402) nor a terminal whose PDO entries "
-                      "carry our signal names (estop.a, ..., contactor, ...)";
+                      "carry our signal names (estop.a, ..., contactor, ..., separation_mm)";
         return false;
       }
     }

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "safestate/hal/pdo_bytes.hpp"
+#include "safestate/motion/kinematics.hpp"
 #include "safestate/motion/robot.hpp"
 
 namespace safestate::ecat {
@@ -23,8 +24,8 @@ const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "ga
                                 "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
 static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::field_inner_b) + 1U, "one name per DI bit");
 const char* const kDoNames[] = {"contactor",    "brakes_release", "reset_lamp",   "brake_hold.1", "brake_hold.2",
-                                "brake_hold.3", "brake_hold.4",   "brake_hold.5", "brake_hold.6"};
-static_assert(std::size(kDoNames) == static_cast<std::size_t>(DoBit::brake_hold6) + 1U, "one name per DO bit");
+                                "brake_hold.3", "brake_hold.4",   "brake_hold.5", "brake_hold.6", "reduced_active"};
+static_assert(std::size(kDoNames) == static_cast<std::size_t>(DoBit::reduced_active) + 1U, "one name per DO bit");
 
 SubdeviceDesc digital_in() {
   SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI24 safety contacts", {}, {}};
@@ -47,6 +48,17 @@ SubdeviceDesc digital_out() {
   }
   d.rx.entries.push_back({0, 0, static_cast<std::uint8_t>(kDoBytes * 8U - (sub - 1U)), 0, ""});
   d.out_address = 0x1000;
+  return d;
+}
+
+// SPEC §11's distance sensor: the separation person-robot (mm, INT32) and its valid bit.
+SubdeviceDesc distance_sensor() {
+  SubdeviceDesc d{kVendorId, kProductDistance, kRevision, 3, "SafeState emu distance sensor", {}, {}};
+  d.tx.index = 0x1A00;
+  d.tx.entries = {{0x6000, 1, 32, kInt32, "separation_mm"},
+                  {0x6000, 2, 1, kBool, "separation_valid"},
+                  {0, 0, 7, 0, ""}};  // padding to the byte
+  d.in_address = 0x1000;
   return d;
 }
 
@@ -106,7 +118,14 @@ std::vector<SubdeviceDesc> default_segment() {
   for (std::size_t a = 1; a <= hal::kAxes; ++a) {
     v.push_back(drive(a));
   }
+  v.push_back(distance_sensor());
   return v;
+}
+
+void pack_distance(const core::RawInputs& in, std::uint8_t* tx) noexcept {
+  std::memset(tx, 0, kDistanceBytes);
+  put32(tx, in.separation_mm);
+  set_bit(tx, kDistanceValidBit, in.separation_valid);
 }
 
 void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (*drive_tx)[kDriveTxBytes]) noexcept {
@@ -137,6 +156,7 @@ void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint
   set_bit(dout, bit(DoBit::contactor), out.contactor);
   set_bit(dout, bit(DoBit::brakes_release), out.brakes_release);
   set_bit(dout, bit(DoBit::reset_lamp), out.reset_lamp);
+  set_bit(dout, bit(DoBit::reduced_active), out.reduced_active);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     set_bit(dout, bit(DoBit::brake_hold1) + a, out.brake_test_axis == a + 1U);
     put16(&drive_rx[a][0], out.drive[a].controlword);
@@ -150,6 +170,7 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
   out.contactor = get_bit(dout, bit(DoBit::contactor));
   out.brakes_release = get_bit(dout, bit(DoBit::brakes_release));
   out.reset_lamp = get_bit(dout, bit(DoBit::reset_lamp));
+  out.reduced_active = get_bit(dout, bit(DoBit::reduced_active));
   out.brake_test_axis = 0;
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     if (out.brake_test_axis == 0U && get_bit(dout, bit(DoBit::brake_hold1) + a)) {
@@ -174,12 +195,28 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
 
 void EmulatedCell::latch_inputs() noexcept {
   plant_.read(in_);
+  // @req COL-SIM-PERSON
+  // The person's devices see it against the arm where the drives' positions put it.
+  motion::RobotModel model = motion::kRobot;
+  model.tcp_offset_mm = tcp_mm_;
+  motion::Joints q{};
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    q[a] = in_.drive[a].position_rad;
+  }
+  motion::Frames frames{};
+  motion::forward(model, q, frames);
+  person_.sense(person_sensors_, frames, in_.safety, person_view_);
   std::uint8_t di[kDiBytes];
   std::uint8_t tx[hal::kAxes][kDriveTxBytes];
   pack_inputs(in_, di, tx);
   segment_.esc(kPosDigitalIn).set_inputs(di);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     segment_.esc(kPosFirstDrive + a).set_inputs(tx[a]);
+  }
+  if (segment_.size() > kPosDistance) {  // a segment built without the sensor has none to feed
+    std::uint8_t dist[kDistanceBytes];
+    pack_distance(in_.safety, dist);
+    segment_.esc(kPosDistance).set_inputs(dist);
   }
 }
 
@@ -240,6 +277,7 @@ void EmulatedCell::plant_cycle(bool exchange) noexcept {
     time_output_drop(was_closed, was_enabled);
   }
   plant_.write(out_);
+  person_.advance(static_cast<float>(cycle_us_) * 1.0e-6F);  // one step per plant cycle, as in-process
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();

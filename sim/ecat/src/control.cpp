@@ -144,6 +144,46 @@ std::string time_line(EmulatedCell& cell, const std::string& words) {
   return "OK";
 }
 
+// @req COL-SIM-PERSON
+// `person at X Y [radius=R]`, `person walk X Y SPEED [stand MS] ...`, `person stand`, `person
+// leave` (the scenario format's keys, docs/collaborative.md) and `config person_fields=OUTER,INNER`:
+// the simulated person behind the segment. Parsed by the scenario parser (a `person at` before
+// the line stands for whatever the cell holds: the parser checks words, the cell presence).
+std::string person_line(EmulatedCell& cell, const std::string& line) {
+  if (line.rfind("config ", 0) == 0) {
+    scenario::ParseResult r = scenario::parse(line + "\n", "control");
+    if (!r.ok()) {
+      return "ERROR " + r.error->message;
+    }
+    if (line.find("person_fields=") == std::string::npos || !cell.set_person_sensors(r.scenario.person_sensors)) {
+      return "ERROR only config person_fields=OUTER,INNER changes the emulated cell";
+    }
+    cell.latch_inputs();
+    return "OK";
+  }
+  scenario::ParseResult r = scenario::parse("@0 person at 0 0\n@0 " + line + "\n", "control");
+  if (!r.ok()) {
+    return "ERROR " + r.error->message;
+  }
+  const auto* p = r.scenario.steps.size() == 2U ? std::get_if<scenario::PersonStep>(&r.scenario.steps.back().what) : nullptr;
+  if (p == nullptr) {
+    return "ERROR expected one person line";
+  }
+  sim::Person& person = cell.person();
+  bool took = true;
+  switch (p->action) {
+    case scenario::PersonStep::Action::at: took = person.place(p->x_mm, p->y_mm, p->radius_mm); break;
+    case scenario::PersonStep::Action::walk: took = person.walk(p->path.data(), p->path.size()); break;
+    case scenario::PersonStep::Action::stand: took = person.present(); person.stand(); break;
+    case scenario::PersonStep::Action::leave: took = person.present(); person.leave(); break;
+  }
+  if (!took) {
+    return "ERROR the person cannot do that (none in the cell, or refused)";
+  }
+  cell.latch_inputs();
+  return "OK";
+}
+
 std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   scenario::ParseResult r = scenario::parse("@0 " + line + "\n", "control");
   if (!r.ok()) {
@@ -155,10 +195,10 @@ std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   }
   const scenario::Directive& d = r.scenario.steps.front().what;
   if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
-    // SPEC §11's distance sensor has no channel on the emulated segment yet (the fields do:
-    // DI bits 20..23): refuse it rather than take it and never put it on the wire.
-    if (in->separation_mm || in->separation_valid) {
-      return "ERROR the emulated segment has no distance sensor (separation_mm, separation_valid) yet";
+    // SPEC §11's distance sensor is a subdevice of its own (kPosDistance): a segment built
+    // without it refuses a separation rather than take it and never put it on the wire.
+    if ((in->separation_mm || in->separation_valid) && cell.segment().size() <= kPosDistance) {
+      return "ERROR this emulated segment has no distance sensor (separation_mm, separation_valid)";
     }
     scenario::apply(*in, cell.inputs());
     cell.latch_inputs();
@@ -300,6 +340,14 @@ std::string status(EmulatedCell& cell) {
   j["contactor"] = o.contactor;
   j["brakes_release"] = o.brakes_release;
   j["reset_lamp"] = o.reset_lamp;
+  j["reduced_active"] = o.reduced_active;
+  // What the distance sensor reports (its TxPDO): mm and whether valid.
+  j["separation_mm"] = in.safety.separation_mm;
+  j["separation_valid"] = in.safety.separation_valid;
+  const sim::PersonView& pv = cell.person_view();
+  j["person"] = pv.present ? nlohmann::json{{"x_mm", pv.x_mm}, {"y_mm", pv.y_mm}, {"walking", pv.walking},
+                                            {"separation_mm", pv.separation_mm}}
+                           : nlohmann::json(nullptr);
   nlohmann::json cw = nlohmann::json::array();
   nlohmann::json sw = nlohmann::json::array();
   nlohmann::json q = nlohmann::json::array();
@@ -358,6 +406,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (line.rfind("tool ", 0) == 0) {
     return tool_line(cell, line);
   }
+  if (line.rfind("person ", 0) == 0 || line.rfind("config person_fields=", 0) == 0) {
+    return person_line(cell, line);
+  }
   if (line.rfind("time ", 0) == 0) {  // arm a response-time measurement (wire_timing.hpp)
     return time_line(cell, line.substr(5));
   }
@@ -374,7 +425,8 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (verb == "in" || verb == "fault") {
     return scenario_line(cell, line);
   }
-  return "ERROR unknown line (expected in ..., fault ..., tool KG X Y Z, status, dc reset, or a JSON sim message)";
+  return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, status, dc "
+         "reset, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

@@ -238,6 +238,9 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     std::fprintf(stderr, "ecat-sim: %s\n", err.c_str());
     return 2;
   }
+  if (opt.no_distance_sensor) {
+    std::erase_if(devs, [](const SubdeviceDesc& d) { return d.product_code == kProductDistance; });
+  }
   if (opt.drives_free_run) {
     for (SubdeviceDesc& d : devs) {
       d.dc_sync0_required = false;

@@ -104,9 +104,11 @@ bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err) {
   if (!hal::esi::parse_esi(hal::esi::builtin_esi(), hal::esi::kBuiltinEsiName, lib, err, warnings)) {
     return false;
   }
-  // The line of default_segment(): the DI terminal, the DO terminal, then one drive per axis.
+  // The line of default_segment(): the DI terminal, the DO terminal, one drive per axis, then
+  // the distance sensor.
   std::vector<std::uint32_t> products{kProductDigitalIn, kProductDigitalOut};
   products.insert(products.end(), hal::kAxes, kProductDrive);
+  products.push_back(kProductDistance);
   std::vector<const hal::esi::Device*> bus;
   for (const std::uint32_t product : products) {
     const auto it = std::find_if(lib.begin(), lib.end(), [&](const hal::esi::Device& d) {
@@ -120,13 +122,15 @@ bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err) {
   }
   std::vector<SubdeviceDesc> v;
   for (std::size_t i = 0; i < bus.size(); ++i) {
-    const std::uint32_t serial = i < kPosFirstDrive ? static_cast<std::uint32_t>(i + 1U)
-                                                    : static_cast<std::uint32_t>(10U + (i - kPosFirstDrive) + 1U);
+    const bool is_drive = i >= kPosFirstDrive && i < kPosFirstDrive + hal::kAxes;
+    const std::uint32_t serial = i == kPosDistance ? 3U
+                                 : !is_drive       ? static_cast<std::uint32_t>(i + 1U)
+                                                   : static_cast<std::uint32_t>(10U + (i - kPosFirstDrive) + 1U);
     SubdeviceDesc d;
     if (!desc_from_esi(*bus[i], serial, d, err)) {
       return false;
     }
-    if (i >= kPosFirstDrive) {
+    if (is_drive) {
       d.name += " " + std::to_string(i - kPosFirstDrive + 1U);  // per unit, as the serial: "... drive 3"
     }
     v.push_back(std::move(d));

@@ -56,6 +56,7 @@ const char* name(WireTiming::Stop s) {
     case WireTiming::Stop::cat1: return "cat1";
     case WireTiming::Stop::cat2: return "cat2";
     case WireTiming::Stop::reduce: return "reduce";
+    case WireTiming::Stop::reduced: return "reduced";
   }
   return "?";
 }
@@ -70,13 +71,14 @@ const char* name(WireTiming::From f) {
     case WireTiming::From::point_speed: return "point_speed";
     case WireTiming::From::tcp_pos: return "tcp";
     case WireTiming::From::tilt: return "tilt";
+    case WireTiming::From::separation: return "separation";
   }
   return "?";
 }
 
 constexpr const char* kUsage =
-    "time needs STOP from=WHAT: STOP cat0, cat1, cat2 or reduce=MM_S; WHAT input, fault, joint.N>RAD, speed.N>RAD_S, "
-    "tcp_speed>MM_S, point_speed>MM_S, tcp.x|y|z>MM or tilt>RAD (N 1..6)";
+    "time needs STOP from=WHAT: STOP cat0, cat1, cat2, reduce=MM_S or reduced; WHAT input, fault, joint.N>RAD, "
+    "speed.N>RAD_S, tcp_speed>MM_S, point_speed>MM_S, tcp.x|y|z>MM, tilt>RAD (N 1..6) or separation<MM";
 
 }  // namespace
 
@@ -92,13 +94,15 @@ std::string WireTiming::parse(std::string_view words, Spec& out) {
     s.stop = Stop::cat1;
   } else if (stop == "cat2") {
     s.stop = Stop::cat2;
+  } else if (stop == "reduced") {
+    s.stop = Stop::reduced;
   } else if (stop.rfind("reduce=", 0) == 0) {
     s.stop = Stop::reduce;
     if (!parse_float(std::string_view(stop).substr(7), s.reduce_mm_s) || !(s.reduce_mm_s > 0.0F && s.reduce_mm_s <= 10000.0F)) {
       return "time: reduce needs a limit 0 < MM_S <= 10000, got '" + stop + "'";
     }
   } else {
-    return "time: unknown stop '" + stop + "' (cat0, cat1, cat2 or reduce=MM_S)";
+    return "time: unknown stop '" + stop + "' (cat0, cat1, cat2, reduce=MM_S or reduced)";
   }
   if (from.rfind("from=", 0) != 0) return kUsage;
   const std::string_view w = std::string_view(from).substr(5);
@@ -107,8 +111,20 @@ std::string WireTiming::parse(std::string_view words, Spec& out) {
     out = s;
     return {};
   }
+  if (w.rfind("separation<", 0) == 0) {
+    float mm = 0.0F;
+    if (!parse_float(w.substr(11), mm) || !(mm > 0.0F && mm <= 100000.0F)) {
+      return "time: separation needs a distance 0 < MM <= 100000, got '" + std::string(w) + "'";
+    }
+    s.from = From::separation;
+    s.threshold = mm;
+    out = s;
+    return {};
+  }
   const std::size_t gt = w.find('>');
-  if (gt == std::string_view::npos) return "time: '" + std::string(w) + "' is not input, fault or QUANTITY>VALUE";
+  if (gt == std::string_view::npos) {
+    return "time: '" + std::string(w) + "' is not input, fault, QUANTITY>VALUE or separation<MM";
+  }
   const std::string_view q = w.substr(0, gt);
   float v = 0.0F;
   if (!parse_float(w.substr(gt + 1U), v)) return "time: the threshold in '" + std::string(w) + "' is not a number";
@@ -184,6 +200,8 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
       return m > t;
     }
     case From::tcp_pos: return pose_of(positions(in), tcp_).tcp[i] > t;
+    case From::separation:  // invalid counts as 0 (SPEC §11: unknown is unsafe)
+      return !in.safety.separation_valid || static_cast<float>(in.safety.separation_mm) < t;
     case From::tilt: {
       const core::Vec3 z = pose_of(positions(in), tcp_).tool_z;
       if (!have_ref_axis_) {
@@ -199,8 +217,10 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
 }
 
 bool WireTiming::reacted(const hal::ProcessImageOut& out, double speed_counts, float tcp_mm_s) const noexcept {
+  if (spec_.stop == Stop::reduced) return out.reduced_active;  // the safe output, nothing else
   if (!out.contactor) return true;  // power removed: a Cat 0 (also when a stop escalates to it)
   if (spec_.stop == Stop::cat0) return false;
+  if (spec_.stop == Stop::reduce && out.reduced_active) return true;  // the DO's reduced_active bit: reduced mode on
   if (speed_counts < peak_speed_counts_ - kFallCounts) return true;
   return spec_.stop == Stop::reduce && tcp_mm_s <= spec_.reduce_mm_s;
 }
@@ -235,6 +255,7 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
 
   if (!start_.seen) {
     if (had_prev && !out.contactor && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
+    if (spec_.stop == Stop::reduced && out.reduced_active && !early_.seen) early_ = Mark{true, n, now_ns};
     if (crossed(in)) {
       start_ = Mark{true, n, now_ns};
       peak_speed_counts_ = speed_counts;
@@ -267,6 +288,9 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
       break;
     case Stop::reduce:
       if (tcp_mm_s <= spec_.reduce_mm_s) safe_ = Mark{true, n, now_ns};
+      break;
+    case Stop::reduced:
+      safe_ = reaction_;
       break;
   }
 }

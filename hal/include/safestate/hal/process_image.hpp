@@ -44,6 +44,9 @@ struct ProcessImageOut {
   // set (the drives hold the others); 0 = none.
   std::uint8_t brake_test_axis = 0;
   bool reset_lamp = false;
+  // SPEC §10 reduced mode in force (the core's SafetyStatus::reduced): a safe output of the
+  // DO terminal where the bus configuration maps one (`reduced_active`).
+  bool reduced_active = false;
   std::array<DriveOut, kAxes> drive{};
 };
 

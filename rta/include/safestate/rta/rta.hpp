@@ -21,6 +21,9 @@ struct BusTiming {
   std::string source;               // "simulated cell" or the bus configuration's file name
   std::uint32_t frame_timeout_us = 0;
   std::uint32_t watchdog_ms = 0;    // `safestate run --watchdog-ms`
+  // SPEC §11: the bus has a distance_sensor subdevice (always so in the simulated cell).
+  // Without one the separation is invalid: SSM holds the program at v_allowed 0.
+  bool distance_sensor = true;
 };
 
 struct Term {

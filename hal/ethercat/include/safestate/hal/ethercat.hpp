@@ -18,15 +18,23 @@
 
 namespace safestate::hal::ethercat {
 
-enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive };
+// distance_sensor: SPEC §11's safety-rated distance sensor (optional, at most one): a TxPDO
+// with the separation person-robot in mm (INT32) and a valid bit. Without one the separation
+// is invalid, as unknown is unsafe (SSM then holds at v_allowed 0).
+enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive, distance_sensor };
 
 // Named bits of the safety I/O terminals, in the order of the names below.
 // SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, then the
 // SPEC §11 protective fields' OSSD pairs.
 inline constexpr std::size_t kInputBits = 24;
 // Outputs: contactor, brakes_release, reset_lamp, then brake_hold.1..6 (that axis' brake
-// stays engaged although brakes_release is set: the SPEC §12 brake test).
-inline constexpr std::size_t kOutputBits = 9;
+// stays engaged although brakes_release is set: the SPEC §12 brake test), then
+// reduced_active (SPEC §10 reduced mode in force, the core's SafetyStatus::reduced: a safe
+// output for the cell, and what times the reduced-mode reaction on the wire). The first
+// kRequiredOutputBits must be mapped; the others are optional (kNoBit when not mapped).
+inline constexpr std::size_t kOutputBits = 10;
+inline constexpr std::size_t kRequiredOutputBits = 9;
+inline constexpr std::uint16_t kNoBit = 0xFFFF;
 extern const char* const kInputBitNames[kInputBits];
 extern const char* const kOutputBitNames[kOutputBits];
 
@@ -52,6 +60,10 @@ struct Subdevice {
   std::array<std::uint16_t, kInputBits> in_bit{};    // safety_inputs: bit of each named input
   std::array<std::uint16_t, kOutputBits> out_bit{};  // safety_outputs
   std::uint8_t axis = 0;                             // drive: 1..6
+  // distance_sensor: the byte offset of the separation (INT32, mm) in its TxPDO image and
+  // the bit of its valid flag ("pdo": {"separation_mm": N}, "bits": {"separation_valid": N}).
+  std::uint16_t separation_mm = 0;
+  std::uint16_t separation_valid_bit = 0;
   double counts_per_rad = 0.0;                       // drive: encoder increments per radian
   std::uint16_t controlword = 0, target_position = 0, max_torque = 0;   // RxPDO byte offsets (0x6040, 0x607A, 0x6072)
   std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0,

@@ -11,6 +11,7 @@
 #include "safestate/ecat/wire_timing.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/sim/cell.hpp"
+#include "safestate/sim/person.hpp"
 #include "safestate/sim/plant.hpp"
 
 namespace safestate::ecat {
@@ -21,13 +22,16 @@ inline constexpr std::uint32_t kVendorId = 0x00005AFE;
 inline constexpr std::uint32_t kProductDrive = 0x00402001;
 inline constexpr std::uint32_t kProductDigitalIn = 0x00D10018;
 inline constexpr std::uint32_t kProductDigitalOut = 0x00D00003;
+inline constexpr std::uint32_t kProductDistance = 0x00D15001;
 inline constexpr std::uint32_t kRevision = 0x00010000;
 
-// Positions on the line (0-based): the I/O terminals in the cabinet first, then drives.
+// Positions on the line (0-based): the I/O terminals in the cabinet first, then drives,
+// then the distance sensor out in the cell (SPEC §11), at the end of the line.
 inline constexpr std::size_t kPosDigitalIn = 0;
 inline constexpr std::size_t kPosDigitalOut = 1;
 inline constexpr std::size_t kPosFirstDrive = 2;
-inline constexpr std::size_t kSubdevices = 8;
+inline constexpr std::size_t kPosDistance = 8;
+inline constexpr std::size_t kSubdevices = 9;
 
 // Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
 // Bits 20..23 are the protective-field scanner's four OSSD channels (field.outer.a/b,
@@ -42,9 +46,11 @@ enum class DiBit : std::uint8_t {
 inline constexpr std::size_t kDiBytes = 4;  // 24 contacts, padded to 32 bits
 // Bits of the digital output terminal's RxPDO (0x7000:01..). brake_hold_1..6: that axis'
 // brake stays engaged although brakes_release is set (the SPEC §12 brake test's axis).
+// reduced_active: SPEC §10 reduced mode in force (the core's flag, a safe output).
 enum class DoBit : std::uint8_t {
   contactor, brakes_release, reset_lamp,
   brake_hold1, brake_hold2, brake_hold3, brake_hold4, brake_hold5, brake_hold6,
+  reduced_active,
 };
 inline constexpr std::size_t kDoBytes = 2;
 // Drive PDOs (CSP): RxPDO 0x1600 = 0x6040 controlword (u16), 0x607A target position
@@ -53,6 +59,10 @@ inline constexpr std::size_t kDoBytes = 2;
 // (i16, per mille of rated). Little-endian, as on the wire.
 inline constexpr std::size_t kDriveRxBytes = 8;
 inline constexpr std::size_t kDriveTxBytes = 12;
+// The distance sensor's TxPDO 0x1A00: 0x6000:01 separation in mm (INT32, little-endian),
+// 0x6000:02 valid (BOOL, bit 32), 7 bits padding.
+inline constexpr std::size_t kDistanceBytes = 5;
+inline constexpr std::size_t kDistanceValidBit = 32;
 // Encoder resolution of the emulated drives: 2^20 increments per revolution.
 inline constexpr double kCountsPerRad = 1048576.0 / 6.283185307179586;
 
@@ -60,6 +70,7 @@ std::vector<SubdeviceDesc> default_segment();
 
 // Process image <-> PDO bytes of the default layout (used by both sides of the wire in tests).
 void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (*drive_tx)[kDriveTxBytes]) noexcept;
+void pack_distance(const core::RawInputs& in, std::uint8_t* tx) noexcept;
 void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint8_t (*drive_rx)[kDriveRxBytes]) noexcept;
 void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDriveRxBytes], hal::ProcessImageOut& out) noexcept;
 
@@ -80,7 +91,21 @@ class EmulatedCell {
   void set_tool(float payload_kg, const std::array<float, 3>& tcp_tool0_mm) noexcept {
     plant_.set_tool(payload_kg, tcp_tool0_mm);
     timing_.set_tcp(tcp_tool0_mm);
+    tcp_mm_ = tcp_tool0_mm;
   }
+  // SPEC §11, the simulated person (sim/person.hpp) behind the segment: it walks one step per
+  // plant cycle, and while it is in the cell the scanner's OSSD pairs (DI bits 20..23) and the
+  // distance sensor's reading show it (against the arm as the drives' positions place it, with
+  // the tool's TCP), over what `in` lines set, which apply again once it has left: as in-process.
+  sim::Person& person() noexcept { return person_; }
+  bool set_person_sensors(const sim::PersonSensors& s) noexcept {
+    if (!sim::valid(s)) {
+      return false;
+    }
+    person_sensors_ = s;
+    return true;
+  }
+  [[nodiscard]] const sim::PersonView& person_view() const noexcept { return person_view_; }
   // Idle work: watchdogs, and free-running physics when the master is silent.
   void poll(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
@@ -146,6 +171,10 @@ class EmulatedCell {
   WireTiming timing_{};
   std::uint64_t next_free_ns_ = 0;
   std::uint64_t last_exchange_ns_ = 0;
+  std::array<float, 3> tcp_mm_ = motion::kRobot.tcp_offset_mm;
+  sim::Person person_{};
+  sim::PersonSensors person_sensors_{};
+  sim::PersonView person_view_{};
 };
 
 }  // namespace safestate::ecat

@@ -31,6 +31,9 @@ struct EcatSimOptions {
   // The drives also accept OP without DC SYNC0 (SM-synchronous), as drives whose ESI offers a
   // free-run OpMode besides DC: for masters that configure no DC (kickcat's Python binding).
   bool drives_free_run = false;
+  // A segment without the distance sensor (SPEC §11): a cell whose bus configuration has no
+  // distance_sensor, where the separation stays invalid (tests).
+  bool no_distance_sensor = false;
   // The subdevices served (their SII built from these): `safestate ecat-sim` passes the ones
   // made from the shipped ESI (hal/ethercat/esi, esi_segment()); empty = default_segment().
   std::vector<SubdeviceDesc> devices;

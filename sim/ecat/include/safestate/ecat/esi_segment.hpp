@@ -21,8 +21,8 @@ namespace safestate::ecat {
 bool desc_from_esi(const hal::esi::Device& d, std::uint32_t serial, SubdeviceDesc& out, std::string& err);
 
 // The default segment built from the built-in ESI: the DI terminal, the DO terminal, six
-// drives, with default_segment()'s serial numbers (1, 2, 11..16). False with `err` if the
-// ESI does not describe them.
+// drives and the distance sensor, with default_segment()'s serial numbers (1, 2, 11..16, 3).
+// False with `err` if the ESI does not describe them.
 bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err);
 
 }  // namespace safestate::ecat

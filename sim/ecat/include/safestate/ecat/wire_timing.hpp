@@ -12,8 +12,11 @@
 //           the contactor bit is cleared; safe: the contactor bit cleared at the end of the stop;
 //   cat2    reaction: as cat1; safe: the targets at standstill (unchanged in counts), held over
 //           10 exchanges (the figure is the first of them);
-//   reduce  reaction: as cat1, or the commanded TCP speed already at or below the limit; safe:
-//           the commanded TCP speed (forward kinematics of the targets) at or below the limit.
+//   reduce  reaction: the DO terminal's reduced_active bit set (reduced mode on, SPEC §10), or as
+//           cat1, or the commanded TCP speed already at or below the limit; safe:
+//           the commanded TCP speed (forward kinematics of the targets) at or below the limit;
+//   reduced reaction and safe: the DO terminal's reduced_active bit set (SPEC §10 reduced mode
+//           in force: from then on the core monitors the reduced limit).
 // A "fall" is more than kFallCounts below the highest commanded speed since the start (the
 // start's own, or higher while a program still accelerates): the targets travel in encoder
 // counts, whose rounding alone moves the speed by up to about 2.5 counts per cycle, so a
@@ -33,14 +36,15 @@ namespace safestate::ecat {
 
 class WireTiming {
  public:
-  enum class Stop : std::uint8_t { cat0, cat1, cat2, reduce };
+  enum class Stop : std::uint8_t { cat0, cat1, cat2, reduce, reduced };
   // What starts the count. input/fault: the trigger itself; the others: the first exchange
   // whose carried inputs are past `threshold` (joint: position of axis `index` in rad;
   // speed: |velocity| of axis `index` in rad/s; tcp_speed / point_speed: mm/s of the TCP /
   // the fastest of TCP and link origins, from the positions and velocities carried, with the
   // core's kinematics and the tool's TCP; tcp_pos: coordinate `index` (0 x, 1 y, 2 z) of the
-  // TCP in mm; tilt: angle in rad of the tool's z axis from where it pointed when armed).
-  enum class From : std::uint8_t { input, fault, joint, speed, tcp_speed, point_speed, tcp_pos, tilt };
+  // TCP in mm; tilt: angle in rad of the tool's z axis from where it pointed when armed;
+  // separation: the distance sensor's reading below `threshold` mm, or invalid, SPEC §11).
+  enum class From : std::uint8_t { input, fault, joint, speed, tcp_speed, point_speed, tcp_pos, tilt, separation };
   struct Spec {
     Stop stop = Stop::cat0;
     float reduce_mm_s = 0.0F;
@@ -58,7 +62,8 @@ class WireTiming {
   static constexpr std::uint64_t kHeldExchanges = 10;
 
   // Parses the words after `time` ("cat1 from=input", "reduce=250 from=fault",
-  // "cat0 from=joint.1>0.5", "cat0 from=tcp.y>312.5", ...). Empty on success, else what is wrong.
+  // "cat0 from=joint.1>0.5", "cat0 from=tcp.y>312.5", "cat2 from=separation<1200",
+  // "reduced from=input", ...). Empty on success, else what is wrong.
   static std::string parse(std::string_view words, Spec& out);
 
   void arm(const Spec& s) noexcept;
