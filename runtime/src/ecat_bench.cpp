@@ -90,6 +90,10 @@ int ecat_bench_main(const EcatBenchOptions& opt) {
                                "over the %u us budget: %u (at most %u in a row); bus lost: %s\n";
   std::printf(fmt, opt.cycles, opt.cycle_us, pct(rtt, 0.50), pct(rtt, 0.99), pct(rtt, 0.999), pct(rtt, 1.0),
               hal::ethercat::exchange_budget_us(opt.cycle_us), over, longest, bus.health().ok ? "false" : "true");
+  if (!bus.health().ok) {
+    std::fprintf(stderr, "ecat-bench: the bus was lost: subdevice %u: %s\n", static_cast<unsigned>(bus.health().subdevice),
+                 bus.health().why);
+  }
   return bus.health().ok ? 0 : 1;
 }
 
