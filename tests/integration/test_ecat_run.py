@@ -197,11 +197,38 @@ def bus_config(tmp, **settings):
     return str(path)
 
 
+def stalled_at_start(c):
+    """True when the cell locked out with FIELDBUS_LOST (no frame back for 3 cycles) before it
+    reached ESTOP_RESET_NEEDED *and* the loop itself woke 2 cycles late or more meanwhile: the
+    host did not run the loop's CPU (this VM's vCPU stalls, docs/ethercat.md "Host stalls"),
+    so the emulator on that CPU could not answer either. Stale cycles without such a stall are
+    not excused: that is the master's fault, and the test goes on to fail on it."""
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline:
+        s = c.status() or {}
+        if s.get("state") == "ESTOP_RESET_NEEDED":
+            return False
+        if s.get("state") == "ERROR_LOCKOUT":
+            late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
+            if "no frame came back" in c.log("run") and late >= 0.002:
+                print(f"start-up: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                      "the cell is started again, once", flush=True)
+                return True
+            return False
+        time.sleep(0.05)
+    return False
+
+
 # The bus as shipped (FIELDBUS_LOST after 3 stale cycles in a row) for every test, the ones
-# that are not about losing the bus too: a cell that locks out on a loaded host fails them.
+# that are not about losing the bus too: a cell that locks out on a loaded host fails them,
+# except for one host stall during the start, which is not what any of them tests: then the
+# cell is started once more (stalled_at_start).
 @pytest.fixture
 def cell():
     c = Cell()
+    if stalled_at_start(c):
+        c.close()
+        c = Cell()
     yield c
     c.close()
 
