@@ -98,10 +98,23 @@ before(async () => {
   // The real-time loop and the emulated segment on one CPU, as docs/ethercat.md ("Timing on a
   // shared host") says: an exchange then never waits for another CPU to wake.
   const PIN = String(os.cpus().length - 1);
-  spawnInNs('sim', BIN, 'ecat-sim', '--ifname', 'ecs', '--control', control, '--cpu', PIN);
-  await until('ecat-sim control socket', () => fs.existsSync(control), 10000);
-  const run = spawnInNs('run', BIN, 'run', '--fieldbus', 'ethercat', '--ifname', 'ecm', '--cpu', PIN, '--ecat-sim-control', control,
-    '--port', String(PORT), '--db', path.join(tmp, 'events.db'), '--static', DIST, '--no-opcua', ...RUN_ARGS);
+  const startCell = async () => {
+    spawnInNs('sim', BIN, 'ecat-sim', '--ifname', 'ecs', '--control', control, '--cpu', PIN);
+    await until('ecat-sim control socket', () => fs.existsSync(control), 10000);
+    spawnInNs('run', BIN, 'run', '--fieldbus', 'ethercat', '--ifname', 'ecm', '--cpu', PIN, '--ecat-sim-control', control,
+      '--port', String(PORT), '--db', path.join(tmp, `events-${procs.length}.db`), '--static', DIST, '--no-opcua', ...RUN_ARGS);
+  };
+  await startCell();
+  // A host stall during the start (the loop's CPU not run: the emulator pinned to it cannot
+  // answer either) locks the cell out with FIELDBUS_LOST before the page is opened; that is
+  // not what this test is about (ecat_run's is the bus). Evidence: the loop woken 2 cycles
+  // late or more. Then the cell is started once more; stale cycles without it are a failure.
+  if (await hostStalledAtStart()) {
+    await stopProcs();
+    fs.rmSync(control, { force: true });
+    await startCell();
+  }
+  const run = procs[1];
   await until('every subdevice in OP', async () => {
     if (run.proc.exitCode !== null) throw new Error(`safestate run exited: ${runLog()}`);
     return (await wire()).al_state.every((s) => s === 8);
@@ -121,8 +134,31 @@ before(async () => {
   page.on('pageerror', (e) => pageErrors.push(e.message));
 });
 
-after(async () => {
-  await ctx?.close().catch(() => {});
+// GET from the cell's HTTP server, which listens on loopback inside the namespace.
+function nsGet(urlPath) {
+  const js = `fetch('http://127.0.0.1:${PORT}${urlPath}', { signal: AbortSignal.timeout(2000) })` +
+    '.then((r) => r.text()).then((t) => process.stdout.write(t), () => process.exit(1))';
+  const r = spawnSync('ip', ['netns', 'exec', ns, process.execPath, '-e', js], { encoding: 'utf8' });
+  return r.status === 0 ? r.stdout : '';
+}
+
+async function hostStalledAtStart() {
+  for (const end = Date.now() + 15000; Date.now() < end; await sleep(100)) {
+    let st = {};
+    try { st = JSON.parse(nsGet('/api/status') || '{}'); } catch { st = {}; }
+    if (st.state === 'ESTOP_RESET_NEEDED') return false;
+    if (st.state === 'ERROR_LOCKOUT') {
+      const m = /^safestate_cycle_lateness_max_seconds (\S+)$/m.exec(nsGet('/metrics'));
+      const late = m ? Number(m[1]) : 0;
+      const stalled = late >= 0.002 && runLog().includes('no frame came back');
+      if (stalled) console.log(`start-up: FIELDBUS_LOST with the loop woken ${(late * 1e3).toFixed(1)} ms late (a host stall); the cell is started once more`);
+      return stalled;
+    }
+  }
+  return false;
+}
+
+async function stopProcs() {
   for (const p of procs.reverse()) {
     if (p.proc.exitCode === null && p.proc.signalCode === null) {
       p.proc.kill('SIGINT');
@@ -130,6 +166,12 @@ after(async () => {
       if (!done) p.proc.kill('SIGKILL');
     }
   }
+  procs.length = 0;
+}
+
+after(async () => {
+  await ctx?.close().catch(() => {});
+  await stopProcs();
   spawnSync('ip', ['netns', 'del', ns]);
   if (tmp && !process.env.SAFESTATE_KEEP_TMP) fs.rmSync(tmp, { recursive: true, force: true });
 });

@@ -7,6 +7,7 @@ every way of losing the bus (a short working counter alone too), and a wrong ide
 Run as root:  SAFESTATE_BIN=build/bin/safestate .venv/bin/python -m pytest tests/integration/test_ecat_run.py
 """
 
+import functools
 import json
 import signal
 import os
@@ -219,6 +220,41 @@ def stalled_at_start(c):
     return False
 
 
+def host_stalled(c):
+    """A lockout that the host caused: FIELDBUS_LOST because no frame came back, with the
+    loop's own wake-up 2 cycles late or more (the loop's CPU not run: the emulator pinned to
+    it could not answer either)."""
+    s = c.status() or {}
+    late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
+    return "FIELDBUS_LOST" in s.get("alarms", []) and "no frame came back" in c.log("run") and late >= 0.002, late
+
+
+def host_stall_retry(test):
+    """For the tests that are not about losing the bus: when one fails and the cell had locked
+    out by a host stall (host_stalled), it runs once more on a fresh cell, saying so. A failure
+    without that evidence, or twice, is a failure."""
+    @functools.wraps(test)
+    def wrapper(cell, *args, **kwargs):
+        try:
+            return test(cell, *args, **kwargs)
+        except AssertionError:
+            stalled, late = host_stalled(cell)
+            if not stalled:
+                raise
+            print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                  "run once more on a fresh cell", flush=True)
+            cell.close()
+            again = Cell()
+            try:
+                if stalled_at_start(again):
+                    again.close()
+                    again = Cell()
+                return test(again, *args, **kwargs)
+            finally:
+                again.close()
+    return wrapper
+
+
 # The bus as shipped (FIELDBUS_LOST after 3 stale cycles in a row) for every test, the ones
 # that are not about losing the bus too: a cell that locks out on a loaded host fails them,
 # except for one host stall during the start, which is not what any of them tests: then the
@@ -233,6 +269,7 @@ def cell():
     c.close()
 
 
+@host_stall_retry
 def test_boots_to_estop_reset_needed_over_ethercat(cell):
     s = cell.wait_state("ESTOP_RESET_NEEDED")
     assert "(EtherCAT," in cell.log("run")
@@ -242,6 +279,7 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
+@host_stall_retry
 def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
@@ -262,6 +300,7 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
+@host_stall_retry
 def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     """Issue 21 item 4: the guard opened while the demo program runs, timed by the emulator
     per exchange (`time cat1 from=input`, sim/ecat/src/wire_timing.cpp): the reaction is the
@@ -291,6 +330,7 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     assert "PROTECTIVE_STOP" in cell.status()["alarms"]
 
 
+@host_stall_retry
 def test_t1_jog_moves_the_emulated_axis(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
@@ -400,6 +440,7 @@ def test_late_frames_do_not_end_the_bus():
         c.close()
 
 
+@host_stall_retry
 def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
     """Issue 22 item 3: the master writes every subdevice's process-data watchdog (10
     cycles by default: 0x0400 = 2498, 0x0420 = 100, 10 ms); killed with -9 in OPERATIONAL,
@@ -426,6 +467,7 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
     assert 10000 <= drop["enable_us"] <= 12000, drop
 
 
+@host_stall_retry
 def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(cell):
     """Issue 22 item 2: one frame in 100 is processed by the emulated segment (the plant
     moves) but its answer never comes back: that cycle is stale, its positions held. The
@@ -495,6 +537,7 @@ def test_wrong_revision_is_boot_failed():
         c.close()
 
 
+@host_stall_retry
 def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     """Issue 22 item 4: our master writes each drive's start-up SDOs (default-bus.json) in
     PRE-OP; the emulator's dictionaries hold them (CSP, 1 ms interpolation period, torque)."""
@@ -527,6 +570,7 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         c.close()
 
 
+@host_stall_retry
 def test_hmi_sim_panel_drives_the_emulator(cell):
     """The gateway's `sim` message (as the HMI's panel sends it) reaches ecat-sim's contacts."""
     cell.wait_state("ESTOP_RESET_NEEDED")
