@@ -211,7 +211,8 @@ def stalled_at_start(c):
             return False
         if s.get("state") == "ERROR_LOCKOUT":
             late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
-            if "no frame came back" in c.log("run") and late >= 0.002:
+            log = c.log("run")
+            if ("no frame came back" in log and late >= 0.002) or ("subdevice left OP" in log and late >= 0.009):
                 print(f"start-up: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
                       "the cell is started again, once", flush=True)
                 return True
@@ -226,7 +227,11 @@ def host_stalled(c):
     it could not answer either)."""
     s = c.status() or {}
     late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
-    return "FIELDBUS_LOST" in s.get("alarms", []) and "no frame came back" in c.log("run") and late >= 0.002, late
+    log = c.log("run")
+    # A stall past the subdevices' 10-cycle watchdog takes them out of OP instead: "left OP",
+    # excused only when the loop itself was held that long.
+    stalled = ("no frame came back" in log and late >= 0.002) or ("subdevice left OP" in log and late >= 0.009)
+    return "FIELDBUS_LOST" in s.get("alarms", []) and stalled, late
 
 
 def host_stall_retry(test):
