@@ -9,6 +9,10 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 BIN = os.path.join(ROOT, "build", "bin")
 OUT = os.path.join(ROOT, "build", "bench")
 
+# The namespace with its veth pair, set up as the EtherCAT tests set it up (one helper for both).
+sys.path.insert(0, os.path.join(ROOT, "tests", "integration"))
+from veth_ns import veth_namespace  # noqa: E402
+
 
 def run(cmd, **kw):
     """Runs `cmd` in the repository, echoing it; its stdout (fails on a non-zero exit)."""
@@ -29,18 +33,11 @@ def machine():
 
 
 def in_namespace(prefix, script, args):
-    """Runs `script --inside ARGS...` in a network namespace of its own (`prefix`-PID) with a veth
+    """Runs `script --inside ARGS...` in a network namespace of its own (`prefix`-ID) with a veth
     pair ecm/ecs, all links up, and removes the namespace afterwards; its exit code. Needs root."""
-    ns = f"{prefix}-{os.getpid()}"
-    subprocess.run(["ip", "netns", "add", ns], check=True)
-    try:
-        subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
+    with veth_namespace(prefix) as ns:
         return subprocess.run(["ip", "netns", "exec", ns, sys.executable, os.path.abspath(script), "--inside",
                                *args]).returncode
-    finally:
-        subprocess.run(["ip", "netns", "del", ns], check=False)
 
 
 def namespace_bench(doc, prog, prefix, script, count, default, top, inside):

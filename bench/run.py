@@ -39,7 +39,7 @@ import re
 import subprocess
 import sys
 
-from common import BIN, OUT, ROOT, cpu_model, run  # bench/common.py
+from common import BIN, OUT, ROOT, cpu_model, run, veth_namespace  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 RT_SECONDS = int(os.environ.get("RT_SECONDS", "60"))
@@ -140,31 +140,26 @@ def ecat():
     if os.geteuid() != 0:
         print("bench: EtherCAT part left out: it needs root (a network namespace, raw sockets)", flush=True)
         return None
-    ns = f"ssbench-{os.getpid()}"
-    subprocess.run(["ip", "netns", "add", ns], check=True)
     sim = None
-    try:
-        subprocess.run(["ip", "-n", ns, "link", "add", "ecm", "type", "veth", "peer", "name", "ecs"], check=True)
-        for dev in ("ecm", "ecs", "lo"):
-            subprocess.run(["ip", "-n", ns, "link", "set", dev, "up"], check=True)
-        pin = str(os.cpu_count() - 1)  # the loop and the emulator on one CPU (docs/ethercat.md)
-        sim = subprocess.Popen(["ip", "netns", "exec", ns, os.path.join(BIN, "safestate"), "ecat-sim", "--ifname", "ecs",
-                                "--cpu", pin],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        # Exit 1 with its figures is a bench that lost the bus on the way (the host stalled
-        # the loop past the subdevices' 10-cycle watchdog): reported ("bus lost"), not a crash.
-        cmd = ["ip", "netns", "exec", ns, "taskset", "-c", pin, os.path.join(BIN, "safestate"), "ecat-bench",
-               "--ifname", "ecm", "--cycles", str(RT_SECONDS * 1000), "--json"]
-        print("bench: " + " ".join(cmd), flush=True)
-        r = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, cwd=ROOT)
-        if r.returncode not in (0, 1) or not r.stdout.strip():
-            raise SystemExit(f"bench: ecat-bench failed (exit {r.returncode})")
-        res = json.loads(r.stdout)
-    finally:
-        if sim is not None:
-            sim.terminate()
-            sim.wait()
-        subprocess.run(["ip", "netns", "del", ns], check=False)
+    with veth_namespace("ssbench") as ns:
+        try:
+            pin = str(os.cpu_count() - 1)  # the loop and the emulator on one CPU (docs/ethercat.md)
+            sim = subprocess.Popen(["ip", "netns", "exec", ns, os.path.join(BIN, "safestate"), "ecat-sim", "--ifname", "ecs",
+                                    "--cpu", pin],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # Exit 1 with its figures is a bench that lost the bus on the way (the host stalled
+            # the loop past the subdevices' 10-cycle watchdog): reported ("bus lost"), not a crash.
+            cmd = ["ip", "netns", "exec", ns, "taskset", "-c", pin, os.path.join(BIN, "safestate"), "ecat-bench",
+                   "--ifname", "ecm", "--cycles", str(RT_SECONDS * 1000), "--json"]
+            print("bench: " + " ".join(cmd), flush=True)
+            r = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, cwd=ROOT)
+            if r.returncode not in (0, 1) or not r.stdout.strip():
+                raise SystemExit(f"bench: ecat-bench failed (exit {r.returncode})")
+            res = json.loads(r.stdout)
+        finally:
+            if sim is not None:
+                sim.terminate()
+                sim.wait()
     f = os.path.join(OUT, "ecat_reaction.json")
     run([PY, os.path.join(ROOT, "bench", "ecat_reaction.py"), "--bin", os.path.join(BIN, "safestate"),
          "--presses", str(ECAT_PRESSES), "--json", f])
