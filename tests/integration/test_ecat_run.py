@@ -198,33 +198,11 @@ def bus_config(tmp, **settings):
     return str(path)
 
 
-def stalled_at_start(c):
-    """True when the cell locked out with FIELDBUS_LOST (no frame back for 3 cycles) before it
-    reached ESTOP_RESET_NEEDED *and* the loop itself woke 2 cycles late or more meanwhile: the
-    host did not run the loop's CPU (this VM's vCPU stalls, docs/ethercat.md "Host stalls"),
-    so the emulator on that CPU could not answer either. Stale cycles without such a stall are
-    not excused: that is the master's fault, and the test goes on to fail on it."""
-    deadline = time.monotonic() + 15
-    while time.monotonic() < deadline:
-        s = c.status() or {}
-        if s.get("state") == "ESTOP_RESET_NEEDED":
-            return False
-        if s.get("state") == "ERROR_LOCKOUT":
-            late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
-            log = c.log("run")
-            if ("no frame came back" in log and late >= 0.002) or ("subdevice left OP" in log and late >= 0.009):
-                print(f"start-up: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
-                      "the cell is started again, once", flush=True)
-                return True
-            return False
-        time.sleep(0.05)
-    return False
-
-
 def host_stalled(c):
     """A lockout that the host caused: FIELDBUS_LOST because no frame came back, with the
-    loop's own wake-up 2 cycles late or more (the loop's CPU not run: the emulator pinned to
-    it could not answer either)."""
+    loop's own wake-up 2 cycles late or more (the host did not run the loop's CPU, this VM's
+    vCPU stalls, docs/ethercat.md "Host stalls": the emulator pinned to it could not answer
+    either). Returns (whether it did, the loop's largest wake-up lateness in s)."""
     s = c.status() or {}
     late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
     log = c.log("run")
@@ -232,6 +210,25 @@ def host_stalled(c):
     # excused only when the loop itself was held that long.
     stalled = ("no frame came back" in log and late >= 0.002) or ("subdevice left OP" in log and late >= 0.009)
     return "FIELDBUS_LOST" in s.get("alarms", []) and stalled, late
+
+
+def stalled_at_start(c):
+    """True when the cell locked out by a host stall (host_stalled) before it reached
+    ESTOP_RESET_NEEDED. Stale cycles without such a stall are not excused: that is the
+    master's fault, and the test goes on to fail on it."""
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline:
+        s = c.status() or {}
+        if s.get("state") == "ESTOP_RESET_NEEDED":
+            return False
+        if s.get("state") == "ERROR_LOCKOUT":
+            stalled, late = host_stalled(c)
+            if stalled:
+                print(f"start-up: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                      "the cell is started again, once", flush=True)
+            return stalled
+        time.sleep(0.05)
+    return False
 
 
 def host_stall_retry(test):
