@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
       ->required();
   ecat_sim->add_option("--control", ecat_opt.control,
                        "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
-                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), JSON sim messages, `status`");
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), `plant lockstep|paced`, JSON sim messages, `status`");
   ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
       ->check(CLI::Range(250, 4000));
   ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")
@@ -165,6 +165,9 @@ int main(int argc, char** argv) {
   ecat_sim->add_flag("--no-distance-sensor", ecat_opt.no_distance_sensor,
                      "a segment without the distance sensor (its bus configuration has no distance_sensor: the "
                      "separation stays invalid)");
+  ecat_sim->add_flag("--lockstep", ecat_opt.lockstep,
+                     "step the plant once per process-data exchange instead of on the drives' SYNC0 pulses (what "
+                     "`safestate replay` asks for over the control socket)");
   ecat_sim->add_option("--drift-ppm", ecat_opt.drift_ppm,
                        "the emulated ESCs' clock drifts, ppm: one value for all or one per subdevice, comma-separated "
                        "(default 12,-25,31,-8,45,-37,19,-14)");

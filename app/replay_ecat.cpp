@@ -105,6 +105,12 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
     std::cerr << "safestate replay: cannot reach ecat-sim's control socket " << control << '\n';
     return 2;
   }
+  // A replay is not paced in real time: the emulated plant steps once per exchange (lock-step)
+  // instead of on the drives' SYNC0 pulses, so the file's cycles are the plant's cycles.
+  if (const std::string answer = ctl.ask("plant lockstep"); answer != "OK") {
+    std::cerr << "safestate replay: ecat-sim refused 'plant lockstep': " << answer << '\n';
+    return 2;
+  }
   // Every exchange waits for its frame (up to the frame timeout): a replay is not paced in
   // real time, and a frame late on a busy host must not change the scenario's outcome. For
   // the same reason the subdevices' process-data watchdogs get their longest time (10000

@@ -38,7 +38,7 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   feedback_.fieldbus_boot_failed = in.fieldbus_boot_failed;
   feedback_.integrity_ok = in.integrity_ok;
   feedback_.self_test_ok = in.self_test_ok;
-  motion_.measure(in.drive, feedback_, in.stale);
+  motion_.measure(in.drive, feedback_, in.stale, in.sample_clock ? static_cast<std::int32_t>(in.sample_span) : -1);
   const std::size_t taken = supervisor_.step(in.safety, feedback_, cmds, n, status_);
   motion_.step(status_, in.drive, out.drive);
   out.contactor = status_.contactor;

@@ -248,11 +248,13 @@ bool MotionController::start_within_limits(const Joints& from) const noexcept {
 }
 
 void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb,
-                               bool stale) noexcept {
+                               bool stale, std::int32_t sample_span) noexcept {
   for (std::size_t i = 0; i < kJoints; ++i) {
     q_meas_[i] = drives[i].position_rad;
   }
-  const bool fresh = !(stale && have_prev_);
+  // @req MO-SAMPLE-TIME
+  // A frame that carries the sample the last one carried is no new sample either.
+  const bool fresh = !((stale || (sample_span == 0)) && have_prev_);
   forward(model_, q_meas_, frames_);
   if (fresh) {
     // ISO 10218-1 5.7.3: the reduced speed is checked on measured positions, differentiated
@@ -260,7 +262,11 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
     // over the real time between the two samples (more than one cycle after a stale one).
     Joints qdot{};
     if (have_prev_) {
-      const float dt = static_cast<float>(span_) * cfg_.cycle_s;
+      // The cycles between the two samples: as the drives took them when known (a frame
+      // late past its SYNC0 carries the next pulse's sample, two cycles of motion after the
+      // last one), else as the frames came (a stale cycle in between: two cycles).
+      const std::uint32_t cycles = (sample_span > 0) ? static_cast<std::uint32_t>(sample_span) : span_;
+      const float dt = static_cast<float>(cycles) * cfg_.cycle_s;
       for (std::size_t i = 0; i < kJoints; ++i) {
         qdot[i] = (q_meas_[i] - q_prev_[i]) / dt;
       }

@@ -231,20 +231,43 @@ def stalled_at_start(c):
     return False
 
 
+T1_LIMIT_MM_S = 250.0
+
+
+def arm_really_fast(c):
+    """A T1 speed alarm the arm earned: the emulated plant, paced by SYNC0, itself moved a
+    point faster than the T1 limit (`status` -> plant.max_point_speed_mm_s, from its own
+    positions and velocities): frames late past their SYNC0 twice and then two in one cycle
+    make an emulated drive stand for a pulse and take two steps in the next, as a real one
+    would (cell.hpp). The core was right; the host's timing made the arm fast, not the frame
+    loss under test. Returns (whether, what the emulator saw)."""
+    s = c.status() or {}
+    plant = (c.wire() or {}).get("plant", {})
+    fast = plant.get("max_point_speed_mm_s", 0.0) > T1_LIMIT_MM_S
+    return "T1_SPEED_EXCEEDED" in s.get("alarms", []) and fast, plant
+
+
 def host_stall_retry(test):
     """For the tests that are not about losing the bus: when one fails and the cell had locked
-    out by a host stall (host_stalled), it runs once more on a fresh cell, saying so. A failure
-    without that evidence, or twice, is a failure."""
+    out by a host stall (host_stalled), or stopped on a T1 speed the emulated arm really reached
+    because the host sent frames late (arm_really_fast), it runs once more on a fresh cell,
+    saying so. A failure without that evidence, or twice, is a failure."""
     @functools.wraps(test)
     def wrapper(cell, *args, **kwargs):
         try:
             return test(cell, *args, **kwargs)
         except AssertionError:
             stalled, late = host_stalled(cell)
-            if not stalled:
+            fast, plant = arm_really_fast(cell)
+            if not stalled and not fast:
                 raise
-            print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
-                  "run once more on a fresh cell", flush=True)
+            if stalled:
+                print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                      "run once more on a fresh cell", flush=True)
+            else:
+                print(f"{test.__name__}: T1_SPEED_EXCEEDED with the emulated arm itself at "
+                      f"{plant.get('max_point_speed_mm_s')} mm/s (set-points held at {plant.get('held')} SYNC0 "
+                      "pulses: frames late on this host); run once more on a fresh cell", flush=True)
             cell.close()
             again = Cell()
             try:
@@ -483,14 +506,17 @@ def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(ce
     s = cell.pendant("servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
     assert cell.control_line("fault lose-every 100") == "OK"
+    assert cell.control_line("plant reset") == "OK"  # the arm's own peak speed from here
     before = cell.wire()["joints"][0]
     s = cell.pendant("jog:1:+:100", "OPERATIONAL")
     w = cell.wire()
     print("T1 jog with 1 % frames lost:", w["lost_replies"], "answers lost;",
-          cell.metric("safestate_fieldbus_stale_cycles_total"), "stale cycles; status", s)
+          cell.metric("safestate_fieldbus_stale_cycles_total"), "stale cycles; plant", w["plant"],
+          "; SYNC0 of drive 1", w["dc"]["stats"][2], "; status", s)
     assert w["lost_replies"] >= 10, w
     assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 10
     assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
+    assert w["plant"]["max_point_speed_mm_s"] <= T1_LIMIT_MM_S, w["plant"]  # the arm kept to it: the core saw that
     assert w["joints"][0] > before + 0.05, (before, w["joints"][0])  # it did jog
     st = cell.status()
     assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st

@@ -1247,3 +1247,183 @@ TEST(EcatDc, DriftOptionIsValidated) {
   }
 }
 
+
+// ---- The plant paced by SYNC0 (cell.hpp): what `safestate run` meets, against lock-step -----
+
+namespace {
+
+// A cell in OP on DC whose master sends one frame per cycle half a cycle before each SYNC0
+// pulse (the default sync0_shift_us of 500), the emulator's loop as ecat_sim.cpp runs it:
+// the pulses due before a frame first, then the frame; woken just after each pulse.
+class PacingRig {
+ public:
+  explicit PacingRig(EmulatedCell::Pacing p) {
+    cell.set_pacing(p);
+    bring_to_op(cell.segment());
+    const std::uint64_t start =
+        le_u64(exchange(cell.segment(), {{Cmd::FPRD, 0x1003, reg::dc_start_time, std::vector<std::uint8_t>(8)}})[0].data);
+    pulse0_ = 10000000 + (start - cell.segment().esc(kPosFirstDrive).system_time(0));  // a SYNC0 (drift: ~us)
+  }
+  // One cycle: the frame (outputs `out`, inputs read back after them), then the next pulse.
+  // Without `send`, the cycle passes without a frame. Returns the inputs the reply carried.
+  std::vector<std::uint8_t> cycle(const std::vector<std::uint8_t>& out, bool send = true) {
+    const std::uint64_t frame = pulse0_ + n_ * 1000000 + 500000;
+    std::vector<std::uint8_t> in(kInBytes, 0);
+    if (send) {
+      cell.sync0_until(frame);
+      cell.set_time(frame);
+      in = exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}, {Cmd::LRD, 0x0000, 0x0001, in}}, frame)[1].data;
+    }
+    ++n_;
+    cell.poll(pulse0_ + n_ * 1000000 + 2000);
+    return in;
+  }
+  // Contactor closed, brakes released, drive 1 enabled at target 0; the reply's inputs.
+  std::vector<std::uint8_t> enable() {
+    std::vector<std::uint8_t> in;
+    for (int c = 0; c < 200; ++c) {
+      const std::uint16_t cw = c < 80 ? 0x06 : (c < 100 ? 0x07 : 0x0F);
+      in = cycle(outputs(cw, 0));
+    }
+    return in;
+  }
+  static std::vector<std::uint8_t> outputs(std::uint16_t cw, std::int32_t target_counts) {
+    std::vector<std::uint8_t> out(kOutBytes, 0);
+    out[0] = 0x03;  // contactor, brakes_release
+    for (std::size_t a = 0; a < 6; ++a) {
+      std::uint8_t* d = &out[kDoBytes + a * kDriveRxBytes];
+      d[0] = static_cast<std::uint8_t>(cw);
+      d[1] = static_cast<std::uint8_t>(cw >> 8);
+      const std::int32_t q = (a == 4) ? static_cast<std::int32_t>(std::lround(0.5 * kCountsPerRad)) : 0;  // home
+      const std::int32_t t = (a == 0) ? target_counts : q;
+      for (int b = 0; b < 4; ++b) d[2 + b] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(t) >> (8 * b));
+      d[6] = 0xE8;  // 0x6072 1000 per mille
+      d[7] = 0x03;
+    }
+    return out;
+  }
+  static std::int32_t position(const std::vector<std::uint8_t>& in, std::size_t axis = 0) {
+    const std::uint8_t* p = &in[kDiBytes + axis * kDriveTxBytes + 2];
+    return static_cast<std::int32_t>(p[0] | (p[1] << 8) | (p[2] << 16) | (static_cast<std::uint32_t>(p[3]) << 24));
+  }
+  static std::uint16_t statusword(const std::vector<std::uint8_t>& in, std::size_t axis = 0) {
+    const std::uint8_t* p = &in[kDiBytes + axis * kDriveTxBytes];
+    return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
+  }
+  EmulatedCell cell{1000};
+
+ private:
+  std::uint64_t pulse0_ = 0;
+  std::uint64_t n_ = 0;
+};
+
+constexpr std::int32_t kStep = 150;  // counts per cycle on axis 1 (~0.9 mrad, 0.9 rad/s: twice it within its limit)
+
+}  // namespace
+
+TEST(EcatPacing, LockstepStepsPerExchangeAndTheReplyCarriesItsOwnSetPoint) {
+  PacingRig rig(EmulatedCell::Pacing::lockstep);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27) << "drive 1 operation enabled";
+  const std::uint64_t cycles = rig.cell.cycles();
+  for (std::int32_t n = 1; n <= 5; ++n) {
+    const std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, n * kStep));
+    EXPECT_NEAR(PacingRig::position(in), n * kStep, 1) << "the plant ran this frame's set-point before the reply";
+  }
+  EXPECT_EQ(rig.cell.cycles(), cycles + 5U);
+  EXPECT_EQ(rig.cell.steps().sync0, 0U);
+  rig.cycle({}, false);
+  EXPECT_EQ(rig.cell.cycles(), cycles + 5U) << "no frame, no plant cycle (until 20 silent cycles)";
+}
+
+TEST(EcatPacing, PacedStepsOnSync0AndTheNextFrameCarriesWhatItSampled) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27) << "drive 1 operation enabled";
+  EXPECT_TRUE(rig.cell.paced_by_sync0());
+  const std::uint64_t cycles = rig.cell.cycles();
+  const std::uint64_t by_exchange = rig.cell.steps().exchange;
+  for (std::int32_t n = 1; n <= 5; ++n) {
+    const std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, n * kStep));
+    EXPECT_NEAR(PacingRig::position(in), (n - 1) * kStep, 1)
+        << "the reply carries the position sampled at the SYNC0 before it: the last frame's set-point";
+  }
+  EXPECT_EQ(rig.cell.cycles(), cycles + 5U) << "one plant cycle per SYNC0 pulse";
+  EXPECT_EQ(rig.cell.steps().exchange, by_exchange) << "no plant cycle at an exchange";
+  // Without frames the pulses go on stepping the plant.
+  rig.cycle({}, false);
+  rig.cycle({}, false);
+  EXPECT_EQ(rig.cell.cycles(), cycles + 7U);
+  EXPECT_EQ(rig.cell.steps().free, 0U);
+}
+
+TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
+  rig.cell.reset_steps();
+  for (std::int32_t n = 1; n <= 3; ++n) {
+    rig.cycle(PacingRig::outputs(0x0F, n * kStep));  // moving at kStep per cycle
+  }
+  EXPECT_EQ(rig.cell.steps().extrapolated, 0U);
+  const float steady = rig.cell.max_point_speed_mm_s();
+  EXPECT_GT(steady, 250.0F) << "axis 1 at ~0.9 rad/s";
+  rig.cycle({}, false);  // frame 4 lost: its pulse repeats the last step
+  std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 5 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 4 * kStep, 1) << "extrapolated: the axis went on, it did not stop";
+  EXPECT_EQ(rig.cell.steps().extrapolated, 1U);
+  EXPECT_EQ(rig.cell.steps().held, 0U);
+  in = rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 5 * kStep, 1) << "the next set-point taken as sent";
+  rig.cycle({}, false);  // two in a row lost: extrapolated once, then held
+  rig.cycle({}, false);
+  EXPECT_NEAR(rig.cell.max_point_speed_mm_s(), steady, steady * 0.01F) << "no faster than steady so far";
+  in = rig.cycle(PacingRig::outputs(0x0F, 9 * kStep));  // its pulse takes 9
+  EXPECT_NEAR(PacingRig::position(in), 7 * kStep, 1) << "6 taken, 7 extrapolated, then held at 7";
+  EXPECT_EQ(rig.cell.steps().extrapolated, 2U);
+  EXPECT_EQ(rig.cell.steps().held, 1U);
+  in = rig.cycle(PacingRig::outputs(0x0F, 10 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 9 * kStep, 1) << "from 7 to 9 in one pulse: the axis really jumped";
+  EXPECT_NEAR(rig.cell.max_point_speed_mm_s(), 2.0F * steady, steady * 0.05F) << "and the emulator saw it go twice as fast";
+}
+
+TEST(EcatPacing, WithoutTheMasterThePulsesStepThePlantAndTheWatchdogDropIsTimedAtTheTerminal) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  rig.enable();
+  ASSERT_TRUE(rig.cell.last_outputs().contactor);
+  const std::uint64_t cycles = rig.cell.cycles();
+  for (int c = 0; c < 105; ++c) {
+    rig.cycle({}, false);  // the master is gone; the ESC's default watchdog: 100 ms
+  }
+  EXPECT_EQ(rig.cell.cycles(), cycles + 105U);
+  EXPECT_EQ(rig.cell.steps().free, 0U) << "SYNC0 still paces the plant";
+  EXPECT_FALSE(rig.cell.last_outputs().contactor);
+  const EmulatedCell::OutputDrop& d = rig.cell.output_drop();
+  ASSERT_TRUE(d.contactor);
+  ASSERT_TRUE(d.enable);
+  // The last frame came 0.5 ms before a pulse; the watchdog (100 ms) expires between two looks
+  // (one per pulse here): the figure is the look that saw it, within a cycle after.
+  EXPECT_GT(d.contactor_ns, 100000000U);
+  EXPECT_LE(d.contactor_ns, 101000000U);
+  EXPECT_EQ(d.enable_ns, d.contactor_ns);
+  EXPECT_EQ(rig.cell.segment().esc(kPosDigitalOut).al_status_code(), al_code::sm_watchdog);
+}
+
+TEST(EcatPacing, TheControlChannelSetsThePacingAndReportsIt) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  rig.enable();
+  nlohmann::json j = nlohmann::json::parse(control_line(rig.cell, "status"));
+  EXPECT_EQ(j.at("plant").at("pacing"), "paced");
+  EXPECT_EQ(j.at("plant").at("sync0_paced"), true);
+  EXPECT_GT(j.at("plant").at("steps").at("sync0").get<std::uint64_t>(), 100U);
+  EXPECT_EQ(j.at("exchanges"), 200);
+  EXPECT_EQ(control_line(rig.cell, "plant fast"), "ERROR plant needs lockstep, paced or reset, got 'plant fast'");
+  EXPECT_EQ(control_line(rig.cell, "plant"), "ERROR plant needs lockstep, paced or reset, got 'plant'");
+  EXPECT_EQ(rig.cell.pacing(), EmulatedCell::Pacing::paced) << "a refused line changes nothing";
+  EXPECT_EQ(control_line(rig.cell, "plant lockstep"), "OK");
+  EXPECT_EQ(rig.cell.pacing(), EmulatedCell::Pacing::lockstep);
+  const std::uint64_t cycles = rig.cell.cycles();
+  rig.cycle(PacingRig::outputs(0x0F, 0));
+  EXPECT_EQ(rig.cell.cycles(), cycles + 1U);
+  EXPECT_EQ(rig.cell.steps().exchange, 1U) << "the frame stepped it, not the pulse after it";
+  j = nlohmann::json::parse(control_line(rig.cell, "status"));
+  EXPECT_EQ(j.at("plant").at("pacing"), "lockstep");
+  EXPECT_EQ(j.at("plant").at("sync0_paced"), false);
+}

@@ -582,6 +582,35 @@ TEST(MeasuredSpeed, AStaleFirstSampleStillStartsTheDifferentiation) {
   EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "over the real time between the samples";
 }
 
+// On EtherCAT with distributed clocks the drives sample at SYNC0: a frame late past its pulse
+// carries the next pulse's sample (two cycles of motion since the last), the frame after it
+// the same sample again. Differentiated over the frames, a steady 1 rad/s would read 2 then 0.
+// @req MO-SAMPLE-TIME
+TEST(MeasuredSpeed, SamplesAreDifferentiatedOverTheirSync0CyclesNotOverTheFrames) {
+  MotionController mc{kRobot, MotionConfig{}};
+  std::array<core::DriveFeedback, kJoints> drives{};
+  core::Feedback fb{};
+  mc.measure(drives, fb, false, 1);
+  drives[0].position_rad = 0.001F;  // 1 rad/s on axis 1: ~374 mm/s at the flange
+  mc.measure(drives, fb, false, 1);
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F);
+  drives[0].position_rad = 0.003F;  // a late frame: the sample two pulses after the last
+  mc.measure(drives, fb, false, 2);
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "two cycles of motion over two cycles";
+  mc.measure(drives, fb, false, 0);  // the next frame on time: the same sample again
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "no new sample: the last speeds stand, not 0";
+  drives[0].position_rad = 0.004F;
+  mc.measure(drives, fb, false, 1);
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 374.0F, 5.0F) << "against the sample before, one pulse on";
+  // Without the sampling instants (-1), the same frames would be judged by their count.
+  MotionController blind{kRobot, MotionConfig{}};
+  drives[0].position_rad = 0.001F;
+  blind.measure(drives, fb, false);
+  drives[0].position_rad = 0.003F;
+  blind.measure(drives, fb, false);
+  EXPECT_NEAR(fb.tcp_speed_mm_s, 2.0F * 374.0F, 10.0F) << "what the core saw before: a doubled speed";
+}
+
 // ------------------------------------------------------------------ speeds
 // @req MO-LIMITS-SPEED
 TEST(SpeedLimits, AJogKeepsTheJointAt95PercentOfItsLimit) {

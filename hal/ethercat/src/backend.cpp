@@ -443,7 +443,35 @@ void Backend::read(ProcessImageIn& in) noexcept {
       follow_dc(c.dc_time);
     }
   }
+  sample_time(in, fresh, c.dc_time);
   decode(in);
+}
+
+// @req MO-SAMPLE-TIME
+// The drives sample their inputs at SYNC0 (ethercrab starts it at a whole number of cycles of
+// DC time, and the emulated drives do sample there): the pulse before the frame passed the
+// reference clock took what it carries. A frame late past its pulse carries the next pulse's
+// sample, and the frame after it, on time again, that same sample: counting frames would see
+// two cycles of motion in one and none in the next (a doubled measured speed). Only in real
+// time (the loop's own cycle): a replay exchanges when it likes, and the emulator then steps
+// its plant per exchange (lock-step), not at SYNC0.
+void Backend::sample_time(ProcessImageIn& in, bool fresh, std::uint64_t dc_time) noexcept {
+  in.sample_clock = false;
+  in.sample_span = 0;
+  if (!dc_ || !async_) {
+    return;
+  }
+  if (!fresh || dc_time == 0U) {
+    in.sample_clock = sample_pulse_ != 0U;  // no new sample (a stale cycle is one anyway)
+    return;
+  }
+  const std::uint64_t pulse = dc_time / (static_cast<std::uint64_t>(cycle_us_) * 1000U);
+  in.sample_clock = sample_pulse_ != 0U;
+  if (in.sample_clock) {
+    const std::uint64_t span = (pulse > sample_pulse_) ? pulse - sample_pulse_ : 0U;
+    in.sample_span = static_cast<std::uint16_t>(std::min<std::uint64_t>(span, 0xFFFFU));
+  }
+  sample_pulse_ = std::max(sample_pulse_, pulse);
 }
 
 // The real-time loop takes its cycle from DC time: the frame should pass the reference clock

@@ -1,5 +1,6 @@
 #include "safestate/ecat/cell.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -186,10 +187,7 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
     : cycle_us_(cycle_us),
       plant_(motion::kRobot, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
       segment_(with_cycle(devices, cycle_us)) {
-  segment_.on_process_data([this] {
-    free_running_ = false;
-    plant_cycle(true);
-  });
+  segment_.on_process_data([this] { on_exchange(); });
   latch_inputs();
 }
 
@@ -220,16 +218,29 @@ void EmulatedCell::latch_inputs() noexcept {
   }
 }
 
-void EmulatedCell::step() noexcept { plant_cycle(false); }
+void EmulatedCell::step() noexcept { plant_cycle(Cause::free); }
 
-bool EmulatedCell::any_enabled() const noexcept {
-  for (const hal::DriveOut& d : out_.drive) {
+namespace {
+
+bool any_enabled(const hal::ProcessImageOut& out) noexcept {
+  for (const hal::DriveOut& d : out.drive) {
     if ((d.controlword & 0x0008U) != 0U) {  // CiA 402 enable operation
       return true;
     }
   }
   return false;
 }
+
+void unpack_held(Segment& seg, hal::ProcessImageOut& out) noexcept {
+  std::uint8_t rx[hal::kAxes][kDriveRxBytes];
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    const std::span<const std::uint8_t> o = seg.esc(kPosFirstDrive + a).outputs();
+    std::memcpy(rx[a], o.data(), kDriveRxBytes);
+  }
+  unpack_outputs(seg.esc(kPosDigitalOut).outputs().data(), rx, out);
+}
+
+}  // namespace
 
 // A subdevice whose outputs the plant still holds active has put them in the safe state
 // (its process-data watchdog expired: it left OP).
@@ -245,75 +256,170 @@ bool EmulatedCell::outputs_went_safe() const noexcept {
   return false;
 }
 
-void EmulatedCell::time_output_drop(bool was_closed, bool was_enabled) noexcept {
+// The subdevices' outputs as they stand, looked at between exchanges: when no process data
+// comes, the time from the last exchange to the contactor output opening and the last
+// drive's enable going, as their process-data watchdogs put them in the safe state.
+void EmulatedCell::watch_held_outputs() noexcept {
+  const bool was_closed = held_.contactor;
+  const bool was_enabled = any_enabled(held_);
+  unpack_held(segment_, held_);
   const std::uint64_t since = (now_ns_ > last_exchange_ns_) ? now_ns_ - last_exchange_ns_ : 0U;
-  if (was_closed && !out_.contactor && !drop_.contactor) {
+  if (was_closed && !held_.contactor && !drop_.contactor) {
     drop_.contactor = true;
     drop_.contactor_ns = since;
   }
-  if (was_enabled && !any_enabled() && !drop_.enable) {
+  if (was_enabled && !any_enabled(held_) && !drop_.enable) {
     drop_.enable = true;
     drop_.enable_ns = since;
   }
 }
 
-void EmulatedCell::plant_cycle(bool exchange) noexcept {
-  std::uint8_t rx[hal::kAxes][kDriveRxBytes];
-  const std::span<const std::uint8_t> dout = segment_.esc(kPosDigitalOut).outputs();
-  for (std::size_t a = 0; a < hal::kAxes; ++a) {
-    const std::span<const std::uint8_t> o = segment_.esc(kPosFirstDrive + a).outputs();
-    std::memcpy(rx[a], o.data(), kDriveRxBytes);
-  }
-  const bool was_closed = out_.contactor;
-  const bool was_enabled = any_enabled();
-  unpack_outputs(dout.data(), rx, out_);
+void EmulatedCell::on_exchange() noexcept {
+  free_running_ = false;
+  const bool was_closed = held_.contactor;
+  unpack_held(segment_, held_);
   time_reaction(was_closed);
-  if (exchange) {
-    last_exchange_ns_ = now_ns_;
-    if (out_.contactor) {
-      drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
+  last_exchange_ns_ = now_ns_;
+  if (held_.contactor) {
+    drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
+  }
+  new_setpoints_ = true;
+  if (!paced_by_sync0()) {
+    plant_cycle(Cause::exchange);  // lock-step, or drives synchronous to the frames
+  }
+  // The outputs it brought, the inputs its reply carries back (segment.cpp logical()):
+  // lock-step, those of the plant cycle it ran; paced, those the last SYNC0 sampled.
+  timing_.exchange(exchanges_, now_ns_, held_, in_, cycle_us_);
+  ++exchanges_;
+}
+
+// The set-points as the drives take them at a SYNC0 pulse: the last frame's; a pulse that
+// found no new one repeats the last step once (linear extrapolation, as CSP drives with
+// linear interpolation commonly do: a frame missing now and then does not make the axis stop
+// and jump), then holds them. Outside OP a drive holds nothing (its outputs are safe).
+void EmulatedCell::sync0_setpoints() noexcept {
+  const hal::ProcessImageOut before = out_;
+  unpack_held(segment_, out_);
+  if (new_setpoints_) {
+    missed_ = 0;
+  } else if (missed_ < 0xFFU) {
+    ++missed_;
+  }
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    if (segment_.esc(kPosFirstDrive + a).state() != AlState::op) {
+      step_rad_[a] = 0.0F;
+      continue;
     }
+    if (missed_ == 1U) {
+      out_.drive[a].target_position_rad = before.drive[a].target_position_rad + step_rad_[a];
+    } else if (missed_ > 1U) {
+      out_.drive[a].target_position_rad = before.drive[a].target_position_rad;
+      step_rad_[a] = 0.0F;
+    } else {
+      step_rad_[a] = out_.drive[a].target_position_rad - before.drive[a].target_position_rad;
+    }
+  }
+  steps_.extrapolated += (missed_ == 1U) ? 1U : 0U;
+  steps_.held += (missed_ > 1U) ? 1U : 0U;
+  new_setpoints_ = false;
+}
+
+void EmulatedCell::plant_cycle(Cause cause) noexcept {
+  if (cause == Cause::sync0) {
+    sync0_setpoints();
+    ++steps_.sync0;
   } else {
-    time_output_drop(was_closed, was_enabled);
+    unpack_held(segment_, out_);
+    ++(cause == Cause::exchange ? steps_.exchange : steps_.free);
   }
   plant_.write(out_);
   person_.advance(static_cast<float>(cycle_us_) * 1.0e-6F);  // one step per plant cycle, as in-process
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();
-  if (exchange) {  // the outputs it brought, the inputs its reply carries back (segment.cpp logical())
-    timing_.exchange(cycles_ - 1U, now_ns_, out_, in_, cycle_us_);
-  }
+  peak_mm_s_ = std::max(peak_mm_s_, max_point_speed(in_, tcp_mm_));
 }
 
 void EmulatedCell::mark_input_change() noexcept {
   timing_.input_changed();
-  if (out_.contactor) {
-    reaction_ = Reaction{true, false, false, now_ns_, cycles_, 0, 0, 0};
+  if (held_.contactor) {
+    reaction_ = Reaction{true, false, false, now_ns_, exchanges_, 0, 0, 0};
   }
 }
 
 // Called in an exchange, with the outputs it brought already unpacked and before the
 // inputs it takes back are latched.
 void EmulatedCell::time_reaction(bool was_closed) noexcept {
-  if (!was_closed && out_.contactor) {
+  if (!was_closed && held_.contactor) {
     reaction_ = Reaction{};  // armed again: a new measurement may start
     return;
   }
-  if (reaction_.armed && !reaction_.carried && cycles_ == reaction_.input_cycle) {
+  if (reaction_.armed && !reaction_.carried && exchanges_ == reaction_.input_cycle) {
     reaction_.carried = true;
     reaction_.input_ns = now_ns_;
   }
-  if (reaction_.armed && was_closed && !out_.contactor && !reaction_.cleared) {
+  if (reaction_.armed && was_closed && !held_.contactor && !reaction_.cleared) {
     reaction_.cleared = true;
-    reaction_.cleared_cycle = cycles_;
+    reaction_.cleared_cycle = exchanges_;
     reaction_.cleared_ns = now_ns_;
   }
+}
+
+// The drive whose SYNC0 paces the plant: the first whose SYNC0 runs (all of them run on
+// one system time, within their sync error).
+std::size_t EmulatedCell::pacer() noexcept {
+  for (std::size_t p = 0; p < segment_.connected(); ++p) {
+    Esc& e = segment_.esc(p);
+    if (e.desc().dc_sync0_required && e.sync0_running(now_ns_)) {
+      return p;
+    }
+  }
+  return segment_.size();
+}
+
+bool EmulatedCell::paced_by_sync0() noexcept {
+  const bool paced = pacing_ == Pacing::paced && pacer() < segment_.size();
+  if (paced && !paced_) {
+    const std::uint64_t k = segment_.esc(pacer()).sync0_pulses(now_ns_);
+    pulses_ = (k > 0U) ? k - 1U : 0U;  // the pulse that started it is the first step
+    new_setpoints_ = true;
+    missed_ = 0;
+  }
+  paced_ = paced;
+  return paced;
+}
+
+void EmulatedCell::sync0_until(std::uint64_t now_ns) noexcept {
+  now_ns_ = now_ns;
+  if (!paced_by_sync0()) {
+    return;
+  }
+  const std::uint64_t k = segment_.esc(pacer()).sync0_pulses(now_ns);
+  // A host stall of a second or more is not made up pulse by pulse: the plant runs on.
+  for (std::uint32_t n = 0; pulses_ < k && n < 1000U; ++n) {
+    ++pulses_;
+    plant_cycle(Cause::sync0);
+  }
+  pulses_ = std::max(pulses_, k);
+}
+
+std::uint64_t EmulatedCell::sleep_ns(std::uint64_t now_ns, std::uint64_t most_ns) noexcept {
+  now_ns_ = now_ns;
+  if (!paced_by_sync0()) {
+    return most_ns;
+  }
+  return std::min(most_ns, segment_.esc(pacer()).ns_to_next_sync0(now_ns));
 }
 
 void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   now_ns_ = now_ns;
   segment_.poll(now_ns);
+  watch_held_outputs();
+  sync0_until(now_ns);
+  if (paced_) {
+    free_running_ = false;
+    return;  // the drives' SYNC0 paces the plant, frames or not
+  }
   // Physics does not wait for the master: after 20 silent cycles it runs on by itself,
   // one cycle per period, with whatever outputs the subdevices hold (safe ones once
   // their watchdogs have expired); at once when a subdevice's watchdog has put outputs the

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 #include <array>
@@ -298,6 +299,16 @@ std::string status(EmulatedCell& cell) {
   const hal::ProcessImageOut& o = cell.last_outputs();
   const hal::ProcessImageIn& in = cell.last_inputs();
   j["cycles"] = cell.cycles();
+  j["exchanges"] = cell.exchanges();
+  // How the plant is stepped (cell.hpp): the pacing asked for, whether SYNC0 paces it now, and
+  // what started its cycles so far.
+  const EmulatedCell::Steps& st = cell.steps();
+  j["plant"] = {{"pacing", cell.pacing() == EmulatedCell::Pacing::paced ? "paced" : "lockstep"},
+                {"sync0_paced", cell.paced_by_sync0()},
+                {"steps", {{"exchange", st.exchange}, {"sync0", st.sync0}, {"free", st.free}}},
+                {"extrapolated", st.extrapolated},
+                {"held", st.held},
+                {"max_point_speed_mm_s", std::round(static_cast<double>(cell.max_point_speed_mm_s()) * 10.0) / 10.0}};
   j["frames"] = cell.segment().frames();
   j["lost_replies"] = cell.segment().lost_replies();
   j["connected"] = cell.segment().connected();
@@ -409,6 +420,17 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (line.rfind("person ", 0) == 0 || line.rfind("config person_fields=", 0) == 0) {
     return person_line(cell, line);
   }
+  if (line == "plant lockstep" || line == "plant paced") {  // EmulatedCell::Pacing
+    cell.set_pacing(line == "plant paced" ? EmulatedCell::Pacing::paced : EmulatedCell::Pacing::lockstep);
+    return "OK";
+  }
+  if (line == "plant reset") {  // the step counts and the peak speed start again
+    cell.reset_steps();
+    return "OK";
+  }
+  if (line.rfind("plant", 0) == 0) {
+    return "ERROR plant needs lockstep, paced or reset, got '" + line + "'";
+  }
   if (line.rfind("time ", 0) == 0) {  // arm a response-time measurement (wire_timing.hpp)
     return time_line(cell, line.substr(5));
   }
@@ -425,8 +447,8 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (verb == "in" || verb == "fault") {
     return scenario_line(cell, line);
   }
-  return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, status, dc "
-         "reset, or a JSON sim message)";
+  return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, plant "
+         "lockstep|paced, time ..., status, dc reset, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

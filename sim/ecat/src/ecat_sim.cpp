@@ -129,6 +129,7 @@ void serve_frames(EmulatedCell& cell, int raw) {
       continue;  // our own replies
     }
     const std::uint64_t t = now_ns();
+    cell.sync0_until(t);  // the pulses before it first: they took the set-points the last frame left
     cell.set_time(t);
     if (cell.segment().process(std::span<std::uint8_t>(frame, static_cast<std::size_t>(n)), t)) {
       send(raw, frame, static_cast<std::size_t>(n), 0);
@@ -271,6 +272,7 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     return 2;
   }
   EmulatedCell cell(opt.cycle_us, devs);
+  cell.set_pacing(opt.lockstep ? EmulatedCell::Pacing::lockstep : EmulatedCell::Pacing::paced);
   for (std::size_t i = 0; i < drifts.size(); ++i) {
     cell.segment().esc(i).set_drift_ppm(drifts[i]);
   }
@@ -297,7 +299,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     for (const Client& c : clients) {
       fds.push_back({c.fd, POLLIN, 0});
     }
-    poll(fds.data(), fds.size(), 1);
+    // Awake for the watchdogs every millisecond at least, and at each SYNC0 pulse when it
+    // paces the plant (the inputs sampled there are what the next frame carries).
+    const std::uint64_t sleep = cell.sleep_ns(now_ns(), 1000000U);
+    const timespec ts{0, static_cast<long>(sleep)};
+    ppoll(fds.data(), fds.size(), &ts, nullptr);
     // Frames first, then the watchdogs: a frame that reached the socket while this process
     // waited to be scheduled was on time for a real ESC (which takes it in hardware on
     // arrival); judging the watchdog before taking it would expire it falsely.

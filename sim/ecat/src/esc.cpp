@@ -562,6 +562,26 @@ bool Esc::sync0_activated() const noexcept {
 
 std::uint32_t Esc::sync0_cycle_ns() const noexcept { return u32(reg::dc_sync0_cycle); }
 
+// Pulse k (1-based) fires at system time start + (k - 1) x cycle.
+std::uint64_t Esc::sync0_pulses(std::uint64_t now_ns) noexcept {
+  if (!sync0_running(now_ns)) {
+    return 0;
+  }
+  const std::uint64_t s = system_time(now_ns);
+  const std::uint64_t start = u64(reg::dc_start_time);
+  return (s < start) ? 0U : (s - start) / sync0_cycle_ns() + 1U;
+}
+
+std::uint64_t Esc::ns_to_next_sync0(std::uint64_t now_ns) noexcept {
+  if (!sync0_activated() || !sync0_armed_) {
+    return 0;
+  }
+  const std::uint64_t s = system_time(now_ns);
+  const std::uint64_t start = u64(reg::dc_start_time);
+  const std::uint64_t cycle = sync0_cycle_ns();
+  return (s < start) ? start - s : cycle - (s - start) % cycle;
+}
+
 bool Esc::sync0_running(std::uint64_t now_ns) noexcept {
   if (!sync0_armed_ || !sync0_activated()) {
     return false;

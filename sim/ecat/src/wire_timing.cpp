@@ -82,6 +82,16 @@ constexpr const char* kUsage =
 
 }  // namespace
 
+float max_point_speed(const hal::ProcessImageIn& in, const std::array<float, 3>& tcp) noexcept {
+  const core::ArmPose p = pose_of(positions(in), tcp);
+  const core::JointArray v = velocities(in);
+  float m = core::point_speed(p, p.tcp, core::kAxes, v);
+  for (std::size_t k = 1; k < core::kArmFrames; ++k) {
+    m = std::max(m, core::point_speed(p, p.origin[k], k, v));
+  }
+  return m;
+}
+
 std::string WireTiming::parse(std::string_view words, Spec& out) {
   std::istringstream in{std::string(words)};
   std::string stop, from, extra;
@@ -190,15 +200,7 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
       const core::ArmPose p = pose_of(positions(in), tcp_);
       return core::point_speed(p, p.tcp, core::kAxes, velocities(in)) > t;
     }
-    case From::point_speed: {
-      const core::ArmPose p = pose_of(positions(in), tcp_);
-      const core::JointArray v = velocities(in);
-      float m = core::point_speed(p, p.tcp, core::kAxes, v);
-      for (std::size_t k = 1; k < core::kArmFrames; ++k) {
-        m = std::max(m, core::point_speed(p, p.origin[k], k, v));
-      }
-      return m > t;
-    }
+    case From::point_speed: return max_point_speed(in, tcp_) > t;
     case From::tcp_pos: return pose_of(positions(in), tcp_).tcp[i] > t;
     case From::separation:  // invalid counts as 0 (SPEC §11: unknown is unsafe)
       return !in.safety.separation_valid || static_cast<float>(in.safety.separation_mm) < t;

@@ -19,6 +19,12 @@ struct ProcessImageIn {
   std::array<bool, kAxes> brake_released{};          // brake feedback contacts
   bool fieldbus_ok = true;                           // cyclic data valid this cycle
   bool stale = false;                                // no fresh sample this cycle: the inputs are the last ones held
+  // The inputs carry when they were sampled (EtherCAT with distributed clocks: the drives
+  // sample at SYNC0, and the frame's DC time says which pulse): sample_span is then the
+  // SYNC0 cycles since the previous answered frame's sample, 0 when this frame carries that
+  // same sample again (it came before the next pulse: its frame before was late).
+  bool sample_clock = false;
+  std::uint16_t sample_span = 0;
   std::uint8_t fieldbus_subdevice = 0;               // 1-based position of the first at fault, 0 = bus
   bool fieldbus_silent = false;                      // no frame back: silent from that subdevice on
   bool fieldbus_boot_failed = false;                 // the bus cannot come up as configured

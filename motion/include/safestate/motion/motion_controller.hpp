@@ -125,8 +125,11 @@ class MotionController {
   // between them), and the program status. `stale`: no fresh sample this cycle (a lost or
   // late frame, the positions are the last ones held): the speeds of the last sample
   // stand, and the next fresh one is differentiated over both cycles, so a stale cycle
-  // never doubles a measured speed.
-  void measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb, bool stale = false) noexcept;
+  // never doubles a measured speed. `sample_span` (when not negative): the cycles between
+  // this sample and the last one as the drives took them (their SYNC0, hal::ProcessImageIn),
+  // which a late frame makes differ from the cycles between the frames: 0 is no new sample.
+  void measure(const std::array<core::DriveFeedback, kJoints>& drives, core::Feedback& fb, bool stale = false,
+               std::int32_t sample_span = -1) noexcept;
 
   // After the supervisor ran: set-points and controlwords for this cycle.
   void step(const core::SupervisorOut& so, const std::array<core::DriveFeedback, kJoints>& drives,

@@ -193,6 +193,7 @@ class Backend final : public hal::Backend {
   void decode(ProcessImageIn& in) const noexcept;
   void lose(std::uint8_t position, const char* why, bool silent = false) noexcept;
   void keep_alive() noexcept;
+  void sample_time(ProcessImageIn& in, bool fresh, std::uint64_t dc_time) noexcept;
   void follow_dc(std::uint64_t dc_time) noexcept;
   bool await_dc_op();
   void hand_over() noexcept;
@@ -242,6 +243,9 @@ class Backend final : public hal::Backend {
   std::uint64_t ans_ns_ = 0;
   std::uint64_t taken_id_ = 0;
   bool dc_ = false;
+  // The SYNC0 pulse (DC time / cycle) before the last answered frame passed: the drives'
+  // inputs in it were sampled there (ProcessImageIn::sample_span). 0 = none yet.
+  std::uint64_t sample_pulse_ = 0;
   int dc_reference_ = 0;
   std::atomic<std::int64_t> dc_phase_ns_{0};
   std::atomic<std::int64_t> cycle_adjust_ns_{0};

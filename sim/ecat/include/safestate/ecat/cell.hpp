@@ -74,12 +74,51 @@ void pack_distance(const core::RawInputs& in, std::uint8_t* tx) noexcept;
 void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint8_t (*drive_rx)[kDriveRxBytes]) noexcept;
 void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDriveRxBytes], hal::ProcessImageOut& out) noexcept;
 
-// The plant behind the segment. One process-data exchange = one plant cycle, so a master
-// cycling once per scan cycle sees exactly what the in-process cell sees; when no
-// process data arrives the plant runs on by itself with its outputs in the safe state.
+// The plant behind the segment, in one of two pacings:
+//   lockstep  one process-data exchange = one plant cycle, so a master cycling once per scan
+//             cycle sees exactly what the in-process cell sees (a replay: not paced in real
+//             time); the reply of an exchange carries the inputs after the plant cycle it ran;
+//   paced     as a real segment: the plant is stepped by the drives' SYNC0 pulses, in real
+//             time, whether frames come or not. At each pulse the drives take the set-points
+//             the last frame left them (a pulse that found none: the drive extrapolates the
+//             last step once, then holds), the plant runs one cycle and every input is
+//             sampled; the next frame carries those inputs back: one exchange more from a
+//             set-point to the position it gives than in lock-step. The drives track their
+//             set-points ideally, as in-process: frames late past their SYNC0 twice and then
+//             two in one cycle make the axis stand for a pulse and then take two steps in
+//             one, really (steps().held, max_point_speed()). While no SYNC0 runs
+//             (boot, drives free-running without DC) the drives are synchronous to the frames
+//             and the plant steps per exchange, as in lock-step.
+// In both, when no process data arrives (and no SYNC0 paces it) the plant runs on by itself
+// with its outputs in the safe state.
 class EmulatedCell {
  public:
+  enum class Pacing : std::uint8_t { lockstep, paced };
+  // What a plant cycle was started by (`status` -> `plant`).
+  struct Steps {
+    std::uint64_t exchange = 0;      // a process-data exchange (lock-step, or no SYNC0)
+    std::uint64_t sync0 = 0;         // a SYNC0 pulse (paced)
+    std::uint64_t free = 0;          // nothing: no master, no SYNC0
+    std::uint64_t extrapolated = 0;  // SYNC0 pulses that found no new set-point: the last step repeated
+    std::uint64_t held = 0;          // ... and found none again: the set-points held
+  };
   explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment());
+  void set_pacing(Pacing p) noexcept { pacing_ = p; }
+  [[nodiscard]] Pacing pacing() const noexcept { return pacing_; }
+  // The plant is stepped by SYNC0 now (paced, and the first drive's SYNC0 runs).
+  [[nodiscard]] bool paced_by_sync0() noexcept;
+  [[nodiscard]] const Steps& steps() const noexcept { return steps_; }
+  // The fastest any point of the arm (TCP, link origins) really moved in a plant cycle since
+  // the last reset_steps(), mm/s (max_point_speed() of the inputs each cycle latched): what
+  // tells a speed alarm of the core the arm earned from one it did not.
+  [[nodiscard]] float max_point_speed_mm_s() const noexcept { return peak_mm_s_; }
+  void reset_steps() noexcept {
+    steps_ = Steps{};
+    peak_mm_s_ = 0.0F;
+  }
+  // How long the emulator may sleep before the plant needs it (the next SYNC0 pulse when
+  // paced by it), at most `most_ns`.
+  [[nodiscard]] std::uint64_t sleep_ns(std::uint64_t now_ns, std::uint64_t most_ns) noexcept;
   Segment& segment() noexcept { return segment_; }
   core::RawInputs& inputs() noexcept { return plant_.inputs(); }
   void inject(const sim::Fault& f) noexcept {
@@ -106,22 +145,28 @@ class EmulatedCell {
     return true;
   }
   [[nodiscard]] const sim::PersonView& person_view() const noexcept { return person_view_; }
-  // Idle work: watchdogs, and free-running physics when the master is silent.
+  // Idle work: SYNC0 pulses due (paced), watchdogs, and free-running physics when the master
+  // is silent.
   void poll(std::uint64_t now_ns) noexcept;
+  // The SYNC0 pulses due by this instant only (paced; no watchdog): before a frame is taken.
+  void sync0_until(std::uint64_t now_ns) noexcept;
   void set_time(std::uint64_t now_ns) noexcept { now_ns_ = now_ns; }
   [[nodiscard]] std::uint64_t now() const noexcept { return now_ns_; }
   void step() noexcept;  // one plant cycle on the outputs the subdevices hold
   // The input terminals show a changed contact at once, as real ones do between cycles.
   void latch_inputs() noexcept;
-  [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return out_; }
+  // The subdevices' outputs as they stand: what the last exchange brought, in their safe
+  // state once a subdevice left OP (the plant applies the drives' set-points at SYNC0 when paced).
+  [[nodiscard]] const hal::ProcessImageOut& last_outputs() const noexcept { return held_; }
   [[nodiscard]] const hal::ProcessImageIn& last_inputs() const noexcept { return in_; }
   [[nodiscard]] std::uint64_t cycles() const noexcept { return cycles_; }
+  [[nodiscard]] std::uint64_t exchanges() const noexcept { return exchanges_; }
   // Safety reaction on the wire (issue 13 item 7): an input contact that changes while the
   // contactor output is closed starts a measurement; the exchange that carries the changed
   // inputs to the master and the first exchange whose outputs clear the contactor end it.
   // A change while the contactor is open starts nothing (so the second channel of an
   // E-stop, pressed after the first opened it, keeps the first channel's figure), and
-  // closing the contactor again forgets the last figure. Exchange numbers are plant cycles.
+  // closing the contactor again forgets the last figure. Exchanges are numbered from 0.
   struct Reaction {
     bool armed = false;               // an input changed while the contactor was closed
     bool carried = false;             // the exchange carrying it has passed
@@ -151,18 +196,31 @@ class EmulatedCell {
   [[nodiscard]] std::uint32_t cycle_us() const noexcept { return cycle_us_; }
 
  private:
+  enum class Cause : std::uint8_t { exchange, sync0, free };
+  void on_exchange() noexcept;
   void time_reaction(bool was_closed) noexcept;
-  void time_output_drop(bool was_closed, bool was_enabled) noexcept;
+  void watch_held_outputs() noexcept;
   [[nodiscard]] bool outputs_went_safe() const noexcept;
-  [[nodiscard]] bool any_enabled() const noexcept;
-  void plant_cycle(bool exchange) noexcept;
+  void sync0_setpoints() noexcept;
+  void plant_cycle(Cause cause) noexcept;
+  [[nodiscard]] std::size_t pacer() noexcept;
 
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
   Segment segment_;
   hal::ProcessImageIn in_{};
-  hal::ProcessImageOut out_{};
+  hal::ProcessImageOut out_{};   // what the plant applies
+  hal::ProcessImageOut held_{};  // what the subdevices hold (last_outputs())
+  Pacing pacing_ = Pacing::lockstep;
+  Steps steps_{};
+  float peak_mm_s_ = 0.0F;
   std::uint64_t cycles_ = 0;
+  std::uint64_t exchanges_ = 0;
+  std::uint64_t pulses_ = 0;           // SYNC0 pulses of the pacing drive the plant has stepped on
+  bool paced_ = false;                 // stepped by SYNC0 at the last look
+  bool new_setpoints_ = false;         // an exchange since the last SYNC0 step
+  std::uint8_t missed_ = 0;            // SYNC0 steps in a row without one
+  std::array<float, hal::kAxes> step_rad_{};  // each drive's last set-point step (extrapolation)
   std::uint64_t last_step_ns_ = 0;
   std::uint64_t now_ns_ = 0;
   bool free_running_ = false;

@@ -34,6 +34,9 @@ struct EcatSimOptions {
   // A segment without the distance sensor (SPEC §11): a cell whose bus configuration has no
   // distance_sensor, where the separation stays invalid (tests).
   bool no_distance_sensor = false;
+  // The plant one cycle per process-data exchange (EmulatedCell::Pacing::lockstep) instead
+  // of paced by the drives' SYNC0; `safestate replay` sets it over the control channel.
+  bool lockstep = false;
   // The subdevices served (their SII built from these): `safestate ecat-sim` passes the ones
   // made from the shipped ESI (hal/ethercat/esi, esi_segment()); empty = default_segment().
   std::vector<SubdeviceDesc> devices;

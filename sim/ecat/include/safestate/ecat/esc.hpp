@@ -202,6 +202,10 @@ class Esc {
   [[nodiscard]] bool sync0_running(std::uint64_t now_ns) noexcept;
   [[nodiscard]] bool sync0_activated() const noexcept;
   [[nodiscard]] std::uint32_t sync0_cycle_ns() const noexcept;
+  // SYNC0 pulses generated up to this instant (0 while SYNC0 does not run), and the time in
+  // ns (of its system time, within its drift of the host's) until the next one.
+  [[nodiscard]] std::uint64_t sync0_pulses(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] std::uint64_t ns_to_next_sync0(std::uint64_t now_ns) noexcept;
   // The drift-control loop's rate correction (its integral part), ppm.
   [[nodiscard]] double rate_correction_ppm() const noexcept { return rate_i_ * 1e6; }
   DcStats& dc_stats() noexcept { return dc_stats_; }

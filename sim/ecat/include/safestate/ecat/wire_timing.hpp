@@ -34,6 +34,11 @@
 
 namespace safestate::ecat {
 
+// The fastest of the TCP and the link origins (mm/s) for the positions and velocities `in`
+// carries, as the wire carries them (whole counts), with the core's kinematics and the tool's
+// TCP (tool0, mm): the quantity the T1 monitor judges (SPEC §4 rule 3).
+float max_point_speed(const hal::ProcessImageIn& in, const std::array<float, 3>& tcp) noexcept;
+
 class WireTiming {
  public:
   enum class Stop : std::uint8_t { cat0, cat1, cat2, reduce, reduced };
