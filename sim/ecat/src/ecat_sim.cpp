@@ -13,6 +13,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
@@ -27,6 +28,7 @@ namespace safestate::ecat {
 namespace {
 
 std::atomic<bool> g_stop{false};
+constexpr std::uint64_t kPulseGraceNs = 50000;
 void on_signal(int) { g_stop.store(true); }
 
 std::uint64_t now_ns() {
@@ -55,6 +57,8 @@ int open_raw(const std::string& ifname, std::string& err) {
     close(fd);
     return -1;
   }
+  const int on = 1;  // receive timestamps: when each frame arrived (serve_frames)
+  setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on);
   packet_mreq mr{};
   mr.mr_ifindex = static_cast<int>(idx);
   mr.mr_type = PACKET_MR_PROMISC;
@@ -116,19 +120,49 @@ void serve_client(EmulatedCell& cell, Client& c) {
   }
 }
 
+// When the frame reached the interface: the kernel's receive timestamp (CLOCK_REALTIME,
+// taken as the veth queues it) on the monotonic clock, never later than `now`. A real ESC
+// takes a frame as it passes; this process may get it later (woken late, or the frame handed
+// over late by the kernel), and the SYNC0 pulses between must not overtake it.
+std::uint64_t arrival_ns(const msghdr& msg, std::uint64_t now) {
+  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(const_cast<msghdr*>(&msg), c)) {
+    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS) {
+      timespec ts{};
+      std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
+      timespec real{};
+      clock_gettime(CLOCK_REALTIME, &real);
+      const auto ns = [](const timespec& t) {
+        return static_cast<std::int64_t>(t.tv_sec) * 1000000000LL + static_cast<std::int64_t>(t.tv_nsec);
+      };
+      const std::int64_t ago = ns(real) - ns(ts);
+      // (a timestamp from the future, or older than 100 ms: the clock was set; use now)
+      return (ago > 0 && ago < 100000000LL) ? now - static_cast<std::uint64_t>(ago) : now;
+    }
+  }
+  return now;
+}
+
 void serve_frames(EmulatedCell& cell, int raw) {
   std::uint8_t frame[2048];
+  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + 64];
   for (int k = 0; k < 64; ++k) {
     sockaddr_ll from{};
-    socklen_t fl = sizeof from;
-    const ssize_t n = recvfrom(raw, frame, sizeof frame, 0, reinterpret_cast<sockaddr*>(&from), &fl);
+    iovec iov{frame, sizeof frame};
+    msghdr msg{};
+    msg.msg_name = &from;
+    msg.msg_namelen = sizeof from;
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control;
+    msg.msg_controllen = sizeof control;
+    const ssize_t n = recvmsg(raw, &msg, 0);
     if (n <= 0) {
       return;
     }
     if (from.sll_pkttype == PACKET_OUTGOING) {
       continue;  // our own replies
     }
-    const std::uint64_t t = now_ns();
+    const std::uint64_t t = std::max(arrival_ns(msg, now_ns()), cell.now());  // in order, never back
     cell.sync0_until(t);  // the pulses before it first: they took the set-points the last frame left
     cell.set_time(t);
     if (cell.segment().process(std::span<std::uint8_t>(frame, static_cast<std::size_t>(n)), t)) {
@@ -300,8 +334,10 @@ int ecat_sim_main(const EcatSimOptions& opt) {
       fds.push_back({c.fd, POLLIN, 0});
     }
     // Awake for the watchdogs every millisecond at least, and at each SYNC0 pulse when it
-    // paces the plant (the inputs sampled there are what the next frame carries).
-    const std::uint64_t sleep = cell.sleep_ns(now_ns(), 1000000U);
+    // paces the plant (the inputs sampled there are what the next frame carries), a little
+    // after it: a frame that reached the interface before the pulse and that the kernel has
+    // not handed over yet is then taken first (serve_frames, by its arrival time).
+    const std::uint64_t sleep = cell.sleep_ns(now_ns(), 1000000U - kPulseGraceNs) + kPulseGraceNs;
     const timespec ts{0, static_cast<long>(sleep)};
     ppoll(fds.data(), fds.size(), &ts, nullptr);
     // Frames first, then the watchdogs: a frame that reached the socket while this process
