@@ -50,8 +50,9 @@ def wire_intro(wfun):
     return [
         f"Measured on the wire: `bench/ecat_response.py` ({wfun['date']}, {wfun['namespace']}): the whole cell, "
         "`safestate run --fieldbus ethercat --safety FILE` (1 ms cycle) against `safestate ecat-sim` (the EMULATED "
-        "segment) on a veth pair, a fresh pair per function. These are figures of an emulated segment on a veth pair, "
-        "not of real hardware. FILE is "
+        "segment) on a veth pair, a fresh pair per function, its plant paced by the drives' SYNC0 (set-points taken "
+        "and inputs sampled at each pulse, the next frame carrying them: docs/ethercat.md). These are figures of an "
+        "emulated segment on a veth pair, not of real hardware. FILE is "
         f"{wfun['base']} with SSM off (on for its own row only: the segment's distance sensor, a subdevice of its own, "
         "carries the separation) and without the brake-test schedule, and "
         "for a limit that one limit moved beside the pose exactly as in-process (above); the computed columns are "
