@@ -251,11 +251,15 @@ def main():
         out["op"] = m.to_op()
         run_cycles(m, 200)
         regs = []
+        ref = lambda: int.from_bytes(m.m.slaves[0]._fprd(0x0910, 8), "little")  # noqa: E731
         for pos in DRIVES:
             s = m.m.slaves[pos]
+            before = ref()  # the reference clock just before and just after: the drive's time between
+            t = int.from_bytes(s._fprd(0x0910, 8), "little")
+            after = ref()
             regs.append({"activation": s._fprd(0x0981, 1)[0],
                          "cycle": int.from_bytes(s._fprd(0x09A0, 4), "little"),
-                         "system_time": int.from_bytes(s._fprd(0x0910, 8), "little"),
+                         "system_time": t, "ref_before": before, "ref_after": after,
                          "start": int.from_bytes(s._fprd(0x0990, 8), "little")})
         out["regs"] = regs
         out["reference_time"] = int.from_bytes(m.m.slaves[0]._fprd(0x0910, 8), "little")
