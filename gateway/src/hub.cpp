@@ -121,8 +121,8 @@ Json sim_refusal(bridge::SimResult r) {
       return make_error(ErrorCode::BAD_MESSAGE, "person: the simulated cell refused the values (nothing changed)");
     case bridge::SimResult::person_not_on_bus:
       return make_error(ErrorCode::NOT_SIMULATED,
-                        "the simulated person is not on the fieldbus: an emulated EtherCAT segment has no person "
-                        "(only the in-process simulated cell, --fieldbus sim, has one)");
+                        "the simulated person is not on the fieldbus: over EtherCAT, ecat-sim's person moves by "
+                        "its control socket's `person` lines (as a replay sends them), not by the sim message");
     case bridge::SimResult::ok:
     case bridge::SimResult::not_simulated: break;
   }

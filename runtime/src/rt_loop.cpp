@@ -326,8 +326,9 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       }
       break;
     case bridge::RecordKind::sim_person:
-      // The person lives in the in-process cell only: an emulated segment has no person
-      // (ecat-sim's plant has none), so a person record there is refused, never dropped.
+      // The person of an emulated segment is ecat-sim's, moved by its control socket's
+      // `person` lines; a `sim` person record is not forwarded there (the forwarding is
+      // asynchronous: a walk the emulator refused could not be answered): refused, never dropped.
       r.sim = (forward != nullptr) ? bridge::SimResult::person_not_on_bus : apply_person(rec.person, cell);
       pub.reply(r);
       return;

@@ -539,7 +539,8 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
 }
 
 // @req COL-SIM-PERSON
-// On an emulated segment a person record is refused, not forwarded (ecat-sim has no person).
+// On an emulated segment a person record is refused, not forwarded (ecat-sim's person moves by
+// its control socket's `person` lines; the asynchronous forwarding could not answer a refusal).
 TEST(RuntimeBridge, APersonRecordIsRefusedWhereTheWorldIsAnEmulatedSegment) {
   const std::string name = unique_name("person-bus");
   std::string err;
@@ -554,7 +555,7 @@ TEST(RuntimeBridge, APersonRecordIsRefusedWhereTheWorldIsAnEmulatedSegment) {
   runtime::take_record(rec, cell, pub, 0, &forward);
   EXPECT_EQ(answer(*seg), SimResult::person_not_on_bus);
   CommandRecord none{};
-  EXPECT_FALSE(forward.pop(none)) << "not forwarded: the emulator has no person";
+  EXPECT_FALSE(forward.pop(none)) << "not forwarded to the emulator";
   EXPECT_FALSE(cell.person().present());
   EXPECT_EQ(runtime::sim_line(rec), "");
   cell.step();
