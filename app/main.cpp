@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
       ->required();
   ecat_sim->add_option("--control", ecat_opt.control,
                        "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
-                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), `plant lockstep|paced`, JSON sim messages, `status`");
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), `plant lockstep|paced|reset`, JSON sim messages, `status`");
   ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
       ->check(CLI::Range(250, 4000));
   ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")

@@ -231,6 +231,16 @@ def stalled_at_start(c):
     return False
 
 
+def fresh_cell():
+    """A cell that got past its start, started once more if a host stall locked it out there
+    (stalled_at_start)."""
+    c = Cell()
+    if stalled_at_start(c):
+        c.close()
+        c = Cell()
+    return c
+
+
 T1_LIMIT_MM_S = 250.0
 
 
@@ -269,11 +279,8 @@ def host_stall_retry(test):
                       f"{plant.get('max_point_speed_mm_s')} mm/s (set-points held at {plant.get('held')} SYNC0 "
                       "pulses: frames late on this host); run once more on a fresh cell", flush=True)
             cell.close()
-            again = Cell()
+            again = fresh_cell()
             try:
-                if stalled_at_start(again):
-                    again.close()
-                    again = Cell()
                 return test(again, *args, **kwargs)
             finally:
                 again.close()
@@ -286,10 +293,7 @@ def host_stall_retry(test):
 # cell is started once more (stalled_at_start).
 @pytest.fixture
 def cell():
-    c = Cell()
-    if stalled_at_start(c):
-        c.close()
-        c = Cell()
+    c = fresh_cell()
     yield c
     c.close()
 

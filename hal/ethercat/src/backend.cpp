@@ -456,17 +456,12 @@ void Backend::read(ProcessImageIn& in) noexcept {
 // time (the loop's own cycle): a replay exchanges when it likes, and the emulator then steps
 // its plant per exchange (lock-step), not at SYNC0.
 void Backend::sample_time(ProcessImageIn& in, bool fresh, std::uint64_t dc_time) noexcept {
-  in.sample_clock = false;
-  in.sample_span = 0;
-  if (!dc_ || !async_) {
-    return;
-  }
-  if (!fresh || dc_time == 0U) {
-    in.sample_clock = sample_pulse_ != 0U;  // no new sample (a stale cycle is one anyway)
+  in.sample_clock = dc_ && async_ && sample_pulse_ != 0U;
+  in.sample_span = 0;  // no new sample (a stale cycle is none anyway)
+  if (!dc_ || !async_ || !fresh || dc_time == 0U) {
     return;
   }
   const std::uint64_t pulse = dc_time / (static_cast<std::uint64_t>(cycle_us_) * 1000U);
-  in.sample_clock = sample_pulse_ != 0U;
   if (in.sample_clock) {
     const std::uint64_t span = (pulse > sample_pulse_) ? pulse - sample_pulse_ : 0U;
     in.sample_span = static_cast<std::uint16_t>(std::min<std::uint64_t>(span, 0xFFFFU));

@@ -367,26 +367,26 @@ void EmulatedCell::time_reaction(bool was_closed) noexcept {
 
 // The drive whose SYNC0 paces the plant: the first whose SYNC0 runs (all of them run on
 // one system time, within their sync error).
-std::size_t EmulatedCell::pacer() noexcept {
+std::size_t EmulatedCell::find_pacer() noexcept {
   for (std::size_t p = 0; p < segment_.connected(); ++p) {
     Esc& e = segment_.esc(p);
     if (e.desc().dc_sync0_required && e.sync0_running(now_ns_)) {
       return p;
     }
   }
-  return segment_.size();
+  return kNoPacer;
 }
 
 bool EmulatedCell::paced_by_sync0() noexcept {
-  const bool paced = pacing_ == Pacing::paced && pacer() < segment_.size();
-  if (paced && !paced_) {
-    const std::uint64_t k = segment_.esc(pacer()).sync0_pulses(now_ns_);
+  const std::size_t p = (pacing_ == Pacing::paced) ? find_pacer() : kNoPacer;
+  if (p != kNoPacer && pacer_ == kNoPacer) {
+    const std::uint64_t k = segment_.esc(p).sync0_pulses(now_ns_);
     pulses_ = (k > 0U) ? k - 1U : 0U;  // the pulse that started it is the first step
     new_setpoints_ = true;
     missed_ = 0;
   }
-  paced_ = paced;
-  return paced;
+  pacer_ = p;
+  return p != kNoPacer;
 }
 
 void EmulatedCell::sync0_until(std::uint64_t now_ns) noexcept {
@@ -394,7 +394,7 @@ void EmulatedCell::sync0_until(std::uint64_t now_ns) noexcept {
   if (!paced_by_sync0()) {
     return;
   }
-  const std::uint64_t k = segment_.esc(pacer()).sync0_pulses(now_ns);
+  const std::uint64_t k = segment_.esc(pacer_).sync0_pulses(now_ns);
   // A host stall of a second or more is not made up pulse by pulse: the plant runs on.
   for (std::uint32_t n = 0; pulses_ < k && n < 1000U; ++n) {
     ++pulses_;
@@ -408,7 +408,7 @@ std::uint64_t EmulatedCell::sleep_ns(std::uint64_t now_ns, std::uint64_t most_ns
   if (!paced_by_sync0()) {
     return most_ns;
   }
-  return std::min(most_ns, segment_.esc(pacer()).ns_to_next_sync0(now_ns));
+  return std::min(most_ns, segment_.esc(pacer_).ns_to_next_sync0(now_ns));
 }
 
 void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
@@ -416,7 +416,7 @@ void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   segment_.poll(now_ns);
   watch_held_outputs();
   sync0_until(now_ns);
-  if (paced_) {
+  if (pacer_ != kNoPacer) {
     free_running_ = false;
     return;  // the drives' SYNC0 paces the plant, frames or not
   }

@@ -448,7 +448,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
     return scenario_line(cell, line);
   }
   return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, plant "
-         "lockstep|paced, time ..., status, dc reset, or a JSON sim message)";
+         "lockstep|paced|reset, time ..., status, dc reset, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

@@ -124,8 +124,8 @@ void serve_client(EmulatedCell& cell, Client& c) {
 // taken as the veth queues it) on the monotonic clock, never later than `now`. A real ESC
 // takes a frame as it passes; this process may get it later (woken late, or the frame handed
 // over late by the kernel), and the SYNC0 pulses between must not overtake it.
-std::uint64_t arrival_ns(const msghdr& msg, std::uint64_t now) {
-  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(const_cast<msghdr*>(&msg), c)) {
+std::uint64_t arrival_ns(msghdr& msg, std::uint64_t now) {
+  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
     if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS) {
       timespec ts{};
       std::memcpy(&ts, CMSG_DATA(c), sizeof ts);

@@ -562,14 +562,15 @@ bool Esc::sync0_activated() const noexcept {
 
 std::uint32_t Esc::sync0_cycle_ns() const noexcept { return u32(reg::dc_sync0_cycle); }
 
-// Pulse k (1-based) fires at system time start + (k - 1) x cycle.
-std::uint64_t Esc::sync0_pulses(std::uint64_t now_ns) noexcept {
-  if (!sync0_running(now_ns)) {
-    return 0;
-  }
-  const std::uint64_t s = system_time(now_ns);
+// Pulse k (1-based) fires at system time start + (k - 1) x cycle: the pulses fired by system
+// time s (the next one, k + 1, at start + k x cycle).
+std::uint64_t Esc::sync0_fired(std::uint64_t s) const noexcept {
   const std::uint64_t start = u64(reg::dc_start_time);
   return (s < start) ? 0U : (s - start) / sync0_cycle_ns() + 1U;
+}
+
+std::uint64_t Esc::sync0_pulses(std::uint64_t now_ns) noexcept {
+  return sync0_running(now_ns) ? sync0_fired(system_time(now_ns)) : 0U;
 }
 
 std::uint64_t Esc::ns_to_next_sync0(std::uint64_t now_ns) noexcept {
@@ -577,9 +578,7 @@ std::uint64_t Esc::ns_to_next_sync0(std::uint64_t now_ns) noexcept {
     return 0;
   }
   const std::uint64_t s = system_time(now_ns);
-  const std::uint64_t start = u64(reg::dc_start_time);
-  const std::uint64_t cycle = sync0_cycle_ns();
-  return (s < start) ? start - s : cycle - (s - start) % cycle;
+  return u64(reg::dc_start_time) + sync0_fired(s) * sync0_cycle_ns() - s;
 }
 
 bool Esc::sync0_running(std::uint64_t now_ns) noexcept {
@@ -687,11 +686,9 @@ void Esc::dc_setpoint_taken(std::uint64_t now_ns) noexcept {
     return;
   }
   const std::uint64_t s = system_time(now_ns);
-  const std::uint64_t start = u64(reg::dc_start_time);
-  const std::uint64_t cycle = sync0_cycle_ns();
-  // the next SYNC0: event k - 1 at start + (k - 1) x cycle (k = 0 stands for none)
-  const std::uint64_t k = (s < start) ? 1U : (s - start) / cycle + 2U;
-  const auto lead = static_cast<std::int64_t>(start + (k - 1U) * cycle - s);
+  // the next SYNC0, numbered from 1 (0 stands for none)
+  const std::uint64_t k = sync0_fired(s) + 1U;
+  const auto lead = static_cast<std::int64_t>(u64(reg::dc_start_time) + (k - 1U) * sync0_cycle_ns() - s);
   DcStats& st = dc_stats_;
   if (last_sync0_k_ == k) {
     ++st.overwritten;

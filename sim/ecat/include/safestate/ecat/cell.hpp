@@ -203,7 +203,7 @@ class EmulatedCell {
   [[nodiscard]] bool outputs_went_safe() const noexcept;
   void sync0_setpoints() noexcept;
   void plant_cycle(Cause cause) noexcept;
-  [[nodiscard]] std::size_t pacer() noexcept;
+  [[nodiscard]] std::size_t find_pacer() noexcept;
 
   std::uint32_t cycle_us_;
   sim::SimPlant plant_;
@@ -217,7 +217,8 @@ class EmulatedCell {
   std::uint64_t cycles_ = 0;
   std::uint64_t exchanges_ = 0;
   std::uint64_t pulses_ = 0;           // SYNC0 pulses of the pacing drive the plant has stepped on
-  bool paced_ = false;                 // stepped by SYNC0 at the last look
+  static constexpr std::size_t kNoPacer = static_cast<std::size_t>(-1);
+  std::size_t pacer_ = kNoPacer;       // the drive whose SYNC0 stepped the plant at the last look
   bool new_setpoints_ = false;         // an exchange since the last SYNC0 step
   std::uint8_t missed_ = 0;            // SYNC0 steps in a row without one
   std::array<float, hal::kAxes> step_rad_{};  // each drive's last set-point step (extrapolation)

@@ -240,6 +240,7 @@ class Esc {
   [[nodiscard]] double slewed(double since) const noexcept;
   void anchor(std::uint64_t now_ns) noexcept;
   void dc_setpoint_taken(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] std::uint64_t sync0_fired(std::uint64_t system_ns) const noexcept;
   [[nodiscard]] std::uint64_t u64(std::uint16_t a) const noexcept;
   void put64(std::uint16_t a, std::uint64_t v) noexcept;
   void on_al_control(std::uint64_t now_ns) noexcept;
