@@ -17,26 +17,12 @@ Result guard_reset_causes_gone(const GuardView& v) noexcept {
   if (v.reset_pending) {
     return Result::BUSY;
   }
-  // ISO 13849-1 5.2.2: a reset must not be possible while the cause is still present.
-  if (v.alarms.active(AlarmId::PROTECTIVE_STOP) && v.in.gate_open && (v.in.mode == Mode::AUTO)) {
-    return Result::FAULT_PRESENT;
-  }
-  if (v.alarms.active(AlarmId::T1_SPEED_EXCEEDED) && !(v.fb.max_point_speed_mm_s <= v.timing.t1_speed_limit_mm_s)) {
-    return Result::FAULT_PRESENT;
-  }
-  if (v.alarms.active(AlarmId::STOP_TIME_EXCEEDED) && !v.at_standstill) {
-    return Result::FAULT_PRESENT;
-  }
-  if (v.alarms.active(AlarmId::BRAKE_NOT_ENGAGED) && v.brake_not_engaged) {
-    return Result::FAULT_PRESENT;  // the brake still does not hold
-  }
-  // A position limit still violated is no reason to refuse: SPEC §10 recovery needs the
-  // reset to jog back in T1. A speed still above its limit is.
-  if (v.alarms.active(AlarmId::SPEED_LIMIT) && (v.limits != nullptr) && v.limits->speed_over) {
-    return Result::FAULT_PRESENT;
-  }
-  // SPEC §11: the TCP still faster than the separation allows.
-  if (v.alarms.active(AlarmId::SEPARATION_VIOLATED) && v.separation_over) {
+  // ISO 13849-1 5.2.2: a reset must not be possible while the cause is still present. Each
+  // monitor says whose cause is (Reporter::present): the guard open in AUTO, a speed still
+  // over T1's, its limit or SSM's v_allowed, a stop not at standstill, a brake that still
+  // does not hold. A position limit still violated is no reason to refuse: SPEC §10
+  // recovery needs the reset to jog back in T1.
+  if ((v.alarms.mask() & v.causes_present) != 0U) {
     return Result::FAULT_PRESENT;
   }
   return Result::OK;  // drive faults are acknowledged by the reset itself (Effect::reset_alarms)
@@ -66,7 +52,7 @@ Result guard_servo_on(const GuardView& v) noexcept {
   if (auto_or_t2 && !v.config_validated) {
     return Result::CONFIG_NOT_VALIDATED;
   }
-  if (auto_or_t2 && (v.limits != nullptr) && v.limits->outside) {
+  if (auto_or_t2 && v.outside_limits) {
     return Result::OUTSIDE_LIMITS;
   }
   // @req BT-REQUIRED

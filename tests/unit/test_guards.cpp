@@ -1,6 +1,7 @@
 // The guards of core/src/guards.cpp called directly, operand by operand (MC/DC,
-// docs/verification.md): the supervisor always hands them a limit report and never a
-// separation verdict without its alarm, so some operands decide only here.
+// docs/verification.md). The reset guard asks one question of the monitors: which alarms'
+// causes are still present (Reporter::present); servo_on asks whether a position limit is
+// violated now.
 #include <gtest/gtest.h>
 
 #include "safestate/core/monitors.hpp"
@@ -17,9 +18,8 @@ struct View {
   Feedback fb{};
   AlarmSet alarms{};
   Timing timing{};
-  LimitReport report{};
-  const LimitReport* limits = &report;
-  bool separation_over = false;
+  AlarmMask present = 0U;  // causes the monitors found still present
+  bool outside = false;
 
   View() {
     in.estop_pressed = false;
@@ -29,8 +29,7 @@ struct View {
   }
   void raise(AlarmId id) { alarms.raise(id, AlarmDetail{}, 1U); }
   [[nodiscard]] GuardView guard() const {
-    return GuardView{in,     fb,    alarms, timing, false, false, false, true, false, limits, true, 0U, 0U,
-                     false, separation_over, false};
+    return GuardView{in, fb, alarms, timing, false, false, false, true, present, outside, true, 0U, 0U, false, false};
   }
   [[nodiscard]] Result reset() const { return guard_reset_causes_gone(guard()); }
   [[nodiscard]] Result servo_on() const { return guard_servo_on(guard()); }
@@ -41,25 +40,24 @@ struct View {
 // @req LIM-SPEED
 TEST(GuardReset, ASpeedStillOverItsLimitRefusesTheResetOnlyWithItsAlarm) {
   View v;
-  v.report.speed_over = true;
+  v.present = bit(AlarmId::SPEED_LIMIT);
   EXPECT_EQ(v.reset(), Result::OK) << "no SPEED_LIMIT alarm: nothing to reset";
   v.raise(AlarmId::SPEED_LIMIT);
   EXPECT_EQ(v.reset(), Result::FAULT_PRESENT) << "the cause is still there";
-  v.report.speed_over = false;
+  v.present = 0U;
   EXPECT_EQ(v.reset(), Result::OK) << "the speed is back under its limit";
-  v.report.speed_over = true;
-  v.limits = nullptr;
-  EXPECT_EQ(v.reset(), Result::OK) << "no limit report: no verdict to refuse on";
+  v.present = bit(AlarmId::SEPARATION_VIOLATED);
+  EXPECT_EQ(v.reset(), Result::OK) << "another alarm's cause does not hold this one";
 }
 
 // @req COL-SSM-MONITOR
 TEST(GuardReset, TheTcpStillTooFastForTheSeparationRefusesTheResetOnlyWithItsAlarm) {
   View v;
-  v.separation_over = true;
+  v.present = bit(AlarmId::SEPARATION_VIOLATED);
   EXPECT_EQ(v.reset(), Result::OK) << "no SEPARATION_VIOLATED alarm: nothing to reset";
   v.raise(AlarmId::SEPARATION_VIOLATED);
   EXPECT_EQ(v.reset(), Result::FAULT_PRESENT);
-  v.separation_over = false;
+  v.present = 0U;
   EXPECT_EQ(v.reset(), Result::OK) << "the TCP is slow enough again";
 }
 
@@ -67,11 +65,8 @@ TEST(GuardReset, TheTcpStillTooFastForTheSeparationRefusesTheResetOnlyWithItsAla
 TEST(GuardServoOn, OutsideTheLimitsRefusesAutoAndT2ButNotT1) {
   View v;
   EXPECT_EQ(v.servo_on(), Result::OK);
-  v.report.outside = true;
+  v.outside = true;
   EXPECT_EQ(v.servo_on(), Result::OUTSIDE_LIMITS);
   v.in.mode = Mode::T1;
   EXPECT_EQ(v.servo_on(), Result::OK) << "T1 is where the operator jogs back";
-  v.in.mode = Mode::AUTO;
-  v.limits = nullptr;
-  EXPECT_EQ(v.servo_on(), Result::OK) << "no limit report: no verdict to refuse on";
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "safestate/core/config.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -184,6 +185,18 @@ void BrakeTest::status(Cycle now, BrakeTestStatus& out) const noexcept {
   out.due = due(now);
   out.required = required(now);
   out.drift_deg = drift_deg_;
+}
+
+// @req BT-RULE10
+void BrakeTest::check(const CycleView& v, Reporter& r) noexcept {
+  BrakeTestVerdict& out = r.facts().brake_test;
+  step(v.leaf == Leaf::BRAKE_TEST, v.fb, v.now, out);
+  if (out.failed) {
+    // Names the axis and its drift (code: millidegrees, saturated).
+    const float mdeg = out.fail_drift_deg * 1000.0F;
+    r.trip(AlarmId::BRAKE_TEST_FAILED, detail_of(Signal::axis, Channel::none, out.fail_axis, detail_code(mdeg)));
+  }
+  r.hold(AlarmId::BRAKE_TEST_DUE, due(v.now), detail_of(Signal::internal));
 }
 
 }  // namespace safestate::core

@@ -7,6 +7,7 @@
 
 #include "safestate/core/collision.hpp"
 #include "safestate/core/dynamics.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -159,7 +160,13 @@ void CollisionMonitor::configure(const SafetyLimits& limits, std::uint32_t cycle
 }
 
 // @req COL-COLLISION
-void CollisionMonitor::check(const Feedback& fb, bool arm_free, CollisionReport& r) noexcept {
+void CollisionMonitor::check(const CycleView& v, Reporter& rep) noexcept {
+  const Feedback& fb = v.fb;
+  // The drives hold the arm, brakes released, nothing pushing a brake: their torques
+  // follow the model (OPERATIONAL but BRAKE_TEST, or a Cat 2 stop).
+  const bool arm_free = ((static_cast<unsigned>(mask_of(v.leaf)) & static_cast<unsigned>(kOperationalOrCat2)) != 0U) &&
+                        (v.leaf != Leaf::BRAKE_TEST);
+  CollisionReport& r = rep.facts().collision;
   r = CollisionReport{};
   r.acting = enabled_;
   r.limit_n = limit_n_;
@@ -185,9 +192,7 @@ void CollisionMonitor::check(const Feedback& fb, bool arm_free, CollisionReport&
   const bool over = !(r.force_n <= limit_n_);  // NaN is over
   over_ = over ? ((over_ < kCollisionConfirmCycles) ? static_cast<std::uint8_t>(over_ + 1U) : over_) : 0U;
   if (over_ >= kCollisionConfirmCycles) {
-    r.hit.hit = true;
-    r.hit.detail.signal = Signal::tcp;
-    r.hit.detail.code = detail_code(r.force_n);
+    rep.trip(AlarmId::COLLISION, detail_of(Signal::tcp, Channel::none, 0U, detail_code(r.force_n)));
   }
 }
 

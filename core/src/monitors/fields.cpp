@@ -6,7 +6,7 @@
 // enabling device guards the person beside the robot: the fields do not act. A discrepancy
 // of a field's two OSSD channels is a hardware fault and locks out in every case (rule 1).
 #include "safestate/core/config.hpp"
-#include "safestate/core/monitors.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -35,20 +35,26 @@ void FieldMonitor::configure(const CollaborativeLimits& c, std::uint32_t cycle_u
 }
 
 // @req COL-FIELDS COL-FIELD-GUARD
-void FieldMonitor::check(const SafetyInputs& in, FieldReport& r) noexcept {
+void FieldMonitor::check(const CycleView& v, Reporter& rep) noexcept {
+  const SafetyInputs& in = v.in;
+  FieldReport& r = rep.facts().fields;
   r = FieldReport{};
-  // Which field (outer first, as wired) and channel disagreed.
+  // Which field (outer first, as wired) and channel disagreed: a hardware fault, rule 1.
   if (in.field_outer_discrepancy || in.field_inner_discrepancy) {
-    r.discrepancy = true;
-    r.discrepancy_detail.signal = in.field_outer_discrepancy ? Signal::field_outer : Signal::field_inner;
-    r.discrepancy_detail.channel = in.field_outer_discrepancy ? in.field_outer_fault_channel : in.field_inner_fault_channel;
+    rep.trip(AlarmId::FIELD_DISCREPANCY,
+             detail_of(in.field_outer_discrepancy ? Signal::field_outer : Signal::field_inner,
+                       in.field_outer_discrepancy ? in.field_outer_fault_channel : in.field_inner_fault_channel));
   }
-  r.inner_detail.signal = Signal::field_inner;
-  r.inner_detail.channel = in.field_inner_cause;
   r.acting = enabled_ && (in.mode == Mode::AUTO);
   r.outer_reduces = r.acting && in.field_outer_interrupted;
   r.inner_stops = r.acting && in.field_inner_interrupted;
   r.blocks_start = r.inner_stops;
+  // PERSON_IN_FIELD (rule 9), active while the inner field stops, naming its channel.
+  const AlarmDetail inner = detail_of(Signal::field_inner, in.field_inner_cause);
+  rep.hold(AlarmId::PERSON_IN_FIELD, r.inner_stops, inner);
+  if (r.inner_stops) {
+    rep.trip(AlarmId::PERSON_IN_FIELD, inner);
+  }
   // "Both fields clear for resume_delay_ms": counted in cycles, the first clear cycle
   // counting 1, so that the resume comes resume_delay_ms after the cycle that read them clear.
   const bool both_clear = !in.field_outer_interrupted && !in.field_inner_interrupted;

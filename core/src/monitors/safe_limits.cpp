@@ -3,7 +3,7 @@
 
 #include "safestate/core/config.hpp"
 #include "safestate/core/describe.hpp"
-#include "safestate/core/monitors.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -18,38 +18,31 @@ void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry&
   } else {
     limits_.orientation_enabled = false;  // safety/ refuses a zero axis before we get here
   }
-  orientation_cos_ = std::cos(limits_.orientation_max_deviation_rad);  // once, not every cycle
-  ramp_cycles_ = (cycle_us > 0U) ? ms_to_cycles(limits_.reduced_ramp_ms, cycle_us) : 0U;
+  orientation_.configure(limits_);
+  reduced_.configure((cycle_us > 0U) ? ms_to_cycles(limits_.reduced_ramp_ms, cycle_us) : 0U);
   configured_ = true;
 }
 
-void SafeLimitMonitors::evaluate(const Feedback& fb, bool powered, bool input_reduced, std::uint8_t other_sources,
-                                 LimitReport& out) noexcept {
-  out.clear();
-  if (!configured_) {
+void SafeLimitMonitors::check(const CycleView& v, Reporter& r) noexcept {
+  CycleFacts& f = r.facts();
+  f.limits.clear();
+  if (!configured_ || (v.limits == nullptr)) {
+    r.hold(AlarmId::REDUCED_SPEED, false, AlarmDetail{});
     return;
   }
-  // Written whole by the loop: no value-initialisation first (two byte-wise newlib-nano
-  // memsets per cycle on the Cortex-M4).
-  JointArray q;   // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init)
-  JointArray qd;  // NOLINT(cppcoreguidelines-pro-type-member-init,hicpp-member-init)
   for (std::size_t i = 0; i < kAxes; ++i) {
-    q[i] = fb.drive[i].position_rad;
-    qd[i] = fb.drive[i].velocity_rad_s;
+    f.q[i] = v.fb.drive[i].position_rad;
+    f.qd[i] = v.fb.drive[i].velocity_rad_s;
   }
-  arm_forward(arm_, q, limits_.tcp_mm, pose_);
-  // Reduced mode first: the speed monitor needs to know whether it is enforced. The zone
-  // source is this cycle's TCP position, so the zone monitor runs before it.
-  LimitContext ctx{limits_, pose_, q, qd, powered, false, limits_.reduced_tcp_max_speed_mm_s, orientation_cos_};
-  joints_.check(ctx, out);
-  zones_.check(ctx, out);
-  orientation_.check(ctx, out);
-  const auto sources = static_cast<std::uint8_t>((out.in_reduced_zone ? kReducedByZone : 0U) |
-                                                 (input_reduced ? kReducedByInput : 0U) | other_sources);
-  ctx.reduced_limit_mm_s = reduced_limit_mm_s(limits_, sources);
-  reduced_.update(sources, ramp_cycles_, ctx.reduced_limit_mm_s);
-  ctx.reduced_enforced = reduced_.enforced();
-  SpeedLimitMonitor::check(ctx, out);
+  arm_forward(arm_, f.q, limits_.tcp_mm, pose_);
+  f.pose = &pose_;
+  // Reduced mode after the zones (its zone source is this cycle's TCP position) and before
+  // the speeds (whether the reduced limit is enforced).
+  joints_.check(v, r);
+  zones_.check(v, r);
+  orientation_.check(v, r);
+  reduced_.check(v, r);
+  speed_.check(v, r);
 }
 
 const char* limit_detail_name(const AlarmDetail& d, const SafetyLimits& limits, char* buf, std::size_t n) noexcept {

@@ -11,7 +11,7 @@
 // at once: it is the safe side, and a person may step into the sensor's view at any time.
 #include <cmath>
 
-#include "safestate/core/monitors.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -32,12 +32,16 @@ void SsmMonitor::configure(const SafetyLimits& limits, std::uint32_t cycle_us) n
 }
 
 // @req COL-SSM-INPUT COL-SSM-MONITOR
-void SsmMonitor::check(const SafetyInputs& in, float tcp_speed, float limit, bool powered, SsmReport& r) noexcept {
+void SsmMonitor::check(const CycleView& v, Reporter& rep) noexcept {
+  SsmReport& r = rep.facts().ssm;
+  // The core's own TCP speed and the TCP limit in force (the safe limits' facts).
+  const float tcp_speed = v.facts.limits.tcp_speed_mm_s;
+  const float limit = v.facts.limits.speed_limit_mm_s;
   r = SsmReport{};
   const float ceiling = used_ + rise_;
-  used_ = (in.separation_mm < ceiling) ? in.separation_mm : ceiling;  // NaN never reaches here (SignalLayer)
+  used_ = (v.in.separation_mm < ceiling) ? v.in.separation_mm : ceiling;  // NaN never reaches here (SignalLayer)
   r.separation_mm = used_;
-  r.acting = enabled_ && (in.mode == Mode::AUTO);
+  r.acting = enabled_ && (v.in.mode == Mode::AUTO);
   if (!r.acting) {
     over_ = 0;
     return;
@@ -46,10 +50,11 @@ void SsmMonitor::check(const SafetyInputs& in, float tcp_speed, float limit, boo
   r.v_plan_mm_s = ssm_planning_speed_mm_s(used_, params_, limit);
   r.over = !(tcp_speed <= (r.v_allowed_mm_s * kSsmTolerance));  // NaN is over
   over_ = r.over ? over_ + 1U : 0U;
-  if (powered && (over_ > reaction_)) {
-    r.violated.hit = true;
-    r.violated.detail.signal = Signal::separation;
-    r.violated.detail.code = detail_code(tcp_speed);
+  if (r.over) {
+    rep.present(AlarmId::SEPARATION_VIOLATED);
+  }
+  if (v.powered && (over_ > reaction_)) {
+    rep.trip(AlarmId::SEPARATION_VIOLATED, detail_of(Signal::separation, Channel::none, 0U, detail_code(tcp_speed)));
   }
 }
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "safestate/core/monitors.hpp"
+#include "safestate/core/monitor.hpp"
 
 namespace safestate::core {
 
@@ -160,16 +160,20 @@ void ZoneMonitor::reset(const PreparedArm& arm, const Vec3& tcp_flange_mm) noexc
 }
 
 // @req LIM-ZONE
-void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
-  const std::size_t n = (c.limits.zone_count < kMaxZones) ? c.limits.zone_count : kMaxZones;
+void ZoneMonitor::check(const CycleView& v, Reporter& rep) noexcept {
+  const SafetyLimits& l = *v.limits;
+  const ArmPose& pose = *v.facts.pose;
+  const JointArray& q = v.facts.q;
+  LimitReport& r = rep.facts().limits;
+  const std::size_t n = (l.zone_count < kMaxZones) ? l.zone_count : kMaxZones;
   // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
   if (n == 0U) {
     return;
   }
   float step = 0.0F;
   for (std::size_t k = 0; k < kAxes; ++k) {
-    step += reach_[k] * std::fabs(c.q[k] - last_q_[k]);  // NaN q: NaN step
-    last_q_[k] = c.q[k];
+    step += reach_[k] * std::fabs(q[k] - last_q_[k]);  // NaN q: NaN step
+    last_q_[k] = q[k];
   }
   travel_ += step + kTravelFloorMm;
   if (!cull_ || !have_last_ || !(step <= kMaxStepMm) || !(travel_ <= kRebaseMm)) {
@@ -181,7 +185,7 @@ void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
     // No keep_in / keep_out zone can have been reached: only the reduced ones are looked at.
     for (std::uint32_t m = reduced_mask_; m != 0U; m &= (m - 1U)) {  // each set bit, lowest first
       const auto i = static_cast<std::size_t>(std::countr_zero(m));
-      if (inside(c.limits.zones[i], c.pose.tcp)) {
+      if (inside(l.zones[i], pose.tcp)) {
         r.in_reduced_zone = true;
         r.reduced_zone = static_cast<std::uint8_t>(i + 1U);  // REDUCED_SPEED names it
         break;
@@ -189,15 +193,15 @@ void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
     }
     return;
   }
-  const Bounds b = bounds_of(c.pose, c.limits.tool_radius_mm);
+  const Bounds b = bounds_of(pose, l.tool_radius_mm);
   float next = std::numeric_limits<float>::max();
   std::uint16_t reduced = 0U;
   // cppcheck-suppress knownConditionTrueFalse ; false positive of cppcheck 2.10: zone_count is data (0..16)
   for (std::size_t i = 0; i < n; ++i) {
-    const Zone& z = c.limits.zones[i];
+    const Zone& z = l.zones[i];
     if (z.kind == ZoneKind::reduced) {
       reduced = static_cast<std::uint16_t>(reduced | (1U << i));
-      if (!r.in_reduced_zone && inside(z, c.pose.tcp)) {
+      if (!r.in_reduced_zone && inside(z, pose.tcp)) {
         r.in_reduced_zone = true;
         r.reduced_zone = static_cast<std::uint8_t>(i + 1U);  // REDUCED_SPEED names it
       }
@@ -219,14 +223,15 @@ void ZoneMonitor::check(const LimitContext& c, LimitReport& r) noexcept {
     }
     clear_until_[i] = -1.0F;
     next = -1.0F;
-    const float outside = outside_mm(z, c.pose, c.limits.tool_radius_mm);
-    const bool trips = track_violation(track_[i], outside, c.powered, kWorseZoneMm);
+    const float outside = outside_mm(z, pose, l.tool_radius_mm);
+    const bool trips = track_violation(track_[i], outside, v.powered, kWorseZoneMm);
     r.outside = r.outside || !(outside <= 0.0F);
     r.recovering = r.recovering || track_[i].recovering;
-    if (trips && !r.zone.hit) {
-      r.zone.hit = true;
-      r.zone.detail.signal = Signal::zone;
-      r.zone.detail.code = static_cast<std::uint16_t>(i);
+    if (trips) {
+      AlarmDetail d{};
+      d.signal = Signal::zone;
+      d.code = static_cast<std::uint16_t>(i);
+      rep.trip(AlarmId::ZONE_VIOLATION, d);  // the first zone of the cycle is named
     }
   }
   next_due_ = next;

@@ -23,6 +23,9 @@
 
 namespace safestate::core {
 
+struct CycleView;  // monitor.hpp
+class Reporter;    // monitor.hpp
+
 // SPEC §12 in the core's units (the file's numbers; cycles are derived in configure()).
 struct BrakeTestLimits {
   bool configured = false;  // the file has a `brake_test` key: a passed test is required
@@ -114,6 +117,10 @@ class BrakeTest {
 
   // The command was accepted: start with axis 1.
   void begin(Cycle now) noexcept;
+  // The monitor's entry: runs step() while the supervisor is in BRAKE_TEST (facts
+  // brake_test); BRAKE_TEST_FAILED (rule 10) naming the axis and its drift in millidegrees;
+  // BRAKE_TEST_DUE while the last pass is older than the interval.
+  void check(const CycleView& v, Reporter& r) noexcept;
   // One cycle. `active`: the supervisor is in BRAKE_TEST (anything else aborts the test
   // without a result). Fills the verdict; on a pass or failure records it.
   void step(bool active, const Feedback& fb, Cycle now, BrakeTestVerdict& out) noexcept;

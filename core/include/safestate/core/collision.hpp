@@ -21,11 +21,14 @@
 
 #include "safestate/core/arm.hpp"
 #include "safestate/core/interfaces.hpp"
-#include "safestate/core/monitors.hpp"
+#include "safestate/core/findings.hpp"
 #include "safestate/core/safety_limits.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::core {
+
+struct CycleView;  // monitor.hpp
+class Reporter;    // monitor.hpp
 
 // The damping of the force estimate, m (see above).
 inline constexpr float kDampingM = 0.01F;
@@ -57,15 +60,15 @@ struct CollisionReport {
   bool evaluated = false;  // this cycle's torques were compared (the arm free, drives on)
   float force_n = 0.0F;    // the estimated external force at the TCP
   float limit_n = 0.0F;    // the region's F_qs
-  LimitFinding hit;        // COLLISION: over the limit kCollisionConfirmCycles in a row
 };
 
 class CollisionMonitor {
  public:
   void configure(const SafetyLimits& limits, std::uint32_t cycle_us) noexcept;
-  // `arm_free`: the drives hold the arm with its brakes released, no brake test pushing
-  // (OPERATIONAL but BRAKE_TEST): only then do the drives' torques follow the model.
-  void check(const Feedback& fb, bool arm_free, CollisionReport& r) noexcept;
+  // COLLISION (rule 8): over the limit kCollisionConfirmCycles in a row, only while the
+  // drives hold the arm with its brakes released and no brake test pushes (OPERATIONAL
+  // but BRAKE_TEST, or a Cat 2 stop): only then do the drives' torques follow the model.
+  void check(const CycleView& v, Reporter& r) noexcept;
   [[nodiscard]] bool enabled() const noexcept { return enabled_; }
 
  private:

@@ -1,7 +1,12 @@
-// The safe-limit monitors of SPEC §10, one small class per safety function (DESIGN.md:
-// PX4's HealthAndArmingChecks shape). Each looks at the cycle's measured state and the
-// fixed-size limits and reports a named finding; none changes state: the supervisor does
-// that, in the rule order of SPEC §4 (a finding here is rule 3, Cat 0, latched).
+// Every safety function the supervisor evaluates each cycle, one class per function, each
+// in a file of its own under core/src/monitors/, each with the one entry of monitor.hpp:
+//
+//     void check(const CycleView& v, Reporter& r) noexcept;
+//
+// A monitor names its alarms, their details and whether their cause is still present; it
+// changes no state of the supervisor. They run in the order of
+// SystemStateManager::run_monitors (supervisor.cpp); a monitor reads only the facts of the
+// monitors before it. Configuration (limits, cycle time) comes before the first cycle.
 //
 // Position limits (joint range, zones, orientation) have a recovery (SPEC §10): a limit
 // found violated while power is off raises nothing and is remembered as `recovering`;
@@ -15,12 +20,140 @@
 
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/arm.hpp"
+#include "safestate/core/findings.hpp"
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/safety_limits.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::core {
+
+struct CycleView;  // monitor.hpp
+class Reporter;    // monitor.hpp
+
+// ---- The safety inputs (SPEC §2, §4 rules 1, 2, 4, 5, 6) ------------------------------------
+
+// E-stop: ESTOP_DISCREPANCY (rule 1), ESTOP_PRESSED (rule 2, and active while pressed).
+class EstopMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Guard / light curtain: GATE_DISCREPANCY (rule 1), PROTECTIVE_STOP (rule 4: open in AUTO).
+class GateMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Enabling device: ENABLE_DISCREPANCY (rule 1); ENABLING_PANIC on the panic edge; rule 5
+// (left the centre in T1/T2: the panic position with its alarm, a release without one).
+class EnablingMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Mode selector: MODE_SELECTOR_INVALID (while no single position), MODE_CHANGED (rule 6).
+class ModeMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Reset button held too long: RESET_BUTTON_STUCK (while held past the limit).
+class ResetButtonMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// SPEC §10 validation: CONFIG_NOT_VALIDATED while the checksum is not confirmed.
+class ConfigValidationMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// ---- The platform (SPEC §4 rule 1) ---------------------------------------------------------
+
+// Start-up: self-test, fieldbus up, every drive answering, within boot_timeout (facts
+// boot_passed; BOOT_FAILED, rule 1).
+class BootMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Cyclic data valid and every drive on the bus, after BOOT: FIELDBUS_LOST (rule 1).
+class FieldbusMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// The integrity checks of the platform and of the supervisor itself: INTEGRITY_FAULT (rule 1).
+class IntegrityMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// ---- The drives and the arm's motion (SPEC §3, §4 rules 3, 7) -------------------------------
+
+// Standstill: every axis below standstill_rad_s for standstill_cycles in a row (facts).
+class StandstillMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  Cycle count_ = 0;
+};
+
+// CiA 402 state of every drive (unknown is unsafe), Operation enabled where power is
+// expected, and the following error: DRIVE_FAULT (rule 3; raised in every state but BOOT).
+class DriveMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// T1: the fastest TCP or link-origin speed <= t1_speed_limit_mm_s while motion armed in T1
+// runs: T1_SPEED_EXCEEDED (rule 3).
+class T1SpeedMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// SS1-t: a controlled stop reaches standstill within max_stop: STOP_TIME_EXCEEDED (rule 3).
+class StopTimeMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Jog keep-alive: JOG_LINK_LOST (rule 7) when none came within jog_timeout.
+class JogLinkMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// ---- External device monitoring (SPEC §7, ISO 13849-1) -------------------------------------
+
+// The contactor's auxiliary contact follows the last command: CONTACTOR_WELDED (rule 1)
+// when it stays closed contactor_timeout after an open command.
+class ContactorMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  Cycle welded_ = 0;
+};
+
+// Every brake's feedback follows the last command: BRAKE_NOT_ENGAGED (rule 3, raised in
+// every state) when one still says released brakes_timeout after an engage command.
+class BrakeFeedbackMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  // Per brake, while commanded engaged: cycles since it last stopped counting as engaged
+  // (0 once engaged), and how long its feedback has said engaged without a break.
+  std::array<Cycle, kAxes> cycles_{};
+  std::array<Cycle, kAxes> engaged_run_{};
+};
+
+// ---- SPEC §10 safe limits -------------------------------------------------------------------
 
 // Why reduced mode is active (status `reduced_by`), bit per source.
 inline constexpr std::uint8_t kReducedByZone = 0x01U;
@@ -42,66 +175,19 @@ struct RecoveryTrack {
 // Returns true when it trips.
 bool track_violation(RecoveryTrack& t, float outside, bool powered, float tolerance) noexcept;
 
-struct LimitFinding {
-  bool hit = false;
-  AlarmDetail detail{};
-};
-
-// What the monitors see in one cycle.
-struct LimitContext {
-  // NOLINTBEGIN(cppcoreguidelines-avoid-const-or-ref-data-members): a view for one cycle
-  const SafetyLimits& limits;
-  const ArmPose& pose;
-  const JointArray& q;
-  const JointArray& qd;
-  // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
-  bool powered;             // ARMING, OPERATIONAL, STOPPING
-  bool reduced_enforced;    // reduced mode active and its ramp time over
-  float reduced_limit_mm_s; // the reduced TCP limit of the active sources (SPEC §10, §11)
-  float orientation_cos;    // cos(orientation max deviation), computed once at configure()
-};
-
-struct LimitReport {
-  LimitFinding joint;        // JOINT_LIMIT, detail axis.N
-  LimitFinding zone;         // ZONE_VIOLATION, detail the zone (index in `code`)
-  LimitFinding orientation;  // ORIENTATION_LIMIT, detail tcp
-  LimitFinding speed;        // SPEED_LIMIT, detail axis.N or tcp (with power on: trips)
-  bool speed_over = false;   // a speed over its limit now, with power or not (reset guard)
-  bool outside = false;      // a position limit is violated now
-  bool recovering = false;   // ... and that is being recovered from (status `recovery`)
-  bool in_reduced_zone = false;
-  std::uint8_t reduced_zone = 0;  // 1 + index of the first reduced zone holding the TCP, 0: none
-  float tcp_speed_mm_s = 0.0F;
-  float speed_limit_mm_s = 0.0F;  // the TCP limit in force this cycle
-
-  // As a value-initialised report, member by member: `= LimitReport{}` is a byte-wise
-  // memset in newlib-nano (a hundred and more instructions per cycle on the Cortex-M4).
-  void clear() noexcept {
-    joint = LimitFinding{};
-    zone = LimitFinding{};
-    orientation = LimitFinding{};
-    speed = LimitFinding{};
-    speed_over = false;
-    outside = false;
-    recovering = false;
-    in_reduced_zone = false;
-    reduced_zone = 0U;
-    tcp_speed_mm_s = 0.0F;
-    speed_limit_mm_s = 0.0F;
-  }
-};
-
+// Each joint within its range: JOINT_LIMIT naming the axis.
 class JointLimitMonitor {
  public:
-  void check(const LimitContext& c, LimitReport& r) noexcept;
+  void check(const CycleView& v, Reporter& r) noexcept;
 
  private:
   std::array<RecoveryTrack, kAxes> track_{};
 };
 
+// Keep-in / keep-out zones (ZONE_VIOLATION naming the zone) and reduced zones (facts).
 class ZoneMonitor {
  public:
-  void check(const LimitContext& c, LimitReport& r) noexcept;
+  void check(const CycleView& v, Reporter& r) noexcept;
   // The arm the zones are checked for (a new configuration: other zones, another tool):
   // forgets what the last cycles proved and allows zones to be skipped while provably far.
   // Until then every zone is tested every cycle.
@@ -135,23 +221,25 @@ class ZoneMonitor {
   bool have_last_ = false;
 };
 
+// The tool axis within its cone: ORIENTATION_LIMIT (detail tcp).
 class OrientationMonitor {
  public:
-  void check(const LimitContext& c, LimitReport& r) noexcept;
+  // cos(max deviation), computed once here rather than every cycle.
+  void configure(const SafetyLimits& limits) noexcept;
+  void check(const CycleView& v, Reporter& r) noexcept;
 
  private:
   RecoveryTrack track_{};
+  float cos_max_ = 1.0F;
 };
 
-class SpeedLimitMonitor {
- public:
-  static void check(const LimitContext& c, LimitReport& r) noexcept;
-};
-
-// Reduced mode (SPEC §10): active while a source asks; the reduced limit is enforced by the
-// monitor once `ramp` cycles have passed since it became active.
+// Reduced mode (SPEC §10): active while a source asks (a reduced zone holds the TCP, the
+// reduced input, SPEC §11's outer field); the reduced limit is enforced once `ramp`
+// cycles have passed since it became active. REDUCED_SPEED while active.
 class ReducedMode {
  public:
+  void configure(Cycle ramp) noexcept { ramp_ = ramp; }
+  void check(const CycleView& v, Reporter& r) noexcept;
   // `limit`: the reduced TCP limit of these sources; a lower limit than before (a source
   // that reduces further, SPEC §11's outer field) starts the ramp again.
   void update(std::uint8_t sources, Cycle ramp, float limit) noexcept;
@@ -167,31 +255,59 @@ class ReducedMode {
   float limit_ = 0.0F;
 };
 
-// ---- SPEC §11 collaborative operation (core/src/monitors/fields.cpp, ssm.cpp) ----------
+// Each joint speed and the TCP speed within their limits (the reduced one once enforced):
+// SPEED_LIMIT naming the axis or tcp, with power on; its cause present with power or not.
+class SpeedLimitMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// The safe limits together: the arm's pose through the core's own kinematics from the
+// measured joint positions (facts: q, qd, pose), then joints, zones, orientation, reduced
+// mode and speeds, in the order their alarms are listed in SPEC §4 rule 3.
+class SafeLimitMonitors {
+ public:
+  // Before the first cycle. Until configured the monitors report nothing (unit tests of
+  // the state machine alone); every cell configures them (the built-in configuration
+  // when no file is given).
+  void configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept;
+  [[nodiscard]] bool configured() const noexcept { return configured_; }
+  [[nodiscard]] const SafetyLimits& limits() const noexcept { return limits_; }
+  [[nodiscard]] const PreparedArm& arm() const noexcept { return arm_; }
+  [[nodiscard]] const ArmPose& pose() const noexcept { return pose_; }
+  [[nodiscard]] const ReducedMode& reduced() const noexcept { return reduced_; }
+
+  void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  SafetyLimits limits_{};
+  PreparedArm arm_{};
+  bool configured_ = false;
+  ArmPose pose_{};
+  JointLimitMonitor joints_;
+  ZoneMonitor zones_;
+  OrientationMonitor orientation_;
+  ReducedMode reduced_;
+  SpeedLimitMonitor speed_;
+};
+
+// Name of an alarm detail with the configuration's zone names (`alarm.NAME.detail=`):
+// axis.N, tcp, the zone's name, else as detail_name().
+const char* limit_detail_name(const AlarmDetail& d, const SafetyLimits& limits, char* buf, std::size_t n) noexcept;
+
+// ---- SPEC §11 collaborative operation (fields.cpp, ssm.cpp; collision.hpp) -----------------
 
 // The reduced TCP limit for a set of kReducedBy* sources: reduced.tcp_max_speed_mm_s, and
 // with the outer field among them the lower of that, collaborative.reduced_speed_mm_s and
 // (pfl on) the PFL cap v_pfl.
 [[nodiscard]] float reduced_limit_mm_s(const SafetyLimits& limits, std::uint8_t sources) noexcept;
 
-// What the protective fields mean this cycle.
-struct FieldReport {
-  bool acting = false;         // collaborative on and mode AUTO: the fields act (SPEC §11)
-  bool outer_reduces = false;  // reduced mode source kReducedByField
-  bool inner_stops = false;    // rule 9's condition (the row says from which leaf)
-  bool blocks_start = false;   // start / resume: FIELD_INTERRUPTED
-  bool resume_due = false;     // both clear for resume_delay_ms and auto_resume on
-  // FIELD_DISCREPANCY (rule 1), whatever the configuration: a hardware fault.
-  bool discrepancy = false;
-  AlarmDetail discrepancy_detail{};
-  AlarmDetail inner_detail{};  // PERSON_IN_FIELD's detail: field.inner and the channel
-};
-
-// Protective fields (SPEC §11): outer -> reduced mode, inner -> rule 9, automatic resume.
+// Protective fields (SPEC §11): FIELD_DISCREPANCY (rule 1, whatever the configuration),
+// outer -> reduced mode, inner -> PERSON_IN_FIELD (rule 9), automatic resume (facts).
 class FieldMonitor {
  public:
   void configure(const CollaborativeLimits& c, std::uint32_t cycle_us) noexcept;
-  void check(const SafetyInputs& in, FieldReport& r) noexcept;
+  void check(const CycleView& v, Reporter& r) noexcept;
   [[nodiscard]] Cycle clear_cycles() const noexcept { return clear_; }
 
  private:
@@ -201,24 +317,15 @@ class FieldMonitor {
   Cycle clear_ = 0;  // consecutive cycles with both fields clear (saturating above delay_)
 };
 
-// Speed and separation monitoring's verdict this cycle.
-struct SsmReport {
-  bool acting = false;           // collaborative and ssm on, mode AUTO
-  float separation_mm = 0.0F;    // the separation used (after the plausibility filter)
-  float v_allowed_mm_s = 0.0F;   // v_allowed(separation) clamped to [0, the limit in force]
-  float v_plan_mm_s = 0.0F;      // what the motion layer plans to (ssm_planning_speed_mm_s)
-  bool over = false;             // TCP above v_allowed + 5 % now (the reset guard's "cause")
-  LimitFinding violated;         // SEPARATION_VIOLATED: over for longer than T_r, power on
-};
-
-// SSM (SPEC §11). A separation that rises faster than a person walking away and the robot
-// moving away together could (kHumanSpeedNearMmS + tcp_max_speed_mm_s) is not believed: the
-// separation used rises at that rate at most. A fall is taken at once (the safe side).
+// SSM (SPEC §11): SEPARATION_VIOLATED when the TCP stays over v_allowed + 5 % longer than
+// T_r with power on. A separation that rises faster than a person walking away and the
+// robot moving away together could (kHumanSpeedNearMmS + tcp_max_speed_mm_s) is not
+// believed: the separation used rises at that rate at most. A fall is taken at once.
 class SsmMonitor {
  public:
   void configure(const SafetyLimits& limits, std::uint32_t cycle_us) noexcept;
-  // `tcp_speed`, `limit`: the core's own TCP speed and the TCP limit in force (LimitReport).
-  void check(const SafetyInputs& in, float tcp_speed, float limit, bool powered, SsmReport& r) noexcept;
+  // Reads the TCP speed and the limit in force from the safe limits' facts.
+  void check(const CycleView& v, Reporter& r) noexcept;
   [[nodiscard]] Cycle reaction_cycles() const noexcept { return reaction_; }
   [[nodiscard]] float rise_per_cycle_mm() const noexcept { return rise_; }
 
@@ -233,39 +340,5 @@ class SsmMonitor {
 
 // The SSM monitor's tolerance: SPEC §11 "above v_allowed + 5 %".
 inline constexpr float kSsmTolerance = 1.05F;
-
-// The monitors together, in the order their alarms are listed in SPEC §4 rule 3.
-class SafeLimitMonitors {
- public:
-  // Before the first cycle. Until configured the monitors report nothing (unit tests of
-  // the state machine alone); every cell configures them (the built-in configuration
-  // when no file is given).
-  void configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept;
-  [[nodiscard]] bool configured() const noexcept { return configured_; }
-  [[nodiscard]] const SafetyLimits& limits() const noexcept { return limits_; }
-  [[nodiscard]] const ArmPose& pose() const noexcept { return pose_; }
-  [[nodiscard]] const ReducedMode& reduced() const noexcept { return reduced_; }
-
-  // `input_reduced`: the dual-channel reduced input asks for it (SPEC §10);
-  // `other_sources`: further kReducedBy* bits (the outer protective field, SPEC §11).
-  void evaluate(const Feedback& fb, bool powered, bool input_reduced, std::uint8_t other_sources,
-                LimitReport& out) noexcept;
-
- private:
-  SafetyLimits limits_{};
-  PreparedArm arm_{};
-  Cycle ramp_cycles_ = 0;
-  bool configured_ = false;
-  ArmPose pose_{};
-  float orientation_cos_ = 1.0F;
-  JointLimitMonitor joints_;
-  ZoneMonitor zones_;
-  OrientationMonitor orientation_;
-  ReducedMode reduced_;
-};
-
-// Name of an alarm detail with the configuration's zone names (`alarm.NAME.detail=`):
-// axis.N, tcp, the zone's name, else as detail_name().
-const char* limit_detail_name(const AlarmDetail& d, const SafetyLimits& limits, char* buf, std::size_t n) noexcept;
 
 }  // namespace safestate::core

@@ -12,6 +12,7 @@
 #include "safestate/core/collision.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
+#include "safestate/core/monitor.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/core/safety_limits.hpp"
 #include "safestate/core/signals.hpp"
@@ -93,6 +94,18 @@ struct SupervisorOut {
   BrakeTestStatus brake_test{};
 };
 
+// SPEC §5 check order, steps 1-3 (commands.cpp): OK, or the first reject code.
+[[nodiscard]] Result check_command(const Command& cmd, Leaf leaf, Mode mode) noexcept;
+// The status' SPEC §10/§11 part from one cycle's monitor facts (status.cpp).
+void safety_status(const CycleFacts& f, const SafeLimitMonitors& limits, bool validated, const SafetyInputs& in,
+                   SafetyStatus& st) noexcept;
+
+// A second, independent reading of the safety outputs (output_check.cpp): false when they
+// contradict the state (power outside the powered states or with the E-stop pressed,
+// motion the state does not allow, state data of another state).
+[[nodiscard]] bool outputs_consistent(const SupervisorOut& o, Leaf leaf, const StateVariant& state,
+                                      bool estop_pressed) noexcept;
+
 class SystemStateManager {
  public:
   explicit SystemStateManager(const Timing& timing) noexcept;
@@ -126,8 +139,8 @@ class SystemStateManager {
  private:
   struct CycleCtx;  // per-cycle scratch, defined in supervisor.cpp
 
-  void update_monitors(CycleCtx& c) noexcept;
-  void update_feedback_monitors(CycleCtx& c) noexcept;
+  void advance_state_timers() noexcept;
+  void run_monitors(CycleCtx& c) noexcept;
   bool evaluate_conditions(CycleCtx& c) noexcept;
   void evaluate_events(CycleCtx& c) noexcept;
   void finish_pending_reset(CycleCtx& c) noexcept;
@@ -139,7 +152,6 @@ class SystemStateManager {
   void set_cause(const Cause& cause) noexcept;
   void reply(CycleCtx& c, std::uint32_t seq, std::uint8_t id, std::uint8_t src, Result r) noexcept;
   void write_outputs(CycleCtx& c) noexcept;
-  [[nodiscard]] bool outputs_consistent(const CycleCtx& c) const noexcept;
   [[nodiscard]] GuardView view(const CycleCtx& c, std::uint32_t code = 0U) const noexcept;
 
   Timing timing_;
@@ -153,7 +165,6 @@ class SystemStateManager {
   bool integrity_fault_ = false;
   bool t2_confirmed_ = false;
   Mode armed_mode_ = Mode::NONE;  // the mode in which servo_on was accepted
-  Cycle standstill_count_ = 0;
   Cycle last_jog_ = 0;
   JogTarget jog_{};
   Cycle reset_possible_since_ = 0;
@@ -162,27 +173,34 @@ class SystemStateManager {
   Cycle reset_pending_since_ = 0;
   std::uint32_t reset_seq_ = 0;
   std::uint8_t reset_source_ = 0;
-  // Feedback monitoring (SPEC §7): what this core commanded last cycle, and how long
-  // each feedback has contradicted it.
-  bool contactor_cmd_ = false;
-  bool brakes_release_cmd_ = false;
-  Cycle welded_cycles_ = 0;
-  // Per brake, while commanded engaged: cycles since it last stopped counting as engaged
-  // (0 once engaged), and how long its feedback has said engaged without a break.
-  std::array<Cycle, kAxes> brake_cycles_{};
-  std::array<Cycle, kAxes> brake_engaged_run_{};
-  // SPEC §10 safe limits.
-  SafeLimitMonitors limits_;
+  Commanded last_{};  // what this core commanded last cycle (external device monitoring)
   bool config_validated_ = true;
-  // SPEC §11 collaborative operation: the fields, SSM, and whether the current pause (or
-  // the Cat 2 stop leading to it) came from rule 9, so that it may resume by itself.
+  // SPEC §11: whether the current pause (or the Cat 2 stop leading to it) came from rule 9,
+  // so that it may resume by itself.
+  bool field_paused_ = false;
+
+  // The monitors (monitor.hpp), in the order run_monitors() runs them.
+  StandstillMonitor standstill_;
+  EstopMonitor estop_;
+  GateMonitor gate_;
+  EnablingMonitor enabling_;
+  ModeMonitor mode_;
+  ResetButtonMonitor reset_button_;
+  ConfigValidationMonitor config_;
   FieldMonitor fields_;
+  SafeLimitMonitors limits_;
   SsmMonitor ssm_;
   CollisionMonitor collision_;
-  bool field_paused_ = false;
-  // SPEC §12 brake test, and the brake it held engaged last cycle (feedback monitoring).
-  BrakeTest brake_test_;
-  std::uint8_t brake_test_axis_cmd_ = 0;
+  BrakeTest brake_test_;  // SPEC §12: a sequence, and the monitor of its result
+  DriveMonitor drives_;
+  ContactorMonitor contactor_;
+  BrakeFeedbackMonitor brakes_;
+  BootMonitor boot_;
+  FieldbusMonitor fieldbus_;
+  IntegrityMonitor integrity_;
+  T1SpeedMonitor t1_speed_;
+  StopTimeMonitor stop_time_;
+  JogLinkMonitor jog_link_;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.

@@ -15,7 +15,6 @@
 #include "safestate/core/alarms.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/interfaces.hpp"
-#include "safestate/core/monitors.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/states.hpp"
 #include "safestate/core/types.hpp"
@@ -84,16 +83,17 @@ struct GuardView {
   bool boot_pending;
   bool reset_pending;
   bool at_standstill;
-  bool brake_not_engaged;  // a brake feedback contradicts its engaged command (SPEC §7)
-  // SPEC §10: the safe limits' verdict this cycle, whether the configuration is validated,
+  // The alarms whose cause the monitors found still present this cycle (Reporter::present):
+  // a reset is refused while one of them is active (ISO 13849-1 5.2.2).
+  AlarmMask causes_present;
+  // SPEC §10: a position limit is violated now; whether the configuration is validated,
   // its checksum and the code a validate_config command carries.
-  const LimitReport* limits;
+  bool outside_limits;
   bool config_validated;
   std::uint32_t checksum;
   std::uint32_t code;
   // SPEC §11: the inner protective field is interrupted while collaborative operation acts.
   bool field_blocks;
-  bool separation_over;  // the TCP above v_allowed + 5 % now (SEPARATION_VIOLATED's cause)
   // SPEC §12: a brake test is overdue, never passed (when one is required) or failed.
   bool brake_test_required;
 };
