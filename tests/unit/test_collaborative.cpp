@@ -208,10 +208,10 @@ TEST(FieldMonitor, InnerStopsAndOuterReducesOnlyInAutoWithCollaborativeOn) {
   FieldMonitor m;
   m.configure(collaborative_on(true), 1000U);
   SafetyInputs in = auto_inputs();
-  test::FieldResult r{};
+  safestate::test::FieldResult r{};
   in.field_inner_interrupted = true;
   in.field_inner_cause = Channel::b;
-  test::fields(m, in, r);
+  safestate::test::fields(m, in, r);
   EXPECT_TRUE(r.acting);
   EXPECT_TRUE(r.inner_stops);
   EXPECT_TRUE(r.blocks_start);
@@ -220,19 +220,19 @@ TEST(FieldMonitor, InnerStopsAndOuterReducesOnlyInAutoWithCollaborativeOn) {
   EXPECT_EQ(r.inner_detail.channel, Channel::b);
   in.field_inner_interrupted = false;
   in.field_outer_interrupted = true;
-  test::fields(m, in, r);
+  safestate::test::fields(m, in, r);
   EXPECT_FALSE(r.inner_stops);
   EXPECT_TRUE(r.outer_reduces);
   for (const Mode mode : {Mode::T1, Mode::T2, Mode::NONE}) {  // the enabling device guards in T1/T2
     in.mode = mode;
     in.field_inner_interrupted = true;
-    test::fields(m, in, r);
+    safestate::test::fields(m, in, r);
     EXPECT_FALSE(r.acting || r.inner_stops || r.outer_reduces || r.blocks_start) << to_string(mode);
   }
   FieldMonitor off;  // collaborative operation off (the default): the fields do not act
   off.configure(CollaborativeLimits{}, 1000U);
   in.mode = Mode::AUTO;
-  test::fields(off, in, r);
+  safestate::test::fields(off, in, r);
   EXPECT_FALSE(r.acting || r.inner_stops || r.outer_reduces || r.blocks_start);
 }
 
@@ -244,14 +244,14 @@ TEST(FieldMonitor, ADiscrepancyIsReportedWhateverTheConfigurationAndMode) {
   in.mode = Mode::T1;
   in.field_inner_discrepancy = true;
   in.field_inner_fault_channel = Channel::a;
-  test::FieldResult r{};
-  test::fields(off, in, r);
+  safestate::test::FieldResult r{};
+  safestate::test::fields(off, in, r);
   EXPECT_TRUE(r.discrepancy);
   EXPECT_EQ(r.discrepancy_detail.signal, Signal::field_inner);
   EXPECT_EQ(r.discrepancy_detail.channel, Channel::a);
   in.field_outer_discrepancy = true;  // both: the outer one is named (first as wired)
   in.field_outer_fault_channel = Channel::b;
-  test::fields(off, in, r);
+  safestate::test::fields(off, in, r);
   EXPECT_EQ(r.discrepancy_detail.signal, Signal::field_outer);
   EXPECT_EQ(r.discrepancy_detail.channel, Channel::b);
 }
@@ -261,30 +261,30 @@ TEST(FieldMonitor, ResumeIsDueResumeDelayAfterBothFieldsReadClear) {
   FieldMonitor m;
   m.configure(collaborative_on(true), 1000U);
   SafetyInputs in = auto_inputs();
-  test::FieldResult r{};
+  safestate::test::FieldResult r{};
   in.field_inner_interrupted = true;
-  test::fields(m, in, r);
+  safestate::test::fields(m, in, r);
   in.field_inner_interrupted = false;
   in.field_outer_interrupted = true;  // the person still in the outer field: not yet
   for (int i = 0; i < 50; ++i) {
-    test::fields(m, in, r);
+    safestate::test::fields(m, in, r);
     EXPECT_FALSE(r.resume_due);
   }
   in.field_outer_interrupted = false;  // both clear from cycle T = 0 on
   for (int t = 0; t < 10; ++t) {
-    test::fields(m, in, r);
+    safestate::test::fields(m, in, r);
     EXPECT_FALSE(r.resume_due) << "cycle T+" << t;
   }
-  test::fields(m, in, r);
+  safestate::test::fields(m, in, r);
   EXPECT_TRUE(r.resume_due) << "cycle T+10 = T + resume_delay";
   in.field_inner_interrupted = true;  // back in: the count starts again
-  test::fields(m, in, r);
+  safestate::test::fields(m, in, r);
   EXPECT_FALSE(r.resume_due);
   FieldMonitor manual;
   manual.configure(collaborative_on(false), 1000U);
   in.field_inner_interrupted = false;
   for (int t = 0; t < 100; ++t) {
-    test::fields(manual, in, r);
+    safestate::test::fields(manual, in, r);
     EXPECT_FALSE(r.resume_due);  // auto_resume off: never by itself
   }
 }
@@ -324,21 +324,21 @@ TEST(SsmMonitor, TheSeparationFallsAtOnceAndRisesAtMostAsFastAsAPersonAndTheRobo
   m.configure(ssm_limits(), 1000U);
   EXPECT_FLOAT_EQ(m.rise_per_cycle_mm(), 3.5F);  // (2000 + 1500) mm/s x 1 ms
   SafetyInputs in = auto_inputs();
-  test::SsmResult r{};
+  safestate::test::SsmResult r{};
   in.separation_mm = 5000.0F;
-  test::ssm(m, in, 0.0F, 1500.0F, true, r);
+  safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);
   EXPECT_FLOAT_EQ(r.separation_mm, 3.5F);  // unknown before: from 0
-  for (int i = 0; i < 2000; ++i) test::ssm(m, in, 0.0F, 1500.0F, true, r);
+  for (int i = 0; i < 2000; ++i) safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);
   EXPECT_FLOAT_EQ(r.separation_mm, 5000.0F);
   in.separation_mm = 800.0F;  // a fall: at once
-  test::ssm(m, in, 0.0F, 1500.0F, true, r);
+  safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);
   EXPECT_FLOAT_EQ(r.separation_mm, 800.0F);
   EXPECT_NEAR(r.v_allowed_mm_s, 344.761F, 0.01F);
   in.separation_mm = 3000.0F;  // a jump up: 3.5 mm a cycle
-  test::ssm(m, in, 0.0F, 1500.0F, true, r);
+  safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);
   EXPECT_FLOAT_EQ(r.separation_mm, 803.5F);
   in.separation_mm = 0.0F;  // invalid (the signal layer's 0)
-  test::ssm(m, in, 0.0F, 1500.0F, true, r);
+  safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);
   EXPECT_FLOAT_EQ(r.v_allowed_mm_s, 0.0F);
 }
 
@@ -349,27 +349,27 @@ TEST(SsmMonitor, OverVAllowedPlusFivePercentForLongerThanTrTrips) {
   EXPECT_EQ(m.reaction_cycles(), 100U);
   SafetyInputs in = auto_inputs();
   in.separation_mm = 800.0F;
-  test::SsmResult r{};
-  for (int i = 0; i < 400; ++i) test::ssm(m, in, 0.0F, 1500.0F, true, r);  // the separation believed reaches 800
+  safestate::test::SsmResult r{};
+  for (int i = 0; i < 400; ++i) safestate::test::ssm(m, in, 0.0F, 1500.0F, true, r);  // the separation believed reaches 800
   const float v = r.v_allowed_mm_s;
   ASSERT_NEAR(v, 344.761F, 0.01F);
-  test::ssm(m, in, v * 1.0499F, 1500.0F, true, r);  // within 5 %: not over
+  safestate::test::ssm(m, in, v * 1.0499F, 1500.0F, true, r);  // within 5 %: not over
   EXPECT_FALSE(r.over);
   for (int k = 1; k <= 100; ++k) {  // over for 100 cycles = T_r: not longer
-    test::ssm(m, in, v * 1.051F, 1500.0F, true, r);
+    safestate::test::ssm(m, in, v * 1.051F, 1500.0F, true, r);
     EXPECT_TRUE(r.over);
     EXPECT_FALSE(r.violated.hit) << k;
   }
-  test::ssm(m, in, v * 1.051F, 1500.0F, true, r);  // the 101st
+  safestate::test::ssm(m, in, v * 1.051F, 1500.0F, true, r);  // the 101st
   EXPECT_TRUE(r.violated.hit);
   EXPECT_EQ(r.violated.detail.signal, Signal::separation);
-  test::ssm(m, in, v, 1500.0F, true, r);  // back under: the count starts again
+  safestate::test::ssm(m, in, v, 1500.0F, true, r);  // back under: the count starts again
   EXPECT_FALSE(r.over || r.violated.hit);
-  test::ssm(m, in, std::numeric_limits<float>::quiet_NaN(), 1500.0F, false, r);  // unknown speed is over ...
+  safestate::test::ssm(m, in, std::numeric_limits<float>::quiet_NaN(), 1500.0F, false, r);  // unknown speed is over ...
   EXPECT_TRUE(r.over);
   EXPECT_FALSE(r.violated.hit);  // ... but without power nothing trips
   in.mode = Mode::T1;  // SSM acts only in AUTO
-  for (int i = 0; i < 200; ++i) test::ssm(m, in, 1000.0F, 1500.0F, true, r);
+  for (int i = 0; i < 200; ++i) safestate::test::ssm(m, in, 1000.0F, 1500.0F, true, r);
   EXPECT_FALSE(r.acting || r.over || r.violated.hit);
 }
 

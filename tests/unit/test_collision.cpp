@@ -190,17 +190,17 @@ const JointArray kPose{0.3F, 0.4F, -0.2F, 0.1F, 0.6F, 0.0F};
 TEST(CollisionMonitor, AForceOverFqsTwoCyclesInARowTrips) {
   CollisionMonitor m;
   m.configure(pfl_limits(), 1000U);
-  test::CollisionResult r{};
-  test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
+  safestate::test::CollisionResult r{};
+  safestate::test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
   EXPECT_TRUE(r.acting);
   EXPECT_TRUE(r.evaluated);
   EXPECT_LT(r.force_n, 2.0F) << "the model explains the drives' torques: no force";
   EXPECT_FALSE(r.hit.hit);
   const Feedback pushed = drives_for(kPose, {}, {}, {0.0F, 0.0F, 150.0F});
-  test::collide(m, pushed, true, r);
+  safestate::test::collide(m, pushed, true, r);
   EXPECT_NEAR(r.force_n, 150.0F, 5.0F);
   EXPECT_FALSE(r.hit.hit) << "one sample never trips";
-  test::collide(m, pushed, true, r);
+  safestate::test::collide(m, pushed, true, r);
   EXPECT_TRUE(r.hit.hit);
   EXPECT_EQ(r.hit.detail.signal, Signal::tcp);
   EXPECT_NEAR(static_cast<float>(r.hit.detail.code), 150.0F, 5.0F);
@@ -210,9 +210,9 @@ TEST(CollisionMonitor, AForceOverFqsTwoCyclesInARowTrips) {
 TEST(CollisionMonitor, AForceBelowFqsNeverTrips) {
   CollisionMonitor m;
   m.configure(pfl_limits(), 1000U);
-  test::CollisionResult r{};
+  safestate::test::CollisionResult r{};
   for (int i = 0; i < 10; ++i) {
-    test::collide(m, drives_for(kPose, {}, {}, {0.0F, 0.0F, 120.0F}), true, r);
+    safestate::test::collide(m, drives_for(kPose, {}, {}, {0.0F, 0.0F, 120.0F}), true, r);
     EXPECT_FALSE(r.hit.hit);
   }
   EXPECT_NEAR(r.force_n, 120.0F, 5.0F);
@@ -224,14 +224,14 @@ TEST(CollisionMonitor, AnEstimateThatIsNotANumberCountsAsOver) {
   // is unsafe (SPEC §2's principle), so it counts as over F_qs and trips like a force would.
   CollisionMonitor m;
   m.configure(pfl_limits(), 1000U);
-  test::CollisionResult r{};
-  test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
+  safestate::test::CollisionResult r{};
+  safestate::test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
   ASSERT_FALSE(r.hit.hit);
   Feedback bad = drives_for(kPose, {}, {}, {});
   bad.drive[1].velocity_rad_s = std::numeric_limits<float>::quiet_NaN();
-  test::collide(m, bad, true, r);
+  safestate::test::collide(m, bad, true, r);
   EXPECT_FALSE(r.hit.hit) << "one sample never trips";
-  test::collide(m, bad, true, r);
+  safestate::test::collide(m, bad, true, r);
   EXPECT_TRUE(std::isnan(r.force_n)) << r.force_n;
   EXPECT_TRUE(r.hit.hit) << "a NaN estimate is over the limit";
 }
@@ -241,16 +241,16 @@ TEST(CollisionMonitor, ATorqueBiasIsReadAsTheForceItWouldTake) {
   // 5 % of rated on axis 2 (3 N m): far below what 140 N at the TCP would take.
   CollisionMonitor m;
   m.configure(pfl_limits(), 1000U);
-  test::CollisionResult r{};
+  safestate::test::CollisionResult r{};
   for (int i = 0; i < 5; ++i) {
-    test::collide(m, drives_for(kPose, {}, {}, {}, 2U, 50.0F), true, r);
+    safestate::test::collide(m, drives_for(kPose, {}, {}, {}, 2U, 50.0F), true, r);
   }
   EXPECT_FALSE(r.hit.hit);
   EXPECT_GT(r.force_n, 1.0F);
   EXPECT_LT(r.force_n, 30.0F);
   // 200 % on axis 2 (120 N m) is more than any region allows.
   for (int i = 0; i < 2; ++i) {
-    test::collide(m, drives_for(kPose, {}, {}, {}, 2U, 2000.0F), true, r);
+    safestate::test::collide(m, drives_for(kPose, {}, {}, {}, 2U, 2000.0F), true, r);
   }
   EXPECT_TRUE(r.hit.hit);
 }
@@ -261,15 +261,15 @@ TEST(CollisionMonitor, InertiaIsModelledFromTheDrivesVelocities) {
   // velocity samples a cycle apart and finds no force.
   CollisionMonitor m;
   m.configure(pfl_limits(), 1000U);
-  test::CollisionResult r{};
+  safestate::test::CollisionResult r{};
   const JointArray qdd{10.0F, -15.0F, 12.0F, 20.0F, -20.0F, 25.0F};
   JointArray qd{};
-  test::collide(m, drives_for(kPose, qd, {}, {}), true, r);
+  safestate::test::collide(m, drives_for(kPose, qd, {}, {}), true, r);
   for (int i = 0; i < 50; ++i) {
     for (std::size_t k = 0; k < kAxes; ++k) {
       qd[k] += qdd[k] * 0.001F;
     }
-    test::collide(m, drives_for(kPose, qd, qdd, {}), true, r);
+    safestate::test::collide(m, drives_for(kPose, qd, qdd, {}), true, r);
     EXPECT_LT(r.force_n, 3.0F) << "cycle " << i;
     EXPECT_FALSE(r.hit.hit);
   }
@@ -281,24 +281,24 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
   SafetyLimits l = pfl_limits();
   l.collaborative.pfl_enabled = false;
   off.configure(l, 1000U);
-  test::CollisionResult r{};
+  safestate::test::CollisionResult r{};
   const Feedback pushed = drives_for(kPose, {}, {}, {0.0F, 0.0F, 500.0F});
   for (int i = 0; i < 3; ++i) {
-    test::collide(off, pushed, true, r);
+    safestate::test::collide(off, pushed, true, r);
   }
   EXPECT_FALSE(r.acting);
   EXPECT_FALSE(r.hit.hit);
   CollisionMonitor on;
   on.configure(pfl_limits(), 1000U);
   for (int i = 0; i < 3; ++i) {
-    test::collide(on, pushed, false, r);  // brakes engaged, power off, brake test
+    safestate::test::collide(on, pushed, false, r);  // brakes engaged, power off, brake test
   }
   EXPECT_TRUE(r.acting);
   EXPECT_FALSE(r.evaluated);
   EXPECT_FALSE(r.hit.hit);
-  test::collide(on, pushed, true, r);
+  safestate::test::collide(on, pushed, true, r);
   EXPECT_FALSE(r.hit.hit) << "the count starts again when the arm is free";
-  test::collide(on, pushed, true, r);
+  safestate::test::collide(on, pushed, true, r);
   EXPECT_TRUE(r.hit.hit);
   // No cycle time, no velocity to differentiate the inertia from: off rather than guessing.
   CollisionMonitor timeless;

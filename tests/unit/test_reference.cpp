@@ -591,8 +591,8 @@ TEST(Differential, ThePosesViolateWhatTheySay) {
     Feedback fb{};
     for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = kPose[k][i];
     const ref::Geometry g = geometry_of(l, fb);
-    test::LimitResult r{};
-    test::evaluate(m, fb, false, false, 0U, r);
+    safestate::test::LimitResult r{};
+    safestate::test::evaluate(m, fb, false, false, 0U, r);
     const bool joint = k == kJoint || k == kJointBetter || k == kJointWorse;
     EXPECT_EQ(g.zone_outside[0] > 0.0F, k == kZone) << "pose " << k << " keep_out " << g.zone_outside[0];
     EXPECT_LE(g.zone_outside[1], 0.0F) << "pose " << k << " keep_in";

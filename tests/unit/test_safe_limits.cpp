@@ -19,7 +19,7 @@
 
 using namespace safestate;
 using core::Feedback;
-using test::LimitResult;
+using safestate::test::LimitResult;
 using core::SafeLimitMonitors;
 
 namespace {
@@ -134,11 +134,11 @@ TEST(SpeedLimit, AJointOrTheTcpAboveItsLimitTripsOnlyWithPower) {
   l.joints[2].max_speed_rad_s = 1.0F;
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
-  test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, 1.01F, 0, 0, 0}), false, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, 1.01F, 0, 0, 0}), false, false, 0, r);
   EXPECT_FALSE(r.speed.hit) << "no power, no stop";
-  test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, 0.99F, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, 0.99F, 0, 0, 0}), true, false, 0, r);
   EXPECT_FALSE(r.speed.hit);
-  test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, -1.01F, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0, 0, -1.01F, 0, 0, 0}), true, false, 0, r);
   EXPECT_TRUE(r.speed.hit);
   EXPECT_EQ(r.speed.detail.signal, core::Signal::axis);
   EXPECT_EQ(r.speed.detail.axis, 3);
@@ -146,11 +146,11 @@ TEST(SpeedLimit, AJointOrTheTcpAboveItsLimitTripsOnlyWithPower) {
   l = builtin();
   l.tcp_max_speed_mm_s = 300.0F;
   m = monitors(l);
-  test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {1.0F, 0, 0, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {1.0F, 0, 0, 0, 0, 0}), true, false, 0, r);
   EXPECT_TRUE(r.speed.hit);
   EXPECT_EQ(r.speed.detail.signal, core::Signal::tcp);
   EXPECT_NEAR(r.tcp_speed_mm_s, 374.0F, 1.0F);
-  test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0.5F, 0, 0, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 0, 0}, {0.5F, 0, 0, 0, 0, 0}), true, false, 0, r);
   EXPECT_FALSE(r.speed.hit);
 }
 
@@ -161,23 +161,23 @@ TEST(SpeedLimit, TheReducedLimitAppliesOnceTheRampTimeIsOver) {
   LimitResult r{};
   const Feedback fb = at({0, 0, 0, 0, 0, 0}, {0.8F, 0, 0, 0, 0, 0});  // about 300 mm/s
   for (int t = 0; t <= 500; ++t) {
-    test::evaluate(m, fb, true, true, 0, r);
+    safestate::test::evaluate(m, fb, true, true, 0, r);
     ASSERT_FALSE(r.speed.hit) << "within the ramp, cycle " << t;
     ASSERT_TRUE(m.reduced().active());
   }
-  test::evaluate(m, fb, true, true, 0, r);
+  safestate::test::evaluate(m, fb, true, true, 0, r);
   EXPECT_TRUE(r.speed.hit) << "after the ramp";
   EXPECT_FLOAT_EQ(r.speed_limit_mm_s, 250.0F);
-  test::evaluate(m, fb, true, false, 0, r);
+  safestate::test::evaluate(m, fb, true, false, 0, r);
   EXPECT_FALSE(r.speed.hit) << "reduced mode over: the normal limit at once";
   EXPECT_EQ(m.reduced().sources(), 0);
   // Asked for again: a new ramp. (The ramp's count was once left running across an inactive
   // spell, so every activation after the first was enforced at once: SPEED_LIMIT, Cat 0.)
   for (int t = 0; t <= 500; ++t) {
-    test::evaluate(m, fb, true, true, 0, r);
+    safestate::test::evaluate(m, fb, true, true, 0, r);
     ASSERT_FALSE(r.speed.hit) << "within the second ramp, cycle " << t;
   }
-  test::evaluate(m, fb, true, true, 0, r);
+  safestate::test::evaluate(m, fb, true, true, 0, r);
   EXPECT_TRUE(r.speed.hit) << "after the second ramp";
 }
 
@@ -189,19 +189,19 @@ TEST(Orientation, TheToolAxisOutsideItsConeTripsAndRecoversOnlyTowardIt) {
   l.orientation_max_deviation_rad = 30.0F * kDeg;
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
-  test::evaluate(m, at({0, 0, 0, 0, 20 * kDeg, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 20 * kDeg, 0}), true, false, 0, r);
   EXPECT_FALSE(r.orientation.hit);
-  test::evaluate(m, at({0, 0, 0, 0, 35 * kDeg, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 35 * kDeg, 0}), true, false, 0, r);
   EXPECT_TRUE(r.orientation.hit);
   EXPECT_EQ(r.orientation.detail.signal, core::Signal::tcp);
   // Without power: recovery, no trip; then with power, back toward the cone is allowed,
   // further out is not.
-  test::evaluate(m, at({0, 0, 0, 0, 40 * kDeg, 0}), false, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 40 * kDeg, 0}), false, false, 0, r);
   EXPECT_FALSE(r.orientation.hit);
   EXPECT_TRUE(r.recovering);
-  test::evaluate(m, at({0, 0, 0, 0, 38 * kDeg, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 38 * kDeg, 0}), true, false, 0, r);
   EXPECT_FALSE(r.orientation.hit);
-  test::evaluate(m, at({0, 0, 0, 0, 39 * kDeg, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, 0, 39 * kDeg, 0}), true, false, 0, r);
   EXPECT_TRUE(r.orientation.hit) << "worse than the best reached since power came on";
 }
 
@@ -218,7 +218,7 @@ TEST(Orientation, TheConesEdgeIsTheConfiguredAngle) {
     for (const float deg : {29.5F, 30.5F, -29.5F, -30.5F}) {
       SafeLimitMonitors m = monitors(l);
       LimitResult r{};
-      test::evaluate(m, at({0, 0, 0, 0, deg * kDeg, 0}), true, false, 0, r);
+      safestate::test::evaluate(m, at({0, 0, 0, 0, deg * kDeg, 0}), true, false, 0, r);
       EXPECT_EQ(r.orientation.hit, std::fabs(deg) > 30.0F) << deg << " degrees off an axis of length " << length;
     }
   }
@@ -240,7 +240,7 @@ TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
   EXPECT_LT(core::ZoneMonitor::outside_mm(in, home, 40.0F), 0.0F);
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
-  test::evaluate(m, at({}), true, false, 0, r);
+  safestate::test::evaluate(m, at({}), true, false, 0, r);
   ASSERT_TRUE(r.zone.hit);
   EXPECT_EQ(r.zone.detail.code, 1);
   std::array<char, 32> buf{};
@@ -249,12 +249,12 @@ TEST(Zones, KeepOutTouchedBySphereOrLinkAndKeepInLeftTripNamingTheZone) {
   l.zones[1] = in;
   l.zones[1].max_mm[2] = 400.0F;
   m = monitors(l);
-  test::evaluate(m, at({}), true, false, 0, r);
+  safestate::test::evaluate(m, at({}), true, false, 0, r);
   ASSERT_TRUE(r.zone.hit);
   EXPECT_EQ(r.zone.detail.code, 1);
   // Found without power: recovery, nothing trips.
   m = monitors(l);
-  test::evaluate(m, at({}), false, false, 0, r);
+  safestate::test::evaluate(m, at({}), false, false, 0, r);
   EXPECT_FALSE(r.zone.hit);
   EXPECT_TRUE(r.recovering);
   EXPECT_TRUE(r.outside);
@@ -289,7 +289,7 @@ TEST(Zones, AKeepInBoxLeftThroughEachFaceTripsInThatCycle) {
   int cycle = 0;
   const auto step = [&](const std::array<float, 6>& q) {
     LimitResult r{};
-    test::evaluate(m, at(q), true, false, 0, r);
+    safestate::test::evaluate(m, at(q), true, false, 0, r);
     const core::ArmPose& pose = m.pose();
     const bool outside = core::ZoneMonitor::outside_mm(l.zones[0], pose, l.tool_radius_mm) > 0.0F;
     ASSERT_EQ(r.outside, outside) << "cycle " << cycle << ", tcp " << pose.tcp[0] << " " << pose.tcp[1] << " "
@@ -351,7 +351,7 @@ TEST(Zones, SkippingFarZonesNeverMissesAZoneOnARandomWalk) {
       v = std::clamp(v + jitter(rng) + ((cycle % 997 == 0) ? 0.5F : 0.0F), -1.6F, 1.6F);
     }
     LimitResult r{};
-    test::evaluate(m, at(q), false, false, 0, r);
+    safestate::test::evaluate(m, at(q), false, false, 0, r);
     const core::ArmPose& pose = m.pose();
     bool outside = false;
     std::uint8_t reduced = 0;
@@ -460,28 +460,28 @@ TEST(JointLimits, SeveralAxesOutsideAtOnceNameTheFirstAndKeepTheReport) {
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
   // With power, axes 2 and 3 beyond their range in the same cycle: one alarm, axis 2.
-  test::evaluate(m, at({0, 12 * kDeg, -12 * kDeg, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 12 * kDeg, -12 * kDeg, 0, 0, 0}), true, false, 0, r);
   ASSERT_TRUE(r.joint.hit);
   EXPECT_EQ(r.joint.detail.axis, 2) << "the first axis that tripped, not the last";
   EXPECT_TRUE(r.outside);
 
   // Without power, axes 1 and 2 outside: both recovering, nothing trips.
   m = monitors(l);
-  test::evaluate(m, at({12 * kDeg, 12 * kDeg, 0, 0, 0, 0}), false, false, 0, r);
+  safestate::test::evaluate(m, at({12 * kDeg, 12 * kDeg, 0, 0, 0, 0}), false, false, 0, r);
   EXPECT_FALSE(r.joint.hit);
   EXPECT_TRUE(r.outside && r.recovering);
   // Axis 2 jogged back in, axis 1 still out: still outside (axis 1), no trip.
-  test::evaluate(m, at({12 * kDeg, 5 * kDeg, 0, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({12 * kDeg, 5 * kDeg, 0, 0, 0, 0}), true, false, 0, r);
   EXPECT_FALSE(r.joint.hit);
   EXPECT_TRUE(r.outside) << "axis 1 is still outside although axis 2, after it, is back in";
   EXPECT_TRUE(r.recovering);
   // Axis 1 recovering, axis 3 newly out with power: axis 3 trips, and recovery still shows.
-  test::evaluate(m, at({12 * kDeg, 5 * kDeg, 11 * kDeg, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({12 * kDeg, 5 * kDeg, 11 * kDeg, 0, 0, 0}), true, false, 0, r);
   ASSERT_TRUE(r.joint.hit);
   EXPECT_EQ(r.joint.detail.axis, 3);
   EXPECT_TRUE(r.recovering) << "axis 1's recovery is not hidden by axis 3, which is not recovering";
   // Both back in: nothing outside, nothing recovering.
-  test::evaluate(m, at({5 * kDeg, 5 * kDeg, 5 * kDeg, 0, 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({5 * kDeg, 5 * kDeg, 5 * kDeg, 0, 0, 0}), true, false, 0, r);
   EXPECT_FALSE(r.outside || r.recovering || r.joint.hit);
 }
 
@@ -499,14 +499,14 @@ TEST(Zones, TwoZonesAtOnceNameTheFirst) {
   l.zone_count = 2;
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
-  test::evaluate(m, at({}), true, false, 0, r);
+  safestate::test::evaluate(m, at({}), true, false, 0, r);
   ASSERT_TRUE(r.zone.hit);
   EXPECT_EQ(r.zone.detail.code, 0) << "both boxes hold the TCP: the first is named";
 
   l.zones[0] = box("load", core::ZoneKind::reduced, {x - 50.0F, -100.0F, -100.0F}, {x + 50.0F, 100.0F, 2000.0F});
   l.zones[1] = box("unload", core::ZoneKind::reduced, {x - 60.0F, -110.0F, -110.0F}, {x + 60.0F, 110.0F, 2000.0F});
   m = monitors(l);
-  test::evaluate(m, at({}), true, false, 0, r);
+  safestate::test::evaluate(m, at({}), true, false, 0, r);
   EXPECT_FALSE(r.zone.hit);
   EXPECT_TRUE(r.in_reduced_zone);
   EXPECT_EQ(r.reduced_zone, 1) << "both reduced zones hold the TCP: REDUCED_SPEED names the first";
@@ -522,9 +522,9 @@ TEST(Zones, AnUnknownPoseOrAnUnboundedReachIsNeverSkipped) {
   l.zone_count = 1;
   SafeLimitMonitors m = monitors(l);
   LimitResult r{};
-  test::evaluate(m, at({}), true, false, 0, r);
+  safestate::test::evaluate(m, at({}), true, false, 0, r);
   EXPECT_FALSE(r.zone.hit) << "far away";
-  test::evaluate(m, at({0, 0, 0, std::nanf(""), 0, 0}), true, false, 0, r);
+  safestate::test::evaluate(m, at({0, 0, 0, std::nanf(""), 0, 0}), true, false, 0, r);
   EXPECT_TRUE(r.zone.hit) << "axis 4 unknown: the wrist and the tool are unknown";
   // A box around the elbow's link point: found whatever the tool offset does to the reach.
   const core::Vec3 elbow = home_pose(l).origin[3];
@@ -535,7 +535,7 @@ TEST(Zones, AnUnknownPoseOrAnUnboundedReachIsNeverSkipped) {
     u.tcp_mm = {bad, 0.0F, 0.0F};
     SafeLimitMonitors mu = monitors(u);
     for (int k = 0; k < 3; ++k) {
-      test::evaluate(mu, at({}), true, false, 0, r);
+      safestate::test::evaluate(mu, at({}), true, false, 0, r);
       EXPECT_TRUE(r.zone.hit) << "tool offset " << bad << ", cycle " << k;
     }
   }
