@@ -10,6 +10,7 @@
 
 #include "../../tools/reference/reference.hpp"
 #include "bench.hpp"
+#include "monitor_harness.hpp"
 #include "safestate/controller/controller.hpp"
 #include "safestate/core/collision.hpp"
 #include "safestate/core/dynamics.hpp"
