@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "../tools/reference/reference.hpp"
+#include "safestate/util/percentile.hpp"
 #include "workload.hpp"
 
 using namespace safestate;
@@ -91,11 +92,10 @@ struct Stats {
 Stats stats(std::vector<double>& v) {
   Stats s;
   std::sort(v.begin(), v.end());
-  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
-  s.p50 = at(0.5);
-  s.p99 = at(0.99);
-  s.p999 = at(0.999);
-  s.max = v.back();
+  s.p50 = safestate::util::percentile_sorted(v, 0.5);
+  s.p99 = safestate::util::percentile_sorted(v, 0.99);
+  s.p999 = safestate::util::percentile_sorted(v, 0.999);
+  s.max = safestate::util::percentile_sorted(v, 1.0);
   s.n = v.size();
   return s;
 }

@@ -46,6 +46,7 @@
 #include <sys/prctl.h>
 
 #include "safestate/bridge/segment.hpp"
+#include "safestate/util/percentile.hpp"
 
 namespace {
 
@@ -124,11 +125,7 @@ Args parse(int argc, char** argv) {
 }
 
 // Percentiles as bench/ws_latency.py computes them (nearest rank on the sorted series).
-double pct(std::vector<double> xs, double p) {
-  std::sort(xs.begin(), xs.end());
-  const auto k = static_cast<std::size_t>(std::lround(p / 100.0 * static_cast<double>(xs.size() - 1U)));
-  return xs[std::min(k, xs.size() - 1U)];
-}
+double pct(std::vector<double> xs, double p) { return safestate::util::percentile(std::move(xs), p / 100.0); }
 
 Json figures(const std::vector<double>& xs) {
   double sum = 0.0;

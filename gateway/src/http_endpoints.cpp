@@ -341,7 +341,7 @@ HttpAnswer Hub::safety_answer() {
     e["error"] = "the core's safety configuration is not available to the gateway";
     return json_answer(503, e);
   }
-  j["validated"] = read_status().safety_validated;
+  j["validated"] = read_status().safety.validated;
   Confirmation c;
   bool found = false;
   std::string error;

@@ -113,14 +113,12 @@ ClientMessage parse_hello(const Json& j) {
 
 void fill_jog(const Json& j, core::Command& c) {
   const auto axis = j.find("axis");
-  c.axis = (axis == j.end()) ? std::int8_t{0} : integer_or<std::int8_t>(*axis, 0);
-  c.dir = 0;
-  if (const auto dir = j.find("dir"); dir != j.end() && dir->is_string()) {
-    const auto& d = dir->get_ref<const std::string&>();
-    c.dir = (d == "+") ? std::int8_t{1} : ((d == "-") ? std::int8_t{-1} : std::int8_t{0});
-  }
+  const auto dir = j.find("dir");
   const auto speed = j.find("speed");
-  c.speed = (speed == j.end()) ? std::uint8_t{10} : integer_or<std::uint8_t>(*speed, 0);
+  const std::string* d = (dir != j.end() && dir->is_string()) ? &dir->get_ref<const std::string&>() : nullptr;
+  core::set_jog(c, (axis == j.end()) ? std::int8_t{0} : integer_or<std::int8_t>(*axis, 0),
+                (d == nullptr) ? std::int8_t{0} : core::jog_direction(d->data(), d->size()),
+                (speed == j.end()) ? core::kJogDefaultSpeedPct : integer_or<std::uint8_t>(*speed, 0));
 }
 
 // validate_config: `code` must be a string of exactly 8 hex digits (the checksum as

@@ -31,6 +31,7 @@
 #include "safestate/core/monitors.hpp"
 #include "safestate/core/transitions.hpp"
 #include "safestate/motion/motion_controller.hpp"
+#include "safestate/vocab/names.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/safety/safety_config.hpp"
 
@@ -144,15 +145,6 @@ Json words_or_null(const core::Cause& c) {
   return (s[0] == '\0') ? Json(nullptr) : Json(s);
 }
 
-Json alarm_names(core::AlarmMask mask) {
-  Json a = Json::array();
-  for (const core::AlarmInfo& info : core::kAlarms) {
-    if ((mask & core::bit(info.id)) != 0U) {
-      a.push_back(info.name);
-    }
-  }
-  return a;
-}
 
 template <std::size_t N>
 Json rounded_array(const std::array<float, N>& v, std::size_t first, std::size_t count, double scale) {
@@ -350,48 +342,48 @@ Json safety_json() {
 
 Json status_safety_json(const bridge::Status& s, const Json* brake_test_record) {
   Json j;
-  j["checksum"] = hex8(s.safety_checksum);
-  j["validated"] = s.safety_validated;
-  j["reduced"] = s.safety_reduced;
+  j["checksum"] = hex8(s.safety.checksum);
+  j["validated"] = s.safety.validated;
+  j["reduced"] = s.safety.reduced;
   Json by = Json::array();
-  if ((s.safety_reduced_by & core::kReducedByZone) != 0U) {
+  if ((s.safety.reduced_by & core::kReducedByZone) != 0U) {
     by.push_back("zone");
   }
-  if ((s.safety_reduced_by & core::kReducedByInput) != 0U) {
+  if ((s.safety.reduced_by & core::kReducedByInput) != 0U) {
     by.push_back("input");
   }
-  if ((s.safety_reduced_by & core::kReducedByField) != 0U) {
+  if ((s.safety.reduced_by & core::kReducedByField) != 0U) {
     by.push_back("field");
   }
   j["reduced_by"] = std::move(by);
-  j["recovery"] = s.safety_recovery;
-  j["speed_limit"] = rounded(static_cast<double>(s.safety_speed_limit_mm_s), 10.0);
+  j["recovery"] = s.safety.recovery;
+  j["speed_limit"] = rounded(static_cast<double>(s.safety.speed_limit_mm_s), 10.0);
   // SPEC §11: v_allowed and the separation used while SSM acts (collaborative and ssm on,
   // mode AUTO), else null; the fields as validated, whether or not they act.
-  j["v_allowed"] = s.safety_ssm ? Json(rounded(static_cast<double>(s.safety_v_allowed_mm_s), 10.0)) : Json(nullptr);
+  j["v_allowed"] = s.safety.ssm ? Json(rounded(static_cast<double>(s.safety.v_allowed_mm_s), 10.0)) : Json(nullptr);
   Json fields;
-  fields["outer"] = s.safety_field_outer_interrupted ? "interrupted" : "clear";
-  fields["inner"] = s.safety_field_inner_interrupted ? "interrupted" : "clear";
+  fields["outer"] = s.safety.field_outer_interrupted ? "interrupted" : "clear";
+  fields["inner"] = s.safety.field_inner_interrupted ? "interrupted" : "clear";
   j["fields"] = std::move(fields);
-  j["separation_mm"] = s.safety_ssm ? Json(rounded(static_cast<double>(s.safety_separation_mm), 1.0)) : Json(nullptr);
+  j["separation_mm"] = s.safety.ssm ? Json(rounded(static_cast<double>(s.safety.separation_mm), 1.0)) : Json(nullptr);
   // @req BT-STATUS
   // SPEC §12: hours until the brake test is due (negative: overdue; null when no pass is on
   // record or none is required) and the latest result on record.
   Json brake;
-  brake["due_in_h"] = s.brake_test_due_known ? Json(rounded(static_cast<double>(s.brake_test_due_in_h), 1000.0))
+  brake["due_in_h"] = s.brake_test.due_known ? Json(rounded(static_cast<double>(s.brake_test.due_in_h), 1000.0))
                                              : Json(nullptr);
-  brake["last"] = core::to_string(static_cast<core::BrakeTestResult>(s.brake_test_last));
+  brake["last"] = core::to_string(s.brake_test.last);
   // After protocol.md's fields (additive): the test in progress (axis 1..6 and percent of
   // the whole test, 4 steps per axis, null while none runs), the BRAKE_TEST_DUE and
   // BRAKE_TEST_REQUIRED conditions, and the latest result on record in the event log (so
   // that it survives a restart): when, the axis that slipped, every axis' drift.
-  brake["running"] = s.brake_test_running;
-  brake["axis"] = (s.brake_test_running && s.brake_test_axis >= 1U && std::size_t{s.brake_test_axis} <= core::kAxes)
-                      ? Json(s.brake_test_axis)
+  brake["running"] = s.brake_test.running;
+  brake["axis"] = (s.brake_test.running && s.brake_test.axis >= 1U && std::size_t{s.brake_test.axis} <= core::kAxes)
+                      ? Json(s.brake_test.axis)
                       : Json(nullptr);
-  brake["progress"] = s.brake_test_running ? Json(std::min<unsigned>(s.brake_test_progress, 100U)) : Json(nullptr);
-  brake["due"] = s.brake_test_due;
-  brake["required"] = s.brake_test_required;
+  brake["progress"] = s.brake_test.running ? Json(std::min<unsigned>(s.brake_test.progress, 100U)) : Json(nullptr);
+  brake["due"] = s.brake_test.due;
+  brake["required"] = s.brake_test.required;
   const bool record = (brake_test_record != nullptr) && brake_test_record->is_object();
   brake["last_time"] = record ? brake_test_record->at("time") : Json(nullptr);
   brake["last_axis"] = record ? brake_test_record->at("axis") : Json(nullptr);
@@ -401,8 +393,8 @@ Json status_safety_json(const bridge::Status& s, const Json* brake_test_record) 
   // (collaborative and pfl on), the force estimated at the TCP (N, 0.1; null while it does
   // not act), and from the configuration the gateway holds the region's F_qs (the force
   // that is COLLISION) and the PFL speed cap v_pfl (null without pfl).
-  j["pfl"] = s.safety_pfl;
-  j["contact_force"] = s.safety_pfl ? Json(rounded(static_cast<double>(s.safety_contact_force_n), 10.0)) : Json(nullptr);
+  j["pfl"] = s.safety.pfl;
+  j["contact_force"] = s.safety.pfl ? Json(rounded(static_cast<double>(s.safety.contact_force_n), 10.0)) : Json(nullptr);
   const bool pfl_config = g_safety.ok && g_safety.limits.collaborative.enabled && g_safety.limits.collaborative.pfl_enabled;
   j["contact_force_limit"] =
       pfl_config ? Json(rounded(static_cast<double>(g_safety.limits.collaborative.f_qs_n), 10.0)) : Json(nullptr);
@@ -458,7 +450,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["brakes"] = s.brakes_released ? "released" : "engaged";
   j["reset_lamp"] = s.reset_lamp ? "on" : "off";
   j["tcp_speed"] = rounded(static_cast<double>(s.tcp_speed_mm_s), 10.0);
-  j["alarms"] = alarm_names(s.alarms);
+  j["alarms"] = vocab::alarm_names(s.alarms);
   j["joints"] = rounded_array(s.joints, 0, 6, 1e6);
   Json tcp = rounded_array(s.tcp, 0, 3, 1e3);
   for (std::size_t i = 3; i < 6; ++i) {

@@ -58,9 +58,7 @@ struct Run {
     core::Command c{};
     c.seq = ++seq;
     c.id = static_cast<std::uint8_t>(id);
-    c.axis = static_cast<std::int8_t>(axis);
-    c.dir = static_cast<std::int8_t>(dir);
-    c.speed = static_cast<std::uint8_t>(speed);
+    core::set_jog(c, static_cast<std::int8_t>(axis), static_cast<std::int8_t>(dir), static_cast<std::uint8_t>(speed));
     if (cell->submit(c) != core::Result::OK) return ok = false;
     cell->step();
     const core::SupervisorOut& o = cell->out();

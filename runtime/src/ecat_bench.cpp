@@ -15,6 +15,7 @@
 
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/runtime/runtime.hpp"
+#include "safestate/util/percentile.hpp"
 
 namespace safestate::runtime {
 
@@ -25,11 +26,7 @@ std::uint64_t mono_ns() {
   return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 double pct(const std::vector<std::uint64_t>& sorted, double p) {
-  if (sorted.empty()) {
-    return 0.0;
-  }
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(sorted.size() - 1U));
-  return static_cast<double>(sorted[i]) / 1000.0;
+  return static_cast<double>(util::percentile_sorted(sorted, p)) / 1000.0;
 }
 }  // namespace
 

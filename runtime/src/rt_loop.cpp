@@ -237,19 +237,7 @@ void Publisher::publish() noexcept {
     s.alarm_since[a] = alarms.since(static_cast<core::AlarmId>(a));
     s.alarm_detail[a] = alarms.detail(static_cast<core::AlarmId>(a));
   }
-  s.safety_checksum = o.safety.checksum;
-  s.safety_validated = o.safety.validated;
-  s.safety_reduced = o.safety.reduced;
-  s.safety_reduced_by = o.safety.reduced_by;
-  s.safety_recovery = o.safety.recovery;
-  s.safety_speed_limit_mm_s = o.safety.speed_limit_mm_s;
-  s.safety_field_outer_interrupted = o.safety.field_outer_interrupted;
-  s.safety_field_inner_interrupted = o.safety.field_inner_interrupted;
-  s.safety_ssm = o.safety.ssm;
-  s.safety_v_allowed_mm_s = o.safety.v_allowed_mm_s;
-  s.safety_separation_mm = o.safety.separation_mm;
-  s.safety_pfl = o.safety.pfl;
-  s.safety_contact_force_n = o.safety.contact_force_n;
+  s.safety = o.safety;
   // @req COL-SIM-PERSON
   s.person_shown = person_;
   if (person_) {
@@ -269,15 +257,7 @@ void Publisher::publish() noexcept {
     s.person_outer_mm = pv.sensors.outer_mm;
     s.person_inner_mm = pv.sensors.inner_mm;
   }
-  s.brake_test_last = static_cast<std::uint8_t>(o.brake_test.last);
-  s.brake_test_due_known = o.brake_test.due_known;
-  s.brake_test_due = o.brake_test.due;
-  s.brake_test_required = o.brake_test.required;
-  s.brake_test_running = o.brake_test.running;
-  s.brake_test_axis = o.brake_test.axis;
-  s.brake_test_progress = o.brake_test.progress;
-  s.brake_test_due_in_h = o.brake_test.due_in_h;
-  s.brake_test_drift_deg = o.brake_test.drift_deg;
+  s.brake_test = o.brake_test;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};

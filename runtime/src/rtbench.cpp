@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "safestate/runtime/runtime.hpp"
+#include "safestate/util/percentile.hpp"
 
 namespace safestate::runtime {
 
@@ -24,15 +25,11 @@ struct Percentiles {
 
 Percentiles percentiles(std::vector<std::uint32_t> v) {
   Percentiles p;
-  if (v.empty()) {
-    return p;
-  }
   std::sort(v.begin(), v.end());
-  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
-  p.p50 = at(0.50);
-  p.p99 = at(0.99);
-  p.p999 = at(0.999);
-  p.max = v.back();
+  p.p50 = util::percentile_sorted(v, 0.50);
+  p.p99 = util::percentile_sorted(v, 0.99);
+  p.p999 = util::percentile_sorted(v, 0.999);
+  p.max = util::percentile_sorted(v, 1.0);
   p.n = v.size();
   return p;
 }

@@ -9,6 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "safestate/vocab/names.hpp"
+
 namespace safestate::scenario {
 
 namespace {
@@ -28,15 +30,6 @@ std::int64_t tenths(float v) noexcept {
 
 Json speed(std::int64_t t) { return (t < 0) ? Json(nullptr) : Json(static_cast<double>(t) / 10.0); }
 
-Json alarm_names(core::AlarmMask mask) {
-  Json a = Json::array();
-  for (const core::AlarmInfo& info : core::kAlarms) {
-    if ((mask & core::bit(info.id)) != 0U) {
-      a.push_back(info.name);
-    }
-  }
-  return a;
-}
 
 }  // namespace
 
@@ -67,7 +60,7 @@ std::string state_line(core::Cycle t, const TraceSnapshot& s) {
   j["brakes"] = s.brakes ? "released" : "engaged";
   j["reset_lamp"] = s.reset_lamp ? "on" : "off";
   j["tcp_speed"] = speed(s.tcp_tenths);
-  j["alarms"] = alarm_names(s.alarms);
+  j["alarms"] = vocab::alarm_names(s.alarms);
   return dump(j);
 }
 

@@ -320,11 +320,11 @@ TEST(RuntimeBridge, SimRecordsReachTheReducedInput) {
   EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::reduced_b)) & 1U, 1U);
   Status st{};
   ASSERT_TRUE(seg->status().read(st));
-  EXPECT_EQ(st.safety_checksum, 0x3AD9012BU);
-  EXPECT_TRUE(st.safety_validated);
-  EXPECT_TRUE(st.safety_reduced) << "either channel asks for reduced speed";
-  EXPECT_EQ(st.safety_reduced_by, core::kReducedByInput);
-  EXPECT_FLOAT_EQ(st.safety_speed_limit_mm_s, 1500.0F) << "the normal limit until the ramp is over";
+  EXPECT_EQ(st.safety.checksum, 0x3AD9012BU);
+  EXPECT_TRUE(st.safety.validated);
+  EXPECT_TRUE(st.safety.reduced) << "either channel asks for reduced speed";
+  EXPECT_EQ(st.safety.reduced_by, core::kReducedByInput);
+  EXPECT_FLOAT_EQ(st.safety.speed_limit_mm_s, 1500.0F) << "the normal limit until the ramp is over";
 }
 
 // @req COL-FIELDS COL-SSM-INPUT
@@ -361,11 +361,11 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   EXPECT_EQ((b.contacts >> static_cast<unsigned>(Contact::field_outer_b)) & 1U, 1U);
   Status st{};
   ASSERT_TRUE(seg->status().read(st));
-  EXPECT_TRUE(st.safety_field_inner_interrupted);
-  EXPECT_FALSE(st.safety_field_outer_interrupted);
-  EXPECT_TRUE(st.safety_ssm) << "collaborative and ssm on, mode AUTO";
-  EXPECT_NEAR(st.safety_v_allowed_mm_s, 344.76F, 0.05F);
-  EXPECT_FLOAT_EQ(st.safety_separation_mm, 800.0F);
+  EXPECT_TRUE(st.safety.field_inner_interrupted);
+  EXPECT_FALSE(st.safety.field_outer_interrupted);
+  EXPECT_TRUE(st.safety.ssm) << "collaborative and ssm on, mode AUTO";
+  EXPECT_NEAR(st.safety.v_allowed_mm_s, 344.76F, 0.05F);
+  EXPECT_FLOAT_EQ(st.safety.separation_mm, 800.0F);
   rec.set_mask = 0;
   rec.separation_set = kSetValid;  // separation_valid=0
   runtime::take_record(rec, cell, pub, 400);
@@ -374,7 +374,7 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   cell.step();
   pub.publish();
   ASSERT_TRUE(seg->status().read(st));
-  EXPECT_FLOAT_EQ(st.safety_v_allowed_mm_s, 0.0F) << "invalid is 0";
+  EXPECT_FLOAT_EQ(st.safety.v_allowed_mm_s, 0.0F) << "invalid is 0";
 }
 
 // @req COL-SIM-CONTACT
@@ -507,7 +507,7 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   EXPECT_NEAR(st.person_x_mm, 1880.0F, 1.0F);
   EXPECT_FLOAT_EQ(st.person_outer_mm, 1500.0F);
   EXPECT_FALSE(st.person_in_outer);
-  EXPECT_FALSE(st.safety_field_outer_interrupted);
+  EXPECT_FALSE(st.safety.field_outer_interrupted);
   EXPECT_TRUE(cell.raw_inputs_of_last_cycle().field_outer_a);
   EXPECT_NE(cell.raw_inputs_of_last_cycle().separation_mm, 4321) << "the person's distance sensor now";
   EXPECT_EQ(cell.raw_inputs_of_last_cycle().separation_mm, static_cast<std::int32_t>(std::floor(st.person_separation_mm)));
@@ -515,8 +515,8 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   run(200);
   EXPECT_TRUE(st.person_in_outer);
   EXPECT_FALSE(st.person_in_inner);
-  EXPECT_TRUE(st.safety_field_outer_interrupted) << "the core reads the scanner's channels";
-  EXPECT_FALSE(st.safety_field_inner_interrupted);
+  EXPECT_TRUE(st.safety.field_outer_interrupted) << "the core reads the scanner's channels";
+  EXPECT_FALSE(st.safety.field_inner_interrupted);
   EXPECT_FALSE(cell.raw_inputs_of_last_cycle().field_outer_a);
   EXPECT_FALSE(cell.raw_inputs_of_last_cycle().field_outer_b);
   // At 0.8 m after 1.375 s: standing, in both fields.
@@ -525,7 +525,7 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   EXPECT_FLOAT_EQ(st.person_speed_mm_s, 0.0F);
   EXPECT_FLOAT_EQ(st.person_x_mm, 800.0F);
   EXPECT_TRUE(st.person_in_inner);
-  EXPECT_TRUE(st.safety_field_inner_interrupted);
+  EXPECT_TRUE(st.safety.field_inner_interrupted);
   EXPECT_LT(st.person_separation_mm, 550.0F) << "the arm is nearer than the base axis";
   // Stand while standing is fine; leave: the manual inputs again (fields clear, 4321 mm).
   runtime::take_record(person_record(22, kPersonStand), cell, pub, 2);

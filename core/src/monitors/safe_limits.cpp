@@ -26,7 +26,7 @@ void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry&
 void SafeLimitMonitors::check(const CycleView& v, Reporter& r) noexcept {
   CycleFacts& f = r.facts();
   f.limits.clear();
-  if (!configured_ || (v.limits == nullptr)) {
+  if (v.limits == nullptr) {  // the supervisor passes the limits once configured
     r.hold(AlarmId::REDUCED_SPEED, false, AlarmDetail{});
     return;
   }

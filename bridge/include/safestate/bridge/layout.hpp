@@ -22,6 +22,7 @@
 #include <type_traits>
 
 #include "safestate/core/alarms.hpp"
+#include "safestate/core/safety_status.hpp"
 #include "safestate/core/states.hpp"
 #include "safestate/core/types.hpp"
 
@@ -161,22 +162,8 @@ struct Status {
   std::array<std::uint16_t, 6> statusword{};
   std::array<std::uint64_t, core::kAlarmCount> alarm_since{};
   std::array<core::AlarmDetail, core::kAlarmCount> alarm_detail{};
-  // SPEC §10, as the core reports it (core::SafetyStatus).
-  std::uint32_t safety_checksum = 0;
-  bool safety_validated = false;
-  bool safety_reduced = false;
-  std::uint8_t safety_reduced_by = 0;  // core::kReducedBy* bits
-  bool safety_recovery = false;
-  float safety_speed_limit_mm_s = 0.0F;
-  // SPEC §11 (core::SafetyStatus): the fields as validated, and SSM while it acts.
-  bool safety_field_outer_interrupted = false;
-  bool safety_field_inner_interrupted = false;
-  bool safety_ssm = false;
-  float safety_v_allowed_mm_s = 0.0F;
-  float safety_separation_mm = 0.0F;
-  // SPEC §11 collision detection (core::SafetyStatus): acts, and the force estimated at the TCP.
-  bool safety_pfl = false;
-  float safety_contact_force_n = 0.0F;
+  // SPEC §10, §11 as the core reports them, the same struct (one status shape).
+  core::SafetyStatus safety{};
   // SPEC §11, the simulated person (sim::PersonView of the last cycle), for the HMI's floor.
   // person_shown: the in-process simulated cell, where a person can be placed (false on a
   // fieldbus, emulated or not); the rest is meaningful only with it.
@@ -195,16 +182,8 @@ struct Status {
   float person_separation_mm = 0.0F;  // what the distance sensor sees of the person
   float person_outer_mm = 0.0F;       // the scanner's field radii
   float person_inner_mm = 0.0F;
-  // SPEC §12, as the core reports it (core::BrakeTestStatus).
-  std::uint8_t brake_test_last = 0;  // core::BrakeTestResult
-  bool brake_test_due_known = false;
-  bool brake_test_due = false;
-  bool brake_test_required = false;
-  bool brake_test_running = false;
-  std::uint8_t brake_test_axis = 0;
-  std::uint8_t brake_test_progress = 0;
-  float brake_test_due_in_h = 0.0F;
-  std::array<float, 6> brake_test_drift_deg{};
+  // SPEC §12, as the core reports it, the same struct.
+  core::BrakeTestStatus brake_test{};
 };
 
 // One cycle of the black box: what the cycle read and what it wrote.

@@ -175,10 +175,11 @@ class Reporter {
   // Rule `t` holds without an alarm (rule 5: the enabling device released at the centre).
   void trip_event(Trigger t, const AlarmDetail& d) noexcept {
     const auto i = static_cast<std::size_t>(t);
-    if ((i < kConditionCount) && ((events_ & (1U << i)) == 0U)) {
-      events_ |= static_cast<std::uint16_t>(1U << i);
-      event_detail_[i] = d;
+    if (i >= kConditionCount) {
+      return;  // not a rule
     }
+    events_ = static_cast<std::uint16_t>(events_ | (1U << i));
+    event_detail_[i] = d;
   }
   // Raised now, whatever the state.
   void raise(AlarmId a, const AlarmDetail& d) noexcept { alarms_.raise(a, d, now_); }

@@ -110,6 +110,23 @@ struct Command {
   std::uint32_t code = 0;     // validate_config: the checksum typed by the operator
 };
 
+// `jog AXIS DIR [SPEED]` (SPEC §5) as a command record, built in one place for every front
+// end (protocol, scenario files, tools). The values are passed on as given, an invalid one
+// as 0: the core itself answers BAD_ARGUMENT.
+inline constexpr std::uint8_t kJogDefaultSpeedPct = 10;
+// "+" -> +1, "-" -> -1, anything else 0.
+[[nodiscard]] constexpr std::int8_t jog_direction(const char* s, std::size_t n) noexcept {
+  if ((s == nullptr) || (n != 1U)) {
+    return 0;
+  }
+  return (s[0] == '+') ? std::int8_t{1} : ((s[0] == '-') ? std::int8_t{-1} : std::int8_t{0});
+}
+constexpr void set_jog(Command& c, std::int8_t axis, std::int8_t dir, std::uint8_t speed) noexcept {
+  c.axis = axis;
+  c.dir = dir;
+  c.speed = speed;
+}
+
 // One answer per command. `cmd`/`source` are the raw values received, so that an
 // unknown command is reported as what it was, not as a valid one.
 struct Reply {
