@@ -19,7 +19,8 @@
 //  - Connections (issue 40, gateway/README.md "Admission"): every one accepted at once;
 //    one that waits for a request head is bounded per peer and overall (the oldest silent
 //    one gives way: 503 + Retry-After, closed at once) and has 3 s for its first head
-//    (10 s for the next one, kept alive), else 408 and closed. --max-http counts requests
+//    (10 s for the next one, kept alive), else 408 and closed (a kept-alive connection
+//    that has not begun its next request is closed without a word, as keep-alive ends). --max-http counts requests
 //    in service (answered or upgraded); beyond, a request waits its turn, at most 1 s.
 //    503 and 408 to a connection that has had no answer yet are written without waiting
 //    (its send buffer is empty) and the descriptor closed at once: under a flood of silent
@@ -89,7 +90,9 @@ const std::string& timeout_answer() {
 void write_and_close(tcp::socket& s, const std::string& raw) {
   beast::error_code ec;
   s.non_blocking(true, ec);
-  s.write_some(asio::buffer(raw), ec);
+  if (!raw.empty()) {
+    s.write_some(asio::buffer(raw), ec);
+  }
   s.shutdown(tcp::socket::shutdown_both, ec);
   s.close(ec);
 }
@@ -399,6 +402,13 @@ void HttpSession::do_read(Clock::duration limit) {
   deadline_.expires_after(limit);
   deadline_.async_wait([self = shared_from_this(), gen](beast::error_code ec) {
     if (!ec && gen == self->gen_ && self->reading_ && !self->done_) {
+      if (self->answered_ && !self->parser_->got_some() && self->buffer_.size() == 0U) {
+        // A kept-alive connection that never began a next request: closed without a word,
+        // as keep-alive ends (a 408 here could be read as the answer to a request its
+        // client sends at this very moment).
+        self->say_and_close({});
+        return;
+      }
       self->ep_.http.count_head_timeout();
       self->say_and_close(timeout_answer());
     }

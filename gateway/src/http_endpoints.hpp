@@ -133,8 +133,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void answer(HttpAnswer a, bool close = false);
   void on_write(bool close, beast::error_code ec, std::size_t bytes);
   void leave_service();
-  // A canned answer written at once (it fits an empty socket buffer), then closed: the
-  // descriptor is free before this returns.
+  // A canned answer (none when empty) written at once (it fits an empty socket buffer),
+  // then closed: the descriptor is free before this returns.
   void say_and_close(const std::string& raw);
   void finish();
 
