@@ -85,7 +85,8 @@ int main(int argc, char** argv) {
   run->add_option("--allow-host", run_hosts, "a further Host name the server answers to");
   run->add_option("--max-clients", run_max_clients, "WebSocket clients at most (one slot kept for the pendant)")
       ->check(CLI::Range(2, 100000));
-  run->add_option("--max-http", run_max_http, "HTTP connections at most")->check(CLI::Range(1, 100000));
+  run->add_option("--max-http", run_max_http, "HTTP requests in service at once (answered or upgraded)")
+      ->check(CLI::Range(1, 100000));
   run->add_option("--cycle-us", run_opt.rt.cycle_us, "scan cycle in microseconds (250..4000)");
   run->add_option("--watchdog-ms", run_opt.rt.watchdog_ms, "fieldbus watchdog: a longer stall locks out")
       ->check(CLI::Range(1, 10000));
@@ -139,7 +140,8 @@ int main(int argc, char** argv) {
   gateway->add_option("--allow-host", gw_opt.allow_hosts, "a further Host name the server answers to");
   gateway->add_option("--max-clients", gw_opt.max_clients, "WebSocket clients at most (one slot kept for the pendant)")
       ->check(CLI::Range(2, 100000));
-  gateway->add_option("--max-http", gw_opt.max_http, "HTTP connections at most")->check(CLI::Range(1, 100000));
+  gateway->add_option("--max-http", gw_opt.max_http, "HTTP requests in service at once (answered or upgraded)")
+      ->check(CLI::Range(1, 100000));
   gateway->add_option("--static", gw_opt.static_dir, "folder of the HMI files served at /");
   safestate::ecat::EcatSimOptions ecat_opt;
   auto* ecat_sim = app.add_subcommand(

@@ -8,6 +8,8 @@
 //    sandboxed or file: page) is foreign.
 //  - Observers: bound beyond loopback an observer needs either token too (the same
 //    rule as /api/*: status and history are not for anyone on the network).
+//  - Connections (issue 40): see admission.hpp "connections"; the rule of who gives way
+//    is pick_shed, the bounds connection_limits, both without sockets (test_admission).
 #include "safestate/gateway/admission.hpp"
 
 #include <netdb.h>
@@ -238,6 +240,44 @@ std::string Access::hello_refusal(Role role, bool has_token, std::string_view to
       return {};
   }
   return "unknown role";
+}
+
+bool connection_limits(std::size_t fd_limit, std::size_t max_clients, std::size_t max_http, ConnectionLimits& out,
+                       std::string& error) {
+  out = ConnectionLimits{};
+  out.fd_limit = fd_limit;
+  const std::size_t others = 2U * max_clients + max_http + kMaxRefusing;
+  if (fd_limit < kOwnDescriptors + others + kMinWaiting) {
+    error = "RLIMIT_NOFILE " + std::to_string(fd_limit) + " leaves fewer than " + std::to_string(kMinWaiting) +
+            " connections waiting for a request once the gateway's own " + std::to_string(kOwnDescriptors) +
+            " descriptors, 2 x --max-clients, --max-http and " + std::to_string(kMaxRefusing) +
+            " refusals are counted: raise it (ulimit -n, LimitNOFILE=) or lower the caps";
+    return false;
+  }
+  out.waiting_max = std::min(kWaitingMax, fd_limit - kOwnDescriptors - others);
+  out.open_max = out.waiting_max + others;
+  out.waiting_per_peer = std::min(kWaitingPerPeer, out.waiting_max);
+  return true;
+}
+
+std::size_t pick_shed(const std::vector<WaitingConnection>& c, std::string_view peer,
+                      std::chrono::steady_clock::time_point now, std::chrono::steady_clock::duration kept_grace) {
+  std::size_t never = c.size();
+  std::size_t kept = c.size();
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const WaitingConnection& w = c[i];
+    if (!w.silent || (!peer.empty() && w.peer != peer)) {
+      continue;
+    }
+    if (!w.answered) {
+      if (never == c.size() || w.since < c[never].since) {
+        never = i;
+      }
+    } else if (now - w.since >= kept_grace && (kept == c.size() || w.since < c[kept].since)) {
+      kept = i;
+    }
+  }
+  return (never != c.size()) ? never : kept;
 }
 
 }  // namespace safestate::gateway

@@ -1,6 +1,7 @@
 // The gateway process: the listener, the timers and signals on one io_context thread,
 // in front of the Hub. Admission and authentication: admission.cpp; sessions and
-// fan-out: sessions.cpp; HTTP endpoints: http_endpoints.cpp; protocol messages:
+// fan-out: sessions.cpp; HTTP endpoints and the bounds on connections (slow and idle
+// clients, descriptors: issue 40): http_endpoints.cpp; protocol messages:
 // messages.cpp; the core side and the event feed: hub.cpp; the event log: event_log.cpp.
 //
 // Waking: while commands wait for the core's reply, the poll runs just after the core's
@@ -12,6 +13,7 @@
 
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -60,10 +62,13 @@ void say(const std::string& s) { std::fprintf(stderr, "safestate gateway: %s\n",
 volatile std::sig_atomic_t g_early_stop = 0;
 extern "C" void on_early_signal(int /*sig*/) { g_early_stop = 1; }
 
+// Accepts every connection as soon as it comes (HttpConnections::admit decides what
+// becomes of it), so that a fresh request never waits in the kernel's backlog behind a
+// crowd of slow or silent connections; only when limits.open_max connections are held and
+// none of them may give way does it wait (kRoomRetry) and the backlog hold the newcomers.
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
-  Listener(asio::io_context& ioc, Endpoints& ep, HttpSessions& http)
-      : acceptor_(ioc), retry_(ioc), ep_(ep), http_(http) {}
+  Listener(asio::io_context& ioc, Endpoints& ep) : acceptor_(ioc), retry_(ioc), ep_(ep) {}
 
   bool open(const tcp::endpoint& ep, std::string& error) {
     beast::error_code ec;
@@ -84,81 +89,63 @@ class Listener : public std::enable_shared_from_this<Listener> {
     return true;
   }
 
-  void run() { do_accept(); }
+  void run() { next(); }
 
   void stop() {
     beast::error_code ec;
     acceptor_.close(ec);
     retry_.cancel();
-    waiting_.close(ec);
   }
 
  private:
-  void do_accept() { acceptor_.async_accept(beast::bind_front_handler(&Listener::on_accept, shared_from_this())); }
+  void next() {
+    if (!acceptor_.is_open()) {
+      return;
+    }
+    if (ep_.http.make_room()) {
+      acceptor_.async_accept(beast::bind_front_handler(&Listener::on_accept, shared_from_this()));
+      return;
+    }
+    pause(kRoomRetry);
+  }
+
+  void pause(Clock::duration d) {
+    ep_.http.count_accept_paused();
+    retry_.expires_after(d);
+    retry_.async_wait([self = shared_from_this()](beast::error_code e) {
+      if (!e) {
+        self->next();
+      }
+    });
+  }
 
   void on_accept(beast::error_code ec, tcp::socket socket) {
     if (ec == asio::error::operation_aborted || !acceptor_.is_open()) {
       return;
     }
     if (ec) {
-      // e.g. out of file descriptors: do not spin
-      retry_.expires_after(50ms);
-      retry_.async_wait([self = shared_from_this()](beast::error_code e) {
-        if (!e) {
-          self->do_accept();
-        }
-      });
+      // Out of descriptors although the count had room (something else holds more than
+      // kOwnDescriptors): the oldest silent waiting connection gives way, and accepting
+      // goes on at once; else not before kErrorRetry (no spin).
+      const bool no_fds = ec == asio::error::no_descriptors || ec == boost::system::errc::too_many_files_open_in_system;
+      if (no_fds && ep_.http.shed_one()) {
+        next();
+        return;
+      }
+      pause(kErrorRetry);
       return;
     }
     beast::error_code nd;
     socket.set_option(tcp::no_delay(true), nd);
-    waiting_ = std::move(socket);
-    waiting_since_ = Clock::now();
-    try_admit();
+    ep_.http.admit(std::move(socket), ep_);
+    next();
   }
 
-  // The newcomer gets an HTTP slot (HttpSessions::admit: a free one, or one given away by
-  // a connection silent for kSilentLimit), or waits for one, accepting nobody else
-  // meanwhile: the others wait in the kernel's backlog, and in a burst a slot frees as
-  // soon as a connection has upgraded or been answered. One that has waited kSilentLimit
-  // is answered 503 + Retry-After, and so is every newcomer after it until a slot frees
-  // (at most kMaxRefusing answers in flight; beyond, newcomers wait again).
-  void try_admit() {
-    if (!acceptor_.is_open()) {
-      return;
-    }
-    if (http_.admit()) {
-      congested_ = false;
-      auto s = std::make_shared<HttpSession>(std::move(waiting_), ep_);
-      http_.add(s);
-      s->run();
-      do_accept();
-      return;
-    }
-    if ((congested_ || Clock::now() - waiting_since_ >= kSilentLimit) && *refusing_ < kMaxRefusing) {
-      congested_ = true;
-      refuse_busy(std::move(waiting_), refusing_);
-      do_accept();
-      return;
-    }
-    retry_.expires_after(kAdmitRetry);
-    retry_.async_wait([self = shared_from_this()](beast::error_code e) {
-      if (!e) {
-        self->try_admit();
-      }
-    });
-  }
-
-  static constexpr std::size_t kMaxRefusing = 64;
-  static constexpr auto kAdmitRetry = 2ms;
+  static constexpr auto kRoomRetry = 5ms;
+  static constexpr auto kErrorRetry = 50ms;
   tcp::acceptor acceptor_;
   asio::steady_timer retry_;
   Endpoints& ep_;
-  HttpSessions& http_;
-  tcp::socket waiting_{acceptor_.get_executor()};  // accepted, waiting for an HTTP slot
-  Clock::time_point waiting_since_{};
-  bool congested_ = false;
-  std::shared_ptr<std::size_t> refusing_ = std::make_shared<std::size_t>(0);
 };
 
 // A periodic timer without drift: a tick that comes late does not cost the next one (the
@@ -293,6 +280,24 @@ std::unique_ptr<bridge::Segment> attach(const std::string& name) {
   }
 }
 
+// The soft RLIMIT_NOFILE raised to the hard limit (a soft 1024 is a common default that
+// a descriptor-hungry load reaches first): what the gateway may hold from now on.
+std::size_t raise_fd_limit() {
+  rlimit r{};
+  if (::getrlimit(RLIMIT_NOFILE, &r) != 0) {
+    return 1024;
+  }
+  if (r.rlim_cur < r.rlim_max) {
+    rlimit want = r;
+    want.rlim_cur = r.rlim_max;
+    if (::setrlimit(RLIMIT_NOFILE, &want) == 0) {
+      r = want;
+    }
+  }
+  constexpr rlim_t kCeiling = 1U << 20U;  // the kernel's usual nr_open
+  return static_cast<std::size_t>(std::min<rlim_t>(r.rlim_cur, kCeiling));
+}
+
 bool resolve(const GatewayOptions& o, tcp::endpoint& ep) {
   beast::error_code ec;
   const auto addr = asio::ip::make_address(o.bind, ec);
@@ -342,6 +347,11 @@ int gateway_main(const GatewayOptions& options) {
     say("no event log path (--db PATH)");
     return 1;
   }
+  ConnectionLimits limits;
+  if (std::string why; !connection_limits(raise_fd_limit(), options.max_clients, options.max_http, limits, why)) {
+    say(why);
+    return 1;
+  }
   ::signal(SIGTERM, on_early_signal);
   ::signal(SIGINT, on_early_signal);
   std::unique_ptr<bridge::Segment> segment = attach(options.shm_name);
@@ -370,11 +380,12 @@ int gateway_main(const GatewayOptions& options) {
   // Declared before the io_context: sessions destroyed with it still detach from the hub.
   Hub hub(options, *segment, *log, writer, loopback);
   Sessions sessions(options.max_clients);
-  HttpSessions http(options.max_http);
-  Endpoints endpoints{hub, sessions, hub.access(), "safestate " + options.version};
+  HttpConnections http(options.max_http, limits);
+  hub.connection_figures([&http] { return http.figures(); });
+  Endpoints endpoints{hub, sessions, http, hub.access(), "safestate " + options.version};
   asio::io_context ioc{1};
   writer.on_done([&ioc, &hub] { asio::post(ioc, [&hub] { hub.collect_log(); }); });
-  auto listener = std::make_shared<Listener>(ioc, endpoints, http);
+  auto listener = std::make_shared<Listener>(ioc, endpoints);
   if (!listener->open(endpoint, error)) {
     say("cannot listen on " + options.bind + ":" + std::to_string(options.port) + ": " + error);
     return 1;
@@ -428,7 +439,9 @@ int gateway_main(const GatewayOptions& options) {
   status.start();
   liveness.start();
   say("listening on http://" + options.bind + ":" + std::to_string(options.port) + " (segment " +
-      options.shm_name + ", event log " + options.db_path + ")");
+      options.shm_name + ", event log " + options.db_path + "; at most " + std::to_string(limits.open_max) +
+      " connections of " + std::to_string(limits.fd_limit) + " descriptors, " + std::to_string(limits.waiting_max) +
+      " waiting for a request, " + std::to_string(limits.waiting_per_peer) + " of them from one address)");
   ioc.run();
   liveness.stop();
   writer.stop();  // what is queued is written; nothing is posted to the io_context after this

@@ -15,12 +15,22 @@
 //    box, /api/events/ID/blackbox.
 //  - Static paths with a `..` segment (also percent-encoded) or leaving the static
 //    folder are 400; unknown files 404; `/` without a built HMI is a small built-in
-//    page. `/ws` without Upgrade is 426. Request head: 8 KiB; 10 s to send it.
+//    page. `/ws` without Upgrade is 426. Request head: 8 KiB.
+//  - Connections (issue 40, gateway/README.md "Admission"): every one accepted at once;
+//    one that waits for a request head is bounded per peer and overall (the oldest silent
+//    one gives way: 503 + Retry-After, closed at once) and has 3 s for its first head
+//    (10 s for the next one, kept alive), else 408 and closed (a kept-alive connection
+//    that has not begun its next request is closed without a word, as keep-alive ends). --max-http counts requests
+//    in service (answered or upgraded); beyond, a request waits its turn, at most 1 s.
+//    503 and 408 to a connection that has had no answer yet are written without waiting
+//    (its send buffer is empty) and the descriptor closed at once: under a flood of silent
+//    connections nothing lingers.
 #include "http_endpoints.hpp"
 
 #include <array>
 #include <charconv>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "safestate/gateway/static_files.hpp"
@@ -51,21 +61,65 @@ bool parse_int64(std::string_view s, std::int64_t& out) {
 
 }  // namespace
 
-// ------------------------------------------------------------------ session
-// ------------------------------------------------------------------ refused: 503
+// ------------------------------------------------------------------ refused: 503, 408
 namespace {
-std::string busy_answer() {
-  const std::string body = "too many connections at once: try again in " + std::to_string(kRetryAfterSeconds) + " s\n";
-  return "HTTP/1.1 503 Service Unavailable\r\nServer: safestate\r\nContent-Type: text/plain; charset=utf-8\r\n"
-         "Cache-Control: no-store\r\nRetry-After: " +
-         std::to_string(kRetryAfterSeconds) + "\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) +
-         "\r\n\r\n" + body;
+std::string canned(const char* status, const std::string& body, bool retry_after) {
+  std::string a = std::string("HTTP/1.1 ") + status +
+                  "\r\nServer: safestate\r\nContent-Type: text/plain; charset=utf-8\r\nCache-Control: no-store\r\n";
+  if (retry_after) {
+    a += "Retry-After: " + std::to_string(kRetryAfterSeconds) + "\r\n";
+  }
+  return a + "Connection: close\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+}
+
+const std::string& busy_answer() {
+  static const std::string a = canned(
+      "503 Service Unavailable",
+      "too many connections at once: try again in " + std::to_string(kRetryAfterSeconds) + " s\n", true);
+  return a;
+}
+
+const std::string& timeout_answer() {
+  static const std::string a =
+      canned("408 Request Timeout", "the request head did not arrive in time: send it whole, then wait\n", false);
+  return a;
+}
+
+// Written at once on a socket whose send buffer is empty (a connection that has had no
+// answer yet, or whose answers are written), never blocking; then closed.
+void write_and_close(tcp::socket& s, const std::string& raw) {
+  beast::error_code ec;
+  s.non_blocking(true, ec);
+  if (!raw.empty()) {
+    s.write_some(asio::buffer(raw), ec);
+  }
+  s.shutdown(tcp::socket::shutdown_both, ec);
+  s.close(ec);
+}
+
+// The peer's address as bytes (an IPv4-mapped IPv6 address as its IPv4 one).
+std::string peer_key(const tcp::socket& s) {
+  beast::error_code ec;
+  const auto ep = s.remote_endpoint(ec);
+  if (ec) {
+    return "?";
+  }
+  auto a = ep.address();
+  if (a.is_v6() && a.to_v6().is_v4_mapped()) {
+    a = asio::ip::make_address_v4(asio::ip::v4_mapped, a.to_v6());
+  }
+  if (a.is_v4()) {
+    const auto b = a.to_v4().to_bytes();
+    return {b.begin(), b.end()};
+  }
+  const auto b = a.to_v6().to_bytes();
+  return {b.begin(), b.end()};
 }
 
 class Refusal : public std::enable_shared_from_this<Refusal> {
  public:
-  Refusal(tcp::socket&& s, std::shared_ptr<std::size_t> count)
-      : socket_(std::move(s)), timer_(socket_.get_executor()), count_(std::move(count)) {
+  Refusal(tcp::socket&& s, Seat seat, std::shared_ptr<std::size_t> count)
+      : socket_(std::move(s)), seat_(std::move(seat)), timer_(socket_.get_executor()), count_(std::move(count)) {
     if (count_) {
       ++*count_;
     }
@@ -78,7 +132,6 @@ class Refusal : public std::enable_shared_from_this<Refusal> {
     }
   }
   void run() {
-    static const std::string answer = busy_answer();
     timer_.expires_after(kSilentLimit);
     timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
       if (!ec) {
@@ -86,7 +139,7 @@ class Refusal : public std::enable_shared_from_this<Refusal> {
         self->socket_.close(e);  // the peer neither read nor closed: enough
       }
     });
-    asio::async_write(socket_, asio::buffer(answer), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+    asio::async_write(socket_, asio::buffer(busy_answer()), [self = shared_from_this()](beast::error_code ec, std::size_t) {
       if (ec) {
         self->timer_.cancel();
         return;
@@ -110,31 +163,226 @@ class Refusal : public std::enable_shared_from_this<Refusal> {
     });
   }
   tcp::socket socket_;
+  Seat seat_;
   asio::steady_timer timer_;
   std::shared_ptr<std::size_t> count_;
   std::array<char, 4096> sink_{};
 };
 }  // namespace
 
-void refuse_busy(tcp::socket socket, std::shared_ptr<std::size_t> count) {
-  std::make_shared<Refusal>(std::move(socket), std::move(count))->run();
+void refuse_busy(tcp::socket socket, Seat seat, std::shared_ptr<std::size_t> count) {
+  std::make_shared<Refusal>(std::move(socket), std::move(seat), std::move(count))->run();
+}
+
+// ------------------------------------------------------------------ the connections
+HttpConnections::HttpConnections(std::size_t max_service, const ConnectionLimits& limits)
+    : max_service_(max_service), limits_(limits) {}
+
+void HttpConnections::prune() {
+  std::erase_if(list_, [](const std::weak_ptr<HttpSession>& w) {
+    const auto s = w.lock();
+    return !s || !s->live();
+  });
+}
+
+bool HttpConnections::shed(std::string_view peer, const HttpSession* spare) {
+  std::vector<WaitingConnection> views;
+  std::vector<std::shared_ptr<HttpSession>> who;
+  for (const auto& w : list_) {
+    auto s = w.lock();
+    if (s && s->waiting() && s.get() != spare) {
+      views.push_back(s->view());
+      who.push_back(std::move(s));
+    }
+  }
+  // view() leaves out the socket: looked at for the chosen one only (one system call,
+  // not one per connection). Its request arriving, the next one is chosen, a few times at
+  // most: beyond, it is a burst whose requests are all arriving, and nobody gives way.
+  const auto now = Clock::now();
+  for (int tries = 0; tries < 8; ++tries) {
+    const std::size_t i = pick_shed(views, peer, now, kSilentLimit);
+    if (i == views.size()) {
+      return false;
+    }
+    if (who[i]->has_unread()) {
+      views[i].silent = false;
+      continue;
+    }
+    who[i]->shed();
+    ++shed_;
+    return true;
+  }
+  return false;
+}
+
+bool HttpConnections::make_room() {
+  if (*open_ < limits_.open_max) {
+    return true;
+  }
+  return shed_one();
+}
+
+bool HttpConnections::shed_one() {
+  prune();
+  return shed({}, nullptr);
+}
+
+void HttpConnections::admit(tcp::socket socket, Endpoints& ep) {
+  prune();
+  std::string peer = peer_key(socket);
+  std::size_t waiting = 0;
+  std::size_t of_peer = 0;
+  for (const auto& w : list_) {
+    const auto s = w.lock();
+    if (s && s->waiting()) {
+      ++waiting;
+      of_peer += (s->peer() == peer) ? 1U : 0U;
+    }
+  }
+  Seat seat(open_);
+  bool room = true;
+  if (of_peer >= limits_.waiting_per_peer) {
+    room = shed(peer, nullptr);
+    waiting -= room ? 1U : 0U;
+  }
+  if (room && waiting >= limits_.waiting_max) {
+    room = shed({}, nullptr);
+  }
+  if (!room) {
+    // Every connection waiting within the bound has its request arriving: the newcomer is
+    // told to come back (drained first when few are; at once beyond).
+    ++refused_;
+    if (*refusing_ < kMaxRefusing) {
+      refuse_busy(std::move(socket), std::move(seat), refusing_);
+    } else {
+      write_and_close(socket, busy_answer());
+    }
+    return;
+  }
+  auto s = std::make_shared<HttpSession>(std::move(socket), ep, std::move(seat), std::move(peer));
+  list_.push_back(s);
+  s->run();
+}
+
+bool HttpConnections::take_service() {
+  while (!queue_.empty()) {
+    const auto s = queue_.front().lock();
+    if (s && s->queued()) {
+      return false;  // first come, first served
+    }
+    queue_.pop_front();
+  }
+  if (in_service_ >= max_service_) {
+    return false;
+  }
+  ++in_service_;
+  return true;
+}
+
+void HttpConnections::queue_for_service(const std::shared_ptr<HttpSession>& s) { queue_.push_back(s); }
+
+void HttpConnections::release_service(const asio::any_io_executor& ex) {
+  release_service_quietly();
+  if (!serve_posted_ && !queue_.empty()) {
+    serve_posted_ = true;
+    asio::post(ex, [this] {
+      serve_posted_ = false;
+      serve_next();
+    });
+  }
+}
+
+void HttpConnections::release_service_quietly() noexcept {
+  if (in_service_ > 0U) {
+    --in_service_;
+  }
+}
+
+void HttpConnections::serve_next() {
+  while (in_service_ < max_service_ && !queue_.empty()) {
+    const auto s = queue_.front().lock();
+    queue_.pop_front();
+    if (s && s->queued()) {
+      ++in_service_;
+      s->serve();
+    }
+  }
+}
+
+ConnectionFigures HttpConnections::figures() const {
+  ConnectionFigures f;
+  f.known = true;
+  f.fd_limit = limits_.fd_limit;
+  f.open = *open_;
+  f.open_max = limits_.open_max;
+  f.waiting_max = limits_.waiting_max;
+  f.waiting_per_peer_max = limits_.waiting_per_peer;
+  f.in_service = in_service_;
+  f.in_service_max = max_service_;
+  f.first_head_limit_s = std::chrono::duration<double>(kFirstHeadLimit).count();
+  f.keep_alive_limit_s = std::chrono::duration<double>(kKeepAliveLimit).count();
+  f.shed_total = shed_;
+  f.head_timeouts_total = head_timeouts_;
+  f.refused_total = refused_;
+  f.accept_paused_total = accept_paused_;
+  std::map<std::string, std::size_t> per_peer;
+  for (const auto& w : list_) {
+    const auto s = w.lock();
+    if (s && s->waiting()) {
+      ++f.waiting;
+      f.waiting_peer_peak = std::max(f.waiting_peer_peak, ++per_peer[s->peer()]);
+    }
+  }
+  for (const auto& w : queue_) {
+    const auto s = w.lock();
+    f.service_queue += (s && s->queued()) ? 1U : 0U;
+  }
+  return f;
 }
 
 // ------------------------------------------------------------------ session
-bool HttpSession::evictable(Clock::time_point now) const {
-  if (!reading_ || evicted_ || now - since_ < kSilentLimit || (parser_ && parser_->is_header_done())) {
-    return false;
+HttpSession::HttpSession(tcp::socket&& socket, Endpoints& ep, Seat seat, std::string peer)
+    : stream_(std::move(socket)),
+      ep_(ep),
+      seat_(std::move(seat)),
+      peer_(std::move(peer)),
+      since_(Clock::now()),
+      deadline_(stream_.get_executor()),
+      wait_(stream_.get_executor()) {}
+
+HttpSession::~HttpSession() {
+  if (in_service_) {
+    ep_.http.release_service_quietly();  // only when the io_context goes: every other way out has left service
   }
-  beast::error_code ec;
-  // Bytes waiting unread: its request has come, the gateway has not read it yet.
-  return stream_.socket().available(ec) == 0U && !ec;
 }
 
-void HttpSession::evict() {
-  done_ = true;  // the slot is free now; the socket goes to refuse_busy once the read ends
-  evicted_ = true;
+WaitingConnection HttpSession::view() const {
+  WaitingConnection w;
+  w.peer = peer_;
+  w.since = since_;
+  w.answered = answered_;
+  w.silent = !(parser_ && parser_->is_header_done());  // the socket: has_unread(), asked of the chosen one
+  return w;
+}
+
+bool HttpSession::has_unread() const {
   beast::error_code ec;
-  stream_.socket().cancel(ec);
+  // Bytes waiting unread: its request has come, the gateway has not read it yet.
+  return stream_.socket().available(ec) > 0U && !ec;
+}
+
+void HttpSession::shed() { say_and_close(busy_answer()); }
+
+void HttpSession::say_and_close(const std::string& raw) {
+  done_ = true;
+  reading_ = false;
+  queued_ = false;
+  ++gen_;
+  deadline_.cancel();
+  wait_.cancel();
+  write_and_close(stream_.socket(), raw);  // the pending read ends (aborted) with nothing to do
+  seat_.release();
+  leave_service();
 }
 
 void HttpSession::finish() {
@@ -143,24 +391,37 @@ void HttpSession::finish() {
   stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
 }
 
-void HttpSession::do_read() {
+void HttpSession::do_read(Clock::duration limit) {
   parser_.emplace();
   parser_->header_limit(kHeadLimit);
   parser_->body_limit(kHeadLimit);
   reading_ = true;
   since_ = Clock::now();
-  stream_.expires_after(10s);
+  stream_.expires_never();
+  const auto gen = ++gen_;
+  deadline_.expires_after(limit);
+  deadline_.async_wait([self = shared_from_this(), gen](beast::error_code ec) {
+    if (!ec && gen == self->gen_ && self->reading_ && !self->done_) {
+      if (self->answered_ && !self->parser_->got_some() && self->buffer_.size() == 0U) {
+        // A kept-alive connection that never began a next request: closed without a word,
+        // as keep-alive ends (a 408 here could be read as the answer to a request its
+        // client sends at this very moment).
+        self->say_and_close({});
+        return;
+      }
+      self->ep_.http.count_head_timeout();
+      self->say_and_close(timeout_answer());
+    }
+  });
   http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
 }
 
 void HttpSession::on_read(beast::error_code ec, std::size_t /*bytes*/) {
   reading_ = false;
-  if (evicted_) {
-    stream_.expires_never();
-    if (stream_.socket().is_open()) {
-      refuse_busy(stream_.release_socket(), nullptr);
-    }
-    return;
+  ++gen_;
+  deadline_.cancel();
+  if (done_) {
+    return;  // given away or timed out: answered and closed already
   }
   if (ec == http::error::header_limit || ec == http::error::body_limit) {
     on_too_big(ec);
@@ -174,7 +435,45 @@ void HttpSession::on_read(beast::error_code ec, std::size_t /*bytes*/) {
     done_ = true;
     return;
   }
+  request_complete();
+}
+
+// A complete request: a service slot now, or in order of arrival (at most kServiceWait).
+void HttpSession::request_complete() {
+  answered_ = true;
+  if (ep_.http.take_service()) {
+    in_service_ = true;
+    dispatch();
+    return;
+  }
+  queued_ = true;
+  ep_.http.queue_for_service(shared_from_this());
+  const auto gen = ++gen_;
+  deadline_.expires_after(kServiceWait);
+  deadline_.async_wait([self = shared_from_this(), gen](beast::error_code e) {
+    if (!e && gen == self->gen_ && self->queued_ && !self->done_) {
+      self->queued_ = false;
+      self->ep_.http.count_refused();
+      HttpAnswer a = text_answer(503, "too many requests at once: try again later\n");
+      a.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
+      self->answer(std::move(a), true);
+    }
+  });
+}
+
+void HttpSession::serve() {
+  queued_ = false;
+  ++gen_;
+  deadline_.cancel();
+  in_service_ = true;
   dispatch();
+}
+
+void HttpSession::leave_service() {
+  if (in_service_) {
+    in_service_ = false;
+    ep_.http.release_service(stream_.get_executor());
+  }
 }
 
 void HttpSession::on_too_big(beast::error_code ec) {
@@ -244,9 +543,10 @@ void HttpSession::try_upgrade() {
   if (ep_.ws.admit()) {
     done_ = true;
     stream_.expires_never();
-    auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub);
+    auto ws = std::make_shared<WsSession>(stream_.release_socket(), ep_.hub, std::move(seat_));
     ep_.ws.add(ws);
     ws->run(parser_->release());
+    leave_service();
     return;
   }
   if (Clock::now() - upgrade_since_ >= kLobbyWait) {
@@ -280,6 +580,7 @@ void HttpSession::answer(HttpAnswer a, bool close) {
 }
 
 void HttpSession::on_write(bool close, beast::error_code ec, std::size_t /*bytes*/) {
+  leave_service();
   if (ec) {
     done_ = true;
     return;
@@ -289,7 +590,7 @@ void HttpSession::on_write(bool close, beast::error_code ec, std::size_t /*bytes
     return;
   }
   res_.reset();
-  do_read();
+  do_read(kKeepAliveLimit);
 }
 
 // ------------------------------------------------------------------ the answers
@@ -428,6 +729,9 @@ HttpAnswer Hub::metrics_answer() {
   x.core_heartbeat = segment_.header().core_heartbeat.load(std::memory_order_relaxed);
   x.events_stored = events_stored_;
   x.commands_by_result = commands_by_result_;
+  if (connection_figures_) {
+    x.connections = connection_figures_();
+  }
   return HttpAnswer{200, "text/plain; version=0.0.4; charset=utf-8", metrics_text(segment_.metrics(), x), {}};
 }
 

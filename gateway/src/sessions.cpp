@@ -94,8 +94,13 @@ Frame framed(std::uint8_t opcode, const std::string& payload) {
 }
 }  // namespace
 
-WsSession::WsSession(tcp::socket&& socket, Hub& hub)
-    : ws_(std::move(socket)), hub_(hub), tick_(ws_.get_executor()), hold_(ws_.get_executor()), since_(Clock::now()) {
+WsSession::WsSession(tcp::socket&& socket, Hub& hub, Seat seat)
+    : ws_(std::move(socket)),
+      hub_(hub),
+      seat_(std::move(seat)),
+      tick_(ws_.get_executor()),
+      hold_(ws_.get_executor()),
+      since_(Clock::now()) {
   beast::error_code ec;
   const auto ep = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
   loopback_ = !ec && is_loopback(ep.address());

@@ -35,13 +35,48 @@ inline constexpr std::size_t kDiscardLimit = 1024U * 1024U;
 
 bool is_loopback(asio::ip::address a);
 
+// One client connection held (its descriptor), counted in a shared count as long as it
+// lives: the listener's bound on connections of every kind (admission.hpp
+// connection_limits). Moves with the socket: HTTP session, WebSocket session, 503.
+class Seat {
+ public:
+  Seat() = default;
+  explicit Seat(std::shared_ptr<std::size_t> count) : count_(std::move(count)) {
+    if (count_) {
+      ++*count_;
+    }
+  }
+  Seat(const Seat&) = delete;
+  Seat& operator=(const Seat&) = delete;
+  Seat(Seat&& o) noexcept : count_(std::move(o.count_)) {}
+  Seat& operator=(Seat&& o) noexcept {
+    if (this != &o) {
+      release();
+      count_ = std::move(o.count_);
+    }
+    return *this;
+  }
+  ~Seat() { release(); }
+  // The descriptor is closed: no longer counted.
+  void release() noexcept {
+    if (count_) {
+      --*count_;
+      count_.reset();
+    }
+  }
+
+ private:
+  std::shared_ptr<std::size_t> count_;
+};
+
 class WsSession;
 
-// A connection may give its slot to a newcomer only when it has been silent this long:
-// an HTTP connection waiting this long for a complete request head (with nothing unread
-// in its socket), a WebSocket this long after its upgrade without a hello. In a burst, a
-// connection whose request or hello is already on its way is never evicted for a newcomer
-// (gateway/README.md "Admission").
+// A connection that has been admitted may give its slot to a newcomer only when it has
+// been silent this long: a WebSocket this long after its upgrade without a hello, an HTTP
+// connection kept alive this long after its last answer without a new request. In a
+// burst, a connection whose request or hello is already on its way is never evicted for a
+// newcomer. (A connection that has never sent a complete request gives way at a bound
+// whatever its age: admission.hpp pick_shed; gateway/README.md "Admission".)
 inline constexpr std::chrono::seconds kSilentLimit{1};
 // What a refused newcomer is told to wait before it tries again (HTTP Retry-After).
 inline constexpr int kRetryAfterSeconds = 1;
@@ -114,7 +149,7 @@ class Sessions : public Registry<WsSession> {
 // write (one system call for many frames: protocol.md "Fairness", batched writes).
 class WsSession : public Client, public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(tcp::socket&& socket, Hub& hub);
+  WsSession(tcp::socket&& socket, Hub& hub, Seat seat);
   ~WsSession() override;
 
   void run(http::request<http::string_body> req);
@@ -168,6 +203,7 @@ class WsSession : public Client, public std::enable_shared_from_this<WsSession> 
 
   websocket::stream<beast::tcp_stream> ws_;  // the handshake only
   Hub& hub_;
+  Seat seat_;
   http::request<http::string_body> req_;
   asio::steady_timer tick_;   // every second: hello deadline, keep-alive, stalled writes
   asio::steady_timer hold_;   // rate limit: reading resumes at hold_reads_until

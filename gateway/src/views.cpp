@@ -702,6 +702,47 @@ std::string metrics_text(const bridge::Metrics& m, const MetricsExtras& x) {
     s += core::to_string(static_cast<core::Result>(i));
     s += "\"} " + std::to_string(x.commands_by_result[i]) + '\n';
   }
+  const ConnectionFigures& c = x.connections;
+  if (!c.known) {
+    return s;
+  }
+  const auto z = [](std::size_t v) { return std::to_string(v); };
+  scalar(s, "safestate_gateway_fd_limit", "gauge", "The gateway's RLIMIT_NOFILE (soft, raised to the hard limit at start).",
+         z(c.fd_limit));
+  scalar(s, "safestate_gateway_connections", "gauge", "Client connections held, of every kind.", z(c.open));
+  scalar(s, "safestate_gateway_connections_max", "gauge",
+         "Bound on client connections (the descriptor limit less the gateway's own).", z(c.open_max));
+  scalar(s, "safestate_gateway_http_waiting", "gauge", "HTTP connections waiting for a request head.", z(c.waiting));
+  scalar(s, "safestate_gateway_http_waiting_max", "gauge",
+         "Bound on HTTP connections waiting for a request head, all peers (the oldest silent one gives way).",
+         z(c.waiting_max));
+  scalar(s, "safestate_gateway_http_waiting_peer_peak", "gauge",
+         "HTTP connections waiting for a request head from the peer address with the most of them.",
+         z(c.waiting_peer_peak));
+  scalar(s, "safestate_gateway_http_waiting_per_peer_max", "gauge",
+         "Bound on HTTP connections waiting for a request head from one peer address.", z(c.waiting_per_peer_max));
+  scalar(s, "safestate_gateway_http_in_service", "gauge", "HTTP requests being answered or upgraded.",
+         z(c.in_service));
+  scalar(s, "safestate_gateway_http_in_service_max", "gauge", "Bound on HTTP requests in service (--max-http).",
+         z(c.in_service_max));
+  scalar(s, "safestate_gateway_http_service_queue", "gauge", "Complete HTTP requests waiting for a service slot.",
+         z(c.service_queue));
+  scalar(s, "safestate_gateway_first_head_limit_seconds", "gauge",
+         "A new connection's first request head must be complete within this (else 408).", num(c.first_head_limit_s));
+  scalar(s, "safestate_gateway_keep_alive_limit_seconds", "gauge",
+         "A kept-alive connection's next request head must be complete within this.", num(c.keep_alive_limit_s));
+  scalar(s, "safestate_gateway_shed_total", "counter",
+         "Silent connections waiting for a request head that gave way to a newcomer (answered 503).",
+         std::to_string(c.shed_total));
+  scalar(s, "safestate_gateway_head_timeouts_total", "counter",
+         "Connections closed because their request head was not complete in time (answered 408).",
+         std::to_string(c.head_timeouts_total));
+  scalar(s, "safestate_gateway_refused_total", "counter",
+         "Newcomers and requests answered 503 for lack of room (nobody silent to give way, no service slot).",
+         std::to_string(c.refused_total));
+  scalar(s, "safestate_gateway_accept_paused_total", "counter",
+         "Times the listener waited for room or a descriptor before accepting again.",
+         std::to_string(c.accept_paused_total));
   return s;
 }
 

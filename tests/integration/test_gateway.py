@@ -14,6 +14,7 @@ import itertools
 import json
 import os
 import re
+import resource
 import signal
 import socket
 import subprocess
@@ -100,7 +101,8 @@ def opcua_args(args):
 class SafeState:
     """One `safestate run` on the simulated cell, with its gateway."""
 
-    def __init__(self, tmp_path, db=None, args=(), env=None):
+    def __init__(self, tmp_path, db=None, args=(), env=None, nofile=None):
+        """nofile: RLIMIT_NOFILE (soft and hard) of `safestate run` and so of its gateway."""
         self.port = free_port()
         self.db = str(db or (tmp_path / "events.db"))
         self.log_path = tmp_path / f"run-{self.port}.log"
@@ -111,7 +113,8 @@ class SafeState:
             [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS,
              *opcua_args(args), *args],
             stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT),
-            env={**os.environ, **(env or {})})
+            env={**os.environ, **(env or {})},
+            preexec_fn=(lambda: resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))) if nofile else None)
         token = (env or {}).get("SAFESTATE_PENDANT_TOKEN")
         try:
             wait_until(lambda: self.proc.poll() is not None or try_status(self.port, token),

@@ -1,10 +1,13 @@
 // Admission and authentication decisions of the gateway (protocol.md "Access and
-// admission"), without sockets: tokens, Host, Origin, bearer, start-up refusal.
+// admission"), without sockets: tokens, Host, Origin, bearer, start-up refusal, and the
+// bounds on slow and idle connections (issue 40): who gives way, how many fit.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "safestate/gateway/admission.hpp"
 
@@ -142,4 +145,73 @@ TEST(Admission, TokenFromFileWinsAndIsStripped) {
   EXPECT_FALSE(load_token("SAFESTATE_TEST_TOKEN", path, out, error));
   ::unsetenv("SAFESTATE_TEST_TOKEN");
   std::remove(path.c_str());
+}
+
+// ------------------------------------------------------------------ connections (issue 40)
+TEST(Connections, BoundsFollowTheDescriptorLimit) {
+  ConnectionLimits l;
+  std::string error;
+  // A soft and hard limit of 1024 with the default caps (64 WebSocket clients, 32 HTTP):
+  // 64 for the gateway itself, 2 x 64 + 32 + 64 for the WebSocket slots, the service
+  // slots and the 503s in flight, the rest waits for a request head.
+  ASSERT_TRUE(connection_limits(1024, 64, 32, l, error)) << error;
+  EXPECT_EQ(l.fd_limit, 1024U);
+  EXPECT_EQ(l.waiting_max, 1024U - 64U - 224U);
+  EXPECT_EQ(l.open_max, 1024U - 64U);
+  EXPECT_EQ(l.waiting_per_peer, kWaitingPerPeer);
+  EXPECT_LT(l.waiting_per_peer, l.waiting_max);
+  // Plenty of descriptors: waiting connections stay bounded all the same.
+  ASSERT_TRUE(connection_limits(1U << 20U, 64, 32, l, error)) << error;
+  EXPECT_EQ(l.waiting_max, kWaitingMax);
+  EXPECT_EQ(l.open_max, kWaitingMax + 224U);
+  EXPECT_EQ(l.waiting_per_peer, kWaitingPerPeer);
+  // Just enough, and one short: a clear refusal naming the limit, the bounds untouched.
+  ASSERT_TRUE(connection_limits(64 + 224 + kMinWaiting, 64, 32, l, error)) << error;
+  EXPECT_EQ(l.waiting_max, kMinWaiting);
+  EXPECT_EQ(l.waiting_per_peer, kMinWaiting);
+  EXPECT_FALSE(connection_limits(64 + 224 + kMinWaiting - 1, 64, 32, l, error));
+  EXPECT_NE(error.find("RLIMIT_NOFILE 303"), std::string::npos) << error;
+  EXPECT_EQ(l.open_max, 0U);
+}
+
+namespace {
+using Tp = std::chrono::steady_clock::time_point;
+WaitingConnection waiting(const std::string& peer, int since_ms, bool answered, bool silent) {
+  return WaitingConnection{peer, Tp(std::chrono::milliseconds(since_ms)), answered, silent};
+}
+}  // namespace
+
+TEST(Connections, TheOldestSilentNewcomerGivesWayNeverOneWhoseRequestArrives) {
+  const Tp now(std::chrono::milliseconds(10'000));
+  const auto grace = std::chrono::seconds(1);
+  std::vector<WaitingConnection> c{
+      waiting("A", 100, false, false),  // the oldest, but its request is arriving
+      waiting("A", 300, false, true),
+      waiting("A", 200, false, true),   // the oldest silent one
+      waiting("B", 50, true, true),     // kept alive, silent for 9.95 s: after every newcomer
+  };
+  EXPECT_EQ(pick_shed(c, "", now, grace), 2U);
+  EXPECT_EQ(pick_shed(c, "A", now, grace), 2U);
+  EXPECT_EQ(pick_shed(c, "B", now, grace), 3U);  // of B: its kept-alive one
+  EXPECT_EQ(pick_shed(c, "C", now, grace), c.size());
+  c[1].silent = false;
+  c[2].silent = false;
+  EXPECT_EQ(pick_shed(c, "", now, grace), 3U);
+  EXPECT_EQ(pick_shed(c, "A", now, grace), c.size());  // a burst: nobody gives way
+}
+
+TEST(Connections, AKeptAliveConnectionGivesWayOnlyAfterItsGrace) {
+  const Tp now(std::chrono::milliseconds(10'000));
+  const auto grace = std::chrono::seconds(1);
+  std::vector<WaitingConnection> c{
+      waiting("A", 9'500, true, true),  // answered half a second ago
+      waiting("A", 8'000, true, true),  // two seconds ago: may give way
+      waiting("A", 7'000, true, false),
+  };
+  EXPECT_EQ(pick_shed(c, "", now, grace), 1U);
+  c[1].since = Tp(std::chrono::milliseconds(9'001));
+  EXPECT_EQ(pick_shed(c, "", now, grace), c.size());
+  c.push_back(waiting("A", 9'999, false, true));  // a newcomer that never spoke: before them all
+  EXPECT_EQ(pick_shed(c, "", now, grace), 3U);
+  EXPECT_EQ(pick_shed({}, "", now, grace), 0U);
 }

@@ -4,8 +4,11 @@
 // sockets here: the transport asks, this file decides, so that it can be tested alone.
 #pragma once
 
+#include <chrono>
+#include <cstddef>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/gateway/protocol.hpp"
@@ -60,5 +63,62 @@ class Access {
   bool loopback_bind_;
   bool wildcard_bind_;
 };
+
+// ------------------------------------------------------------------ connections (issue 40)
+// Slow and idle clients: a connection that has not sent a complete request head yet holds
+// a descriptor and nothing else the gateway needs. Such connections are bounded per peer
+// address and overall, time out early, and the oldest silent one gives its place to a
+// newcomer, so that whatever opens sockets and waits, the pendant and a fresh request
+// are served (gateway/README.md "Admission").
+
+// A new connection's first request head must be complete within this (else 408 and
+// closed): a slowloris client, or one that connects and never sends a byte, goes early.
+// A client on the plant's network sends its head in one segment, milliseconds after
+// connecting.
+inline constexpr std::chrono::seconds kFirstHeadLimit{3};
+// After an answer, a connection kept alive has this long for its next request head.
+inline constexpr std::chrono::seconds kKeepAliveLimit{10};
+// HTTP connections waiting for a request head, from one peer address and from all. On
+// loopback every client shares one address: the newest are kept (the oldest silent one
+// gives way), so a pendant connecting among hundreds of squatters still gets in.
+inline constexpr std::size_t kWaitingPerPeer = 512;
+inline constexpr std::size_t kWaitingMax = 2048;
+// Descriptors the gateway keeps for itself: the event log (two connections, WAL, shm),
+// the segment, epoll, timers, a static file being read, stdio.
+inline constexpr std::size_t kOwnDescriptors = 64;
+// 503 answers in flight at once (each drains what its client sent, at most 1 s).
+inline constexpr std::size_t kMaxRefusing = 64;
+// Fewer waiting connections than this and the caps do not fit the descriptors.
+inline constexpr std::size_t kMinWaiting = 16;
+
+struct ConnectionLimits {
+  std::size_t fd_limit = 0;          // RLIMIT_NOFILE (soft) as the gateway runs with it
+  std::size_t open_max = 0;          // client connections at once, of every kind
+  std::size_t waiting_max = 0;       // HTTP connections waiting for a request head, all peers
+  std::size_t waiting_per_peer = 0;  // ... from one peer address
+};
+
+// The bounds for a descriptor limit: open_max leaves kOwnDescriptors to the gateway;
+// waiting_max is what open_max leaves once every WebSocket slot (2 x max_clients: the
+// lobby and those that said hello), every service slot (max_http) and the 503s in flight
+// have theirs, at most kWaitingMax; waiting_per_peer at most waiting_max. False and
+// `error` (naming the limit) when fewer than kMinWaiting remain.
+bool connection_limits(std::size_t fd_limit, std::size_t max_clients, std::size_t max_http, ConnectionLimits& out,
+                       std::string& error);
+
+// A connection waiting for a request head, as the shedding rule sees it.
+struct WaitingConnection {
+  std::string peer;                             // its peer address (bytes; equal: the same peer)
+  std::chrono::steady_clock::time_point since;  // waiting since (its accept, or its last answer)
+  bool answered = false;                        // it has had an answer before (kept alive)
+  bool silent = false;  // no complete head and nothing unread in its socket: not about to be served
+};
+
+// Who gives way when a bound is reached (index into `c`, or c.size() for nobody): among
+// the silent ones (of `peer`, unless it is empty), the oldest that has never had an
+// answer; else the oldest kept-alive one silent for at least `kept_grace`. A connection
+// whose request is arriving (not silent) never gives way.
+std::size_t pick_shed(const std::vector<WaitingConnection>& c, std::string_view peer,
+                      std::chrono::steady_clock::time_point now, std::chrono::steady_clock::duration kept_grace);
 
 }  // namespace safestate::gateway

@@ -145,6 +145,8 @@ class Hub {
   void flush();
   // GET `target` (path and query).
   HttpAnswer http_get(std::string_view target);
+  // Where /metrics finds the connections and their bounds (the transport's).
+  void connection_figures(std::function<ConnectionFigures()> fn) { connection_figures_ = std::move(fn); }
 
   // The core's process has died (SIGKILL, crash): the gateway has nothing to serve.
   [[nodiscard]] bool core_gone() const;
@@ -212,6 +214,7 @@ class Hub {
   void log_error(const std::string& what);
 
   GatewayOptions options_;
+  std::function<ConnectionFigures()> connection_figures_;
   bridge::Segment& segment_;
   EventLog& log_;
   EventWriter& writer_;

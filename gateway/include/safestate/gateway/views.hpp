@@ -81,11 +81,33 @@ Json event_message(std::int64_t id, std::uint64_t t, const std::string& time, co
 Json robot_json();
 
 // GET /metrics (Prometheus text exposition format 0.0.4).
+// The gateway's connections and their bounds (issue 40; gateway/README.md "Admission").
+struct ConnectionFigures {
+  bool known = false;  // false: none to show (no listener)
+  std::size_t fd_limit = 0;
+  std::size_t open = 0;  // client connections of every kind
+  std::size_t open_max = 0;
+  std::size_t waiting = 0;  // HTTP connections waiting for a request head
+  std::size_t waiting_max = 0;
+  std::size_t waiting_peer_peak = 0;  // from the peer address with the most of them now
+  std::size_t waiting_per_peer_max = 0;
+  std::size_t in_service = 0;  // requests being answered or upgraded
+  std::size_t in_service_max = 0;
+  std::size_t service_queue = 0;  // complete requests waiting for a service slot
+  double first_head_limit_s = 0.0;
+  double keep_alive_limit_s = 0.0;
+  std::uint64_t shed_total = 0;           // silent waiting connections that gave way (503)
+  std::uint64_t head_timeouts_total = 0;  // closed for a head not complete in time (408)
+  std::uint64_t refused_total = 0;        // newcomers and requests answered 503 for lack of room
+  std::uint64_t accept_paused_total = 0;  // times the listener waited for room (or a descriptor)
+};
+
 struct MetricsExtras {
   std::size_t ws_clients = 0;
   std::uint64_t core_heartbeat = 0;
   std::uint64_t events_stored = 0;
   std::array<std::uint64_t, core::kResultCount> commands_by_result{};
+  ConnectionFigures connections;
 };
 std::string metrics_text(const bridge::Metrics& m, const MetricsExtras& x);
 
