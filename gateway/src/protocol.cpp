@@ -117,7 +117,7 @@ void fill_jog(const Json& j, core::Command& c) {
   const auto speed = j.find("speed");
   const std::string* d = (dir != j.end() && dir->is_string()) ? &dir->get_ref<const std::string&>() : nullptr;
   core::set_jog(c, (axis == j.end()) ? std::int8_t{0} : integer_or<std::int8_t>(*axis, 0),
-                (d == nullptr) ? std::int8_t{0} : core::jog_direction(d->data(), d->size()),
+                (d == nullptr) ? std::int8_t{0} : core::jog_direction(*d),
                 (speed == j.end()) ? core::kJogDefaultSpeedPct : integer_or<std::uint8_t>(*speed, 0));
 }
 

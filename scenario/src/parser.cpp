@@ -311,7 +311,7 @@ Field field_or(std::string_view s, Field invalid) noexcept {
 void fill_jog(const Tokens& args, std::size_t first, core::Command& c) noexcept {
   const std::size_t n = args.size() - first;
   core::set_jog(c, (n >= 1) ? field_or<std::int8_t>(args[first], 0) : std::int8_t{0},
-                (n >= 2) ? core::jog_direction(args[first + 1].data(), args[first + 1].size()) : std::int8_t{0},
+                (n >= 2) ? core::jog_direction(args[first + 1]) : std::int8_t{0},
                 (n >= 3) ? field_or<std::uint8_t>(args[first + 2], 0) : core::kJogDefaultSpeedPct);
   if (n > 3) {
     c.axis = 0;  // too many arguments: still sent, refused by the core (BAD_ARGUMENT)

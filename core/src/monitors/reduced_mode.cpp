@@ -25,11 +25,11 @@ void ReducedMode::update(std::uint8_t sources, Cycle ramp, float limit) noexcept
 // @req LIM-REDUCED COL-FIELD-REDUCED
 void ReducedMode::check(const CycleView& v, Reporter& rep) noexcept {
   LimitReport& r = rep.facts().limits;
-  const auto sources = static_cast<std::uint8_t>((r.in_reduced_zone ? kReducedByZone : 0U) |
+  const auto asking = static_cast<std::uint8_t>((r.in_reduced_zone ? kReducedByZone : 0U) |
                                                  (v.in.reduced_requested ? kReducedByInput : 0U) |
                                                  (v.facts.fields.outer_reduces ? kReducedByField : 0U));
-  r.reduced_limit_mm_s = reduced_limit_mm_s(*v.limits, sources);
-  update(sources, ramp_, r.reduced_limit_mm_s);
+  r.reduced_limit_mm_s = reduced_limit_mm_s(*v.limits, asking);
+  update(asking, ramp_, r.reduced_limit_mm_s);
   r.reduced_enforced = enforced();
   rep.hold(AlarmId::REDUCED_SPEED, active(), detail_of(Signal::reduced, Channel::none, r.reduced_zone, sources_));
 }

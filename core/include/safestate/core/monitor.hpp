@@ -146,17 +146,17 @@ struct CycleView {
   const StateVariant& state;  // the state's own data (arming step, stop time)
   const CycleFacts& facts;    // what the monitors before this one found
   // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
-  const SafetyLimits* limits;  // SPEC §10, as configured (normalised); nullptr: not monitored
-  Leaf leaf;                  // the state at the start of the cycle
-  bool powered;               // ARMING, OPERATIONAL, STOPPING
-  Cycle now;
-  Mode armed_mode;            // the mode in which servo_on was accepted
-  Cycle last_jog;             // the cycle of the last jog keep-alive
-  bool boot_pending;          // BOOT's checks have not passed before this cycle
-  bool integrity_fault;       // the supervisor's own consistency checks failed
-  bool self_test_ok;          // the supervisor's own start-up self-test passed
-  bool config_validated;      // SPEC §10
-  Commanded last;             // outputs of the previous cycle
+  const SafetyLimits* limits = nullptr;  // SPEC §10, as configured (normalised); nullptr: not monitored
+  Leaf leaf = Leaf::BOOT;                 // the state at the start of the cycle
+  bool powered = false;              // ARMING, OPERATIONAL, STOPPING
+  Cycle now = 0;
+  Mode armed_mode = Mode::NONE;           // the mode in which servo_on was accepted
+  Cycle last_jog = 0;            // the cycle of the last jog keep-alive
+  bool boot_pending = true;         // BOOT's checks have not passed before this cycle
+  bool integrity_fault = false;      // the supervisor's own consistency checks failed
+  bool self_test_ok = false;         // the supervisor's own start-up self-test passed
+  bool config_validated = false;     // SPEC §10
+  Commanded last{};           // outputs of the previous cycle
 };
 
 // ---- What a monitor says ----------------------------------------------------------------

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string_view>
 
 namespace safestate::core {
 
@@ -115,11 +116,11 @@ struct Command {
 // as 0: the core itself answers BAD_ARGUMENT.
 inline constexpr std::uint8_t kJogDefaultSpeedPct = 10;
 // "+" -> +1, "-" -> -1, anything else 0.
-[[nodiscard]] constexpr std::int8_t jog_direction(const char* s, std::size_t n) noexcept {
-  if ((s == nullptr) || (n != 1U)) {
-    return 0;
+[[nodiscard]] constexpr std::int8_t jog_direction(std::string_view s) noexcept {
+  if (s == "+") {
+    return 1;
   }
-  return (s[0] == '+') ? std::int8_t{1} : ((s[0] == '-') ? std::int8_t{-1} : std::int8_t{0});
+  return (s == "-") ? std::int8_t{-1} : std::int8_t{0};
 }
 constexpr void set_jog(Command& c, std::int8_t axis, std::int8_t dir, std::uint8_t speed) noexcept {
   c.axis = axis;
