@@ -52,15 +52,14 @@ Cause alarm_cause(std::uint8_t rule, AlarmId a, const AlarmDetail& d, Mode m) no
 
 }  // namespace
 
-// The data of one cycle, alive only during step(): it views the cycle's inputs and writes
-// its outputs, so it holds references by design.
+// One cycle's data, alive only during step(): it views inputs, writes outputs (references).
 struct SystemStateManager::CycleCtx {
   // NOLINTBEGIN(cppcoreguidelines-avoid-const-or-ref-data-members): a view for one call
   const SafetyInputs& in;
   const Feedback& fb;
   SupervisorOut& out;
   // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
-  Reporter rep;  // what the monitors found this cycle
+  Reporter& rep;  // what the monitors found this cycle (the manager's, begun for it)
   Leaf start_leaf = Leaf::BOOT;
   bool cat0 = false;
   bool discard = false;
@@ -162,16 +161,16 @@ bool SystemStateManager::evaluate_conditions(CycleCtx& c) noexcept {
     const std::uint8_t rule = kConditionRule[t];
     bool holds = false;
     Cause cause{};
-    if ((rep.found() & kRuleMasks[t]) != 0U) {
-      const RuleAlarms& ra = kRuleAlarms[t];
-      for (std::size_t k = 0; k < ra.count; ++k) {
-        const AlarmId a = ra.alarms[k];
-        if ((rep.found() & bit(a)) != 0U) {
-          alarms_.raise(a, rep.detail(a), now_);
-          if (!holds) {
-            cause = alarm_cause(rule, a, rep.detail(a), c.in.mode);
-            holds = true;
-          }
+    AlarmMask left = rep.found() & kRuleMasks[t];  // this rule's alarms found, not raised yet
+    const RuleAlarms& ra = kRuleAlarms[t];
+    for (std::size_t k = 0; (k < ra.count) && (left != 0U); ++k) {
+      const AlarmId a = ra.alarms[k];
+      if ((left & bit(a)) != 0U) {
+        left &= ~bit(a);
+        alarms_.raise(a, rep.detail(a), now_);
+        if (!holds) {
+          cause = alarm_cause(rule, a, rep.detail(a), c.in.mode);
+          holds = true;
         }
       }
     }
@@ -545,7 +544,8 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
                                      SupervisorOut& out) noexcept {
   out.reply_count = 0;
   out.transition_count = 0;
-  CycleCtx c{in, fb, out, Reporter{alarms_, now_}, leaf_};
+  rep_.begin(alarms_, now_);
+  CycleCtx c{in, fb, out, rep_, leaf_};
 
   // @req CYC-ORDER CYC-ZERO-DELAY
   alarms_.begin_cycle();

@@ -10,6 +10,7 @@ namespace safestate::core {
 
 // @req TR-BOOT-FAILED
 void BootMonitor::check(const CycleView& v, Reporter& r) noexcept {
+  r.facts().boot_passed = false;
   if (!v.boot_pending) {
     return;
   }

@@ -10,6 +10,7 @@ void StandstillMonitor::check(const CycleView& v, Reporter& r) noexcept {
   CycleFacts& f = r.facts();
   bool still = true;
   float fastest = 0.0F;
+  f.fastest_moving_axis = 0U;
   for (std::size_t i = 0; i < kAxes; ++i) {
     const float w = v.fb.drive[i].velocity_rad_s;
     const float aw = (w < 0.0F) ? -w : w;

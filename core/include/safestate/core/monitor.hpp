@@ -161,9 +161,18 @@ struct CycleView {
 
 // ---- What a monitor says ----------------------------------------------------------------
 
+// One per supervisor, begun again every cycle: nothing of it is value-initialised per cycle
+// (a byte-wise memset of the facts in newlib-nano on the Cortex-M4); each monitor writes
+// its own facts whole every cycle.
 class Reporter {
  public:
-  Reporter(AlarmSet& alarms, Cycle now) noexcept : alarms_(alarms), now_(now) {}
+  void begin(AlarmSet& alarms, Cycle now) noexcept {
+    alarms_ = &alarms;
+    now_ = now;
+    found_ = 0U;
+    present_ = 0U;
+    events_ = 0U;
+  }
 
   // The condition of `a`'s rule holds with `a` (the first detail of the cycle is kept).
   void trip(AlarmId a, const AlarmDetail& d) noexcept {
@@ -182,13 +191,13 @@ class Reporter {
     event_detail_[i] = d;
   }
   // Raised now, whatever the state.
-  void raise(AlarmId a, const AlarmDetail& d) noexcept { alarms_.raise(a, d, now_); }
+  void raise(AlarmId a, const AlarmDetail& d) noexcept { alarms_->raise(a, d, now_); }
   // Active while `holds`.
   void hold(AlarmId a, bool holds, const AlarmDetail& d) noexcept {
     if (holds) {
-      alarms_.raise(a, d, now_);
+      alarms_->raise(a, d, now_);
     } else {
-      alarms_.clear(a);
+      alarms_->clear(a);
     }
   }
   // `a`'s cause is still there: a reset is refused while `a` is active.
@@ -204,14 +213,14 @@ class Reporter {
   [[nodiscard]] AlarmMask present_mask() const noexcept { return present_; }
 
  private:
-  AlarmSet& alarms_;  // NOLINT(cppcoreguidelines-avoid-const-or-ref-data-members): one cycle's
-  Cycle now_;
+  AlarmSet* alarms_ = nullptr;  // the supervisor's, set by begin()
+  Cycle now_ = 0;
   AlarmMask found_ = 0U;
   AlarmMask present_ = 0U;
   std::uint16_t events_ = 0U;
   // Read only for the alarms in found_ / the rules in events_: not cleared per cycle.
-  std::array<AlarmDetail, kAlarmCount> detail_;             // NOLINT(cppcoreguidelines-pro-type-member-init)
-  std::array<AlarmDetail, kConditionCount> event_detail_;   // NOLINT(cppcoreguidelines-pro-type-member-init)
+  std::array<AlarmDetail, kAlarmCount> detail_{};
+  std::array<AlarmDetail, kConditionCount> event_detail_{};
   CycleFacts facts_{};
 };
 

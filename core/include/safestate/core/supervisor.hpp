@@ -159,6 +159,7 @@ class SystemStateManager {
   // so that it may resume by itself.
   bool field_paused_ = false;
 
+  Reporter rep_;  // begun every cycle
   // The monitors (monitor.hpp), in the order run_monitors() runs them.
   StandstillMonitor standstill_;
   EstopMonitor estop_;
