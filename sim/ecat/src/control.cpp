@@ -294,6 +294,8 @@ nlohmann::json dc_status(EmulatedCell& cell) {
   return dc;
 }
 
+double tenth(float v) { return std::round(static_cast<double>(v) * 10.0) / 10.0; }
+
 std::string status(EmulatedCell& cell) {
   nlohmann::json j;
   const hal::ProcessImageOut& o = cell.last_outputs();
@@ -308,7 +310,10 @@ std::string status(EmulatedCell& cell) {
                 {"steps", {{"exchange", st.exchange}, {"sync0", st.sync0}, {"free", st.free}}},
                 {"extrapolated", st.extrapolated},
                 {"held", st.held},
-                {"max_point_speed_mm_s", std::round(static_cast<double>(cell.max_point_speed_mm_s()) * 10.0) / 10.0}};
+                {"multi_step", st.multi_step},
+                {"max_point_speed_mm_s", tenth(cell.max_point_speed_mm_s())},
+                {"max_point_speed_multi_step_mm_s", tenth(cell.max_point_speed_multi_step_mm_s())},
+                {"max_point_speed_one_step_mm_s", tenth(cell.max_point_speed_one_step_mm_s())}};
   j["frames"] = cell.segment().frames();
   j["lost_replies"] = cell.segment().lost_replies();
   j["connected"] = cell.segment().connected();
