@@ -42,7 +42,7 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None):
+    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None, sim_lines=()):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
         # The event log in memory: on this VM a synchronous disk write stalls the other CPU
@@ -65,6 +65,8 @@ class Cell:
             if not sim_late_s:
                 self.sim = start_sim()
                 self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
+                for line in sim_lines:  # control lines before the master starts (a `freeze ... at-op`)
+                    assert self.control_line(line) == "OK", line
             self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN,
                                   "--ecat-sim-control", self.control, "--port",
                                   str(self.port), "--db", os.path.join(self.shm.name, "ev.db"), "--static",
@@ -244,40 +246,47 @@ def fresh_cell():
 T1_LIMIT_MM_S = 250.0
 
 
-def arm_really_fast(c):
-    """A T1 speed alarm the arm earned: the emulated plant, paced by SYNC0, itself moved a
-    point faster than the T1 limit (`status` -> plant.max_point_speed_mm_s, from its own
-    positions and velocities): frames late past their SYNC0 twice and then two in one cycle
-    make an emulated drive stand for a pulse and take two steps in the next, as a real one
-    would (cell.hpp). The core was right; the host's timing made the arm fast, not the frame
-    loss under test. Returns (whether, what the emulator saw)."""
-    s = c.status() or {}
+def t1_verdict(c):
+    """Whether the core raised T1_SPEED_EXCEEDED, and the emulated plant's own record since the
+    last `plant reset`. The plant, paced by SYNC0, counts the pulses that applied more than one
+    set-point at once (`multi_step`: frames the host delivered late past their SYNC0, so that an
+    axis stood for a pulse and took two steps in the next, as a real drive would; cell.hpp) and
+    the arm's peak point speed at those pulses and at every other one. An alarm is earned only
+    when the arm itself went past the limit at such a pulse: then the core was right and the
+    host's timing, not what the test exercises, made the arm fast. The test knows it from this
+    record, it does not run again. Every T1 test here asserts, from the record:
+      - at every pulse that applied one set-point the arm kept to the limit (the jog's own speed);
+      - an alarm, if any, was earned (multi_step > 0 and the arm over the limit there)."""
+    st = c.status() or {}
     plant = (c.wire() or {}).get("plant", {})
-    fast = plant.get("max_point_speed_mm_s", 0.0) > T1_LIMIT_MM_S
-    return "T1_SPEED_EXCEEDED" in s.get("alarms", []) and fast, plant
+    alarmed = "T1_SPEED_EXCEEDED" in st.get("alarms", [])
+    assert plant.get("max_point_speed_one_step_mm_s", 0.0) <= T1_LIMIT_MM_S, \
+        ("the arm went over the T1 limit at a pulse that applied one set-point: the jog itself was too fast", plant)
+    if alarmed:
+        earned = plant.get("multi_step", 0) > 0 and plant.get("max_point_speed_multi_step_mm_s", 0.0) > T1_LIMIT_MM_S
+        assert earned, ("T1_SPEED_EXCEEDED that the emulated arm did not earn", plant, st, c.log("run"))
+        print(f"T1_SPEED_EXCEEDED earned: the emulated arm at {plant['max_point_speed_multi_step_mm_s']} mm/s at one of "
+              f"{plant['multi_step']} SYNC0 pulses that applied more than one set-point (frames late on this host; "
+              f"one-step peak {plant['max_point_speed_one_step_mm_s']} mm/s)", flush=True)
+    return alarmed, plant
 
 
 def host_stall_retry(test):
     """For the tests that are not about losing the bus: when one fails and the cell had locked
-    out by a host stall (host_stalled), or stopped on a T1 speed the emulated arm really reached
-    because the host sent frames late (arm_really_fast), it runs once more on a fresh cell,
-    saying so. A failure without that evidence, or twice, is a failure."""
+    out by a host stall (host_stalled: FIELDBUS_LOST with the loop itself woken two cycles late
+    or more, correct by SPEC §4 rule 1 once BOOT is over), it runs once more on a fresh cell,
+    saying so. A failure without that evidence, or twice, is a failure. (A T1 alarm the arm
+    earned is not retried: the tests know it from the emulator's record, t1_verdict.)"""
     @functools.wraps(test)
     def wrapper(cell, *args, **kwargs):
         try:
             return test(cell, *args, **kwargs)
         except AssertionError:
             stalled, late = host_stalled(cell)
-            fast, plant = arm_really_fast(cell)
-            if not stalled and not fast:
+            if not stalled:
                 raise
-            if stalled:
-                print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
-                      "run once more on a fresh cell", flush=True)
-            else:
-                print(f"{test.__name__}: T1_SPEED_EXCEEDED with the emulated arm itself at "
-                      f"{plant.get('max_point_speed_mm_s')} mm/s (set-points held at {plant.get('held')} SYNC0 "
-                      "pulses: frames late on this host); run once more on a fresh cell", flush=True)
+            print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                  "run once more on a fresh cell", flush=True)
             cell.close()
             again = fresh_cell()
             try:
@@ -367,10 +376,12 @@ def test_t1_jog_moves_the_emulated_axis(cell):
     assert cell.control_line("in enable=centre") == "OK"  # in T1 power needs the enabling device held
     s = cell.pendant("servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
+    assert cell.control_line("plant reset") == "OK"  # the plant's record (t1_verdict) from here
     before = cell.wire()["joints"][0]
     s = cell.pendant("jog:1:+:50", "OPERATIONAL")
     after = cell.wire()["joints"][0]
-    assert s["sub"] == "MANUAL_JOGGING", s
+    alarmed, _ = t1_verdict(cell)  # an alarm only if the arm earned it
+    assert s["sub"] == "MANUAL_JOGGING" or alarmed, s
     assert after > before + 0.01, (before, after, s)  # measured by the emulated drive, read back over the bus
 
 
@@ -502,28 +513,45 @@ def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(ce
     moves) but its answer never comes back: that cycle is stale, its positions held. The
     motion layer keeps the last speeds and differentiates the next sample over both
     cycles: a T1 jog at the 250 mm/s cap raises no T1_SPEED_EXCEEDED (it did when the
-    next sample's two cycles of motion were divided by one)."""
+    next sample's two cycles of motion were divided by one).
+
+    Issue 40: the host may also deliver frames late past their SYNC0, and the emulated arm then
+    really takes two steps in one pulse, over the cap: the core's alarm is right there. Every
+    jog's outcome is judged by the emulator's own record (t1_verdict): no alarm the arm did not
+    earn, and the jog itself within the cap. A jog an earned alarm stopped (Cat 0) does not count
+    towards the frames lost while jogging: the cell is reset and jogs again, until 10 answers
+    were lost in jogs that went on to their end (at most 5 jogs)."""
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
     cell.pendant("reset", "IDLE")
     assert cell.control_line("in enable=centre") == "OK"
-    s = cell.pendant("servo_on", "OPERATIONAL")
-    assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
     assert cell.control_line("fault lose-every 100") == "OK"
-    assert cell.control_line("plant reset") == "OK"  # the arm's own peak speed from here
-    before = cell.wire()["joints"][0]
-    s = cell.pendant("jog:1:+:100", "OPERATIONAL")
-    w = cell.wire()
-    print("T1 jog with 1 % frames lost:", w["lost_replies"], "answers lost;",
-          cell.metric("safestate_fieldbus_stale_cycles_total"), "stale cycles; plant", w["plant"],
-          "; SYNC0 of drive 1", w["dc"]["stats"][2], "; status", s)
-    assert w["lost_replies"] >= 10, w
-    assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 10
-    assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
-    assert w["plant"]["max_point_speed_mm_s"] <= T1_LIMIT_MM_S, w["plant"]  # the arm kept to it: the core saw that
-    assert w["joints"][0] > before + 0.05, (before, w["joints"][0])  # it did jog
-    st = cell.status()
-    assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st
+    lost, stale, jogs, moved = 0, 0, 0, 0.0
+    while lost < 10:
+        assert jogs < 5, f"{jogs} jogs, {lost} answers lost in those that went on to their end"
+        jogs += 1
+        if (cell.status() or {}).get("state") != "OPERATIONAL":
+            s = cell.pendant("servo_on", "OPERATIONAL")
+            assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
+        assert cell.control_line("plant reset") == "OK"  # the arm's own record from here
+        w0, stale0 = cell.wire(), cell.metric("safestate_fieldbus_stale_cycles_total")
+        s = cell.pendant("jog:1:+:100", "OPERATIONAL")
+        w = cell.wire()
+        alarmed, plant = t1_verdict(cell)
+        print(f"T1 jog {jogs} with 1 % frames lost:", w["lost_replies"] - w0["lost_replies"], "answers lost;",
+              cell.metric("safestate_fieldbus_stale_cycles_total") - stale0, "stale cycles; plant", plant,
+              "; SYNC0 of drive 1", w["dc"]["stats"][2], "; status", s, flush=True)
+        if alarmed:
+            cell.pendant("reset", "IDLE")  # earned (t1_verdict): this jog does not count
+            continue
+        assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
+        st = cell.status()
+        assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st
+        lost += w["lost_replies"] - w0["lost_replies"]
+        stale += cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+        moved += w["joints"][0] - w0["joints"][0]
+    assert stale >= 10, stale  # each lost answer left a stale cycle
+    assert moved > 0.05, moved  # it did jog
 
 
 def test_a_segment_that_powers_up_after_the_controller_is_scanned_again():
@@ -608,3 +636,52 @@ def test_hmi_sim_panel_drives_the_emulator(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("sim:estop=pressed", "ESTOP_ACTIVE")
     assert s["state"] == "ESTOP_ACTIVE" and "ESTOP_PRESSED" in s["alarms"], s
+
+
+def free_running_drives():
+    """default-bus.json's subdevices with the drives free-running (no distributed clocks), for
+    `ecat-sim --drives-free-run`."""
+    subs = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())["subdevices"]
+    for sd in subs:
+        sd.pop("dc", None)
+    return subs
+
+
+@pytest.mark.parametrize("drives", ["dc", "free-run"])
+def test_a_host_stall_during_the_boot_wait_does_not_fail_boot(drives):
+    """Issue 40 item 2: ecat-sim freezes 15 ms at the master's first cyclic exchange after its
+    OP request (`freeze 15 at-op`: no frame reaches the segment, as when the host stalls the
+    master; the frames sent meanwhile arrive when it ends). The DO terminal's 10-cycle
+    process-data watchdog expires and it falls back to SAFE-OP with AL status code 0x001B. With
+    distributed clocks that is the master's wait for the drives' first SYNC0; with the drives
+    free-running, its keep-alive's first exchange before the loop's first cycle (they fall back
+    too, and the loop starts meanwhile: BOOT waits for the fieldbus up). The frame that starts
+    the freeze goes unanswered, so no answer from before it shows the bus up. The
+    master acknowledges the error and requests OP again, within the boot timeout, as real
+    masters do; the cell boots. Once BOOT is over, SPEC §4 rule 1 stands: the same stall is
+    FIELDBUS_LOST, and nothing is asked back (docs/decisions.md)."""
+    free = drives == "free-run"
+    c = Cell(sim_args=["--drives-free-run"] if free else [], bus={"subdevices": free_running_drives()} if free else None,
+             sim_lines=["freeze 15 at-op"])
+    try:
+        s = c.wait_state("ESTOP_RESET_NEEDED", 20)
+        assert s["alarms"] == [], s
+        w = c.wire()
+        assert w["freezes"] == 1, w  # the stall happened ...
+        assert w["watchdog_expired"][1] >= 1, w["watchdog_expired"]  # ... and the DO terminal fell back
+        if free:
+            assert all(n >= 1 for n in w["watchdog_expired"][2:8]), w["watchdog_expired"]  # the drives too
+        assert w["al_state"] == [8] * 9, w["al_state"]
+        log = c.log("run")
+        asked = [l for l in log.splitlines() if "error acknowledged, OP requested again" in l]
+        print("\n".join(asked))
+        assert any("subdevice 2 (DO contactor brakes lamp) fell back to AL state 4 with AL status code 0x001B" in l
+                   for l in asked), log
+        # After BOOT: rule 1 unchanged, the stall locks out and nothing is asked back.
+        assert c.control_line("freeze 15") == "OK"
+        s = c.wait_state("ERROR_LOCKOUT", 10)
+        assert "FIELDBUS_LOST" in s["alarms"], s
+        time.sleep(0.5)
+        assert [l for l in c.log("run").splitlines() if "OP requested again" in l] == asked, c.log("run")
+    finally:
+        c.close()

@@ -1480,3 +1480,41 @@ TEST(EcatPacing, TheControlChannelSetsThePacingAndReportsIt) {
   EXPECT_EQ(j.at("plant").at("pacing"), "lockstep");
   EXPECT_EQ(j.at("plant").at("sync0_paced"), false);
 }
+
+// `freeze MS at-op` (a host stall during the master's boot wait, for ecat_run): armed before
+// the boot, it starts at the first frame that exchanges process data with a subdevice in OP,
+// not before (the OP request itself is answered), and `freeze` lines are validated;
+// `fault clear all` takes a freeze back.
+TEST(EcatControl, FreezeAtOpStartsAtTheFirstProcessDataExchangeInOpAndIsValidated) {
+  EmulatedCell cell(1000);
+  for (const char* bad : {"freeze", "freeze 0", "freeze 1001", "freeze 15 later", "freeze 15 at-op now", "freeze x",
+                          "freezes 15"}) {
+    EXPECT_EQ(control_line(cell, bad).rfind("ERROR", 0), 0U) << bad;
+  }
+  EXPECT_EQ(cell.segment().freezes(), 0U) << "a refused line changes nothing";
+  EXPECT_EQ(control_line(cell, "freeze 15 at-op"), "OK");
+  bring_to_op(cell.segment());
+  EXPECT_EQ(cell.segment().freezes(), 0U) << "no process data yet";
+  ASSERT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::op);
+  const std::uint64_t t = 200000000;
+  bool answered = true;
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes, 0)}}, t, &answered);
+  EXPECT_FALSE(answered) << "the frame that starts the freeze is processed, its answer never reaches the master";
+  EXPECT_EQ(cell.segment().freezes(), 1U);
+  EXPECT_EQ(cell.segment().frozen_until(), t + 15000000U);
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes, 0)}}, t + 20000000U,
+           &answered);
+  EXPECT_TRUE(answered);
+  EXPECT_EQ(cell.segment().freezes(), 1U) << "once";
+  // The DO terminal's watchdog (ESC default 100 ms here) runs on while frozen: the emulator's
+  // loop polls it (ecat_sim.cpp) and takes no frame before frozen_until().
+  cell.poll(t + 20000000U + 101000000U);
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::safeop);
+  const nlohmann::json j = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_EQ(j.at("freezes"), 1);
+  EXPECT_EQ(j.at("watchdog_expired")[kPosDigitalOut], 1);
+  EXPECT_EQ(control_line(cell, "freeze 5"), "OK");
+  EXPECT_EQ(cell.segment().freezes(), 2U);
+  EXPECT_EQ(control_line(cell, "fault clear all"), "OK");
+  EXPECT_EQ(cell.segment().frozen_until(), 0U) << "taken back";
+}
