@@ -278,9 +278,10 @@ def host_stall_retry(test):
     saying so. A failure without that evidence, or twice, is a failure. (A T1 alarm the arm
     earned is not retried: the tests know it from the emulator's record, t1_verdict.)"""
     @functools.wraps(test)
-    def wrapper(cell, *args, **kwargs):
+    def wrapper(**kwargs):  # pytest passes the fixtures by name
+        name, cell = next((k, v) for k, v in kwargs.items() if isinstance(v, Cell))
         try:
-            return test(cell, *args, **kwargs)
+            return test(**kwargs)
         except AssertionError:
             stalled, late = host_stalled(cell)
             if not stalled:
@@ -290,24 +291,39 @@ def host_stall_retry(test):
             cell.close()
             again = fresh_cell()
             try:
-                return test(again, *args, **kwargs)
+                return test(**{**kwargs, name: again})
             finally:
                 again.close()
     return wrapper
 
 
-# The bus as shipped (FIELDBUS_LOST after 3 stale cycles in a row) for every test, the ones
-# that are not about losing the bus too: a cell that locks out on a loaded host fails them,
-# except for one host stall during the start, which is not what any of them tests: then the
-# cell is started once more (stalled_at_start).
+# Issue 40: a test whose subject is not the bus must not depend on the host never stalling.
+# Those run on a bus that rides out a stall of this VM (10-30 ms, docs/ethercat.md "Host
+# stalls"): FIELDBUS_LOST after 50 stale cycles in a row and the subdevices' output watchdogs at
+# 50 cycles (the loop's own fieldbus watchdog stays at 100 ms), so that a stall leaves stale
+# cycles, not a lockout, and nothing is run again. Everything else is as shipped.
+STALL_TOLERANT_BUS = {"stale_cycles": 50, "watchdog_cycles": 50}
+
+
 @pytest.fixture
 def cell():
+    c = Cell(bus=STALL_TOLERANT_BUS)
+    yield c
+    c.close()
+
+
+# The tests about the bus run it as shipped (FIELDBUS_LOST after 3 stale cycles in a row,
+# 10-cycle output watchdogs): a cell that locks out on a loaded host fails them, except for one
+# host stall during the start, which is not what any of them tests: then the cell is started
+# once more (stalled_at_start), and the ones not about losing the bus run once more after a
+# stall with evidence (host_stall_retry).
+@pytest.fixture
+def shipped_cell():
     c = fresh_cell()
     yield c
     c.close()
 
 
-@host_stall_retry
 def test_boots_to_estop_reset_needed_over_ethercat(cell):
     s = cell.wait_state("ESTOP_RESET_NEEDED")
     assert "(EtherCAT," in cell.log("run")
@@ -317,7 +333,6 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
-@host_stall_retry
 def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
@@ -338,7 +353,6 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
-@host_stall_retry
 def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     """Issue 21 item 4: the guard opened while the demo program runs, timed by the emulator
     per exchange (`time cat1 from=input`, sim/ecat/src/wire_timing.cpp): the reaction is the
@@ -352,7 +366,11 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
         q0, t0 = cell.wire()["joints"][0], time.monotonic()
         time.sleep(0.02)
         return abs(cell.wire()["joints"][0] - q0) / (time.monotonic() - t0) > 0.5
-    cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+    try:
+        cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+    except AssertionError as e:
+        raise AssertionError(f"{e}; status {cell.status()}; wire plant {cell.wire().get('plant')}\n"
+                             f"run log:\n{cell.log('run')[-3000:]}") from None
     assert cell.control_line("time cat1 from=input") == "OK"
     assert cell.control_line("in gate.a=0") == "OK"
     time.sleep(0.005)  # the second channel within discrepancy_ms
@@ -368,7 +386,6 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     assert "PROTECTIVE_STOP" in cell.status()["alarms"]
 
 
-@host_stall_retry
 def test_t1_jog_moves_the_emulated_axis(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
@@ -386,7 +403,8 @@ def test_t1_jog_moves_the_emulated_axis(cell):
 
 
 @pytest.mark.parametrize("how", ["unplug", "kill", "link_down"])
-def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
+def test_losing_the_bus_locks_out_with_fieldbus_lost(shipped_cell, how):
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     overruns = cell.metric("safestate_overruns_total")
     if how == "unplug":
@@ -445,11 +463,12 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     assert s["cause"] == text, s
 
 
-def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
+def test_a_short_working_counter_alone_is_fieldbus_lost(shipped_cell):
     """Drive 6 (subdevice 8) stays in OP and answers every other datagram but stops
     processing process data: only the working counter of the cyclic exchange tells. The
     master locks out at once, for the bus as a whole, before the drive's own process-data
     watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("fault no-pd 10") == "ERROR no-pd needs a subdevice position 1..9"
     assert cell.control_line("fault no-pd 8") == "OK"
@@ -488,12 +507,13 @@ def test_late_frames_do_not_end_the_bus():
 
 
 @host_stall_retry
-def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
+def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(shipped_cell):
     """Issue 22 item 3: the master writes every subdevice's process-data watchdog (10
     cycles by default: 0x0400 = 2498, 0x0420 = 100, 10 ms); killed with -9 in OPERATIONAL,
     its outputs stop, and the emulated DO terminal drops the contactor and the drives lose
     their enable within that time by themselves, measured at the emulator from the last
     exchange."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
     assert cell.wire()["watchdog_us"] == [10000] * 9  # as the master wrote them (ESC default: 100000)
@@ -518,7 +538,7 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
 
 
 @host_stall_retry
-def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(cell):
+def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(shipped_cell):
     """Issue 22 item 2: one frame in 100 is processed by the emulated segment (the plant
     moves) but its answer never comes back: that cycle is stale, its positions held. The
     motion layer keeps the last speeds and differentiates the next sample over both
@@ -531,6 +551,7 @@ def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(ce
     earn, and the jog itself within the cap. A jog an earned alarm stopped (Cat 0) does not count
     towards the frames lost while jogging: the cell is reset and jogs again, until 10 answers
     were lost in jogs that went on to their end (at most 5 jogs)."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
     cell.pendant("reset", "IDLE")
@@ -607,7 +628,6 @@ def test_wrong_revision_is_boot_failed():
         c.close()
 
 
-@host_stall_retry
 def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     """Issue 22 item 4: our master writes each drive's start-up SDOs (default-bus.json) in
     PRE-OP; the emulator's dictionaries hold them (CSP, 1 ms interpolation period, torque)."""
@@ -640,7 +660,6 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         c.close()
 
 
-@host_stall_retry
 def test_hmi_sim_panel_drives_the_emulator(cell):
     """The gateway's `sim` message (as the HMI's panel sends it) reaches ecat-sim's contacts."""
     cell.wait_state("ESTOP_RESET_NEEDED")
