@@ -138,7 +138,7 @@ run: build hmi/dist/index.html adapters/opcua/dist/main.js
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
-bench: $(VENV)/.stamp
+bench: $(VENV)/.stamp adapters/opcua/dist/main.js
 	@$(DEPS) build bench embedded ecat
 	cmake --preset default
 	cmake --build --preset default

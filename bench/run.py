@@ -24,11 +24,13 @@
      20 directions (bench/collaborative.py: its section of this document, docs/collaborative/ssm-run.svg)
  11. the pendant and a fresh request during 300 slowloris and 1100 idle connections, the gateway at
      1024 descriptors (bench/gw_admission.py: its section of this document; issue 40)
+ 12. OPC UA: a sim E-stop press to the notification of a subscription on EmergencyStop, idle and with
+     every core busy (bench/opcua_estop.py, issue 14's 200 ms: its goal row and section; the test venv)
 
 Measurements, not tests: nothing here fails because a goal is missed; the document says
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
-them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta`, `run.py --collab` and `run.py --admission` measure only
+them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta`, `run.py --collab` `run.py --admission` and `run.py --opcua` measure only
 their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses;
 ECAT_LOSS_TRIALS (default 5): emulators killed, and masters killed with -9. ECAT_DC_SECONDS
 (default 60): the DC sync-error run.
@@ -756,6 +758,9 @@ def main():
     if sys.argv[1:] == ["--admission"]:  # only the gateway under slow and idle clients (issue 40)
         admission()
         return
+    if sys.argv[1:] == ["--opcua"]:  # only the OPC UA E-stop notification (issue 14)
+        opcua()
+        return
     if sys.argv[1:] == ["--m4cycle"]:  # only the M4 instruction count: measure it and patch its rows in place
         m4cycle_only()
         return
@@ -772,6 +777,8 @@ def main():
         if os.path.exists(os.path.join(OUT, "admission.json")):
             subprocess.run([PY, os.path.join(ROOT, "bench", "gw_admission.py"), "--doc", "--from",
                             os.path.join(OUT, "admission.json")], check=True, cwd=ROOT)
+        if os.path.exists(os.path.join(OUT, "opcua.json")):
+            opcua("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -802,6 +809,7 @@ def main():
     stopping()
     collaborative()  # after render(): it adds its own section to the document
     admission()  # the same
+    opcua()  # likewise: its goal row and section
 
 
 def response_time():
@@ -827,6 +835,12 @@ def admission():
     (bench/gw_admission.py, about a minute)."""
     subprocess.run([PY, os.path.join(ROOT, "bench", "gw_admission.py"), "--doc", "--json",
                     os.path.join(OUT, "admission.json")], check=True, cwd=ROOT)
+
+def opcua(*args):
+    """Issue 14: a sim E-stop press to an OPC UA subscription's notification, idle and loaded: its goal
+    row and section of docs/performance.md (bench/opcua_estop.py, about 2 minutes; asyncua, so the
+    test venv's Python, VENV_PY)."""
+    subprocess.run([PY, os.path.join(ROOT, "bench", "opcua_estop.py"), *args], check=True, cwd=ROOT)
 
 
 if __name__ == "__main__":

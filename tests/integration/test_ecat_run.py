@@ -42,7 +42,7 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None):
+    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None, sim_lines=()):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
         # The event log in memory: on this VM a synchronous disk write stalls the other CPU
@@ -65,6 +65,8 @@ class Cell:
             if not sim_late_s:
                 self.sim = start_sim()
                 self.wait(lambda: os.path.exists(self.control), "ecat-sim control socket")
+                for line in sim_lines:  # control lines before the master starts (a `freeze ... at-op`)
+                    assert self.control_line(line) == "OK", line
             self.run = self.spawn("run", BIN, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN,
                                   "--ecat-sim-control", self.control, "--port",
                                   str(self.port), "--db", os.path.join(self.shm.name, "ev.db"), "--static",
@@ -244,61 +246,84 @@ def fresh_cell():
 T1_LIMIT_MM_S = 250.0
 
 
-def arm_really_fast(c):
-    """A T1 speed alarm the arm earned: the emulated plant, paced by SYNC0, itself moved a
-    point faster than the T1 limit (`status` -> plant.max_point_speed_mm_s, from its own
-    positions and velocities): frames late past their SYNC0 twice and then two in one cycle
-    make an emulated drive stand for a pulse and take two steps in the next, as a real one
-    would (cell.hpp). The core was right; the host's timing made the arm fast, not the frame
-    loss under test. Returns (whether, what the emulator saw)."""
-    s = c.status() or {}
+def t1_verdict(c):
+    """Whether the core raised T1_SPEED_EXCEEDED, and the emulated plant's own record since the
+    last `plant reset`. The plant, paced by SYNC0, counts the pulses that applied more than one
+    set-point at once (`multi_step`: frames the host delivered late past their SYNC0, so that an
+    axis stood for a pulse and took two steps in the next, as a real drive would; cell.hpp) and
+    the arm's peak point speed at those pulses and at every other one. An alarm is earned only
+    when the arm itself went past the limit at such a pulse: then the core was right and the
+    host's timing, not what the test exercises, made the arm fast. The test knows it from this
+    record, it does not run again. Every T1 test here asserts, from the record:
+      - at every pulse that applied one set-point the arm kept to the limit (the jog's own speed);
+      - an alarm, if any, was earned (multi_step > 0 and the arm over the limit there)."""
+    st = c.status() or {}
     plant = (c.wire() or {}).get("plant", {})
-    fast = plant.get("max_point_speed_mm_s", 0.0) > T1_LIMIT_MM_S
-    return "T1_SPEED_EXCEEDED" in s.get("alarms", []) and fast, plant
+    alarmed = "T1_SPEED_EXCEEDED" in st.get("alarms", [])
+    assert plant.get("max_point_speed_one_step_mm_s", 0.0) <= T1_LIMIT_MM_S, \
+        ("the arm went over the T1 limit at a pulse that applied one set-point: the jog itself was too fast", plant)
+    if alarmed:
+        earned = plant.get("multi_step", 0) > 0 and plant.get("max_point_speed_multi_step_mm_s", 0.0) > T1_LIMIT_MM_S
+        assert earned, ("T1_SPEED_EXCEEDED that the emulated arm did not earn", plant, st, c.log("run"))
+        print(f"T1_SPEED_EXCEEDED earned: the emulated arm at {plant['max_point_speed_multi_step_mm_s']} mm/s at one of "
+              f"{plant['multi_step']} SYNC0 pulses that applied more than one set-point (frames late on this host; "
+              f"one-step peak {plant['max_point_speed_one_step_mm_s']} mm/s)", flush=True)
+    return alarmed, plant
 
 
 def host_stall_retry(test):
     """For the tests that are not about losing the bus: when one fails and the cell had locked
-    out by a host stall (host_stalled), or stopped on a T1 speed the emulated arm really reached
-    because the host sent frames late (arm_really_fast), it runs once more on a fresh cell,
-    saying so. A failure without that evidence, or twice, is a failure."""
+    out by a host stall (host_stalled: FIELDBUS_LOST with the loop itself woken two cycles late
+    or more, correct by SPEC §4 rule 1 once BOOT is over), it runs once more on a fresh cell,
+    saying so. A failure without that evidence, or twice, is a failure. (A T1 alarm the arm
+    earned is not retried: the tests know it from the emulator's record, t1_verdict.)"""
     @functools.wraps(test)
-    def wrapper(cell, *args, **kwargs):
+    def wrapper(**kwargs):  # pytest passes the fixtures by name
+        name, cell = next((k, v) for k, v in kwargs.items() if isinstance(v, Cell))
         try:
-            return test(cell, *args, **kwargs)
+            return test(**kwargs)
         except AssertionError:
             stalled, late = host_stalled(cell)
-            fast, plant = arm_really_fast(cell)
-            if not stalled and not fast:
+            if not stalled:
                 raise
-            if stalled:
-                print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
-                      "run once more on a fresh cell", flush=True)
-            else:
-                print(f"{test.__name__}: T1_SPEED_EXCEEDED with the emulated arm itself at "
-                      f"{plant.get('max_point_speed_mm_s')} mm/s (set-points held at {plant.get('held')} SYNC0 "
-                      "pulses: frames late on this host); run once more on a fresh cell", flush=True)
+            print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                  "run once more on a fresh cell", flush=True)
             cell.close()
             again = fresh_cell()
             try:
-                return test(again, *args, **kwargs)
+                return test(**{**kwargs, name: again})
             finally:
                 again.close()
     return wrapper
 
 
-# The bus as shipped (FIELDBUS_LOST after 3 stale cycles in a row) for every test, the ones
-# that are not about losing the bus too: a cell that locks out on a loaded host fails them,
-# except for one host stall during the start, which is not what any of them tests: then the
-# cell is started once more (stalled_at_start).
+# Issue 40: a test whose subject is not the bus must not depend on the host never stalling.
+# Those run on a bus that rides out a stall of this VM (10-30 ms, docs/ethercat.md "Host
+# stalls"): FIELDBUS_LOST after 50 stale cycles in a row and the subdevices' output watchdogs at
+# 50 cycles (the loop's own fieldbus watchdog stays at 100 ms), so that a stall leaves stale
+# cycles, not a lockout, and nothing is run again. Everything else is as shipped.
+STALL_TOLERANT_BUS = {"stale_cycles": 50, "watchdog_cycles": 50}
+
+
 @pytest.fixture
 def cell():
+    c = Cell(bus=STALL_TOLERANT_BUS)
+    yield c
+    c.close()
+
+
+# The tests about the bus run it as shipped (FIELDBUS_LOST after 3 stale cycles in a row,
+# 10-cycle output watchdogs): a cell that locks out on a loaded host fails them, except for one
+# host stall during the start, which is not what any of them tests: then the cell is started
+# once more (stalled_at_start), and the ones not about losing the bus run once more after a
+# stall with evidence (host_stall_retry).
+@pytest.fixture
+def shipped_cell():
     c = fresh_cell()
     yield c
     c.close()
 
 
-@host_stall_retry
 def test_boots_to_estop_reset_needed_over_ethercat(cell):
     s = cell.wait_state("ESTOP_RESET_NEEDED")
     assert "(EtherCAT," in cell.log("run")
@@ -308,7 +333,6 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
-@host_stall_retry
 def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
@@ -316,20 +340,23 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     w = cell.wire()
     assert w["contactor"] is True and w["contactor_closed"] is True, (w, cell.status(), cell.log("run"), cell.log("sim"))
     assert all(cw == 0x000F for cw in w["controlword"])  # Enable operation on every drive
+    stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
     assert cell.control_line("in estop.b=0") == "OK"
     cell.wait(lambda: cell.wire()["contactor"] is False, "contactor bit cleared on the wire", 5)
     # the input bit goes out in exchange k, the core opens the contactor in the cycle that
-    # reads it, the cleared bit comes back in exchange k+1 (goal: at most 2 cycles)
+    # reads it, the cleared bit comes back in exchange k+1 (goal: at most 2 cycles, the
+    # bench's figure: bench/ecat_reaction.py). A cycle whose answer came late (a host stall)
+    # reads the input one exchange later: one more exchange per stale cycle meanwhile.
     reaction = cell.wire()["reaction"]
-    assert reaction is not None and 1 <= reaction["cycles"] <= 2, reaction
-    print("reaction on the wire:", reaction)
+    stale = cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+    assert reaction is not None and 1 <= reaction["cycles"] <= 2 + stale, (reaction, stale)
+    print("reaction on the wire:", reaction, "stale cycles meanwhile:", stale)
     s = cell.status()
     assert s["contactor"] == "open" and "ESTOP_PRESSED" in s["alarms"], s
     # the other channel never followed: after discrepancy_ms the core locks out (SPEC §2)
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
-@host_stall_retry
 def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     """Issue 21 item 4: the guard opened while the demo program runs, timed by the emulator
     per exchange (`time cat1 from=input`, sim/ecat/src/wire_timing.cpp): the reaction is the
@@ -343,8 +370,13 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
         q0, t0 = cell.wire()["joints"][0], time.monotonic()
         time.sleep(0.02)
         return abs(cell.wire()["joints"][0] - q0) / (time.monotonic() - t0) > 0.5
-    cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+    try:
+        cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+    except AssertionError as e:
+        raise AssertionError(f"{e}; status {cell.status()}; wire plant {cell.wire().get('plant')}\n"
+                             f"run log:\n{cell.log('run')[-3000:]}") from None
     assert cell.control_line("time cat1 from=input") == "OK"
+    stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
     assert cell.control_line("in gate.a=0") == "OK"
     time.sleep(0.005)  # the second channel within discrepancy_ms
     assert cell.control_line("in gate.b=0") == "OK"
@@ -353,13 +385,14 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     print("guard on the wire:", w)
     assert w["stop"] == "cat1" and w["early_exchange"] is None, w
     # `safestate rta --bus-config hal/ethercat/default-bus.json`: 2 cycles, worst case 1435 ms
-    assert 1 <= w["reaction"]["cycles"] <= 2, w
+    # (one exchange more per stale cycle meanwhile, as above)
+    stale = cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+    assert 1 <= w["reaction"]["cycles"] <= 2 + stale, (w, stale)
     assert w["reaction"]["cycles"] < w["safe"]["cycles"], w  # a ramp first, the power off at its end
     assert w["safe"]["us"] <= 1435000, w
     assert "PROTECTIVE_STOP" in cell.status()["alarms"]
 
 
-@host_stall_retry
 def test_t1_jog_moves_the_emulated_axis(cell):
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
@@ -367,15 +400,18 @@ def test_t1_jog_moves_the_emulated_axis(cell):
     assert cell.control_line("in enable=centre") == "OK"  # in T1 power needs the enabling device held
     s = cell.pendant("servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
+    assert cell.control_line("plant reset") == "OK"  # the plant's record (t1_verdict) from here
     before = cell.wire()["joints"][0]
     s = cell.pendant("jog:1:+:50", "OPERATIONAL")
     after = cell.wire()["joints"][0]
-    assert s["sub"] == "MANUAL_JOGGING", s
+    alarmed, _ = t1_verdict(cell)  # an alarm only if the arm earned it
+    assert s["sub"] == "MANUAL_JOGGING" or alarmed, s
     assert after > before + 0.01, (before, after, s)  # measured by the emulated drive, read back over the bus
 
 
 @pytest.mark.parametrize("how", ["unplug", "kill", "link_down"])
-def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
+def test_losing_the_bus_locks_out_with_fieldbus_lost(shipped_cell, how):
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     overruns = cell.metric("safestate_overruns_total")
     if how == "unplug":
@@ -392,31 +428,38 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     if how != "unplug":
         # Issue 22 item 2: no exchange waits past its cycle; a frame not back within 3/4 of
         # the cycle leaves that cycle stale, and the third stale cycle in a row is
-        # FIELDBUS_LOST (goal: within 5 cycles of the last answered frame).
+        # FIELDBUS_LOST. The time from the last answered frame (goal: within 5 cycles) is the
+        # bench's figure (bench/ecat_loss.py: 3.8-3.9 ms, docs/performance.md); this test asserts
+        # the count, and the time only with a margin a host stall of this VM (10-30 ms) does
+        # not reach in practice and exchanges that waited out their frame timeout (20 ms each:
+        # 60 ms for three) would: 40 ms.
         line = "FIELDBUS_LOST after 3 stale cycles, "
         cell.wait(lambda: line in cell.log("run"), "the log counting the stale cycles: " + line, 5)
         after = next(l for l in cell.log("run").splitlines() if line in l)
         print(how + ":", after)
-        # "... 3 stale cycles, 3.712 ms after the last answered frame": within 5 cycles of it
+        # "... 3 stale cycles, 3.712 ms after the last answered frame"
         ms = float(after.split(line, 1)[1].split(" ms ", 1)[0])
-        assert 0 < ms <= 5.0, after
+        assert 0 < ms <= 40.0, after
         assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 3
         # No exchange held the loop while the bus was gone: the loop keeps cycling in
-        # ERROR_LOCKOUT, and in the next 500 cycles (500 unanswered frames) no cycle's own
-        # work, the exchange included, took as long as its period (the histogram's bucket
-        # from 1.049 ms on: a cycle that overran by itself). An overrun can also come from the
-        # host waking the loop late (safestate_cycle_lateness_seconds): `safestate rtbench`,
-        # with no bus at all, overran 8 times in 30 s on this VM under the same load; those
-        # are printed, not asserted (docs/ethercat.md).
+        # ERROR_LOCKOUT, and of the next 500 cycles (500 unanswered frames) hardly any cycle's
+        # own work, the exchange included, took half its period (the histogram's buckets from
+        # 0.524 ms on). An exchange that waited for its frame in the cycle would make every one
+        # of them that slow (0.85 ms, its budget); a host stall during a cycle's work makes one
+        # or two (it was seen once, issue 40): at most 5 (1 %) are allowed. Overruns, which
+        # the host's late wake-ups cause too (`safestate rtbench` overran 8 times in 30 s on
+        # this VM with no bus at all), are the bench's figure (bench/ecat_loss.py) and printed.
         def slow():
-            m = cell.metrics("safestate_cycle_exec_seconds_count", 'safestate_cycle_exec_seconds_bucket{le="0.001048576"}')
+            m = cell.metrics("safestate_cycle_exec_seconds_count", 'safestate_cycle_exec_seconds_bucket{le="0.000524288"}')
             return m[0] - m[1]
         slow_before = slow()
         cycles = cell.metric("safestate_cycles_total")
         cell.wait(lambda: cell.metric("safestate_cycles_total") >= cycles + 500, "500 more cycles without a bus", 10)
+        slow_after = slow()
         print(how + ": overruns while the bus was gone:", cell.metric("safestate_overruns_total") - overruns,
-              "(host lateness: max", cell.metric("safestate_cycle_lateness_max_seconds"), "s)")
-        assert slow() == slow_before, ("cycles whose own work overran", slow_before, slow())
+              "(host lateness: max", cell.metric("safestate_cycle_lateness_max_seconds"), "s); cycles whose own work "
+              "took half a period or more:", slow_after - slow_before)
+        assert slow_after - slow_before <= 5, ("cycles whose own work took half their period", slow_before, slow_after)
     named = ("FIELDBUS_LOST: subdevice 8 (drive axis 6): subdevice left OP" if how == "unplug" else
              "FIELDBUS_LOST: subdevice 1 (DI safety contacts) and every one after it: no frame came back")
     cell.wait(lambda: named in cell.log("run"), "the log naming what was lost: " + named, 5)
@@ -427,11 +470,12 @@ def test_losing_the_bus_locks_out_with_fieldbus_lost(cell, how):
     assert s["cause"] == text, s
 
 
-def test_a_short_working_counter_alone_is_fieldbus_lost(cell):
+def test_a_short_working_counter_alone_is_fieldbus_lost(shipped_cell):
     """Drive 6 (subdevice 8) stays in OP and answers every other datagram but stops
     processing process data: only the working counter of the cyclic exchange tells. The
     master locks out at once, for the bus as a whole, before the drive's own process-data
     watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("fault no-pd 10") == "ERROR no-pd needs a subdevice position 1..9"
     assert cell.control_line("fault no-pd 8") == "OK"
@@ -470,12 +514,13 @@ def test_late_frames_do_not_end_the_bus():
 
 
 @host_stall_retry
-def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
+def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(shipped_cell):
     """Issue 22 item 3: the master writes every subdevice's process-data watchdog (10
     cycles by default: 0x0400 = 2498, 0x0420 = 100, 10 ms); killed with -9 in OPERATIONAL,
     its outputs stop, and the emulated DO terminal drops the contactor and the drives lose
     their enable within that time by themselves, measured at the emulator from the last
     exchange."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
     assert cell.wire()["watchdog_us"] == [10000] * 9  # as the master wrote them (ESC default: 100000)
@@ -491,39 +536,60 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(cell):
     drop = w["output_drop"]
     print("output drop after kill -9 of the master:", drop)
     assert w["contactor"] is False and all(cw == 0 for cw in w["controlword"]), w
-    # within the watchdog, give or take the emulator's 1 ms poll (never before it expired)
-    assert 10000 <= drop["contactor_us"] <= 12000, drop
-    assert 10000 <= drop["enable_us"] <= 12000, drop
+    # Never before the watchdog expired (10 ms, as written above), and dropped by the watchdog
+    # the master wrote, not the ESC's default (100 ms): within 50 ms. The figure itself, 10 ms
+    # give or take the emulator's 1 ms poll, is the bench's (bench/ecat_loss.py: 10.6 ms,
+    # docs/performance.md); a host stall of the emulator's CPU (10-30 ms here) delays its look.
+    assert 10000 <= drop["contactor_us"] <= 50000, drop
+    assert 10000 <= drop["enable_us"] <= 50000, drop
 
 
 @host_stall_retry
-def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(cell):
+def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(shipped_cell):
     """Issue 22 item 2: one frame in 100 is processed by the emulated segment (the plant
     moves) but its answer never comes back: that cycle is stale, its positions held. The
     motion layer keeps the last speeds and differentiates the next sample over both
     cycles: a T1 jog at the 250 mm/s cap raises no T1_SPEED_EXCEEDED (it did when the
-    next sample's two cycles of motion were divided by one)."""
+    next sample's two cycles of motion were divided by one).
+
+    Issue 40: the host may also deliver frames late past their SYNC0, and the emulated arm then
+    really takes two steps in one pulse, over the cap: the core's alarm is right there. Every
+    jog's outcome is judged by the emulator's own record (t1_verdict): no alarm the arm did not
+    earn, and the jog itself within the cap. A jog an earned alarm stopped (Cat 0) does not count
+    towards the frames lost while jogging: the cell is reset and jogs again, until 10 answers
+    were lost in jogs that went on to their end (at most 5 jogs)."""
+    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
     cell.pendant("reset", "IDLE")
     assert cell.control_line("in enable=centre") == "OK"
-    s = cell.pendant("servo_on", "OPERATIONAL")
-    assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
     assert cell.control_line("fault lose-every 100") == "OK"
-    assert cell.control_line("plant reset") == "OK"  # the arm's own peak speed from here
-    before = cell.wire()["joints"][0]
-    s = cell.pendant("jog:1:+:100", "OPERATIONAL")
-    w = cell.wire()
-    print("T1 jog with 1 % frames lost:", w["lost_replies"], "answers lost;",
-          cell.metric("safestate_fieldbus_stale_cycles_total"), "stale cycles; plant", w["plant"],
-          "; SYNC0 of drive 1", w["dc"]["stats"][2], "; status", s)
-    assert w["lost_replies"] >= 10, w
-    assert cell.metric("safestate_fieldbus_stale_cycles_total") >= 10
-    assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
-    assert w["plant"]["max_point_speed_mm_s"] <= T1_LIMIT_MM_S, w["plant"]  # the arm kept to it: the core saw that
-    assert w["joints"][0] > before + 0.05, (before, w["joints"][0])  # it did jog
-    st = cell.status()
-    assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st
+    lost, stale, jogs, moved = 0, 0, 0, 0.0
+    while lost < 10:
+        assert jogs < 5, f"{jogs} jogs, {lost} answers lost in those that went on to their end"
+        jogs += 1
+        if (cell.status() or {}).get("state") != "OPERATIONAL":
+            s = cell.pendant("servo_on", "OPERATIONAL")
+            assert s["state"] == "OPERATIONAL" and s["mode"] == "T1", s
+        assert cell.control_line("plant reset") == "OK"  # the arm's own record from here
+        w0, stale0 = cell.wire(), cell.metric("safestate_fieldbus_stale_cycles_total")
+        s = cell.pendant("jog:1:+:100", "OPERATIONAL")
+        w = cell.wire()
+        alarmed, plant = t1_verdict(cell)
+        print(f"T1 jog {jogs} with 1 % frames lost:", w["lost_replies"] - w0["lost_replies"], "answers lost;",
+              cell.metric("safestate_fieldbus_stale_cycles_total") - stale0, "stale cycles; plant", plant,
+              "; SYNC0 of drive 1", w["dc"]["stats"][2], "; status", s, flush=True)
+        if alarmed:
+            cell.pendant("reset", "IDLE")  # earned (t1_verdict): this jog does not count
+            continue
+        assert s["sub"] == "MANUAL_JOGGING" and s["alarms"] == [], s
+        st = cell.status()
+        assert "T1_SPEED_EXCEEDED" not in st["alarms"] and st["state"] == "OPERATIONAL", st
+        lost += w["lost_replies"] - w0["lost_replies"]
+        stale += cell.metric("safestate_fieldbus_stale_cycles_total") - stale0
+        moved += w["joints"][0] - w0["joints"][0]
+    assert stale >= 10, stale  # each lost answer left a stale cycle
+    assert moved > 0.05, moved  # it did jog
 
 
 def test_a_segment_that_powers_up_after_the_controller_is_scanned_again():
@@ -569,7 +635,6 @@ def test_wrong_revision_is_boot_failed():
         c.close()
 
 
-@host_stall_retry
 def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     """Issue 22 item 4: our master writes each drive's start-up SDOs (default-bus.json) in
     PRE-OP; the emulator's dictionaries hold them (CSP, 1 ms interpolation period, torque)."""
@@ -602,9 +667,57 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         c.close()
 
 
-@host_stall_retry
 def test_hmi_sim_panel_drives_the_emulator(cell):
     """The gateway's `sim` message (as the HMI's panel sends it) reaches ecat-sim's contacts."""
     cell.wait_state("ESTOP_RESET_NEEDED")
     s = cell.pendant("sim:estop=pressed", "ESTOP_ACTIVE")
     assert s["state"] == "ESTOP_ACTIVE" and "ESTOP_PRESSED" in s["alarms"], s
+
+
+def free_running_drives():
+    """default-bus.json's subdevices with the drives free-running (no distributed clocks), for
+    `ecat-sim --drives-free-run`."""
+    subs = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())["subdevices"]
+    for sd in subs:
+        sd.pop("dc", None)
+    return subs
+
+
+@pytest.mark.parametrize("drives", ["dc", "free-run"])
+def test_a_host_stall_during_the_boot_wait_does_not_fail_boot(drives):
+    """Issue 40 item 2: ecat-sim freezes 15 ms at the master's first cyclic exchange after its
+    OP request (`freeze 15 at-op`: no frame reaches the segment, as when the host stalls the
+    master; the frames sent meanwhile arrive when it ends). The DO terminal's 10-cycle
+    process-data watchdog expires and it falls back to SAFE-OP with AL status code 0x001B. With
+    distributed clocks that is the master's wait for the drives' first SYNC0; with the drives
+    free-running, its keep-alive's first exchange before the loop's first cycle (they fall back
+    too, and the loop starts meanwhile: BOOT waits for the fieldbus up). The frame that starts
+    the freeze goes unanswered, so no answer from before it shows the bus up. The
+    master acknowledges the error and requests OP again, within the boot timeout, as real
+    masters do; the cell boots. Once BOOT is over, SPEC §4 rule 1 stands: the same stall is
+    FIELDBUS_LOST, and nothing is asked back (docs/decisions.md)."""
+    free = drives == "free-run"
+    c = Cell(sim_args=["--drives-free-run"] if free else [], bus={"subdevices": free_running_drives()} if free else None,
+             sim_lines=["freeze 15 at-op"])
+    try:
+        s = c.wait_state("ESTOP_RESET_NEEDED", 20)
+        assert s["alarms"] == [], s
+        w = c.wire()
+        assert w["freezes"] == 1, w  # the stall happened ...
+        assert w["watchdog_expired"][1] >= 1, w["watchdog_expired"]  # ... and the DO terminal fell back
+        if free:
+            assert all(n >= 1 for n in w["watchdog_expired"][2:8]), w["watchdog_expired"]  # the drives too
+        assert w["al_state"] == [8] * 9, w["al_state"]
+        log = c.log("run")
+        asked = [l for l in log.splitlines() if "error acknowledged, OP requested again" in l]
+        print("\n".join(asked))
+        assert any("subdevice 2 (DO contactor brakes lamp) fell back to AL state 4 with AL status code 0x001B" in l
+                   for l in asked), log
+        # After BOOT: rule 1 unchanged, the stall locks out and nothing is asked back.
+        assert c.control_line("freeze 15") == "OK"
+        s = c.wait_state("ERROR_LOCKOUT", 10)
+        assert "FIELDBUS_LOST" in s["alarms"], s
+        time.sleep(0.5)
+        assert [l for l in c.log("run").splitlines() if "OP requested again" in l] == asked, c.log("run")
+    finally:
+        c.close()

@@ -1278,6 +1278,15 @@ class PacingRig {
     cell.poll(pulse0_ + n_ * 1000000 + 2000);
     return in;
   }
+  // A frame within the current cycle, `offset_ns` after its pulse, without ending the cycle
+  // (a frame late past its pulse, or one of several the master sent in one cycle).
+  void send(const std::vector<std::uint8_t>& out, std::uint64_t offset_ns) {
+    const std::uint64_t frame = pulse0_ + n_ * 1000000 + offset_ns;
+    cell.sync0_until(frame);
+    cell.set_time(frame);
+    std::vector<std::uint8_t> in(kInBytes, 0);
+    exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}, {Cmd::LRD, 0x0000, 0x0001, in}}, frame);
+  }
   // Contactor closed, brakes released, drive 1 enabled at target 0; the reply's inputs.
   std::vector<std::uint8_t> enable() {
     std::vector<std::uint8_t> in;
@@ -1363,6 +1372,7 @@ TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
     rig.cycle(PacingRig::outputs(0x0F, n * kStep));  // moving at kStep per cycle
   }
   EXPECT_EQ(rig.cell.steps().extrapolated, 0U);
+  EXPECT_EQ(rig.cell.steps().multi_step, 0U);
   const float steady = rig.cell.max_point_speed_mm_s();
   EXPECT_GT(steady, 250.0F) << "axis 1 at ~0.9 rad/s";
   rig.cycle({}, false);  // frame 4 lost: its pulse repeats the last step
@@ -1370,6 +1380,7 @@ TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
   EXPECT_NEAR(PacingRig::position(in), 4 * kStep, 1) << "extrapolated: the axis went on, it did not stop";
   EXPECT_EQ(rig.cell.steps().extrapolated, 1U);
   EXPECT_EQ(rig.cell.steps().held, 0U);
+  EXPECT_EQ(rig.cell.steps().multi_step, 0U) << "4 extrapolated, then 5: one step each";
   in = rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));
   EXPECT_NEAR(PacingRig::position(in), 5 * kStep, 1) << "the next set-point taken as sent";
   rig.cycle({}, false);  // two in a row lost: extrapolated once, then held
@@ -1379,9 +1390,51 @@ TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
   EXPECT_NEAR(PacingRig::position(in), 7 * kStep, 1) << "6 taken, 7 extrapolated, then held at 7";
   EXPECT_EQ(rig.cell.steps().extrapolated, 2U);
   EXPECT_EQ(rig.cell.steps().held, 1U);
+  EXPECT_EQ(rig.cell.steps().multi_step, 1U) << "the pulse after the held one took 9: two steps";
   in = rig.cycle(PacingRig::outputs(0x0F, 10 * kStep));
   EXPECT_NEAR(PacingRig::position(in), 9 * kStep, 1) << "from 7 to 9 in one pulse: the axis really jumped";
   EXPECT_NEAR(rig.cell.max_point_speed_mm_s(), 2.0F * steady, steady * 0.05F) << "and the emulator saw it go twice as fast";
+  EXPECT_NEAR(rig.cell.max_point_speed_multi_step_mm_s(), 2.0F * steady, steady * 0.05F) << "at that pulse";
+  EXPECT_NEAR(rig.cell.max_point_speed_one_step_mm_s(), steady, steady * 0.01F) << "never faster at any other";
+  EXPECT_EQ(rig.cell.steps().multi_step, 1U);
+}
+
+// Late frames, not lost ones: the master sends a cycle's frame after its pulse, then the next
+// one in time (two frames before one pulse), or after a stall three in one cycle. What the
+// emulator records as more than one set-point in one pulse is what the axis really did.
+TEST(EcatPacing, SeveralFramesBeforeOnePulseAreOneStepAfterAnExtrapolatedPulseAndMoreAfterMore) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
+  rig.cell.reset_steps();
+  for (std::int32_t n = 1; n <= 3; ++n) {
+    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
+  }
+  const float steady = rig.cell.max_point_speed_mm_s();
+  rig.cycle({}, false);                              // frame 4 late past its pulse: extrapolated to 4
+  rig.send(PacingRig::outputs(0x0F, 4 * kStep), 100000);  // it arrives just after that pulse,
+  std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 5 * kStep));  // frame 5 in time
+  in = rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 5 * kStep, 1);
+  EXPECT_EQ(rig.cell.steps().extrapolated, 1U);
+  EXPECT_EQ(rig.cell.steps().multi_step, 0U) << "two frames before one pulse after an extrapolated one: one step";
+  EXPECT_NEAR(rig.cell.max_point_speed_mm_s(), steady, steady * 0.01F);
+  rig.cycle({}, false);                              // frame 7 late: 7 extrapolated
+  rig.send(PacingRig::outputs(0x0F, 7 * kStep), 100000);
+  rig.send(PacingRig::outputs(0x0F, 8 * kStep), 300000);  // the master catching up: 7, 8, 9 in one cycle
+  in = rig.cycle(PacingRig::outputs(0x0F, 9 * kStep));
+  in = rig.cycle(PacingRig::outputs(0x0F, 10 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 9 * kStep, 1) << "from 7 (extrapolated) to 9 in one pulse";
+  EXPECT_EQ(rig.cell.steps().held, 0U);
+  EXPECT_EQ(rig.cell.steps().multi_step, 1U);
+  EXPECT_NEAR(rig.cell.max_point_speed_multi_step_mm_s(), 2.0F * steady, steady * 0.05F);
+  EXPECT_NEAR(rig.cell.max_point_speed_one_step_mm_s(), steady, steady * 0.01F);
+  const nlohmann::json j = nlohmann::json::parse(control_line(rig.cell, "status")).at("plant");
+  EXPECT_EQ(j.at("multi_step"), 1);
+  EXPECT_GT(j.at("max_point_speed_multi_step_mm_s").get<double>(), 1.9 * steady);
+  EXPECT_LT(j.at("max_point_speed_one_step_mm_s").get<double>(), 1.01 * steady);
+  EXPECT_EQ(control_line(rig.cell, "plant reset"), "OK");
+  EXPECT_EQ(rig.cell.steps().multi_step, 0U);
+  EXPECT_EQ(rig.cell.max_point_speed_multi_step_mm_s(), 0.0F);
 }
 
 TEST(EcatPacing, WithoutTheMasterThePulsesStepThePlantAndTheWatchdogDropIsTimedAtTheTerminal) {
@@ -1426,4 +1479,42 @@ TEST(EcatPacing, TheControlChannelSetsThePacingAndReportsIt) {
   j = nlohmann::json::parse(control_line(rig.cell, "status"));
   EXPECT_EQ(j.at("plant").at("pacing"), "lockstep");
   EXPECT_EQ(j.at("plant").at("sync0_paced"), false);
+}
+
+// `freeze MS at-op` (a host stall during the master's boot wait, for ecat_run): armed before
+// the boot, it starts at the first frame that exchanges process data with a subdevice in OP,
+// not before (the OP request itself is answered), and `freeze` lines are validated;
+// `fault clear all` takes a freeze back.
+TEST(EcatControl, FreezeAtOpStartsAtTheFirstProcessDataExchangeInOpAndIsValidated) {
+  EmulatedCell cell(1000);
+  for (const char* bad : {"freeze", "freeze 0", "freeze 1001", "freeze 15 later", "freeze 15 at-op now", "freeze x",
+                          "freezes 15"}) {
+    EXPECT_EQ(control_line(cell, bad).rfind("ERROR", 0), 0U) << bad;
+  }
+  EXPECT_EQ(cell.segment().freezes(), 0U) << "a refused line changes nothing";
+  EXPECT_EQ(control_line(cell, "freeze 15 at-op"), "OK");
+  bring_to_op(cell.segment());
+  EXPECT_EQ(cell.segment().freezes(), 0U) << "no process data yet";
+  ASSERT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::op);
+  const std::uint64_t t = 200000000;
+  bool answered = true;
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes, 0)}}, t, &answered);
+  EXPECT_FALSE(answered) << "the frame that starts the freeze is processed, its answer never reaches the master";
+  EXPECT_EQ(cell.segment().freezes(), 1U);
+  EXPECT_EQ(cell.segment().frozen_until(), t + 15000000U);
+  exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, std::vector<std::uint8_t>(kOutBytes, 0)}}, t + 20000000U,
+           &answered);
+  EXPECT_TRUE(answered);
+  EXPECT_EQ(cell.segment().freezes(), 1U) << "once";
+  // The DO terminal's watchdog (ESC default 100 ms here) runs on while frozen: the emulator's
+  // loop polls it (ecat_sim.cpp) and takes no frame before frozen_until().
+  cell.poll(t + 20000000U + 101000000U);
+  EXPECT_EQ(cell.segment().esc(kPosDigitalOut).state(), AlState::safeop);
+  const nlohmann::json j = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_EQ(j.at("freezes"), 1);
+  EXPECT_EQ(j.at("watchdog_expired")[kPosDigitalOut], 1);
+  EXPECT_EQ(control_line(cell, "freeze 5"), "OK");
+  EXPECT_EQ(cell.segment().freezes(), 2U);
+  EXPECT_EQ(control_line(cell, "fault clear all"), "OK");
+  EXPECT_EQ(cell.segment().frozen_until(), 0U) << "taken back";
 }

@@ -96,6 +96,8 @@ Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t 
   out_buf_.assign(out, 0);
   req_out_.assign(out, 0);
   ans_in_.assign(in, 0);
+  asked_ns_.assign(cfg_.subdevices.size(), 0);
+  asked_.assign(cfg_.subdevices.size(), 0);
   boot(ifname);
   if (!boot_error_.empty()) {
     health_ = Health{false, health_.subdevice, false, "boot failed"};
@@ -139,13 +141,60 @@ void Backend::keep_alive() noexcept {
     const int rc = ss_ecat_exchange(master_->m, out.data(), out.size(), in.data(), in.size(), &c, exchange_timeout_us_, 1U);
     if (rc == 0) {
       const std::uint64_t now = mono_ns();
-      const std::lock_guard<std::mutex> g(xfer_);
-      std::copy(in.begin(), in.end(), ans_in_.begin());
-      master_->answer = c;
-      ans_seq_ = seq;
-      ans_ns_ = now;
-      ++ans_id_;
+      {
+        const std::lock_guard<std::mutex> g(xfer_);
+        std::copy(in.begin(), in.end(), ans_in_.begin());
+        master_->answer = c;
+        ans_seq_ = seq;
+        ans_ns_ = now;
+        ++ans_id_;
+      }
+      // Until the bus is up (read()), every subdevice was in OP at the end of the boot: one
+      // that is not any more fell back (a host stall past its watchdog) and is asked back.
+      if (!up_.load(std::memory_order_acquire)) {
+        for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
+          if (i < c.count && c.al_state[i] != 8U) {
+            ask_back_to_op(i, now);
+          }
+        }
+      }
     }
+  }
+}
+
+// A subdevice that fell back from OP before the bus is up (SAFE-OP with its error indication
+// set: its process-data watchdog expired while the host could not send for 10 cycles, ...)
+// is asked back as masters commonly do (SOEM's and IgH's state checks): the error is
+// acknowledged (AL control = its state | 0x10), and once its AL status shows SAFE-OP without
+// the error, OP is requested again. At most every 10 ms per subdevice; the boot timeout
+// bounds how long (await_dc_op's 3 s, then the core's boot_timeout_ms). Not in the real-time
+// loop: each call waits for its frames (the boot thread, or the exchange thread before the
+// bus is up). Once the bus is up a subdevice leaving OP is FIELDBUS_LOST (SPEC §4 rule 1).
+void Backend::ask_back_to_op(std::size_t i, std::uint64_t now_ns) noexcept {
+  constexpr std::uint64_t kEveryNs = 10000000;
+  if (asked_ns_[i] != 0U && now_ns - asked_ns_[i] < kEveryNs) {
+    return;
+  }
+  asked_ns_[i] = now_ns;
+  SsEcatMaster* m = master_->m;
+  const auto pos = static_cast<std::uint16_t>(i);
+  std::uint16_t status = 0;
+  std::uint16_t code = 0;
+  if (ss_ecat_al_status(m, pos, &status, &code) != 0 || (status & 0x0FU) == 8U) {
+    return;  // not read (tried again later), or in OP again
+  }
+  if ((status & 0x10U) != 0U) {
+    std::fprintf(stderr,
+                 "safestate: EtherCAT boot: subdevice %zu (%s) fell back to AL state %u with AL status code 0x%04X; "
+                 "error acknowledged, OP requested again\n",
+                 i + 1U, cfg_.subdevices[i].name.c_str(), static_cast<unsigned>(status & 0x0FU), static_cast<unsigned>(code));
+    if (ss_ecat_al_control(m, pos, static_cast<std::uint16_t>((status & 0x0FU) | 0x10U)) != 0 ||
+        ss_ecat_al_status(m, pos, &status, &code) != 0 || (status & 0x10U) != 0U) {
+      return;  // not acknowledged yet: asked again at the next try
+    }
+  }
+  if ((status & 0x0FU) == 4U && ss_ecat_al_control(m, pos, 8U) == 0) {
+    ++asked_[i];
   }
 }
 
@@ -332,27 +381,58 @@ bool Backend::await_dc_op() {
   std::vector<std::uint8_t> in(in_buf_.size(), 0);
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
   auto next = std::chrono::steady_clock::now();
+  const std::size_t n = cfg_.subdevices.size();
   std::size_t not_op = 0;
+  // Seen in OP during this wait, or free-running (in OP at the request): one of these not in
+  // OP fell back and is asked back (ask_back_to_op). A synchronised drive not yet in OP waits
+  // for its first SYNC0 (the master set it 100 ms after SAFE-OP) and is left alone until
+  // kSync0DueMs have passed: then one not in OP may have fallen back as well (it entered OP at
+  // its pulse and its watchdog expired before an exchange saw it there).
+  constexpr auto kSync0DueMs = std::chrono::milliseconds(250);
+  const auto sync0_due = std::chrono::steady_clock::now() + kSync0DueMs;
+  std::vector<bool> was_op(n, false);
+  for (std::size_t i = 0; i < n; ++i) {
+    was_op[i] = cfg_.subdevices[i].dc_assign_activate == 0U;
+  }
   while (std::chrono::steady_clock::now() < until) {
     if (ss_ecat_exchange(master_->m, out.data(), out.size(), in.data(), in.size(), &c, exchange_timeout_us_, 1U) == 0) {
-      not_op = cfg_.subdevices.size();
-      for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
-        if (i >= c.count || c.al_state[i] != 8U) {
+      not_op = n;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (i < c.count && c.al_state[i] == 8U) {
+          was_op[i] = true;
+        } else if (not_op == n) {
           not_op = i;
-          break;
         }
       }
-      if (not_op == cfg_.subdevices.size()) {
+      if (not_op == n) {
         return true;
+      }
+      const bool due = std::chrono::steady_clock::now() >= sync0_due;
+      for (std::size_t i = 0; i < n && i < c.count; ++i) {
+        if (c.al_state[i] != 8U && (was_op[i] || due)) {
+          ask_back_to_op(i, mono_ns());
+        }
       }
     }
     next += std::chrono::microseconds(cycle_us_);
     std::this_thread::sleep_until(next);
   }
   health_.subdevice = static_cast<std::uint8_t>(not_op + 1U);
+  std::string al;
+  std::uint16_t status = 0;
+  std::uint16_t code = 0;
+  if (not_op < n && ss_ecat_al_status(master_->m, static_cast<std::uint16_t>(not_op), &status, &code) == 0) {
+    char b[96];
+    std::snprintf(b, sizeof b, ": AL status 0x%02X, AL status code 0x%04X", static_cast<unsigned>(status),
+                  static_cast<unsigned>(code));
+    al = b;
+    if (asked_[not_op] > 0U) {
+      al += ", asked back to OP " + std::to_string(asked_[not_op]) + " times";
+    }
+  }
   boot_error_ = "subdevice " + std::to_string(not_op + 1U) + " (" +
-                (not_op < cfg_.subdevices.size() ? cfg_.subdevices[not_op].name : std::string("?")) +
-                ") did not reach OP with distributed clocks (its SYNC0 did not start, or it refused it)";
+                (not_op < n ? cfg_.subdevices[not_op].name : std::string("?")) +
+                ") did not reach OP with distributed clocks (its SYNC0 did not start, or it refused it)" + al;
   return false;
 }
 
@@ -418,7 +498,7 @@ void Backend::read(ProcessImageIn& in) noexcept {
       ++stale_in_row_;
     }
     const bool too_long = watchdog_ns_ > 0U && last_good_ns_ > 0U && now - last_good_ns_ > watchdog_ns_;
-    if (health_.ok && (stale_in_row_ >= cfg_.stale_cycles || too_long)) {
+    if (health_.ok && up_.load(std::memory_order_relaxed) && (stale_in_row_ >= cfg_.stale_cycles || too_long)) {
       lost_after_cycles_.store(stale_in_row_, std::memory_order_relaxed);
       lost_after_ns_.store(last_good_ns_ > 0U ? now - last_good_ns_ : 0U, std::memory_order_relaxed);
       // On a line nothing answers from the first subdevice on (a cut cable, a dead segment).
@@ -430,14 +510,28 @@ void Backend::read(ProcessImageIn& in) noexcept {
     stale_in_row_ = 0;
     counting_ = counting_ || !async_ || req_seq_ > 0U;
     last_good_ns_ = answered_ns;
+    std::size_t not_op = cfg_.subdevices.size();
     for (std::size_t i = 0; i < cfg_.subdevices.size(); ++i) {
       if (i >= c.count || c.al_state[i] != 8U) {
-        lose(static_cast<std::uint8_t>(i + 1U), "subdevice left OP");
+        not_op = i;
         break;
       }
     }
-    if (c.wkc != c.expected_wkc) {
-      lose(0, "working counter differs from the expected one");
+    const bool wkc_ok = c.wkc == c.expected_wkc;
+    if (up_.load(std::memory_order_relaxed)) {
+      if (not_op < cfg_.subdevices.size()) {
+        lose(static_cast<std::uint8_t>(not_op + 1U), "subdevice left OP");
+      }
+      if (!wkc_ok) {
+        lose(0, "working counter differs from the expected one");
+      }
+    } else if (not_op == cfg_.subdevices.size() && wkc_ok) {
+      up_.store(true, std::memory_order_release);  // the bus is up: SPEC §4 rule 1 from here
+      waiting_for_ = 0;
+    } else {
+      // Not up yet (a subdevice asked back to OP by the exchange thread, or still on its way):
+      // BOOT waits for it, up to boot_timeout_ms, and names it if it never comes.
+      waiting_for_ = static_cast<std::uint8_t>(not_op < cfg_.subdevices.size() ? not_op + 1U : 0U);
     }
     if (dc_ && c.dc_time != 0U) {
       follow_dc(c.dc_time);
@@ -487,8 +581,9 @@ void Backend::follow_dc(std::uint64_t dc_time) noexcept {
 }
 
 void Backend::decode(ProcessImageIn& in) const noexcept {
-  in.fieldbus_ok = health_.ok;
-  in.fieldbus_subdevice = health_.subdevice;
+  const bool up = up_.load(std::memory_order_relaxed);
+  in.fieldbus_ok = health_.ok && up;
+  in.fieldbus_subdevice = up ? health_.subdevice : waiting_for_;
   in.fieldbus_silent = health_.silent;
   // A subdevice still answering: a silent bus takes every subdevice from its position on.
   const auto online = [this](std::size_t pos) {

@@ -283,7 +283,7 @@ void EmulatedCell::on_exchange() noexcept {
   if (held_.contactor) {
     drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
   }
-  new_setpoints_ = true;
+  fresh_ = (fresh_ < 0xFFFFU) ? fresh_ + 1U : fresh_;
   if (!paced_by_sync0()) {
     plant_cycle(Cause::exchange);  // lock-step, or drives synchronous to the frames
   }
@@ -300,7 +300,13 @@ void EmulatedCell::on_exchange() noexcept {
 void EmulatedCell::sync0_setpoints() noexcept {
   const hal::ProcessImageOut before = out_;
   unpack_held(segment_, out_);
-  if (new_setpoints_) {
+  // More than one set-point applied at once: after a held pulse (the set-points went on while
+  // the axis stood: frames late or lost), or more frames since the last pulse than the pulses
+  // they were meant for, the one extrapolated pulse before making up for one of them.
+  const std::uint32_t credit = (missed_ == 1U) ? 1U : 0U;
+  multi_step_ = fresh_ > 0U && (missed_ > 1U || fresh_ - credit > 1U);
+  steps_.multi_step += multi_step_ ? 1U : 0U;
+  if (fresh_ > 0U) {
     missed_ = 0;
   } else if (missed_ < 0xFFU) {
     ++missed_;
@@ -321,7 +327,7 @@ void EmulatedCell::sync0_setpoints() noexcept {
   }
   steps_.extrapolated += (missed_ == 1U) ? 1U : 0U;
   steps_.held += (missed_ > 1U) ? 1U : 0U;
-  new_setpoints_ = false;
+  fresh_ = 0;
 }
 
 void EmulatedCell::plant_cycle(Cause cause) noexcept {
@@ -329,6 +335,7 @@ void EmulatedCell::plant_cycle(Cause cause) noexcept {
     sync0_setpoints();
     ++steps_.sync0;
   } else {
+    multi_step_ = false;
     unpack_held(segment_, out_);
     ++(cause == Cause::exchange ? steps_.exchange : steps_.free);
   }
@@ -337,7 +344,10 @@ void EmulatedCell::plant_cycle(Cause cause) noexcept {
   ++cycles_;
   last_step_ns_ = now_ns_;
   latch_inputs();
-  peak_mm_s_ = std::max(peak_mm_s_, max_point_speed(in_, tcp_mm_));
+  const float v = max_point_speed(in_, tcp_mm_);
+  peak_mm_s_ = std::max(peak_mm_s_, v);
+  float& peak = multi_step_ ? peak_multi_mm_s_ : peak_one_mm_s_;
+  peak = std::max(peak, v);
 }
 
 void EmulatedCell::mark_input_change() noexcept {
@@ -382,7 +392,7 @@ bool EmulatedCell::paced_by_sync0() noexcept {
   if (p != kNoPacer && pacer_ == kNoPacer) {
     const std::uint64_t k = segment_.esc(p).sync0_pulses(now_ns_);
     pulses_ = (k > 0U) ? k - 1U : 0U;  // the pulse that started it is the first step
-    new_setpoints_ = true;
+    fresh_ = 1;
     missed_ = 0;
   }
   pacer_ = p;

@@ -185,6 +185,29 @@ std::string person_line(EmulatedCell& cell, const std::string& line) {
   return "OK";
 }
 
+// `freeze MS`: from now, for MS ms (1..1000), no frame reaches the segment; the frames sent
+// meanwhile reach it when the freeze ends, in order (a host stall of the master as the wire
+// sees it). Its clocks, SYNC0 pulses, watchdogs and the plant run on. `freeze MS at-op`: the
+// same from the first frame that exchanges process data with a subdevice in OP (the master's
+// boot wait after its OP request), which goes unanswered. For tests; `fault clear all` takes
+// it back.
+std::string freeze_line(EmulatedCell& cell, const std::string& line) {
+  std::istringstream words(line);
+  std::string verb, ms, when, extra;
+  words >> verb >> ms >> when >> extra;
+  std::uint32_t n = 0;
+  if (verb != "freeze" || !parse_count(ms, 1, 1000, n) || !(when.empty() || when == "at-op") || !extra.empty()) {
+    return "ERROR freeze needs MS (1..1000) and optionally at-op, got '" + line + "'";
+  }
+  const std::uint64_t ns = std::uint64_t{n} * 1000000U;
+  if (when.empty()) {
+    cell.segment().freeze(cell.now(), ns);
+  } else {
+    cell.segment().freeze_at_op(ns);
+  }
+  return "OK";
+}
+
 std::string scenario_line(EmulatedCell& cell, const std::string& line) {
   scenario::ParseResult r = scenario::parse("@0 " + line + "\n", "control");
   if (!r.ok()) {
@@ -294,6 +317,8 @@ nlohmann::json dc_status(EmulatedCell& cell) {
   return dc;
 }
 
+double tenth(float v) { return std::round(static_cast<double>(v) * 10.0) / 10.0; }
+
 std::string status(EmulatedCell& cell) {
   nlohmann::json j;
   const hal::ProcessImageOut& o = cell.last_outputs();
@@ -308,7 +333,10 @@ std::string status(EmulatedCell& cell) {
                 {"steps", {{"exchange", st.exchange}, {"sync0", st.sync0}, {"free", st.free}}},
                 {"extrapolated", st.extrapolated},
                 {"held", st.held},
-                {"max_point_speed_mm_s", std::round(static_cast<double>(cell.max_point_speed_mm_s()) * 10.0) / 10.0}};
+                {"multi_step", st.multi_step},
+                {"max_point_speed_mm_s", tenth(cell.max_point_speed_mm_s())},
+                {"max_point_speed_multi_step_mm_s", tenth(cell.max_point_speed_multi_step_mm_s())},
+                {"max_point_speed_one_step_mm_s", tenth(cell.max_point_speed_one_step_mm_s())}};
   j["frames"] = cell.segment().frames();
   j["lost_replies"] = cell.segment().lost_replies();
   j["connected"] = cell.segment().connected();
@@ -324,6 +352,13 @@ std::string status(EmulatedCell& cell) {
     wd.push_back(cell.segment().esc(i).watchdog_ns() / 1000U);
   }
   j["watchdog_us"] = wd;
+  // How often each one's process-data watchdog expired (0x0442), and the freezes so far.
+  nlohmann::json expired = nlohmann::json::array();
+  for (std::size_t i = 0; i < cell.segment().size(); ++i) {
+    expired.push_back(cell.segment().esc(i).watchdog_expiries());
+  }
+  j["watchdog_expired"] = expired;
+  j["freezes"] = cell.segment().freezes();
   // The writable CoE objects of each subdevice with a mailbox ("6060:00": 8, ...; null for
   // the I/O terminals): what the master's start-up list left there.
   nlohmann::json sdo = nlohmann::json::array();
@@ -431,6 +466,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   if (line.rfind("plant", 0) == 0) {
     return "ERROR plant needs lockstep, paced or reset, got '" + line + "'";
   }
+  if (line.rfind("freeze", 0) == 0) {  // a host stall as the segment sees it (segment.hpp)
+    return freeze_line(cell, line);
+  }
   if (line.rfind("time ", 0) == 0) {  // arm a response-time measurement (wire_timing.hpp)
     return time_line(cell, line.substr(5));
   }
@@ -448,7 +486,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
     return scenario_line(cell, line);
   }
   return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, plant "
-         "lockstep|paced|reset, time ..., status, dc reset, or a JSON sim message)";
+         "lockstep|paced|reset, time ..., freeze MS [at-op], status, dc reset, or a JSON sim message)";
 }
 
 }  // namespace safestate::ecat

@@ -143,6 +143,9 @@ std::uint64_t arrival_ns(msghdr& msg, std::uint64_t now) {
 }
 
 void serve_frames(EmulatedCell& cell, int raw) {
+  if (now_ns() < cell.segment().frozen_until()) {
+    return;  // a host stall (`freeze`): the frames wait in the socket until it ends
+  }
   std::uint8_t frame[2048];
   alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + 64];
   for (int k = 0; k < 64; ++k) {
@@ -162,11 +165,15 @@ void serve_frames(EmulatedCell& cell, int raw) {
     if (from.sll_pkttype == PACKET_OUTGOING) {
       continue;  // our own replies
     }
-    const std::uint64_t t = std::max(arrival_ns(msg, now_ns()), cell.now());  // in order, never back
+    // In order, never back; a frame sent during a `freeze` reaches the segment when it ends.
+    const std::uint64_t t = std::max({arrival_ns(msg, now_ns()), cell.now(), cell.segment().frozen_until()});
     cell.sync0_until(t);  // the pulses before it first: they took the set-points the last frame left
     cell.set_time(t);
     if (cell.segment().process(std::span<std::uint8_t>(frame, static_cast<std::size_t>(n)), t)) {
       send(raw, frame, static_cast<std::size_t>(n), 0);
+    }
+    if (cell.segment().frozen_until() > t) {
+      return;  // this frame started a freeze (`freeze MS at-op`): the next ones wait for its end
     }
   }
 }
@@ -326,7 +333,9 @@ int ecat_sim_main(const EcatSimOptions& opt) {
                opt.control.empty() ? "" : ", control ", opt.control.c_str());
   std::vector<Client> clients;
   while (!g_stop.load()) {
-    std::vector<pollfd> fds{{raw, POLLIN, 0}};
+    // During a `freeze` the raw socket is not looked at (its frames wait), the rest runs on.
+    const std::uint64_t frozen = cell.segment().frozen_until();
+    std::vector<pollfd> fds{{now_ns() < frozen ? -1 : raw, POLLIN, 0}};
     if (ctl >= 0) {
       fds.push_back({ctl, POLLIN, 0});
     }
@@ -337,7 +346,11 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     // paces the plant (the inputs sampled there are what the next frame carries), a little
     // after it: a frame that reached the interface before the pulse and that the kernel has
     // not handed over yet is then taken first (serve_frames, by its arrival time).
-    const std::uint64_t sleep = cell.sleep_ns(now_ns(), 1000000U - kPulseGraceNs) + kPulseGraceNs;
+    const std::uint64_t t0 = now_ns();
+    std::uint64_t sleep = cell.sleep_ns(t0, 1000000U - kPulseGraceNs) + kPulseGraceNs;
+    if (t0 < frozen) {
+      sleep = std::min(sleep, frozen - t0);
+    }
     const timespec ts{0, static_cast<long>(sleep)};
     ppoll(fds.data(), fds.size(), &ts, nullptr);
     // Frames first, then the watchdogs: a frame that reached the socket while this process

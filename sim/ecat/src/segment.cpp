@@ -95,6 +95,12 @@ bool Segment::process(std::span<std::uint8_t> frame, std::uint64_t now_ns) noexc
       break;
     }
   }
+  if (freeze_at_op_ns_ > 0U && pd_written &&
+      std::any_of(escs_.begin(), escs_.end(), [](const Esc& e) { return e.state() == AlState::op; })) {
+    freeze(now_ns, freeze_at_op_ns_);
+    freeze_at_op_ns_ = 0;
+    return false;  // processed, but the stall took the master as it went out: it never sees the answer
+  }
   if (lose_every_ > 0U && ++lose_count_ >= lose_every_) {
     lose_count_ = 0;
     ++lost_replies_;

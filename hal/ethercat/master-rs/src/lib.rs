@@ -12,7 +12,8 @@ use ethercrab::{
     std::ethercat_now,
     error::{Error as EcError, MailboxError},
     subdevice_group::{DcConfiguration, HasDc, Op, PreOp, SafeOp},
-    DcSync, MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup, SubDeviceState, Timeouts,
+    Command, DcSync, MainDevice, MainDeviceConfig, PduStorage, RegisterAddress, RetryBehaviour, SubDeviceGroup,
+    SubDeviceState, Timeouts,
 };
 use core::future::Future;
 use core::pin::pin;
@@ -106,10 +107,18 @@ pub struct SsEcatMaster {
     expected_wkc: u16,
     pdu_timeout: Duration,
     io: Arc<Mutex<txrx::TxRx<'static>>>,
+    /// Each subdevice's configured station address, in bus order (set by the scan), and how many.
+    addresses: [u16; MAX_SUBDEVICES],
+    n_addresses: usize,
     error: [u8; 256],
 }
 
 impl SsEcatMaster {
+    fn address(&self, position: u16) -> Option<u16> {
+        let p = usize::from(position);
+        (p < self.n_addresses).then(|| self.addresses[p])
+    }
+
     fn fail(&mut self, msg: &str) -> i32 {
         let n = msg.len().min(self.error.len() - 1);
         self.error[..n].copy_from_slice(&msg.as_bytes()[..n]);
@@ -320,7 +329,18 @@ pub unsafe extern "C" fn ss_ecat_open(
     let config =
         MainDeviceConfig { retry_behaviour: RetryBehaviour::None, dc_static_sync_iterations: DC_STATIC_SYNC_FRAMES };
     let md: &'static MainDevice<'static> = Box::leak(Box::new(MainDevice::new(pdu_loop, timeouts, config)));
-    Box::into_raw(Box::new(SsEcatMaster { md, preop: None, safe: None, op: None, expected_wkc: 0, pdu_timeout, io, error: [0; 256] }))
+    Box::into_raw(Box::new(SsEcatMaster {
+        md,
+        preop: None,
+        safe: None,
+        op: None,
+        expected_wkc: 0,
+        pdu_timeout,
+        io,
+        addresses: [0; MAX_SUBDEVICES],
+        n_addresses: 0,
+        error: [0; 256],
+    }))
 }
 
 /// The last error of `ss_ecat_scan` / `ss_ecat_to_op` / `ss_ecat_exchange`.
@@ -386,8 +406,70 @@ pub unsafe extern "C" fn ss_ecat_scan(m: *mut SsEcatMaster, subs: *mut SsEcatSub
         Err(e) => return m.fail(&format!("scan: {}", e)),
     };
     let n = describe(group.iter(md), |_| (0, 0), subs, max);
+    m.n_addresses = 0;
+    for (i, sd) in group.iter(md).take(MAX_SUBDEVICES).enumerate() {
+        m.addresses[i] = sd.configured_address();
+        m.n_addresses = i + 1;
+    }
     m.preop = Some(group);
     n as i32
+}
+
+/// The AL status (0x0130: the state in bits 0-3, bit 4 the error indication) and the AL
+/// status code (0x0134) of the subdevice at `position` (0-based, bus order), read with one
+/// FPRD each. 0, or -1 with the reason in `ss_ecat_error`. Allocates nothing; waits for up to
+/// two frame round trips (each bounded by the PDU timeout): not for the real-time cycle.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned; `status` and `code` are null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_al_status(m: *mut SsEcatMaster, position: u16, status: *mut u16, code: *mut u16) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    let Some(address) = m.address(position) else {
+        return m.fail(&format!("no subdevice {}", usize::from(position) + 1));
+    };
+    let md = m.md;
+    let r: Result<(u16, u16), EcError> = block_on(async {
+        let s: u16 = Command::fprd(address, RegisterAddress::AlStatus.into()).receive(md).await?;
+        let c: u16 = Command::fprd(address, RegisterAddress::AlStatusCode.into()).receive(md).await?;
+        Ok((s, c))
+    });
+    match r {
+        Ok((s, c)) => {
+            if let Some(p) = status.as_mut() {
+                *p = s;
+            }
+            if let Some(p) = code.as_mut() {
+                *p = c;
+            }
+            0
+        }
+        Err(e) => m.fail(&format!("subdevice {}: reading its AL status: {}", usize::from(position) + 1, e)),
+    }
+}
+
+/// Writes `control` into the AL control register (0x0120) of the subdevice at `position`
+/// (0-based): the requested state in bits 0-3 (1 INIT, 2 PRE-OP, 4 SAFE-OP, 8 OP), bit 4
+/// acknowledges an error indication of its AL status (ETG.1000.6 6.4.1: while the error is
+/// shown, a request without it is ignored). Does not wait for the state: the caller reads it
+/// back (the cyclic exchange's AL states, or `ss_ecat_al_status`). 0, or -1 with the reason.
+///
+/// # Safety
+/// `m` comes from `ss_ecat_open` and was scanned.
+#[no_mangle]
+pub unsafe extern "C" fn ss_ecat_al_control(m: *mut SsEcatMaster, position: u16, control: u16) -> i32 {
+    let Some(m) = m.as_mut() else { return -1 };
+    if control & !0x001F != 0 || !matches!(control & 0x0F, 1 | 2 | 4 | 8) {
+        return m.fail(&format!("AL control {:#06x}: a state 1, 2, 4 or 8 and the acknowledge bit 0x10 only", control));
+    }
+    let Some(address) = m.address(position) else {
+        return m.fail(&format!("no subdevice {}", usize::from(position) + 1));
+    };
+    let md = m.md;
+    match block_on(Command::fpwr(address, RegisterAddress::AlControl.into()).send_receive::<u16>(md, control)) {
+        Ok(_) => 0,
+        Err(e) => m.fail(&format!("subdevice {}: writing AL control {:#06x}: {}", usize::from(position) + 1, control, e)),
+    }
 }
 
 /// One SDO download of a start-up list, in PRE-OP, to the subdevice at `position` (0-based):

@@ -29,6 +29,11 @@ int ss_ecat_to_safe_op(SsEcatMaster* m, SsEcatSub* subs, std::size_t max, const 
 int ss_ecat_dc_reference(const SsEcatMaster* m);
 int ss_ecat_set_watchdog(SsEcatMaster* m, std::uint16_t divider, std::uint16_t time);
 int ss_ecat_to_op(SsEcatMaster* m);
+// AL status 0x0130 (state bits 0-3, error indication bit 4) and AL status code 0x0134 of the
+// subdevice at `position` (0-based); AL control 0x0120 (state bits 0-3, acknowledge bit 4).
+// Not for the real-time cycle: each waits for its frames.
+int ss_ecat_al_status(SsEcatMaster* m, std::uint16_t position, std::uint16_t* status, std::uint16_t* code);
+int ss_ecat_al_control(SsEcatMaster* m, std::uint16_t position, std::uint16_t control);
 int ss_ecat_exchange(SsEcatMaster* m, const std::uint8_t* outputs, std::size_t out_len, std::uint8_t* inputs,
                      std::size_t in_len, SsEcatCycle* cycle, std::uint32_t timeout_us, std::uint32_t drive);
 std::uint64_t ss_ecat_stray_frames();

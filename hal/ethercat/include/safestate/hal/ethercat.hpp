@@ -196,6 +196,7 @@ class Backend final : public hal::Backend {
   void sample_time(ProcessImageIn& in, bool fresh, std::uint64_t dc_time) noexcept;
   void follow_dc(std::uint64_t dc_time) noexcept;
   bool await_dc_op();
+  void ask_back_to_op(std::size_t i, std::uint64_t now_ns) noexcept;
   void hand_over() noexcept;
   void stop_exchanges() noexcept;
 
@@ -233,6 +234,16 @@ class Backend final : public hal::Backend {
   bool async_;
   bool handed_over_ = false;
   bool counting_ = false;  // stale cycles count towards the loss once a request of the loop was answered
+  // The bus is up: read() has seen an answer with every subdevice in OP and the expected
+  // working counter. Until then (the master's boot, and BOOT of the core, which waits for the
+  // fieldbus up to boot_timeout_ms) nothing is lost: the fieldbus is reported not up, and a
+  // subdevice that fell back from OP is asked back (ask_back_to_op). From then on SPEC §4
+  // rule 1: a subdevice leaving OP, a short working counter, stale cycles are FIELDBUS_LOST.
+  std::atomic<bool> up_{false};
+  std::uint8_t waiting_for_ = 0;  // while not up: the first subdevice not in OP (1-based), 0 = the bus
+  // Per subdevice: when it was last asked back to OP (monotonic ns) and how often in all.
+  std::vector<std::uint64_t> asked_ns_;
+  std::vector<std::uint32_t> asked_;
   std::counting_semaphore<1 << 30> wake_{0};
   std::mutex xfer_;
   std::vector<std::uint8_t> req_out_;

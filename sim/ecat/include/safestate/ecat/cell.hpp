@@ -86,7 +86,8 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
 //             set-point to the position it gives than in lock-step. The drives track their
 //             set-points ideally, as in-process: frames late past their SYNC0 twice and then
 //             two in one cycle make the axis stand for a pulse and then take two steps in
-//             one, really (steps().held, max_point_speed()). While no SYNC0 runs
+//             one, really (steps().held, steps().multi_step, max_point_speed_multi_step()).
+//             While no SYNC0 runs
 //             (boot, drives free-running without DC) the drives are synchronous to the frames
 //             and the plant steps per exchange, as in lock-step.
 // In both, when no process data arrives (and no SYNC0 paces it) the plant runs on by itself
@@ -101,6 +102,11 @@ class EmulatedCell {
     std::uint64_t free = 0;          // nothing: no master, no SYNC0
     std::uint64_t extrapolated = 0;  // SYNC0 pulses that found no new set-point: the last step repeated
     std::uint64_t held = 0;          // ... and found none again: the set-points held
+    // SYNC0 pulses that applied more than one cycle's set-point at once: after a held pulse
+    // (the axis stood while the master's set-points went on), or with more frames since the
+    // last pulse than the pulses they were meant for (one extrapolated pulse makes up for
+    // one of them). The axis really took two steps or more in one cycle there.
+    std::uint64_t multi_step = 0;
   };
   explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment());
   void set_pacing(Pacing p) noexcept { pacing_ = p; }
@@ -112,9 +118,16 @@ class EmulatedCell {
   // the last reset_steps(), mm/s (max_point_speed() of the inputs each cycle latched): what
   // tells a speed alarm of the core the arm earned from one it did not.
   [[nodiscard]] float max_point_speed_mm_s() const noexcept { return peak_mm_s_; }
+  // The same, split: at the pulses that applied more than one set-point (Steps::multi_step)
+  // and at every other plant cycle. A speed alarm the arm earned because the host delivered
+  // frames late shows in the first; a jog that kept to its limit keeps the second under it.
+  [[nodiscard]] float max_point_speed_multi_step_mm_s() const noexcept { return peak_multi_mm_s_; }
+  [[nodiscard]] float max_point_speed_one_step_mm_s() const noexcept { return peak_one_mm_s_; }
   void reset_steps() noexcept {
     steps_ = Steps{};
     peak_mm_s_ = 0.0F;
+    peak_multi_mm_s_ = 0.0F;
+    peak_one_mm_s_ = 0.0F;
   }
   // How long the emulator may sleep before the plant needs it (the next SYNC0 pulse when
   // paced by it), at most `most_ns`.
@@ -214,13 +227,16 @@ class EmulatedCell {
   Pacing pacing_ = Pacing::lockstep;
   Steps steps_{};
   float peak_mm_s_ = 0.0F;
+  float peak_multi_mm_s_ = 0.0F;
+  float peak_one_mm_s_ = 0.0F;
   std::uint64_t cycles_ = 0;
   std::uint64_t exchanges_ = 0;
   std::uint64_t pulses_ = 0;           // SYNC0 pulses of the pacing drive the plant has stepped on
   static constexpr std::size_t kNoPacer = static_cast<std::size_t>(-1);
   std::size_t pacer_ = kNoPacer;       // the drive whose SYNC0 stepped the plant at the last look
-  bool new_setpoints_ = false;         // an exchange since the last SYNC0 step
+  std::uint32_t fresh_ = 0;            // exchanges (set-points) since the last SYNC0 step
   std::uint8_t missed_ = 0;            // SYNC0 steps in a row without one
+  bool multi_step_ = false;            // the SYNC0 step running applied more than one set-point
   std::array<float, hal::kAxes> step_rad_{};  // each drive's last set-point step (extrapolation)
   std::uint64_t last_step_ns_ = 0;
   std::uint64_t now_ns_ = 0;

@@ -184,6 +184,8 @@ class Esc {
   void poll_watchdog(std::uint64_t now_ns) noexcept;
   // Its time as the registers hold it: (0x0400 divider + 2) x 40 ns x 0x0420.
   [[nodiscard]] std::uint64_t watchdog_ns() const noexcept;
+  // How often it expired (0x0442, the process-data watchdog counter; wraps at 256).
+  [[nodiscard]] std::uint8_t watchdog_expiries() const noexcept { return mem_[reg::wdg_counter_pd]; }
 
   // Distributed clocks. The local clock runs from power-on at (1 + drift) times the host's
   // monotonic clock in 10-ns ticks (a 100 MHz ESC clock); system time = local time + offset

@@ -65,12 +65,29 @@ class Segment {
   // in the logical datagrams, so their working counter comes back short (its own process-
   // data watchdog then expires, as on a real ESC whose application hangs).
   void ignore_process_data(std::size_t position) noexcept { no_pd_ = position; }
+  // A host stall as the segment sees it (a test of the master): from `from_ns`, for `ns`, no
+  // frame reaches it; the frames sent meanwhile reach it when the stall ends, in order, as a
+  // stalled master's would go out then (the emulator's loop takes none before frozen_until():
+  // ecat_sim.cpp). Its clocks, SYNC0 pulses and process-data watchdogs run on meanwhile.
+  void freeze(std::uint64_t from_ns, std::uint64_t ns) noexcept {
+    frozen_until_ = from_ns + ns;
+    ++freezes_;
+  }
+  // The same, from the first frame that exchanges process data with a subdevice in OP: the
+  // master's first cyclic exchange after its OP request (its boot wait, or its keep-alive).
+  // That frame is processed but not answered (the stall took the master as it went out: the
+  // master never sees the answer, so no answer from before the stall can show the bus up).
+  void freeze_at_op(std::uint64_t ns) noexcept { freeze_at_op_ns_ = ns; }
+  [[nodiscard]] std::uint64_t frozen_until() const noexcept { return frozen_until_; }
+  [[nodiscard]] std::uint32_t freezes() const noexcept { return freezes_; }
   void clear_wire_faults() noexcept {
     silent_ = false;
     no_pd_ = 0;
     drop_ = 0;
     corrupt_ = 0;
     lose_every_ = 0;
+    frozen_until_ = 0;
+    freeze_at_op_ns_ = 0;
   }
   [[nodiscard]] std::size_t connected() const noexcept;
 
@@ -97,6 +114,9 @@ class Segment {
   std::uint64_t lost_replies_ = 0;
   bool silent_ = false;
   std::size_t no_pd_ = 0;
+  std::uint64_t frozen_until_ = 0;
+  std::uint64_t freeze_at_op_ns_ = 0;
+  std::uint32_t freezes_ = 0;
   std::uint64_t frames_ = 0;
   std::vector<std::uint8_t> scratch_;
   std::function<void()> on_pd_;
