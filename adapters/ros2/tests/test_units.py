@@ -155,6 +155,8 @@ def test_one_status_per_channel_when_the_status_has_two():
                                     {"CHANNEL_MISMATCH": {"severity": "lockout", "text": "Channels differ."}}))
     assert d["channel A"]["level"] == mapping.ERROR  # the lockout alarm concerns both
     assert d["channel B"]["level"] == mapping.ERROR and ("digest", "1A2B") in d["channel B"]["values"]
+    d = by_name(mapping.diagnostics(status(channels=[{"name": "A", "agree": True}, {"name": "B", "agree": False}])))
+    assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.ERROR  # before any alarm
     d = by_name(mapping.diagnostics(status(channels=[{"state": "OPERATIONAL", "agree": True}, {"state": "IDLE"}])))
     assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.WARN
     assert "channel A" not in by_name(mapping.diagnostics(status()))
