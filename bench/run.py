@@ -22,12 +22,15 @@
      the checker's generated safety/include/safestate/safety/stopping_data.hpp)
  10. collaborative operation, SSM against fields only with the simulated person walking in from
      20 directions (bench/collaborative.py: its section of this document, docs/collaborative/ssm-run.svg)
+ 11. the ROS 2 adapter at a subscriber: E-stop to ~/safety_state and diagnostics, gateway or core
+     gone to unknown and STALE (bench/ros2_latency.py in .venv-ros2, `make ros2`; its section of this
+     document; left out when that venv is missing)
 
 Measurements, not tests: nothing here fails because a goal is missed; the document says
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
-them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta` and `run.py --collab` measure only
-their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses;
+them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta`, `run.py --collab` and `run.py --ros2` measure only
+their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses; ROS2_PRESSES (default 200), ROS2_STALE_TRIALS (default 5): bench/ros2_latency.py;
 ECAT_LOSS_TRIALS (default 5): emulators killed, and masters killed with -9. ECAT_DC_SECONDS
 (default 60): the DC sync-error run.
 """
@@ -751,6 +754,9 @@ def main():
     if sys.argv[1:] == ["--collab"]:  # only the collaborative benchmark (issue 20 item 6)
         collaborative()
         return
+    if sys.argv[1:] == ["--ros2"]:  # only the ROS 2 adapter's latency (issue 39)
+        ros2()
+        return
     if sys.argv[1:] == ["--m4cycle"]:  # only the M4 instruction count: measure it and patch its rows in place
         m4cycle_only()
         return
@@ -764,6 +770,8 @@ def main():
         print(f"bench: wrote {os.path.relpath(DOC, ROOT)} from build/bench/results.json")
         if os.path.exists(os.path.join(OUT, "collab.json")):
             collaborative("--render")
+        if os.path.exists(os.path.join(OUT, "ros2.json")):
+            ros2("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -793,6 +801,7 @@ def main():
     response_time()  # after the EtherCAT part: it shows the E-stop reaction on the wire beside the analysis
     stopping()
     collaborative()  # after render(): it adds its own section to the document
+    ros2()  # likewise
 
 
 def response_time():
@@ -811,6 +820,16 @@ def collaborative(*args):
     """SPEC §11, issue 20 item 6: the section "Collaborative operation: SSM against fields only" of
     docs/performance.md and docs/collaborative/ssm-run.svg (bench/collaborative.py, about a minute)."""
     subprocess.run([sys.executable, os.path.join(ROOT, "bench", "collaborative.py"), *args], check=True, cwd=ROOT)
+
+
+def ros2(*args):
+    """Issue 39: the section "ROS 2 adapter at a subscriber" of docs/performance.md
+    (bench/ros2_latency.py, in the adapter's venv; about a minute)."""
+    py = os.path.join(ROOT, ".venv-ros2", "bin", "python")
+    if not os.path.exists(py):
+        print("bench: the ROS 2 adapter's latency left out: .venv-ros2 missing (`make ros2`)", flush=True)
+        return
+    subprocess.run([py, os.path.join(ROOT, "bench", "ros2_latency.py"), *args], check=True, cwd=ROOT)
 
 
 if __name__ == "__main__":
