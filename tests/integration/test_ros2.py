@@ -123,6 +123,42 @@ def test_topics_types_qos_and_services_as_documented(ros):
     assert values["checksum"] == m.config_checksum and values["validated"] == "true", values
 
 
+def sockets(pid):
+    """(protocol, local address, port, state) of the sockets of process pid, from /proc."""
+    inodes = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        try:
+            link = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue
+        if link.startswith("socket:["):
+            inodes.add(link[8:-1])
+    out = []
+    for proto in ("udp", "udp6", "tcp", "tcp6"):
+        for line in open(f"/proc/net/{proto}").read().splitlines()[1:]:
+            f = line.split()
+            if f[9] in inodes:
+                addr, port = f[1].split(":")
+                if len(addr) == 8:  # IPv4, little-endian hex
+                    addr = ".".join(str(int(addr[i:i + 2], 16)) for i in (6, 4, 2, 0))
+                out.append((proto, addr, int(port, 16), f[3]))
+    return out
+
+
+def test_dds_receives_on_loopback_only(ros):
+    """Nothing of the adapter listens beyond loopback (DDS has no authentication here): every UDP
+    socket bound to 127.0.0.1, or to the discovery multicast group (joined on loopback only), and
+    no TCP socket listening at all."""
+    ros.known()
+    socks = sockets(adapter_pids(ros.cell)[0])
+    udp = [(a, p) for proto, a, p, _ in socks if proto.startswith("udp")]
+    assert udp, "no UDP socket at all?"
+    bad = [a for a in udp if a[0] not in ("127.0.0.1", "239.255.0.1")]
+    assert not bad, f"the adapter binds beyond loopback: {bad} (all: {socks})"
+    listening = [x for x in socks if x[0].startswith("tcp") and x[3] == "0A"]
+    assert not listening, listening
+
+
 # ------------------------------------------------------------------------------ E-stop
 def test_estop_is_seen_in_safety_state_and_diagnostics(ros):
     ros.known()

@@ -86,16 +86,23 @@ def early_settings(argv, environ):
     return domain, ns, localhost
 
 
+DISCOVERY_VARIABLES = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY")
+
+
 def dds_environment(environ, localhost_only):
-    """The environment rclpy must start with. Localhost only (the default): discovery limited to
-    this host (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, Jazzy's successor of ROS_LOCALHOST_ONLY)
-    and Fast DDS receiving on 127.0.0.1 only (a participant profile with an interface
-    allowlist), because DDS here has no authentication: anyone who reaches the domain may call
-    ~/start. localhost_only:=false leaves the DDS environment to the user."""
+    """The environment rclpy must start with. Localhost only (the default): Fast DDS with a
+    participant profile whose only transports are UDP on 127.0.0.1 (an interface allowlist) and
+    shared memory, because DDS here has no authentication: anyone who reaches the domain may call
+    ~/start. The discovery variables are removed on purpose: with ROS_AUTOMATIC_DISCOVERY_RANGE=
+    LOCALHOST (or ROS_LOCALHOST_ONLY) rmw_fastrtps adds transports of its own that bind 0.0.0.0
+    and the host's addresses, beside the profile's; with the profile alone every socket the
+    participant receives on is bound to 127.0.0.1 (or to the discovery multicast group, joined on
+    the loopback interface only). Nodes of this host find it whatever their own discovery range.
+    localhost_only:=false leaves the DDS environment to the user."""
     env = dict(environ)
     if localhost_only:
-        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-        env.pop("ROS_LOCALHOST_ONLY", None)
+        for k in DISCOVERY_VARIABLES:
+            env.pop(k, None)
         env["FASTRTPS_DEFAULT_PROFILES_FILE"] = LOOPBACK_PROFILE
     return env
 

@@ -226,8 +226,10 @@ def test_early_settings_from_ros_args():
 
 
 def test_dds_environment_is_loopback_unless_asked():
-    env = config.dds_environment({"ROS_LOCALHOST_ONLY": "0", "ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}, True)
-    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST" and "ROS_LOCALHOST_ONLY" not in env
+    env = config.dds_environment({"ROS_LOCALHOST_ONLY": "1", "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+                                  "ROS_STATIC_PEERS": "10.0.0.1", "A": "1"}, True)
+    assert not {"ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_STATIC_PEERS"} & set(env), env
+    assert env["A"] == "1"
     assert env["FASTRTPS_DEFAULT_PROFILES_FILE"] == config.LOOPBACK_PROFILE
     assert Path(config.LOOPBACK_PROFILE).read_text().count("<address>127.0.0.1</address>") == 1
     assert config.dds_environment({"A": "1"}, False) == {"A": "1"}
