@@ -10,7 +10,7 @@ Run it with the adapter's venv (docs/ros2.md "Try it"):
   .venv-ros2/bin/python adapters/ros2/tools/inspect_cell.py call start    # ~/start (or servo_on, ...)
 
 --domain N (default ROS_DOMAIN_ID, else 0) and --namespace NS as the adapter was given them.
-DDS stays on this host unless ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise.
+Discovery on this host only (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) unless the environment says otherwise.
 """
 
 import argparse
