@@ -38,6 +38,11 @@ cmake -S "$here/safestate_msgs" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release 
 cmake --build "$build"
 cmake --install "$build" > /dev/null
 
+# The adapter itself runs from this checkout: a .pth file puts adapters/ros2 on the venv's path,
+# so that `.venv-ros2/bin/python -m safestate_ros2` works from anywhere.
+site=$("$py" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+echo "$here" > "$site/safestate_ros2.pth"
+
 # The check that it all fits together: the adapter's imports, in a fresh interpreter.
-"$py" -c 'import rclpy, websockets; from safestate_msgs.msg import SafetyState, Event; from sensor_msgs.msg import JointState; from diagnostic_msgs.msg import DiagnosticArray; from std_srvs.srv import Trigger'
+"$py" -c 'import rclpy, websockets, safestate_ros2.node; from safestate_msgs.msg import SafetyState, Event; from sensor_msgs.msg import JointState; from diagnostic_msgs.msg import DiagnosticArray; from std_srvs.srv import Trigger'
 echo "ros2: $venv ready (rclpy $("$py" -c 'from importlib.metadata import version; print(version("ros-jazzy-rclpy"))'), safestate_msgs)"

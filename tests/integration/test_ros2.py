@@ -449,6 +449,7 @@ def test_the_adapter_is_a_remote_with_its_token_and_nothing_without(tmp_path):
     ("namespace:=/bad-name", "namespace: not a valid ROS namespace"),
     ("gateway:=nowhere", "gateway: expected HOST:PORT"),
     ("cycle_us:=5", "cycle_us: 5 out of range"),
+    ("cycle_us:=fast", "cycle_us"),
     ("remote_token_file:=/nonexistent/token", "remote_token_file: No such file or directory"),
 ])
 def test_bad_parameters_are_refused_with_their_name_and_exit_2(param, words):

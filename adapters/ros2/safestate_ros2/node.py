@@ -17,6 +17,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -296,7 +297,8 @@ def main(argv=None):
         signal.signal(sig, lambda *_: stop.set())
     try:
         node = SafeStateNode(domain, ns, localhost)
-    except config.ConfigError as e:
+    except (config.ConfigError, ParameterException, NameValidationException) as e:
+        # A parameter of the wrong type (cycle_us:=fast), or a remapped name that is no ROS name.
         print(f"safestate-ros2: {e}", file=sys.stderr)
         rclpy.shutdown()
         return config.EXIT_CONFIG
