@@ -180,8 +180,12 @@ def test_estop_is_seen_in_safety_state_and_diagnostics(ros):
         assert (m.contactor, m.drives, m.brakes) == ("open", "disabled", "engaged"), m
         assert m.speed_scaling == 0.0, "nothing may move in ESTOP_ACTIVE"
         e = diag_status(d, "E-stop")
-        assert "pressed" in e.message, e
+        assert {kv.key: kv.value for kv in e.values}["reading"].startswith("pressed"), e.values
         assert any(kv.key == "alarm ESTOP_PRESSED" for kv in e.values), e.values
+        # The alarm's name at once, then its words from GET /api/alarms (the cause's words).
+        _, d = ros.user.wait("diag", lambda a: diag_status(a, "E-stop").message.startswith("E-stop "), 5, d_mark,
+                             "the E-stop alarm in words")
+        assert level(diag_status(d, "E-stop")) == ERROR
         assert level(diag_status(d, "state")) == ERROR
         assert t_state - t0 < ESTOP_LOOSE_S and t_diag - t0 < ESTOP_LOOSE_S, (t_state - t0, t_diag - t0)
         # Released: a reset is needed, which ROS cannot give.

@@ -248,7 +248,7 @@ def _alarm_values(names, info):
     out = []
     for n in names:
         a = info.get(n) if isinstance(info.get(n), dict) else {}
-        words = " ".join(x for x in (_str(a.get("text")), _str(a.get("detail"))) if x)
+        words = " ".join(x for x in (_str(a.get("detail")), _str(a.get("text"))) if x)
         sev = _str(a.get("severity"))
         out.append((f"alarm {n}", f"{sev}: {words}" if sev and words else (words or sev or "active")))
     return out
@@ -274,15 +274,17 @@ def _status(name, level, message, values):
 
 
 def _function_status(name, alarms, active, info, base_level, base_message, values):
+    """The message is the function's active alarm in the gateway's words (the same words as the
+    first-out cause when that alarm caused the stop: "E-stop channel A opened"), else the
+    function's reading ("released", "mode AUTO"), which is kept as the key-value `reading`."""
     mine = [a for a in alarms if a in active]
     level = max([base_level] + [_alarm_level(a, info) for a in mine])
     message = base_message
     if mine:
         a = info.get(mine[0]) if isinstance(info.get(mine[0]), dict) else {}
-        message = _str(a.get("text")) or mine[0]
-        if base_message and base_level >= _alarm_level(mine[0], info):
-            message = base_message
-    return _status(name, level, message, values + [("alarms", mine)] + _alarm_values(mine, info))
+        message = _str(a.get("detail")) or _str(a.get("text")) or mine[0]
+    return _status(name, level, message,
+                   [("reading", base_message)] + values + [("alarms", mine)] + _alarm_values(mine, info))
 
 
 def diagnostics(status, alarm_info=None):

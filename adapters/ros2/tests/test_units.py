@@ -121,16 +121,17 @@ def test_diagnostics_levels_follow_the_state_and_alarms():
     assert set(d) == {"state", "E-stop", "guard", "enabling device", "mode", "drives", "fieldbus",
                       "safety configuration", "safe limits", "brake test", "collaborative operation"}
     assert all(e["level"] == mapping.OK for e in d.values()), {k: e["level"] for k, e in d.items()}
-    info = {"ESTOP_PRESSED": {"severity": "info", "text": "E-stop pressed.", "detail": "estop.a"}}
+    info = {"ESTOP_PRESSED": {"severity": "info", "text": "The E-stop was pressed.", "detail": "E-stop channel A opened"}}
     d = by_name(mapping.diagnostics(status(state="ESTOP_ACTIVE", sub=None, stop="CAT0", alarms=["ESTOP_PRESSED"],
                                            cause="E-stop channel A opened"), info))
-    assert d["E-stop"]["level"] == mapping.ERROR and "pressed" in d["E-stop"]["message"]
-    assert ("alarm ESTOP_PRESSED", "info: E-stop pressed. estop.a") in d["E-stop"]["values"]
+    assert d["E-stop"]["level"] == mapping.ERROR and d["E-stop"]["message"] == "E-stop channel A opened"
+    assert ("reading", "pressed: Cat 0 stop, power removed") in d["E-stop"]["values"]
+    assert ("alarm ESTOP_PRESSED", "info: E-stop channel A opened The E-stop was pressed.") in d["E-stop"]["values"]
     assert d["state"]["level"] == mapping.ERROR and d["state"]["message"] == "E-stop channel A opened"
     assert d["guard"]["level"] == mapping.OK
     info = {"FIELDBUS_LOST": {"severity": "lockout", "text": "Cyclic process data stopped being valid."}}
     d = by_name(mapping.diagnostics(status(state="ERROR_LOCKOUT", sub=None, alarms=["FIELDBUS_LOST"]), info))
-    assert d["fieldbus"]["level"] == mapping.ERROR and d["fieldbus"]["message"].startswith("Cyclic")
+    assert d["fieldbus"]["level"] == mapping.ERROR and d["fieldbus"]["message"].startswith("Cyclic")  # no detail
     assert d["drives"]["level"] == mapping.OK
     d = by_name(mapping.diagnostics(status(validated=False, alarms=["CONFIG_NOT_VALIDATED"]),
                                     {"CONFIG_NOT_VALIDATED": {"severity": "warning", "text": "Not validated."}}))
