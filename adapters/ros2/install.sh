@@ -25,7 +25,9 @@ py="$venv/bin/python"
 # The wheels are large (about 250 MB installed); pip keeps them in its cache between installs.
 "$py" -m pip install -q --disable-pip-version-check -r "$here/requirements.txt"
 
-# safestate_msgs: rosidl_generate_interfaces through ament_cmake, all from the venv.
+# safestate_msgs: rosidl_generate_interfaces through ament_cmake, all from the venv, in a fresh
+# build tree (a cache left by another venv or checkout would point elsewhere).
+rm -rf "$build"
 export PATH="$venv/bin:$PATH"
 export AMENT_PREFIX_PATH="$venv"
 cmake -S "$here/safestate_msgs" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \

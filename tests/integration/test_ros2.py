@@ -482,3 +482,25 @@ def test_namespace_and_domain_are_parameters(tmp_path):
         assert (v[0].integer_value, v[1].string_value, v[2].bool_value) == (r.domain, "/cell7", True), v
     finally:
         assert r.close() == 0
+
+
+def test_the_inspection_script_of_the_docs_works(ros):
+    """docs/ros2.md "Try it": adapters/ros2/tools/inspect_cell.py lists the topics, echoes
+    ~/safety_state and calls ~/start, as a new user would in another shell."""
+    ros.known()
+    tool = [str(ROS2_PY), str(ROS2_DIR / "tools" / "inspect_cell.py"), "--domain", str(ros.domain)]
+    env = {**os.environ, **user_environment()}
+
+    def run_tool(*args):
+        return subprocess.run([*tool, *args], env=env, capture_output=True, text=True, timeout=60)
+
+    p = run_tool("topics")
+    assert p.returncode == 0, p.stderr
+    assert "topic    /safestate/safety_state  safestate_msgs/msg/SafetyState  [reliable, transient_local]" in p.stdout, \
+        p.stdout
+    assert "service  /safestate/start  std_srvs/srv/Trigger" in p.stdout, p.stdout
+    p = run_tool("echo")
+    assert p.returncode == 0 and "state: ESTOP_RESET_NEEDED" in p.stdout and "known: True" in p.stdout, p
+    p = run_tool("call", "start")
+    assert p.returncode == 3, p
+    assert p.stdout.strip() == "/safestate/start: success=False message=RESET_REQUIRED", p.stdout
