@@ -112,7 +112,9 @@ def test_topics_types_qos_and_services_as_documented(ros):
     assert "/safestate/reset" not in services and "/safestate/jog" not in services, \
         "no reset and no jog over ROS 2 (docs/ros2.md)"
     # Diagnostics: one status per safety function, named and levelled.
-    _, d = ros.user.wait("diag", lambda a: diag_status(a, "state") is not None, 10)
+    # (The first array may be from before the adapter reached the gateway: every status STALE.)
+    _, d = ros.user.wait("diag", lambda a: diag_status(a, "state") is not None and level(diag_status(a, "state")) != STALE,
+                         10, what="diagnostics of a connected adapter")
     for f in FUNCTIONS:
         s = diag_status(d, f)
         assert s is not None, f"no diagnostics for {f}: {[x.name for x in d.status]}"

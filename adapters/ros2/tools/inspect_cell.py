@@ -50,9 +50,10 @@ def main():
     deadline = time.monotonic() + a.timeout
     try:
         if a.what == "topics":
-            # Discovery takes a moment: wait until the adapter's topics show up.
-            while time.monotonic() < deadline and f"{base}/safety_state" not in dict(node.get_topic_names_and_types()):
+            # Discovery takes a moment: wait until the adapter's publisher (with its QoS) is known.
+            while time.monotonic() < deadline and not node.get_publishers_info_by_topic(f"{base}/safety_state"):
                 rclpy.spin_once(node, timeout_sec=0.1)
+            rclpy.spin_once(node, timeout_sec=0.3)  # and the rest of its endpoints
             for name, types in sorted(node.get_topic_names_and_types()):
                 pubs = node.get_publishers_info_by_topic(name)
                 qos = ""
