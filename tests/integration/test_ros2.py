@@ -506,3 +506,16 @@ def test_the_inspection_script_of_the_docs_works(ros):
     p = run_tool("call", "start")
     assert p.returncode == 3, p
     assert p.stdout.strip() == "/safestate/start: success=False message=RESET_REQUIRED", p.stdout
+
+
+def test_safestate_run_leaves_a_refusing_adapter_off_and_serves_on(tmp_path):
+    """A setting the adapter refuses (exit 2) is not retried by `safestate run`, which serves on."""
+    cell = SafeState(tmp_path, args=["--ros2", "--ros2-domain-id", str(dds_domain()), "--ros2-namespace", "/bad-name"])
+    try:
+        wait_until(lambda: "the ROS 2 adapter refused its configuration; ROS 2 stays off" in cell.output(), 30,
+                   "safestate run to give up on the adapter")
+        assert "namespace: not a valid ROS namespace" in cell.output(), cell.output()
+        assert try_status(cell.port) is not None
+        assert adapter_pids(cell) == []
+    finally:
+        assert cell.stop() == 0, cell.output()
