@@ -206,7 +206,7 @@ def section(d):
         "",
         "A killed gateway closes the adapter's socket: it says unknown at once. A stalled core leaves the gateway "
         "up; the adapter reads the core's heartbeat age in each status and says unknown once it passes 300 ms. "
-        "Without any status for 0.5 s the adapter says unknown as well (a gateway that hangs).", "",
+        "Without any status for 0.6 s the adapter says unknown as well (a gateway that hangs); it gives the connection up after 3 s of silence.", "",
     ]
     return "\n".join(lines) + "\n"
 

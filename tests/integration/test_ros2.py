@@ -286,7 +286,8 @@ def test_speed_scaling_falls_when_reduced_mode_comes(ros):
                                "speed_scaling at the reduced limit")
         m = ros.user.state(lambda m: m.reduced and m.speed_scaling <= 0.125 + 1e-6, 10)
         assert "input" in " ".join(m.reduced_by) or m.reduced_by, m
-        falling = [x.data for _, x in ros.user.got["scaling"][mark:]]
+        # Only falls (0 is "may not move", safe at any time: a host that stalls makes the state unknown).
+        falling = [x.data for _, x in ros.user.got["scaling"][mark:] if x.data > 0.0]
         assert falling == sorted(falling, reverse=True), f"speed_scaling only falls: {falling}"
         _, d = ros.user.wait("diag", lambda a: "reduced" in diag_status(a, "safe limits").message, 10)
         assert (await p.sim(set={"reduced.a": 1, "reduced.b": 1}))["result"] == "OK"
@@ -359,10 +360,12 @@ def test_stale_and_unknown_when_the_core_stalls_and_known_again(ros):
         t_state, m = ros.user.wait("state", lambda m: not m.known, 10, mark, "the unknown state")
         t_diag, d = ros.user.wait("diag", lambda a: all(level(s) == STALE for s in a.status), 10, d_mark,
                                   "STALE diagnostics")
+        # Why, in words: the gateway is up and says how old the core's heartbeat is.
+        ros.user.wait("diag", lambda a: "core has not cycled" in diag_status(a, "state").message, 5, d_mark,
+                      "STALE naming the core")
     finally:
         os.kill(ros.cell.proc.pid, signal.SIGCONT)
     assert m.state == "UNKNOWN" and m.speed_scaling == 0.0 and not m.alarms, m
-    assert "core" in diag_status(d, "state").message, diag_status(d, "state").message
     assert t_state - t0 < STALE_S and t_diag - t0 < STALE_S, (t_state - t0, t_diag - t0)
     ros.user.state(lambda m: m.known, 20, mark, "a known state after the core resumes")
 
@@ -490,7 +493,7 @@ def test_the_inspection_script_of_the_docs_works(ros):
     """docs/ros2.md "Try it": adapters/ros2/tools/inspect_cell.py lists the topics, echoes
     ~/safety_state and calls ~/start, as a new user would in another shell."""
     ros.known()
-    tool = [str(ROS2_PY), str(ROS2_DIR / "tools" / "inspect_cell.py"), "--domain", str(ros.domain)]
+    tool = [str(ROS2_PY), str(ROS2_DIR / "tools" / "inspect_cell.py"), "--domain", str(ros.domain), "--timeout", "30"]
     env = {**os.environ, **user_environment()}
 
     def run_tool(*args):

@@ -18,7 +18,10 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from .backoff import retry_delay_s
 from .events import EventSequencer
 
-STATUS_SILENCE_S = 0.5  # status comes at 50 Hz: 25 periods of silence is a lost gateway
+# Status comes at 50 Hz. Silence makes the state unknown after node.STATUS_SILENCE_S (0.6 s);
+# the connection is given up only after RECONNECT_SILENCE_S, so that a host that stalls for a
+# moment costs a moment of `unknown`, not the session and the commands in flight.
+RECONNECT_SILENCE_S = 3.0
 REPLY_TIMEOUT_S = 3.0  # the core answers in the cycle it takes a command (SPEC §5); a reset 50 cycles
 HTTP_TIMEOUT_S = 2.0
 EVENTS_PAGE = 500  # protocol.md: at most 500 events per page
@@ -175,8 +178,8 @@ class Gateway:
     async def _watchdog(self):
         while True:
             await asyncio.sleep(0.05)
-            if time.monotonic() - self._last_status > STATUS_SILENCE_S:
-                return f"no status for {STATUS_SILENCE_S} s"
+            if time.monotonic() - self._last_status > RECONNECT_SILENCE_S:
+                return f"no status for {RECONNECT_SILENCE_S:g} s"
 
     def _lost(self, why):
         for fut in self._pending.values():

@@ -35,6 +35,7 @@ from .gateway import REPLY_TIMEOUT_S, Gateway
 # act at the cell, ISO 13849-1 manual reset) and no jog (it needs the pendant's enabling device).
 COMMANDS = ("servo_on", "servo_off", "start", "pause", "resume", "stop", "brake_test")
 CORE_STALE_MS = 300.0  # the core's cycle counter unchanged this long (as the gateway sees it): gone
+STATUS_SILENCE_S = 0.6  # no status this long (50 Hz expected): unknown, checked every 0.1 s (<= 0.7 s)
 REPUBLISH_S = 1.0  # state topics and diagnostics at least this often (diagnostics: the ROS convention)
 
 # QoS a ROS 2 user expects (docs/ros2.md "Topics"): state topics latched, the stream reliable.
@@ -251,9 +252,9 @@ class SafeStateNode(Node):
 
     def _tick(self):
         with self._lock:
-            # Independent of the gateway thread: a status older than the silence limit is unknown.
-            if self._status is not None and time.monotonic() - self._received > 0.5:
-                self._set_unknown("no status from the gateway for 0.5 s")
+            # A status older than the silence limit is unknown (the gateway hangs, or its thread here).
+            if self._status is not None and time.monotonic() - self._received > STATUS_SILENCE_S:
+                self._set_unknown(f"no status from the gateway for {STATUS_SILENCE_S:g} s")
             self._publish_all()
 
     # ------------------------------------------------------------------ services
