@@ -11,7 +11,7 @@ VENV := .venv
 # The C# client's enums and alarm table, generated from the core's tables by gen_docs.
 CS_NAMES := clients/csharp/SafeState.Client/Generated/Names.g.cs
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp opcua
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp opcua ros2
 
 deps:
 	@$(DEPS) build
@@ -67,7 +67,19 @@ adapters/opcua/dist/main.js: adapters/opcua/node_modules/.stamp $(OPCUA_SRC)
 
 opcua: adapters/opcua/dist/main.js
 
-test: build $(VENV)/.stamp hmi/dist/index.html csharp adapters/opcua/dist/main.js
+# The ROS 2 adapter (docs/ros2.md): ROS 2 Jazzy's rclpy and message packages from PyPI into a
+# venv of their own (no ROS installation; every version pinned in adapters/ros2/requirements.txt),
+# and its interface package safestate_msgs generated with the registry's rosidl packages.
+# `safestate run --ros2` (`make run ROS2=1`) starts it from there.
+ROS2_VENV := .venv-ros2
+$(ROS2_VENV)/.stamp: adapters/ros2/requirements.txt adapters/ros2/install.sh $(wildcard adapters/ros2/safestate_msgs/msg/*.msg) adapters/ros2/safestate_msgs/CMakeLists.txt
+	@$(DEPS) ros2
+	adapters/ros2/install.sh $(ROS2_VENV) build-ros2
+	touch $@
+
+ros2: $(ROS2_VENV)/.stamp
+
+test: build $(VENV)/.stamp hmi/dist/index.html csharp adapters/opcua/dist/main.js $(ROS2_VENV)/.stamp
 	@$(DEPS) embedded browser ecat
 	ctest --preset default
 
@@ -133,8 +145,12 @@ embedded:
 # without it, the built-in one.
 SAFETY ?=
 SAFETY_ARG = $(if $(SAFETY),--safety $(SAFETY))
-run: build hmi/dist/index.html adapters/opcua/dist/main.js
-	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist $(SAFETY_ARG)
+# ROS2=1: with the ROS 2 adapter (node /safestate, DDS on this host only; docs/ros2.md), on
+# ROS_DOMAIN_ID's domain (else 0).
+ROS2 ?=
+ROS2_ARG = $(if $(filter-out 0,$(ROS2)),--ros2)
+run: build hmi/dist/index.html adapters/opcua/dist/main.js $(if $(filter-out 0,$(ROS2)),$(ROS2_VENV)/.stamp)
+	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(ROS2_ARG)
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
@@ -150,7 +166,7 @@ demo: build
 	$(BIN)/safestate demo examples/demo.scn
 
 clean:
-	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov build-cargo $(VENV) hmi/dist hmi/node_modules clients/csharp/bin adapters/opcua/dist adapters/opcua/node_modules
+	rm -rf $(BUILD_DIR) build-debug build-m4 build-tsan build-asan build-fuzz build-cov build-cargo build-ros2 build-ros2.configure.log $(VENV) $(ROS2_VENV) hmi/dist hmi/node_modules clients/csharp/bin adapters/opcua/dist adapters/opcua/node_modules
 
 # The cell over real EtherCAT frames: `safestate ecat-sim` (EMULATED subdevices) in a
 # network namespace of its own on one end of a veth pair; `safestate run --fieldbus

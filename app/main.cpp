@@ -103,6 +103,10 @@ int main(int argc, char** argv) {
                   "users who may call OPC UA methods (name:scrypt:SALT:HASH lines, see docs/opcua.md)");
   run->add_option("--opcua-pki", run_opt.opcua_pki, "OPC UA certificate store (default opcua-pki beside --db)");
   run->add_option("--opcua-main", run_opt.opcua_main, "the adapter's main.js (default: this build's adapters/opcua)");
+  run->add_flag("--ros2", run_opt.ros2, "start the ROS 2 adapter (adapters/ros2, `make ros2`; docs/ros2.md)");
+  run->add_option("--ros2-domain-id", run_opt.ros2_domain_id, "its DDS domain (default: ROS_DOMAIN_ID, else 0)")
+      ->check(CLI::Range(0, 232));
+  run->add_option("--ros2-namespace", run_opt.ros2_namespace, "its namespace (default: none)");
   run->add_option("--fieldbus", run_opt.fieldbus, "sim (the in-process simulated cell, default) or ethercat")
       ->check(CLI::IsMember({"sim", "ethercat"}));
   run->add_option("--ifname", run_opt.ifname, "ethercat: network interface of the segment (needs CAP_NET_RAW)");

@@ -26,12 +26,15 @@
      1024 descriptors (bench/gw_admission.py: its section of this document; issue 40)
  12. OPC UA: a sim E-stop press to the notification of a subscription on EmergencyStop, idle and with
      every core busy (bench/opcua_estop.py, issue 14's 200 ms: its goal row and section; the test venv)
+ 13. the ROS 2 adapter at a subscriber: E-stop to ~/safety_state and diagnostics, gateway or core
+     gone to unknown and STALE (bench/ros2_latency.py in .venv-ros2, `make ros2`; its section of this
+     document; left out when that venv is missing)
 
 Measurements, not tests: nothing here fails because a goal is missed; the document says
 which goals are met. Environment: RT_SECONDS (default 60), CYCLES (default 1000000).
 Raw figures go to build/bench/results.json; `run.py --render` rewrites the document from
-them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta`, `run.py --collab` `run.py --admission` and `run.py --opcua` measure only
-their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses;
+them without measuring again. `run.py --ws`, `run.py --ecat`, `run.py --m4cycle`, `run.py --rta`, `run.py --collab` `run.py --admission`, `run.py --opcua` and `run.py --ros2` measure only
+their part and patch its rows in the document in place. ECAT_PRESSES (default 100): E-stop presses; ROS2_PRESSES (default 200), ROS2_STALE_TRIALS (default 5): bench/ros2_latency.py;
 ECAT_LOSS_TRIALS (default 5): emulators killed, and masters killed with -9. ECAT_DC_SECONDS
 (default 60): the DC sync-error run.
 """
@@ -761,6 +764,9 @@ def main():
     if sys.argv[1:] == ["--opcua"]:  # only the OPC UA E-stop notification (issue 14)
         opcua()
         return
+    if sys.argv[1:] == ["--ros2"]:  # only the ROS 2 adapter's latency (issue 39)
+        ros2()
+        return
     if sys.argv[1:] == ["--m4cycle"]:  # only the M4 instruction count: measure it and patch its rows in place
         m4cycle_only()
         return
@@ -779,6 +785,8 @@ def main():
                             os.path.join(OUT, "admission.json")], check=True, cwd=ROOT)
         if os.path.exists(os.path.join(OUT, "opcua.json")):
             opcua("--render")
+        if os.path.exists(os.path.join(OUT, "ros2.json")):
+            ros2("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -810,6 +818,7 @@ def main():
     collaborative()  # after render(): it adds its own section to the document
     admission()  # the same
     opcua()  # likewise: its goal row and section
+    ros2()  # likewise
 
 
 def response_time():
@@ -841,6 +850,16 @@ def opcua(*args):
     row and section of docs/performance.md (bench/opcua_estop.py, about 2 minutes; asyncua, so the
     test venv's Python, VENV_PY)."""
     subprocess.run([PY, os.path.join(ROOT, "bench", "opcua_estop.py"), *args], check=True, cwd=ROOT)
+
+
+def ros2(*args):
+    """Issue 39: the section "ROS 2 adapter at a subscriber" of docs/performance.md
+    (bench/ros2_latency.py, in the adapter's venv; about a minute)."""
+    py = os.path.join(ROOT, ".venv-ros2", "bin", "python")
+    if not os.path.exists(py):
+        print("bench: the ROS 2 adapter's latency left out: .venv-ros2 missing (`make ros2`)", flush=True)
+        return
+    subprocess.run([py, os.path.join(ROOT, "bench", "ros2_latency.py"), *args], check=True, cwd=ROOT)
 
 
 if __name__ == "__main__":

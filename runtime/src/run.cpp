@@ -181,6 +181,8 @@ class Restarts {
 };
 
 struct Adapter {
+  const char* name = "OPC UA";  // in messages: "the OPC UA adapter", "the ROS 2 adapter"
+  pid_t (*spawn)(const RunOptions&) = nullptr;
   pid_t pid = -1;
   bool enabled = false;
   Restarts restarts{1.0, 30.0, 10.0};
@@ -243,6 +245,7 @@ pid_t spawn_adapter(const RunOptions& opt) {
 
 Adapter start_adapter(const RunOptions& opt) {
   Adapter a;
+  a.spawn = spawn_adapter;
   if (!opt.opcua) {
     return a;
   }
@@ -259,6 +262,65 @@ Adapter start_adapter(const RunOptions& opt) {
   return a;
 }
 
+// ---------------------------------------------------------------- the ROS 2 adapter
+// adapters/ros2 (rclpy from PyPI in .venv-ros2, `make ros2`), started and supervised like the
+// OPC UA adapter: a `remote` client of the gateway, its token through the environment.
+#ifndef SAFESTATE_ROS2_PYTHON
+#define SAFESTATE_ROS2_PYTHON ".venv-ros2/bin/python"
+#define SAFESTATE_ROS2_DIR "adapters/ros2"
+#endif
+
+pid_t spawn_ros2(const RunOptions& opt) {
+  std::vector<std::string> args = {SAFESTATE_ROS2_PYTHON, "-m", "safestate_ros2", "--ros-args",
+                                   "-p", "gateway:=" + gateway_host(opt) + ":" + std::to_string(opt.port),
+                                   "-p", "cycle_us:=" + std::to_string(opt.rt.cycle_us)};
+  if (opt.ros2_domain_id >= 0) {
+    args.insert(args.end(), {"-p", "domain_id:=" + std::to_string(opt.ros2_domain_id)});
+  }
+  if (!opt.ros2_namespace.empty()) {
+    args.insert(args.end(), {"-p", "namespace:=" + opt.ros2_namespace});
+  }
+  std::vector<char*> argv = pointers(args);
+  std::vector<std::string> env = child_environment(opt);
+  env.push_back(std::string("PYTHONPATH=") + SAFESTATE_ROS2_DIR);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none;
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setpgroup(&attr, 0);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETPGROUP);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, SAFESTATE_ROS2_PYTHON, nullptr, &attr, argv.data(), pointers(env).data());
+  posix_spawnattr_destroy(&attr);
+  if (rc != 0) {
+    std::fprintf(stderr, "safestate run: cannot start the ROS 2 adapter (%s); continuing without ROS 2\n",
+                 std::strerror(rc));
+    return -1;
+  }
+  return pid;
+}
+
+Adapter start_ros2(const RunOptions& opt) {
+  Adapter a;
+  a.name = "ROS 2";
+  a.spawn = spawn_ros2;
+  if (!opt.ros2) {
+    return a;
+  }
+  if (access(SAFESTATE_ROS2_PYTHON, X_OK) != 0) {
+    std::fprintf(stderr,
+                 "safestate run: the ROS 2 adapter is not installed (%s missing; `make ros2` installs it); "
+                 "continuing without ROS 2\n",
+                 SAFESTATE_ROS2_PYTHON);
+    return a;
+  }
+  a.pid = spawn_ros2(opt);
+  a.enabled = a.pid > 0;
+  a.restarts.started(mono_s());
+  return a;
+}
+
 // Restart a dead adapter with growing back-off (1 s .. 30 s; reset after 10 s of life);
 // a configuration error is not retried: it would fail the same way.
 void supervise_adapter(const RunOptions& opt, Adapter& a) {
@@ -269,17 +331,17 @@ void supervise_adapter(const RunOptions& opt, Adapter& a) {
   if (a.pid > 0 && waitpid(a.pid, &status, WNOHANG) == a.pid) {
     a.pid = -1;
     if (WIFEXITED(status) && WEXITSTATUS(status) == kAdapterConfigError) {
-      std::fprintf(stderr, "safestate run: the OPC UA adapter refused its configuration; OPC UA stays off\n");
+      std::fprintf(stderr, "safestate run: the %s adapter refused its configuration; %s stays off\n", a.name, a.name);
       a.enabled = false;
       return;
     }
     const double delay = a.restarts.exited(mono_s());
-    std::fprintf(stderr, "safestate run: the OPC UA adapter exited (%s %d); restarting it in %.1f s\n",
+    std::fprintf(stderr, "safestate run: the %s adapter exited (%s %d); restarting it in %.1f s\n", a.name,
                  WIFSIGNALED(status) ? "signal" : "status", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status),
                  delay);
   }
   if (a.pid < 0 && a.restarts.due(mono_s())) {
-    a.pid = spawn_adapter(opt);
+    a.pid = a.spawn(opt);
     a.enabled = a.pid > 0;
     a.restarts.started(mono_s());
   }
@@ -524,6 +586,10 @@ int run_main(const RunOptions& opt) {
   if (adapter.enabled) {
     std::printf("OPC UA (OPC 40010-1 Robotics): opc.tcp://%s:%u\n", opt.opcua_bind.c_str(), opt.opcua_port);
   }
+  Adapter ros2 = start_ros2(opt);
+  if (ros2.enabled) {
+    std::printf("ROS 2: node %s/safestate (docs/ros2.md)\n", opt.ros2_namespace.c_str());
+  }
   std::printf("Press Ctrl-C for a Cat 1 stop and a clean exit.\n");
   std::fflush(stdout);
 
@@ -537,6 +603,7 @@ int run_main(const RunOptions& opt) {
       break;
     }
     supervise_adapter(opt, adapter);
+    supervise_adapter(opt, ros2);
     // The core says FIELDBUS_LOST; this names whom it concerns (read off the RT path).
     if (bus && !bus_loss_reported && bus->lost().why != nullptr) {
       const auto loss = bus->lost();
@@ -572,6 +639,7 @@ int run_main(const RunOptions& opt) {
   stop.store(true);
   rt_thread.join();
   stop_gateway(adapter.pid);
+  stop_gateway(ros2.pid);
   forwarding.store(false);
   if (forwarder.joinable()) {
     forwarder.join();

@@ -5,7 +5,9 @@
 # browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
 # the machine: Debian 12's nodejs is too old for Vite),
 # csharp (Mono 6.8 and NUnit 2.6 for clients/csharp; no NuGet), ecat (ip: network namespaces and
-# veth pairs for the EtherCAT tests; cargo comes from rustup, Debian 12's is too old for ethercrab).
+# veth pairs for the EtherCAT tests; cargo comes from rustup, Debian 12's is too old for ethercrab),
+# ros2 (a venv for ROS 2 Jazzy's PyPI wheels, built for CPython 3.11 = Debian 12's python3, and
+# what compiles the generated safestate_msgs: CMake, Ninja, a C/C++ compiler, Python's headers).
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
@@ -18,6 +20,7 @@ declare -A GROUPS_PKGS=(
   [bench]="libbenchmark-dev valgrind rt-tests qemu-system-arm"
   [csharp]="mono-devel nunit-console libnunit-cil-dev pkg-config"
   [ecat]="iproute2"
+  [ros2]="python3 python3-venv python3-dev cmake ninja-build g++"
 )
 
 missing=()

@@ -123,6 +123,11 @@ struct RunOptions {
   std::string opcua_users_file;  // required by the adapter beyond loopback
   std::string opcua_pki;         // default: opcua-pki beside the event database
   std::string opcua_main;        // default: SAFESTATE_OPCUA_MAIN (the build's adapters/opcua/dist/main.js)
+  // The ROS 2 adapter (adapters/ros2, rclpy in .venv-ros2), a supervised `remote` client; off
+  // unless asked for (--ros2). Domain -1: the environment's ROS_DOMAIN_ID, else 0.
+  bool ros2 = false;
+  int ros2_domain_id = -1;
+  std::string ros2_namespace;
   RtOptions rt{};
   core::Config core{};
   // SPEC §10: the safety configuration file; empty = the built-in configuration. A file
