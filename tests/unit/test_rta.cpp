@@ -298,6 +298,17 @@ TEST(StoppingCheck, AConfigurationIsJudgedAgainstTheStoppingDataOfItsPayload) {
     EXPECT_TRUE(warns(j, "stop.max_time_ms"));
     j["stop"]["max_time_ms"] = static_cast<int>(lv.cat1_stop_ms) + 1;
     EXPECT_FALSE(warns(j, "stop.max_time_ms"));
+    // A payload of exactly the level's fraction was measured at that level: its figures.
+    j["tool"]["payload_kg"] = lv.payload_fraction * static_cast<double>(motion::kRatedPayloadKg);
+    j["collaborative"]["ssm"]["decel_mm_s2"] = lv.tcp_decel_mm_s2 - 1.0;
+    EXPECT_FALSE(warns(j, "collaborative.ssm.decel_mm_s2")) << "at the level itself";
+    EXPECT_FALSE(warns(j, "stop.max_time_ms")) << "at the level itself";
     below = lv.payload_fraction;
   }
+  // SSM configured but not enabled promises nothing: its figures are not judged.
+  j["collaborative"]["ssm"]["enabled"] = false;
+  j["collaborative"]["ssm"]["decel_mm_s2"] = safety::stopping::kLevels.front().tcp_decel_mm_s2 * 2.0;
+  j["collaborative"]["ssm"]["reaction_ms"] = safety::stopping::kReactionMs / 2.0;
+  EXPECT_FALSE(warns(j, "collaborative.ssm.decel_mm_s2"));
+  EXPECT_FALSE(warns(j, "collaborative.ssm.reaction_ms"));
 }

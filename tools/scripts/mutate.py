@@ -343,7 +343,7 @@ def mutants():
          "decel judged by the 33 % payload data"),
         ("if (static_cast<double>(c.limits.max_stop_ms) < lv->cat1_stop_ms) {",
          "if (static_cast<double>(c.limits.max_stop_ms) < stopping::kLevels.front().cat1_stop_ms) {", "stop time judged by the 33 % payload data"),
-        ("if (l.payload_fraction + 1.0e-9 >= fraction) {", "if (l.payload_fraction > fraction) {", "a payload at a level judged by the next"),
+        (">= c.limits.payload_kg) {", "> c.limits.payload_kg) {", "a payload at a level judged by the next"),
         ("if (s.reaction_ms < stopping::kReactionMs) {", "if (s.reaction_ms < stopping::kReactionMs / 2.0) {", "reaction judged against half"),
         ("if (c.collaborative && c.collaborative->ssm && c.collaborative->ssm->enabled) {",
          "if (c.collaborative && c.collaborative->ssm) {", "SSM judged while disabled"),
