@@ -800,3 +800,28 @@ TEST(SpeedLimit, TheReducedRampIsMillisecondsAtA2msCycle) {
   EXPECT_LE(k, 255) << "not enforced 500 ms after reduced mode began (250 cycles of 2 ms)";
   EXPECT_TRUE(b.alarm(core::AlarmId::SPEED_LIMIT));
 }
+
+// SPEC §3 "unknown is unsafe" for SPEC §10: a measured joint position that is not a number is
+// outside its range. Found without power it shows as outside (status), servo_on in AUTO is
+// OUTSIDE_LIMITS; a number again, servo_on is accepted. (Mutant "NaN not outside": servo_on
+// was accepted and the first powered cycle tripped JOINT_LIMIT.)
+// @req LIM-JOINT ST-UNKNOWN-UNSAFE
+TEST(JointLimits, APositionThatIsNotANumberIsOutsideItsRange) {
+  const core::SafetyLimits l = builtin();
+  for (const std::size_t axis : {std::size_t{0}, std::size_t{2}, std::size_t{5}}) {
+    SCOPED_TRACE(testing::Message() << "axis " << axis + 1U);
+    test::Bench b;
+    b.configure_limits(l, arm(), true);
+    b.to_idle();
+    b.fb.drive[axis].position_rad = std::nanf("");
+    b.cycle();
+    EXPECT_TRUE(b.out.safety.outside);
+    EXPECT_FALSE(b.alarm(core::AlarmId::JOINT_LIMIT)) << "no power: nothing latched";
+    EXPECT_EQ(b.command(core::CommandId::servo_on), core::Result::OUTSIDE_LIMITS);
+    EXPECT_EQ(b.out.state, core::State::IDLE);
+    b.fb.drive[axis].position_rad = 0.0F;
+    b.cycle();
+    EXPECT_FALSE(b.out.safety.outside);
+    EXPECT_EQ(b.command(core::CommandId::servo_on), core::Result::OK);
+  }
+}
