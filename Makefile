@@ -11,7 +11,7 @@ VENV := .venv
 # The C# client's enums and alarm table, generated from the core's tables by gen_docs.
 CS_NAMES := clients/csharp/SafeState.Client/Generated/Names.g.cs
 
-.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench clean deps hmi lint csharp opcua ros2
+.PHONY: build test test-asan test-tsan fuzz coverage docs embedded run demo bench bench-check clean deps hmi lint csharp opcua ros2
 
 deps:
 	@$(DEPS) build
@@ -160,6 +160,13 @@ bench: $(VENV)/.stamp adapters/opcua/dist/main.js
 	cmake --build --preset default
 	cmake --build --preset default --target ws_rtt
 	VENV_PY=$(VENV)/bin/python python3 bench/run.py
+
+# The exhaustive checker at depth 5 (CHECK_DEPTH=N for another): minutes and gigabytes, so
+# not in `make test` (depth 3) nor `safestate check`'s default (4); docs/verification.md
+# reports the figures.
+bench-check: deps $(BUILD_DIR)/build.ninja
+	cmake --build --preset default --target safestate
+	bench/check_deep.sh
 
 # The narrated replay of examples/demo.scn (no server).
 demo: build

@@ -181,12 +181,28 @@ int main(int argc, char** argv) {
                        "'POS INDEX:SUB ABORT': the drive at POS refuses SDO downloads to INDEX:SUB with ABORT (tests)");
   safestate::check::CheckOptions check_opt;
   auto* check = app.add_subcommand("check", "explore every reachable state of the real core and check the invariants");
-  check->add_option("--depth", check_opt.max_depth, "actions from boot to explore")->check(CLI::Range(1, 64));
-  check->add_option("--max-configs", check_opt.max_configs, "stop beyond this many configurations");
+  check->footer(
+      "With no options: depth " + std::to_string(safestate::check::kDefaultCheckDepth) +
+      ", every configuration within that many actions of boot and of each scripted seed (about 520,000; a few "
+      "minutes, 1.3 GB), keeping at most " + std::to_string(safestate::check::kDefaultCheckConfigs) +
+      " to explore deeper. `make test` runs depth 3, `make bench-check` depth 5 (docs/verification.md).");
+  check->add_option("--depth", check_opt.max_depth, "actions from boot (and from each seed) to explore")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  check->add_option("--max-configs", check_opt.max_configs,
+                    "configurations kept to explore one action deeper; beyond them new ones are checked, not explored")
+      ->capture_default_str();
   check->add_option("--out", check_opt.out_dir, "folder for a counterexample .scn");
   check->add_flag("-v,--verbose", check_opt.verbose, "print progress per depth");
   check->add_flag("--break-invariant", check_opt.break_invariant,
                   "test the checker: demand a wrong state after an E-stop (must find a counterexample)");
+  std::string check_replay;
+  std::size_t check_replay_cycles = 2000;
+  check->add_option("--replay", check_replay,
+                    "instead of exploring, replay FILE (a counterexample .scn) with every invariant and the reference "
+                    "checked after every cycle");
+  check->add_option("--replay-cycles", check_replay_cycles, "with --replay: cycles to run past the file's last line")
+      ->capture_default_str();
   auto* safety = app.add_subcommand("safety", "the safety configuration (SPEC 10): check a file, print its RFC 8785 form");
   safety->require_subcommand(1);
   std::string safety_file;
@@ -213,6 +229,9 @@ int main(int argc, char** argv) {
   }
   if (safety_canonical->parsed()) {
     return safestate::app::safety_canonical_main(safety_file, canonical_checksum);
+  }
+  if (check->parsed() && !check_replay.empty()) {
+    return safestate::check::replay_main(check_replay, check_replay_cycles);
   }
   if (check->parsed()) {
     safestate::check::CheckStats stats;

@@ -18,10 +18,12 @@ std::string fmt(double v) {
 
 std::vector<std::string> stopping_warnings(const Loaded& c) {
   std::vector<std::string> w;
-  const double fraction = static_cast<double>(c.limits.payload_kg) / static_cast<double>(motion::kRatedPayloadKg);
+  // The lightest measured level whose payload is at least the tool's, both in kg as the
+  // configuration holds them (float): a payload of exactly a level's (0.99 kg, 33 %) is judged
+  // by that level's figures, not by the next one's (0.99 as a float is a little above 0.33 x 3).
   const stopping::Level* lv = &stopping::kLevels.back();
   for (const stopping::Level& l : stopping::kLevels) {
-    if (l.payload_fraction + 1.0e-9 >= fraction) {
+    if (static_cast<float>(l.payload_fraction * static_cast<double>(motion::kRatedPayloadKg)) >= c.limits.payload_kg) {
       lv = &l;
       break;
     }

@@ -183,8 +183,9 @@ class Bench {
   bool alarm(AlarmId a) const { return (out.alarms & bit(a)) != 0U; }
   const SystemStateManager& ssm() const { return sup_.manager(); }
   // SPEC §10: the safe limits to monitor (before the first cycle), with the arm they are about.
-  void configure_limits(const SafetyLimits& l, const ArmGeometry& arm, bool validated) {
-    sup_.configure_limits(l, arm, 1000U, validated);
+  // `cycle_us` is the scan cycle the limits' times (ms) are counted in: the Config's.
+  void configure_limits(const SafetyLimits& l, const ArmGeometry& arm, bool validated, std::uint32_t cycle_us = 1000U) {
+    sup_.configure_limits(l, arm, cycle_us, validated);
   }
   const Timing& timing() const { return timing_; }
 

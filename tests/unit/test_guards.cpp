@@ -4,6 +4,7 @@
 // violated now.
 #include <gtest/gtest.h>
 
+#include "safestate/core/monitor.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/core/transitions.hpp"
 
@@ -69,4 +70,25 @@ TEST(GuardServoOn, OutsideTheLimitsRefusesAutoAndT2ButNotT1) {
   EXPECT_EQ(v.servo_on(), Result::OUTSIDE_LIMITS);
   v.in.mode = Mode::T1;
   EXPECT_EQ(v.servo_on(), Result::OK) << "T1 is where the operator jogs back";
+}
+
+// The reporter's contract for a rule without an alarm (rule 5's event), as for an alarm's
+// trip(): the first detail found in the cycle is the one the stop names, a second finding
+// changes nothing; a trigger that is not one of SPEC §4's conditions is no event.
+// @req TR-PRIORITY
+TEST(Reporter, AnEventKeepsTheFirstDetailOfTheCycleAndOnlyConditionsAreEvents) {
+  AlarmSet alarms{};
+  Reporter r(alarms, 1U);
+  const auto t = static_cast<std::size_t>(Trigger::enable_left_centre);
+  EXPECT_FALSE(r.event(t));
+  r.trip_event(Trigger::enable_left_centre, detail_of(Signal::enable, Channel::a));
+  r.trip_event(Trigger::enable_left_centre, detail_of(Signal::enable, Channel::panic));
+  EXPECT_TRUE(r.event(t));
+  EXPECT_EQ(r.event_detail(t).signal, Signal::enable);
+  EXPECT_EQ(r.event_detail(t).channel, Channel::a);
+  r.trip_event(Trigger::standstill, detail_of(Signal::internal));  // an internal event, not a condition
+  for (std::size_t i = 0; i < kConditionCount; ++i) {
+    EXPECT_EQ(r.event(i), i == t) << "condition " << i;
+  }
+  EXPECT_EQ(alarms.mask(), 0U) << "an event raises no alarm";
 }

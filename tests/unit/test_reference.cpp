@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "../../tools/check/checker.hpp"
 #include "../../tools/reference/reference.hpp"
 #include "bench.hpp"
 #include "monitor_harness.hpp"
@@ -613,4 +614,38 @@ TEST(Differential, TheComparisonCanFail) {
   h.ref_timing.max_stop = 50;
   h.reference = ref::Supervisor{h.ref_timing};
   EXPECT_FALSE(h.run(300000).empty());
+}
+
+// Counterexamples of `safestate check` replayed through the checker's own cycle (every
+// invariant, and the core against the reference after every cycle), each for 2000 cycles
+// past its last line, so that a disagreement the exhaustive run once found stays found at
+// `make test`'s depth. The `expect` lines are what the checker wrote; `safestate replay` runs
+// them, not this test.
+// @req AL-FEEDBACK
+TEST(Differential, TheCheckersCounterexamplesReplayInAgreement) {
+  struct Case {
+    const char* why;
+    const char* scn;
+  };
+  const Case cases[] = {
+      // Issue 40: the guard opened in AUTO_IDLE, a Cat 1 stop commands the brakes engaged in
+      // cycle 402; brake 2 sticks released in cycle 463, as its 60 ms were ending (its feedback
+      // had said engaged for one cycle, 462, which ended the stop). SPEC §7 counts the 300 ms
+      // from the command: the core raises BRAKE_NOT_ENGAGED in cycle 703; the reference counted
+      // from the last engaged reading and was 60 ms late.
+      {"brake 2 stuck released as it engaged (depth 5, issue 40)",
+       "@100 cmd reset\n"
+       "@110 cmd servo_on\n"
+       "@400 in reset_button=0\n"
+       "@401 in gate=open\n"
+       "@402 in reset_button=1\n"
+       "@463 fault brake 2 stuck_released\n"
+       "@703 expect state=IDLE sub=-   # core/reference: alarm BRAKE_NOT_ENGAGED 1/0\n"},
+  };
+  for (const Case& c : cases) {
+    std::string error;
+    const std::string broke = safestate::check::replay_checked(c.scn, c.why, 2000, error);
+    EXPECT_TRUE(error.empty()) << c.why << ": " << error;
+    EXPECT_TRUE(broke.empty()) << c.why << ": " << broke;
+  }
 }

@@ -254,3 +254,61 @@ TEST(StoppingData, PayloadSlowsTheStopByItsScale) {
   const rta::Analysis a = rta::analyse(core::Config{}, *r.config, bus);
   EXPECT_EQ(term(fn(a, "estop"), "Cat 0 stop"), 188000U);  // 125 ms x 1.5, rounded up to whole cycles
 }
+
+// The stopping data a configuration is judged against are those of its own payload: the
+// measured level at or above tool.payload_kg (a fraction of the rated payload). A heavy tool
+// stops more slowly: SSM's promised deceleration and the stop time limit are compared with
+// that level's figures, not the lightest one's. (Issue 40: with the 33 % figures used whatever
+// the payload, a 1.5 kg tool promising 5000 mm/s² against the 4743 measured at 66 % was not
+// warned.)
+// @req STOP-CHECK
+TEST(StoppingCheck, AConfigurationIsJudgedAgainstTheStoppingDataOfItsPayload) {
+  const auto warns = [](const nlohmann::json& j, const std::string& key) {
+    safety::Result r = safety::parse_safety(j.dump());
+    EXPECT_TRUE(r.ok()) << r.errors[0].text();
+    if (!r.ok()) return false;
+    for (const std::string& w : safety::stopping_warnings(*r.config)) {
+      if (w.rfind(key, 0) == 0) return true;
+    }
+    return false;
+  };
+  nlohmann::json j = nlohmann::json::parse(safety::default_safety_text());
+  j["collaborative"] = {{"enabled", true},
+                        {"ssm",
+                         {{"enabled", true},
+                          {"decel_mm_s2", 1000.0},
+                          {"reaction_ms", safety::stopping::kReactionMs * 2.0},
+                          {"intrusion_mm", 200},
+                          {"uncertainty_mm", 100}}}};
+  // The issue's case: 1.5 kg is half the rated payload, judged by the 66 % level.
+  j["tool"]["payload_kg"] = 1.5;
+  j["collaborative"]["ssm"]["decel_mm_s2"] = 5000.0;
+  EXPECT_TRUE(warns(j, "collaborative.ssm.decel_mm_s2")) << "5000 mm/s² promised, 4743 measured at 66 %";
+  // Every level, from a payload just above the level below it: the level's own figures decide.
+  double below = 0.0;
+  for (const safety::stopping::Level& lv : safety::stopping::kLevels) {
+    const double payload = (below + 0.01) * static_cast<double>(motion::kRatedPayloadKg);
+    SCOPED_TRACE(testing::Message() << "payload " << payload << " kg, level " << lv.payload_fraction);
+    j["tool"]["payload_kg"] = payload;
+    j["collaborative"]["ssm"]["decel_mm_s2"] = lv.tcp_decel_mm_s2 + 1.0;
+    EXPECT_TRUE(warns(j, "collaborative.ssm.decel_mm_s2"));
+    j["collaborative"]["ssm"]["decel_mm_s2"] = lv.tcp_decel_mm_s2 - 1.0;
+    EXPECT_FALSE(warns(j, "collaborative.ssm.decel_mm_s2"));
+    j["stop"]["max_time_ms"] = static_cast<int>(lv.cat1_stop_ms) - 1;
+    EXPECT_TRUE(warns(j, "stop.max_time_ms"));
+    j["stop"]["max_time_ms"] = static_cast<int>(lv.cat1_stop_ms) + 1;
+    EXPECT_FALSE(warns(j, "stop.max_time_ms"));
+    // A payload of exactly the level's fraction was measured at that level: its figures.
+    j["tool"]["payload_kg"] = lv.payload_fraction * static_cast<double>(motion::kRatedPayloadKg);
+    j["collaborative"]["ssm"]["decel_mm_s2"] = lv.tcp_decel_mm_s2 - 1.0;
+    EXPECT_FALSE(warns(j, "collaborative.ssm.decel_mm_s2")) << "at the level itself";
+    EXPECT_FALSE(warns(j, "stop.max_time_ms")) << "at the level itself";
+    below = lv.payload_fraction;
+  }
+  // SSM configured but not enabled promises nothing: its figures are not judged.
+  j["collaborative"]["ssm"]["enabled"] = false;
+  j["collaborative"]["ssm"]["decel_mm_s2"] = safety::stopping::kLevels.front().tcp_decel_mm_s2 * 2.0;
+  j["collaborative"]["ssm"]["reaction_ms"] = safety::stopping::kReactionMs / 2.0;
+  EXPECT_FALSE(warns(j, "collaborative.ssm.decel_mm_s2"));
+  EXPECT_FALSE(warns(j, "collaborative.ssm.reaction_ms"));
+}

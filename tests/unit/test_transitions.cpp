@@ -1,4 +1,6 @@
 // Every row of SPEC §4 as its own named test, through the whole supervisor.
+#include <algorithm>
+
 #include "bench.hpp"
 
 using namespace safestate::test;
@@ -1188,4 +1190,94 @@ TEST(CycleOrder, ConditionsOfACycleComeBeforeItsCommands) {
   EXPECT_EQ(c.replies[c.replies.size() - 2].result, Result::OK);
   EXPECT_EQ(c.replies.back().result, Result::OK);
   EXPECT_EQ(c.out.state, State::ARMING);
+}
+
+// The Cat 1 stop's brake phase has a bound of its own, the brake time: two brake feedbacks
+// that chatter in antiphase, each engaged for longer than the confirmation time in turn,
+// never read all engaged in one cycle and never let a brake read released for the brake
+// time after its last confirmed engagement (no BRAKE_NOT_ENGAGED). The stop still ends when
+// the brake time is over: power removed, IDLE (SPEC §3: "at standstill engages brakes,
+// disables drives, opens the contactor and ends in IDLE"). (The only case where the stop's
+// own bound, not the feedback monitor, ends the brake phase: MC/DC of stopping.cpp.)
+// @req ST-CAT1 AL-FEEDBACK
+TEST(FeedbackMonitoring, BrakesChatteringInTurnEndTheCat1StopOnTheBrakeTime) {
+  Bench b;
+  b.to_auto_running();
+  b.plant.vel.fill(0.0F);
+  b.plant.brake_welded_released[0] = true;  // brake 1's feedback released when engaging begins
+  ASSERT_EQ(b.command(CommandId::servo_off), Result::OK);
+  ASSERT_GT(b.until([](const SupervisorOut& o) { return !o.brakes_release; }, 100), 0);
+  const int run = static_cast<int>(b.timing().brake_confirm) + 2;  // each brake engaged for longer
+  int k = 0;
+  bool all_engaged = false;
+  for (; k < 600 && b.out.state == State::STOPPING; ++k) {
+    const bool first = (k / run) % 2 == 0;
+    b.plant.brake_welded_released[0] = first;
+    b.plant.brake_welded_released[1] = !first;
+    b.cycle();
+    all_engaged = all_engaged || std::none_of(b.fb.brake_released.begin(), b.fb.brake_released.end(), [](bool r) { return r; });
+    if (b.out.state == State::STOPPING) {
+      ASSERT_TRUE(b.out.drives_enable) << "the drives hold until the brake time is over, cycle " << k;
+    }
+  }
+  EXPECT_FALSE(all_engaged) << "the test means brakes that never read all engaged";
+  EXPECT_EQ(b.out.state, State::IDLE);
+  EXPECT_GE(k, static_cast<int>(b.timing().brakes_timeout)) << "not before the brake time";
+  EXPECT_LE(k, static_cast<int>(b.timing().brakes_timeout) + 2);
+  EXPECT_TRUE(all_outputs_safe(b.out));
+  EXPECT_FALSE(b.alarm(AlarmId::BRAKE_NOT_ENGAGED)) << "each brake was confirmed engaged within the brake time";
+}
+
+// SPEC §4 rule 1, "internal integrity check failed": the supervisor reads the safety outputs
+// it is about to write a second time, against the state (outputs_consistent). Each
+// contradiction it is there for is refused, taken from real outputs of the states with one
+// field corrupted: power of any one output outside the powered states, power with the E-stop
+// pressed, a jog outside MANUAL_JOGGING, a program outside the running states, state data of
+// another state; the real outputs pass.
+// @req TR-C1 ST-OUTPUTS
+TEST(Rule1, TheOutputCrossCheckRefusesEachContradiction) {
+  Bench b;
+  b.to_idle();
+  const auto consistent = [&b](const SupervisorOut& o, bool estop = false) {
+    return outputs_consistent(o, b.ssm().leaf(), b.ssm().variant(), estop);
+  };
+  // IDLE: nothing powered; any one output energised is a contradiction.
+  ASSERT_TRUE(consistent(b.out));
+  for (int k = 0; k < 3; ++k) {
+    SupervisorOut o = b.out;
+    (k == 0 ? o.contactor : (k == 1 ? o.drives_enable : o.brakes_release)) = true;
+    EXPECT_FALSE(consistent(o)) << "output " << k << " energised in IDLE";
+  }
+  EXPECT_TRUE(consistent(b.out, true)) << "E-stop pressed with nothing powered";
+  SupervisorOut jog = b.out;
+  jog.motion.mode = MotionMode::Jog;
+  EXPECT_FALSE(consistent(jog)) << "a jog in IDLE";
+  // OPERATIONAL, AUTO_IDLE: powered, consistent; with the E-stop pressed, not.
+  b.to_operational(Mode::AUTO);
+  ASSERT_EQ(b.out.sub, Sub::AUTO_IDLE);
+  EXPECT_TRUE(consistent(b.out));
+  EXPECT_FALSE(consistent(b.out, true)) << "power with the E-stop pressed";
+  SupervisorOut prog = b.out;
+  prog.motion.mode = MotionMode::Program;
+  EXPECT_FALSE(consistent(prog)) << "a program in AUTO_IDLE";
+  EXPECT_FALSE(outputs_consistent(b.out, Leaf::AUTO_IDLE, StateVariant{StIdle{}}, false)) << "state data of IDLE";
+  // AUTO_RUNNING: its program is consistent, a jog is not.
+  ASSERT_EQ(b.command(CommandId::start), Result::OK);
+  ASSERT_EQ(b.out.sub, Sub::AUTO_RUNNING);
+  ASSERT_EQ(b.out.motion.mode, MotionMode::Program);
+  EXPECT_TRUE(consistent(b.out));
+  jog = b.out;
+  jog.motion.mode = MotionMode::Jog;
+  EXPECT_FALSE(consistent(jog)) << "a jog in AUTO_RUNNING";
+  // T1: MANUAL_JOGGING's jog and MANUAL_RUNNING's program are consistent.
+  Bench m;
+  m.to_jogging(Mode::T1);
+  ASSERT_EQ(m.out.motion.mode, MotionMode::Jog);
+  EXPECT_TRUE(outputs_consistent(m.out, m.ssm().leaf(), m.ssm().variant(), false));
+  Bench r;
+  r.to_operational(Mode::T1);
+  ASSERT_EQ(r.command(CommandId::start), Result::OK);
+  ASSERT_EQ(r.out.sub, Sub::MANUAL_RUNNING);
+  ASSERT_EQ(r.out.motion.mode, MotionMode::Program);
+  EXPECT_TRUE(outputs_consistent(r.out, r.ssm().leaf(), r.ssm().variant(), false));
 }

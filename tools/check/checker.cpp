@@ -7,7 +7,9 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <string>
 #include <unordered_set>
+#include <variant>
 #include <vector>
 
 #include "reference.hpp"
@@ -298,6 +300,7 @@ class Checker {
  public:
   Checker(const CheckOptions& o, CheckStats& s) : opt_(o), stats_(s), actions_(parse_actions()) {}
   int run();
+  std::string replay(const scenario::Scenario& s, std::size_t extra, std::string& error);
 
  private:
   bool step(Node& n, const Node* baseline_of, std::uint32_t cmd_seq, Violation& v);
@@ -738,6 +741,49 @@ void Checker::report(std::size_t trail, const std::string& line, core::Cycle t, 
               v.detail.c_str(), static_cast<unsigned long long>(v.t), file.c_str(), scn.str().c_str());
 }
 
+// A scenario's lines played as the exploration plays a seed's (one directive per cycle at
+// its time), then `extra` cycles of time passing, every invariant and the reference checked.
+std::string Checker::replay(const scenario::Scenario& s, std::size_t extra, std::string& error) {
+  std::size_t config = 0;
+  if (s.safety.has_value()) {
+    config = configurations().size();
+    for (std::size_t i = 0; i < configurations().size(); ++i) {
+      if (configurations()[i].loaded.limits.checksum == s.safety->checksum) config = i;
+    }
+    if (config == configurations().size()) {
+      error = "its safety configuration is none of the checker's (see `safestate check`'s configurations)";
+      return {};
+    }
+  }
+  const Configuration& cfg = configurations()[config];
+  reference::Limits rl = ref_limits(cfg, s.config.cycle_us);
+  rl.validated = s.safety_validated;
+  Node n{std::make_unique<sim::Cell>(s.config), reference::Supervisor{core::to_timing(s.config), rl}, {}, 0};
+  n.cell->configure_limits(cfg.loaded.limits, s.safety_validated);
+  n.lim.config = config;
+  n.lim.validated = s.safety_validated;
+  Violation v;
+  const auto broke = [&v] {
+    return v.invariant + " (" + v.detail + ") at cycle " + std::to_string(v.t);
+  };
+  for (const scenario::Step& st : s.steps) {
+    if (std::holds_alternative<scenario::ExpectStep>(st.what)) continue;  // safestate replay's
+    if (std::holds_alternative<scenario::PersonStep>(st.what)) {
+      error = "line " + std::to_string(st.line) + ": the checker has no person";
+      return {};
+    }
+    while (n.cell->now() < st.t) {
+      if (!step(n, nullptr, 0, v)) return broke();
+    }
+    if (!apply_directive(n, st.what, v)) return broke();
+  }
+  const core::Cycle end = s.cycles + static_cast<core::Cycle>(extra);
+  while (n.cell->now() < end) {
+    if (!step(n, nullptr, 0, v)) return broke();
+  }
+  return {};
+}
+
 int Checker::run() {
   trails_.push_back(Trail{0, "", 0});  // the root
   std::unordered_set<std::string> seen;
@@ -782,7 +828,9 @@ int Checker::run() {
     return 2;
   }
 
+  bool cut = false;
   for (std::size_t depth = 0; depth < opt_.max_depth && !frontier.empty(); ++depth) {
+    const bool last = depth + 1U == opt_.max_depth;
     std::vector<Node> next;
     for (Node& n : frontier) {
       std::vector<std::size_t> acts = (n.lim.config == 0U) ? base : ((n.lim.config == 3U) ? collab : all);
@@ -809,8 +857,15 @@ int Checker::run() {
           trails_.push_back(Trail{n.trail, line, t});
           child.trail = trails_.size() - 1U;
           ++stats_.configurations;
-          if (stats_.configurations < opt_.max_configs) {
+          // Kept only to be explored further: at the last depth a configuration is counted
+          // (and its key merges the others), but its cell is not stored (a third of the
+          // memory of a run was the last frontier, never used).
+          if (!last && stats_.configurations < opt_.max_configs) {
             next.push_back(std::move(child));
+          } else if (!last) {
+            ++stats_.dropped;
+          } else {
+            cut = true;  // found at the depth bound: there may be more beyond it
           }
         }
       }
@@ -822,7 +877,7 @@ int Checker::run() {
     }
     frontier = std::move(next);
   }
-  stats_.complete = frontier.empty();
+  stats_.complete = frontier.empty() && !cut && stats_.dropped == 0U;
   return 0;
 }
 
@@ -839,7 +894,46 @@ int check_main(const CheckOptions& opt, CheckStats& stats) {
               rc == 0 ? "all invariants hold" : "stopped at the first violation", stats.configurations,
               stats.transitions, stats.cycles, stats.checks, stats.max_depth,
               stats.complete ? " (reachable set exhausted)" : " (bounded)");
+  if (stats.dropped > 0U) {
+    std::printf("%zu configurations found beyond --max-configs %zu were not explored further\n", stats.dropped,
+                opt.max_configs);
+  }
   return rc;
+}
+
+std::string replay_checked(const std::string& scn_text, const std::string& file_name, std::size_t extra,
+                           std::string& error) {
+  const scenario::ParseResult p = scenario::parse(scn_text, file_name);
+  if (!p.ok()) {
+    error = p.error->text();
+    return {};
+  }
+  const CheckOptions opt{};
+  CheckStats stats;
+  Checker c(opt, stats);
+  return c.replay(p.scenario, extra, error);
+}
+
+int replay_main(const std::string& file, std::size_t extra) {
+  std::ifstream in(file);
+  if (!in) {
+    std::fprintf(stderr, "safestate check: cannot read %s\n", file.c_str());
+    return 2;
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string error;
+  const std::string broke = replay_checked(text.str(), file, extra, error);
+  if (!error.empty()) {
+    std::fprintf(stderr, "safestate check: %s: %s\n", file.c_str(), error.c_str());
+    return 2;
+  }
+  if (!broke.empty()) {
+    std::printf("VIOLATION replaying %s: %s\n", file.c_str(), broke.c_str());
+    return 1;
+  }
+  std::printf("%s: every invariant held and the core agreed with the reference in every cycle\n", file.c_str());
+  return 0;
 }
 
 }  // namespace safestate::check

@@ -19,9 +19,18 @@
 
 namespace safestate::check {
 
+// The defaults explore every configuration within 4 actions of boot and of each seed (about
+// 520,000 configurations, 2.5 minutes and 1.3 GB on a 2-core machine in 2026-11: `safestate
+// check` with no options stays within a few minutes); `make bench-check` runs depth 5
+// (docs/verification.md gives both).
+inline constexpr std::size_t kDefaultCheckDepth = 4;
+inline constexpr std::size_t kDefaultCheckConfigs = 200000;
+
 struct CheckOptions {
-  std::size_t max_depth = 8;          // actions from boot
-  std::size_t max_configs = 200000;   // stop exploring beyond this many configurations
+  std::size_t max_depth = kDefaultCheckDepth;      // actions from boot (or from a seed)
+  // Configurations kept to be explored one action deeper: beyond this many, new ones are
+  // still checked and counted but not explored further (the run is then "bounded").
+  std::size_t max_configs = kDefaultCheckConfigs;
   std::string out_dir = ".";          // where a counterexample .scn is written
   bool verbose = false;
   // For testing the checker itself: demand IDLE (instead of ESTOP_ACTIVE) after an
@@ -35,11 +44,24 @@ struct CheckStats {
   std::size_t cycles = 0;          // scan cycles run
   std::size_t checks = 0;          // invariant checks made
   std::size_t max_depth = 0;
+  std::size_t dropped = 0;         // configurations not explored further for --max-configs
   bool complete = false;           // the reachable set was exhausted within the bounds
 };
 
 // Returns 0 when every invariant held, 1 on a violation (counterexample written), 2 on
 // bad options.
 int check_main(const CheckOptions& opt, CheckStats& stats);
+
+// Replays a scenario (a counterexample this checker wrote: `in`, `cmd` and `fault` lines,
+// `config safety=` naming one of its configurations; `expect` lines are not run here,
+// `safestate replay` runs them) from boot on the simulated cell, with every invariant and
+// the reference supervisor checked after every cycle, through its last line and `extra`
+// cycles more. Returns an empty string when all held, else what broke, at which cycle;
+// `error` is set (and the result empty) when the text cannot be replayed.
+std::string replay_checked(const std::string& scn_text, const std::string& file_name, std::size_t extra,
+                           std::string& error);
+
+// `safestate check --replay FILE`: 0 all held, 1 a violation (printed), 2 unreadable.
+int replay_main(const std::string& file, std::size_t extra);
 
 }  // namespace safestate::check

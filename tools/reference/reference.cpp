@@ -676,11 +676,24 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   // feedback released: more than 100 / 300 cycles in a row is a fault (SPEC §7).
   welded_for_ = (!last_contactor_ && fb.contactor_closed) ? welded_for_ + 1U : 0U;
   contactor_welded_ = welded_for_ > t_.contactor_timeout;
+  // A brake: "commanded engaged whose feedback still says released 300 ms later" (SPEC §7),
+  // the 300 ms counted from the command, i.e. from the first released reading after it. A
+  // brake is engaged only once its feedback has said so for brake_confirm cycles in a row
+  // (docs/decisions.md: a chattering contact is not an engaged brake), so a moment's engaged
+  // reading does not restart the time: a brake that sticks released as it was about to engage
+  // is late 300 ms after its command, not 300 ms after the stick.
   brake_not_engaged_ = false;
   for (std::size_t i = 0; i < core::kAxes; ++i) {
     const bool engage_cmd = !last_brakes_release_ || bt_cmd_axis_ == i + 1U;
-    brake_for_[i] = (engage_cmd && fb.brake_released[i]) ? brake_for_[i] + 1U : 0U;
-    brake_not_engaged_ = brake_not_engaged_ || brake_for_[i] > t_.brakes_timeout;
+    const bool released = fb.brake_released[i];
+    engaged_run_[i] = (engage_cmd && !released) ? engaged_run_[i] + 1U : 0U;
+    if (!engage_cmd || engaged_run_[i] >= t_.brake_confirm) {
+      released_[i] = false;  // released on command, or engaged for sure
+    } else if (released && !released_[i]) {
+      released_[i] = true;
+      released_at_[i] = now_;
+    }
+    brake_not_engaged_ = brake_not_engaged_ || (released && released_[i] && now_ - released_at_[i] >= t_.brakes_timeout);
   }
   if (brake_not_engaged_) raise(AlarmId::BRAKE_NOT_ENGAGED);
   if (st_ == St::ARMING) ++arming_elapsed_;

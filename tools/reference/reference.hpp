@@ -210,7 +210,12 @@ class Supervisor {
   bool last_contactor_ = false;
   bool last_brakes_release_ = false;
   core::Cycle welded_for_ = 0;
-  std::array<core::Cycle, core::kAxes> brake_for_{};
+  // Per brake: since when its feedback has contradicted an engage command (the first released
+  // reading since it was last released on command or confirmed engaged; `released_at_` valid
+  // while `released_` is set), and how many engaged readings in a row it has given since.
+  std::array<bool, core::kAxes> released_{};
+  std::array<core::Cycle, core::kAxes> released_at_{};
+  std::array<core::Cycle, core::kAxes> engaged_run_{};
   bool brake_not_engaged_ = false;
   bool contactor_welded_ = false;
 };

@@ -20,6 +20,12 @@ Mutant families (issue 6):
             scaling, the supervisor's rule-8 entry and its wait for the back-off
   margin    remove each planning margin of the motion layer (motion/limits.hpp: 1 deg,
             10 mm, 5 %, 1 deg), so that a jog holds at the limit itself
+  round3    issue 40: the joint-range loop's bounds, the reduced ramp's restart and sources,
+            the speed monitor's limit and axes, the order of the safe-limit monitors, the
+            ramp's unit, the constants of monitors.hpp (recovery tolerances, reduced-by bits,
+            SSM tolerance)
+  stopdata  safety/src/stopping_check.cpp: the stopping data a configuration is judged by
+            (its payload's level), the comparisons of max_time_ms, decel and reaction
   collab    SPEC §11: the v_allowed formula (each term: v_h, a·T_r, C, Z, the 500 mm switch,
             the clamp), the PFL cap, the field logic (mode, which field, the resume delay
             and its reset, auto_resume, the lowest reduced limit, the discrepancy), the SSM
@@ -61,8 +67,8 @@ MARGINS = "motion/include/safestate/motion/limits.hpp"
 # The suites that judge core/: the unit tests of the state machine and signal layer, the
 # differential test, the scenario suite and the exhaustive checker. Only their binaries
 # are rebuilt for each mutant.
-TARGETS = "test_transitions test_commands test_principles test_signals test_reference test_safe_limits test_motion_limits test_collaborative test_brake_test test_collision safestate"
-SELECT = "^(Ssm|Pfl|FieldMonitor|SsmMonitor|CollisionModel|CollisionEstimate|CollisionMonitor|CollisionCell|BrakeTestCore|BrakeTestCell|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
+TARGETS = "test_transitions test_commands test_principles test_signals test_guards test_reference test_safe_limits test_motion_limits test_collaborative test_brake_test test_collision test_rta safestate"
+SELECT = "^(StoppingCheck|StoppingData|JointLimits|Reporter|GuardReset|GuardServoOn|Ssm|Pfl|FieldMonitor|SsmMonitor|CollisionModel|CollisionEstimate|CollisionMonitor|CollisionCell|BrakeTestCore|BrakeTestCell|CoreArm|SpeedLimit|SpeedLimits|Orientation|Zones|Recovery|ReducedMode|MotionLimits|ProgramLimits|Boot|Rule|TransitionTable|EstopActive|EstopResetNeeded|Idle|Arming|Operational|AutoIdle|AutoRunning|AutoPaused|ManualIdle|ManualJogging|ManualRunning|Stopping|ConfirmT2|CheckOrder|Results|OneResult|ResetButtonRule|NoSurpriseMotion|UnknownIsUnsafe|Cat1Completes|EveryConditionRaisesItsAlarm|DualChannel|EnablingDevice|ModeSelector|ResetButton|SignalLayer|Differential|scenario/|check_invariants)"
 
 
 def read(rel):
@@ -300,6 +306,50 @@ def mutants():
                            ("kSpeedFactor = 0.95F;", "kSpeedFactor = 1.0F;", "speed margin 5 % removed"),
                            ("kOrientationMarginRad = deg(1.0F);", "kOrientationMarginRad = deg(0.0F);", "orientation margin 1 deg removed")]:
         out.append(("margin", desc, MARGINS, old, new))
+    # --- round three (issue 40): the §10-§13 code the six survivors were in, again -------
+    J, RM, S, SL, MH = (MON + "joint_limits.cpp", MON + "reduced_mode.cpp", MON + "speed_limits.cpp",
+                        MON + "safe_limits.cpp", "core/include/safestate/core/monitors.hpp")
+    for rel, old, new, desc in [
+        (J, "for (std::size_t i = 0; i < kAxes; ++i) {", "for (std::size_t i = 0; i + 1U < kAxes; ++i) {", "joint: axis 6 not checked"),
+        (J, "for (std::size_t i = 0; i < kAxes; ++i) {", "for (std::size_t i = 1; i < kAxes; ++i) {", "joint: axis 1 not checked"),
+        (J, "r.outside = r.outside || !(outside <= 0.0F);", "r.outside = r.outside || (outside > 0.0F);", "joint: NaN not outside (servo_on)"),
+        (J, "r.recovering = r.recovering || track_[i].recovering;", "r.recovering = track_[i].recovering;", "joint: the last axis decides recovery"),
+        (J, "if ((outside <= 0.0F) && !track_[i].recovering) {", "if (outside <= 0.0F) {", "joint: recovery never left"),
+        (RM, "const bool lower = was && (limit < limit_);", "const bool lower = was && (limit > limit_);", "reduced: ramp restarts on a rising limit"),
+        (RM, "const bool lower = was && (limit < limit_);", "const bool lower = false;", "reduced: a lower limit joining enforced at once"),
+        (RM, "(v.in.reduced_requested ? kReducedByInput : 0U)", "0U", "reduced: the input ignored"),
+        (RM, "(v.facts.fields.outer_reduces ? kReducedByField : 0U)", "0U", "reduced: the outer field ignored"),
+        (RM, "rep.hold(AlarmId::REDUCED_SPEED, active(),", "rep.hold(AlarmId::REDUCED_SPEED, enforced(),", "reduced: REDUCED_SPEED only after the ramp"),
+        (S, "r.reduced_enforced ? r.reduced_limit_mm_s : v.limits->tcp_max_speed_mm_s",
+            "r.reduced_enforced ? v.limits->reduced_tcp_max_speed_mm_s : v.limits->tcp_max_speed_mm_s", "speed: the input's reduced limit whatever the sources"),
+        (S, "for (std::size_t i = 0; (i < kAxes) && !f.hit; ++i) {", "for (std::size_t i = 0; (i + 1U < kAxes) && !f.hit; ++i) {", "speed: axis 6 not checked"),
+        (S, "    rep.present(AlarmId::SPEED_LIMIT);\n", "", "speed: the reset guard blind to a speed still over"),
+        (SL, "reduced_.configure((cycle_us > 0U) ? ms_to_cycles(limits_.reduced_ramp_ms, cycle_us) : 0U);",
+             "reduced_.configure((cycle_us > 0U) ? limits_.reduced_ramp_ms : 0U);", "safe_limits: ramp_ms taken as cycles"),
+        (SL, "  reduced_.check(v, r);\n  speed_.check(v, r);", "  speed_.check(v, r);\n  reduced_.check(v, r);", "safe_limits: speeds judged before reduced mode"),
+        (SL, "  zones_.check(v, r);\n  orientation_.check(v, r);\n  reduced_.check(v, r);",
+             "  reduced_.check(v, r);\n  zones_.check(v, r);\n  orientation_.check(v, r);", "safe_limits: reduced mode before the zones"),
+        (MH, "kWorseJointRad = 0.002F;", "kWorseJointRad = 0.1F;", "constant: kWorseJointRad 0.1 rad"),
+        (MH, "kWorseZoneMm = 1.0F;", "kWorseZoneMm = 50.0F;", "constant: kWorseZoneMm 50 mm"),
+        (MH, "kWorseOrientationCos = 0.002F;", "kWorseOrientationCos = 0.1F;", "constant: kWorseOrientationCos 0.1"),
+        (MH, "kReducedByField = 0x04U;", "kReducedByField = 0x02U;", "constant: the field's bit is the input's"),
+        (MH, "kReducedByZone = 0x01U;", "kReducedByZone = 0x04U;", "constant: the zone's bit is the field's"),
+        (MH, "kSsmTolerance = 1.05F;", "kSsmTolerance = 1.10F;", "constant: SSM tolerance 10 %"),
+    ]:
+        out.append(("round3", desc, rel, old, new))
+    SC = "safety/src/stopping_check.cpp"
+    for old, new, desc in [
+        ("if (s.decel_mm_s2 > lv->tcp_decel_mm_s2) {", "if (s.decel_mm_s2 > stopping::kLevels.front().tcp_decel_mm_s2) {",
+         "decel judged by the 33 % payload data"),
+        ("if (static_cast<double>(c.limits.max_stop_ms) < lv->cat1_stop_ms) {",
+         "if (static_cast<double>(c.limits.max_stop_ms) < stopping::kLevels.front().cat1_stop_ms) {", "stop time judged by the 33 % payload data"),
+        (">= c.limits.payload_kg) {", "> c.limits.payload_kg) {", "a payload at a level judged by the next"),
+        ("if (s.reaction_ms < stopping::kReactionMs) {", "if (s.reaction_ms < stopping::kReactionMs / 2.0) {", "reaction judged against half"),
+        ("if (c.collaborative && c.collaborative->ssm && c.collaborative->ssm->enabled) {",
+         "if (c.collaborative && c.collaborative->ssm) {", "SSM judged while disabled"),
+        ("if (s.decel_mm_s2 > lv->tcp_decel_mm_s2) {", "if (s.decel_mm_s2 > 1.1 * lv->tcp_decel_mm_s2) {", "decel 10 % of slack"),
+    ]:
+        out.append(("stopdata", desc, SC, old, new))
     return out
 
 
@@ -319,7 +369,8 @@ def sh(cmd, cwd, timeout):
 # Phase 1b: the one unit-test binary written for a family's code, small to rebuild (the
 # full phase 2 relinks `safestate`, minutes per mutant on two cores).
 FAMILY_UNIT = {"monitor": "test_safe_limits", "margin": "test_motion_limits", "collab": "test_collaborative",
-               "brake": "test_brake_test", "collision": "test_collision"}
+               "brake": "test_brake_test", "collision": "test_collision", "round3": "test_safe_limits",
+               "stopdata": "test_rta"}
 
 
 def judge(family=""):
@@ -351,7 +402,7 @@ def judge(family=""):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab, brake, collision)")
+    ap.add_argument("--only", help="only these families, comma-separated (row, guard, timer, stop, output, monitor, margin, collab, brake, collision, round3, stopdata)")
     ap.add_argument("--limit", type=int, default=0, help="at most this many mutants")
     ap.add_argument("--resume", action="store_true", help="skip mutants already judged in build-mut/progress.jsonl")
     a = ap.parse_args()
