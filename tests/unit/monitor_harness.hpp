@@ -25,7 +25,8 @@ struct MonitorCycle {
   // One cycle of `m`; `r` is what it reported (found, present, facts).
   template <typename M>
   core::Reporter run(M& m) {
-    core::Reporter r{alarms, now};
+    core::Reporter r;
+    r.begin(alarms, now);
     r.facts() = facts;
     const core::CycleView v{in,       fb,    timing,     state, r.facts(), limits, leaf, powered, now, armed_mode, 0U,
                             false,    false, true,       true,  core::Commanded{}};
@@ -55,7 +56,8 @@ template <typename M, typename F>
 void run_one(M& m, const core::SafetyInputs& in, const core::Feedback& fb, core::Leaf leaf, bool powered,
              const core::CycleFacts& facts_in, const core::SafetyLimits* limits, F&& see) {
   core::AlarmSet alarms;
-  core::Reporter r{alarms, 0U};
+  core::Reporter r;
+  r.begin(alarms, 0U);
   r.facts() = facts_in;
   const core::Timing timing = core::to_timing(core::Config{});
   const core::StateVariant state{core::StOperational{}};
@@ -78,7 +80,8 @@ struct LimitResult : core::LimitReport {
 inline void evaluate(core::SafeLimitMonitors& m, const core::Feedback& fb, bool powered, bool input_reduced,
                      std::uint8_t other_sources, LimitResult& out) {
   core::AlarmSet alarms;
-  core::Reporter r{alarms, 0U};
+  core::Reporter r;
+  r.begin(alarms, 0U);
   core::SafetyInputs in{};
   in.reduced_requested = input_reduced;
   r.facts().fields.outer_reduces = (other_sources & core::kReducedByField) != 0U;

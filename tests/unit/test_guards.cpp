@@ -78,7 +78,8 @@ TEST(GuardServoOn, OutsideTheLimitsRefusesAutoAndT2ButNotT1) {
 // @req TR-PRIORITY
 TEST(Reporter, AnEventKeepsTheFirstDetailOfTheCycleAndOnlyConditionsAreEvents) {
   AlarmSet alarms{};
-  Reporter r(alarms, 1U);
+  Reporter r;
+  r.begin(alarms, 1U);
   const auto t = static_cast<std::size_t>(Trigger::enable_left_centre);
   EXPECT_FALSE(r.event(t));
   r.trip_event(Trigger::enable_left_centre, detail_of(Signal::enable, Channel::a));

@@ -18,7 +18,8 @@ namespace {
 template <typename M>
 core::AlarmMask findings(M& m, const core::Feedback& fb, bool integrity_fault, bool self_test_ok = true) {
   core::AlarmSet alarms;
-  core::Reporter r{alarms, 0U};
+  core::Reporter r;
+  r.begin(alarms, 0U);
   const core::SafetyInputs in{};
   const core::Timing timing = core::to_timing(core::Config{});
   const core::StateVariant state{core::StIdle{}};
@@ -41,7 +42,8 @@ TEST(IntegrityMonitor, EitherThePlatformsCheckOrTheSupervisorsOwnLocksOut) {
 
 TEST(Reporter, RuleFiveWithoutAnAlarmIsAnEventOfItsRuleOnly) {
   core::AlarmSet alarms;
-  core::Reporter r{alarms, 0U};
+  core::Reporter r;
+  r.begin(alarms, 0U);
   core::AlarmDetail d{};
   d.signal = core::Signal::enable;
   r.trip_event(core::Trigger::enable_left_centre, d);
@@ -57,7 +59,8 @@ TEST(Reporter, RuleFiveWithoutAnAlarmIsAnEventOfItsRuleOnly) {
 
 TEST(Reporter, TheFirstDetailOfACycleIsKeptAndHoldRaisesAndClears) {
   core::AlarmSet alarms;
-  core::Reporter r{alarms, 5U};
+  core::Reporter r;
+  r.begin(alarms, 5U);
   r.trip(AlarmId::FIELDBUS_LOST, core::detail_of(core::Signal::fieldbus, core::Channel::none, 0U, 3U));
   r.trip(AlarmId::FIELDBUS_LOST, core::detail_of(core::Signal::drive, core::Channel::none, 2U));
   EXPECT_EQ(r.detail(AlarmId::FIELDBUS_LOST).signal, core::Signal::fieldbus) << "the bus before the drive";

@@ -187,8 +187,11 @@ class Reporter {
     if (i >= kConditionCount) {
       return;  // not a rule
     }
-    events_ = static_cast<std::uint16_t>(events_ | (1U << i));
-    event_detail_[i] = d;
+    const auto b = static_cast<std::uint16_t>(1U << i);
+    if ((events_ & b) == 0U) {  // the first detail of the cycle is kept, as by trip()
+      events_ = static_cast<std::uint16_t>(events_ | b);
+      event_detail_[i] = d;
+    }
   }
   // Raised now, whatever the state.
   void raise(AlarmId a, const AlarmDetail& d) noexcept { alarms_->raise(a, d, now_); }
