@@ -35,16 +35,25 @@ Mat3 mul(const Mat3& A, const Mat3& B) noexcept {
 
 Vec3 column(const Mat3& R, std::size_t c) noexcept { return {R[0][c], R[1][c], R[2][c]}; }
 
-// One standard-DH link transform A_k, written out rather than as four matrix products:
-// it runs 6 times per scan on the M4.
-Pose dh_link(const DhRow& row, float q) noexcept {
-  const float th = q + row.theta_offset_rad;
-  const float ct = std::cos(th);
-  const float st = std::sin(th);
-  const float ca = std::cos(row.alpha_rad);
-  const float sa = std::sin(row.alpha_rad);
-  return Pose{{row.a_mm * ct, row.a_mm * st, row.d_mm},
-              {{{ct, -st * ca, st * sa}, {st, ct * ca, -ct * sa}, {0.0F, sa, ca}}}};
+// The turn of a joint about its unit axis u: R = I + sin q K + (1 - cos q) K^2 with K the
+// cross-product matrix of u (the core's arm.cpp turns frame vectors instead).
+Mat3 axis_turn(const Vec3& u, float q) noexcept {
+  const float s = std::sin(q);
+  const float v = 1.0F - std::cos(q);
+  const Mat3 K{{{0.0F, -u[2], u[1]}, {u[2], 0.0F, -u[0]}, {-u[1], u[0], 0.0F}}};
+  const Mat3 K2 = mul(K, K);
+  Mat3 R{};
+  for (std::size_t r = 0; r < 3; ++r) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      R[r][c] = ((r == c) ? 1.0F : 0.0F) + s * K[r][c] + v * K2[r][c];
+    }
+  }
+  return R;
+}
+
+void place(Pose& T, const FixedFrame& f) noexcept {
+  T.p = add(T.p, mul(T.R, f.xyz_mm));
+  T.R = mul(T.R, f.R);
 }
 
 // Geometric Jacobian column sum: joint j+1 turns about z[j] through origin[j], so it moves
@@ -78,16 +87,17 @@ void find_fastest(PointSpeeds& out) noexcept {
 }  // namespace
 
 void forward(const RobotModel& model, const Joints& q, Frames& out) noexcept {
-  Pose T{{0.0F, 0.0F, 0.0F}, {{{1.0F, 0.0F, 0.0F}, {0.0F, 1.0F, 0.0F}, {0.0F, 0.0F, 1.0F}}}};
-  out.origin[0] = T.p;
-  out.z[0] = column(T.R, 2);
+  Pose T{{0.0F, 0.0F, 0.0F}, kEye};
   for (std::size_t k = 0; k < kJoints; ++k) {
-    const Pose A = dh_link(model.dh[k], q[k]);
-    T.p = add(T.p, mul(T.R, A.p));
-    T.R = mul(T.R, A.R);
-    out.origin[k + 1] = T.p;
-    out.z[k + 1] = column(T.R, 2);
+    const ChainJoint& j = model.joints[k];
+    place(T, j.origin);
+    out.origin[k] = T.p;
+    out.z[k] = mul(T.R, j.axis);
+    T.R = mul(T.R, axis_turn(j.axis, q[k]));
   }
+  place(T, model.flange);
+  out.origin[kJoints] = T.p;
+  out.z[kJoints] = column(T.R, 2);
   out.tcp = add(T.p, mul(T.R, model.tcp_offset_mm));
   out.R = T.R;
 }
