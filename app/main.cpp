@@ -28,7 +28,7 @@ int safety_check_main(const std::string& file, bool builtin);
 int safety_canonical_main(const std::string& file, bool with_checksum);
 CLI::App* add_rta_command(CLI::App& app);
 std::string rta_safety_file();
-int robot_fk_main(const std::string& q_deg, const std::string& tcp_mm);
+int robot_fk_main(const std::string& q_deg, const std::string& qd_deg_s, const std::string& tcp_mm);
 int run_rta_command();
 CLI::App* add_ecat_config_command(CLI::App& app);
 int run_ecat_config_command();
@@ -224,7 +224,11 @@ int main(int argc, char** argv) {
   CLI::App* robot_fk = robot_cmd->add_subcommand(
       "fk", "print every link origin, the flange and the TCP (mm, JSON) at joint positions --q (degrees)");
   add_robot_options(robot_fk, robot_opt);
-  robot_fk->add_option("--q", fk_q, "six joint positions in degrees, comma-separated")->required();
+  robot_fk->add_option("--q", fk_q, "six joint positions in degrees, comma-separated; '-': lines of 6 (q) or 12 "
+                                     "(q, qd) numbers on stdin, one JSON line each")
+      ->required();
+  std::string fk_qd;
+  robot_fk->add_option("--qd", fk_qd, "six joint speeds in deg/s: also print the point speeds (core::point_speed)");
   std::string fk_tcp;
   robot_fk->add_option("--tcp", fk_tcp, "the TCP in the flange frame, mm: X,Y,Z (default 0,0,0)");
   CLI11_PARSE(app, argc, argv);
@@ -244,7 +248,7 @@ int main(int argc, char** argv) {
     }
   }
   if (robot_fk->parsed()) {
-    return safestate::app::robot_fk_main(fk_q, fk_tcp);
+    return safestate::app::robot_fk_main(fk_q, fk_qd, fk_tcp);
   }
   if (rta->parsed()) {
     return safestate::app::run_rta_command();

@@ -561,8 +561,7 @@ bool select(const std::string& path, const std::string& base, const std::string&
   return true;
 }
 
-std::vector<LinkPose> link_poses(const Robot& r, const std::array<double, kJoints>& q) {
-  std::vector<LinkPose> out;
+LinkTree::LinkTree(const Robot& r) {
   urdf::ModelInterfaceSharedPtr m;
   {
     const std::lock_guard<std::mutex> lock(g_parse_mutex);
@@ -571,48 +570,72 @@ std::vector<LinkPose> link_poses(const Robot& r, const std::array<double, kJoint
     m = urdf::parseURDF(r.d.urdf);
     console_bridge::restorePreviousOutputHandler();
   }
-  if (!m) {
-    return out;
-  }
-  const urdf::LinkConstSharedPtr base = m->getLink(r.d.base);
+  const urdf::LinkConstSharedPtr base = m ? m->getLink(r.d.base) : nullptr;
   if (!base) {
-    return out;
+    return;
   }
+  // Depth first from the base: a parent is always listed before its children.
   struct Item {
     urdf::LinkConstSharedPtr link;
-    FrameD at;
+    int parent;
+    FrameD origin;
+    int joint;
   };
-  std::vector<Item> stack{{base, FrameD{}}};
+  std::vector<Item> stack{{base, -1, FrameD{}, -1}};
   while (!stack.empty()) {
     const Item it = stack.back();
     stack.pop_back();
-    out.push_back(LinkPose{it.link->name, it.at});
+    const int self = static_cast<int>(nodes_.size());
+    nodes_.push_back(Node{it.link->name, it.parent, it.origin, it.joint, {}});
     for (const auto& j : it.link->child_joints) {
       FrameD o;
       if (!frame_of(j->parent_to_joint_origin_transform, o)) {
         continue;
       }
-      FrameD f = compose(it.at, o);
+      int joint = -1;
       for (std::size_t k = 0; k < kJoints; ++k) {
         if (r.d.joints[k].name == j->name) {
-          const Vec3d& u = r.d.joints[k].axis;
-          const double c = std::cos(q[k]);
-          const double s = std::sin(q[k]);
-          const double v = 1.0 - c;
-          FrameD turn;
-          turn.R = {{{c + u[0] * u[0] * v, u[0] * u[1] * v - u[2] * s, u[0] * u[2] * v + u[1] * s},
-                     {u[1] * u[0] * v + u[2] * s, c + u[1] * u[1] * v, u[1] * u[2] * v - u[0] * s},
-                     {u[2] * u[0] * v - u[1] * s, u[2] * u[1] * v + u[0] * s, c + u[2] * u[2] * v}}};
-          f = compose(f, turn);
+          joint = static_cast<int>(k);
         }
       }
       const urdf::LinkConstSharedPtr child = m->getLink(j->child_link_name);
       if (child) {
-        stack.push_back(Item{child, f});
+        stack.push_back(Item{child, self, o, joint});
       }
     }
   }
-  return out;
+  // The axis belongs to the child's joint: stored with the child (fixed up here).
+  for (Node& n : nodes_) {
+    if (n.joint >= 0) {
+      n.axis = r.d.joints[static_cast<std::size_t>(n.joint)].axis;
+    }
+  }
+}
+
+void LinkTree::poses(const std::array<double, kJoints>& q, std::vector<LinkPose>& out) const {
+  out.resize(nodes_.size());
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const Node& n = nodes_[i];
+    out[i].name = n.name;
+    if (n.parent < 0) {
+      out[i].pose = FrameD{};
+      continue;
+    }
+    FrameD f = compose(out[static_cast<std::size_t>(n.parent)].pose, n.origin);
+    if (n.joint >= 0) {
+      const Vec3d& u = n.axis;
+      const double a = q[static_cast<std::size_t>(n.joint)];
+      const double c = std::cos(a);
+      const double s = std::sin(a);
+      const double v = 1.0 - c;
+      FrameD turn;
+      turn.R = {{{c + u[0] * u[0] * v, u[0] * u[1] * v - u[2] * s, u[0] * u[2] * v + u[1] * s},
+                 {u[1] * u[0] * v + u[2] * s, c + u[1] * u[1] * v, u[1] * u[2] * v - u[0] * s},
+                 {u[2] * u[0] * v - u[1] * s, u[2] * u[1] * v + u[0] * s, c + u[2] * u[2] * v}}};
+      f = compose(f, turn);
+    }
+    out[i].pose = f;
+  }
 }
 
 std::string canonical_parameters(const Robot& r) {

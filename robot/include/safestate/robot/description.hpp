@@ -106,12 +106,26 @@ std::string canonical_parameters(const Robot& r);
 
 // Every link at or below the base at joint positions q (rad, the six chain joints; a moving
 // joint off the chain at zero), in the base frame (m), in double: `safestate robot fk` prints
-// the links the core does not model (fixed ones) from this.
+// the links the core does not model (fixed ones) from this. Built once (parses the URDF).
 struct LinkPose {
   std::string name;
   FrameD pose;
 };
-std::vector<LinkPose> link_poses(const Robot& r, const std::array<double, kJoints>& q);
+class LinkTree {
+ public:
+  explicit LinkTree(const Robot& r);
+  void poses(const std::array<double, kJoints>& q, std::vector<LinkPose>& out) const;
+
+ private:
+  struct Node {
+    std::string name;
+    int parent;     // index, -1 for the base
+    FrameD origin;  // in the parent's frame
+    int joint;      // the chain joint (0..5) between parent and this link, or -1
+    Vec3d axis;
+  };
+  std::vector<Node> nodes_;
+};
 
 // Start-up from the command line: `--robot FILE --base LINK --flange LINK` (all empty: keep
 // the active robot). False and `error` on a refused description.
