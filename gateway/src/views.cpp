@@ -33,6 +33,7 @@
 #include "safestate/core/transitions.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/motion/robot.hpp"
+#include "safestate/safety/jcs.hpp"
 #include "safestate/safety/safety_config.hpp"
 
 namespace safestate::gateway {
@@ -663,6 +664,10 @@ Json robot_json() {
       "(its own frame); flange in joint 6's frame";
   j["base"] = rb.d.base;
   j["flange_link"] = rb.d.flange;
+  j["source"] = rb.d.source;
+  j["urdf"] = rb.d.urdf;  // the description itself, for a viewer that draws the URDF
+  j["parameters_checksum"] =
+      safety::checksum_text(safety::jcs::canonicalize(Json::parse(safestate::robot::canonical_parameters(rb))).value_or(""));
   j["joints"] = std::move(joints);
   Json flange;
   flange["origin"] = vec(r.flange.xyz_mm);

@@ -68,7 +68,7 @@ export interface SimPerson {
   in_outer: boolean;
   in_inner: boolean;
   separation_mm: number; // body edge to the nearest robot point, horizontal
-  nearest_point: number; // 0..6 DH frame origin, 7 the TCP
+  nearest_point: number; // 0..5 a joint origin, 6 the flange, 7 the TCP
 }
 
 /** The status's `sim` object (docs/collaborative.md "The simulated person"). */
@@ -190,6 +190,9 @@ export interface ChainJoint extends FixedFrame {
 
 export interface Robot {
   name: string;
+  source: string; // the URDF file, or "built-in"
+  parameters_checksum: string; // the description's part of the safety checksum
+  urdf: string; // the description as read
   reach: number;
   base: string;
   flange_link: string;
