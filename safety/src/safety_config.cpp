@@ -56,7 +56,8 @@ const std::vector<KeySpec> kTop = {{"format", true},        {"name", true},   {"
                                    {"reduced", true},       {"orientation", false},
                                    {"zones", false},        {"stop", true},   {"collaborative", false},
                                    {"brake_test", false}};
-const std::vector<KeySpec> kRobotKey = {{"urdf", true}, {"base", false}, {"flange", false}, {"parameters", false}};
+// `urdf` or `parameters` (the checksummed form the gateway reads back may hold only the latter).
+const std::vector<KeySpec> kRobotKey = {{"urdf", false}, {"base", false}, {"flange", false}, {"parameters", false}};
 const std::vector<KeySpec> kTool = {{"tcp_mm", true}, {"radius_mm", true}, {"payload_kg", true}};
 const std::vector<KeySpec> kJoint = {{"min_deg", true}, {"max_deg", true}, {"max_speed_deg_s", true}};
 const std::vector<KeySpec> kReduced = {{"tcp_max_speed_mm_s", true}, {"ramp_ms", true}};
@@ -543,7 +544,10 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   cfg.robot.robot = safestate::robot::active_shared();
   if (doc.contains("robot") && ck.object(doc.at("robot"), "robot", kRobotKey)) {
     const json& r = doc.at("robot");
-    const auto urdf = ck.string(r, "robot", "urdf");
+    if (!r.contains("urdf") && !r.contains("parameters")) {
+      ck.add("robot.urdf", "missing (required): the arm's URDF file");
+    }
+    const auto urdf = r.contains("urdf") ? ck.string(r, "robot", "urdf") : std::optional<std::string>(std::string());
     const auto base = r.contains("base") ? ck.string(r, "robot", "base") : std::optional<std::string>(std::string());
     const auto flange =
         r.contains("flange") ? ck.string(r, "robot", "flange") : std::optional<std::string>(std::string());
@@ -558,7 +562,7 @@ Result parse_safety(std::string_view text, const std::string& dir) {
                                        cfg.robot.robot->d.name + ", " + cfg.robot.robot->d.source + ")");
       }
       cfg.robot.from_key = true;
-    } else if (urdf && base && flange) {
+    } else if (urdf && base && flange && !urdf->empty()) {
       std::string error;
       std::shared_ptr<const safestate::robot::Robot> loaded =
           safestate::robot::load_file(resolve_path(dir, *urdf), *base, *flange, error);

@@ -582,3 +582,27 @@ TEST(SafetyRobot, SummaryNamesTheRobotAndItsJointTable) {
     EXPECT_NE(s.find(word), std::string::npos) << word << "\n" << s;
   }
 }
+
+// On another arm than the built-in one, a file without a `robot` key is checksummed with
+// robot.parameters added (and no urdf): the gateway reads that form back (run on a UR5 with
+// the built-in configuration found this).
+TEST(SafetyRobot, TheChecksummedFormOfAFileWithoutRobotKeyReadsBack) {
+  const std::shared_ptr<const robot::Robot> before = robot::active_shared();
+  std::string text = slurp(kSource + "/examples/robots/abb_irb120.urdf");
+  const std::string from = "<origin xyz=\"0 0 0.27\" rpy=\"0 0 0\"/>";
+  text.replace(text.find(from), from.size(), "<origin xyz=\"0 0 0.28\" rpy=\"0 0 0\"/>");
+  std::string error;
+  std::shared_ptr<const robot::Robot> other = robot::load_text(text, "test", "", "", error);
+  ASSERT_NE(other, nullptr) << error;
+  robot::set_active(other);
+  const Result r = parse_safety(default_safety_text());
+  const bool ok = r.ok();
+  const Result back = ok ? parse_safety(r.config->canonical) : Result{};
+  robot::set_active(before);
+  ASSERT_TRUE(ok);
+  EXPECT_TRUE(r.config->robot.in_checksum);
+  EXPECT_FALSE(r.config->robot.from_key);
+  EXPECT_NE(r.config->canonical.find("\"parameters\""), std::string::npos);
+  ASSERT_TRUE(back.ok()) << (back.errors.empty() ? "" : back.errors.front().text());
+  EXPECT_EQ(back.config->checksum, r.config->checksum);
+}
