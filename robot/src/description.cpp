@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -18,6 +19,7 @@ namespace safestate::robot {
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
+constexpr std::uintmax_t kMaxUrdfBytes = 16U * 1024U * 1024U;
 constexpr double kUnitTolerance = 1.0e-6;  // |axis| within this of 1
 constexpr float kRampTime_s = motion::kAssumedRampTime_s;
 
@@ -294,6 +296,19 @@ std::mutex g_active_mutex;
 
 std::unique_ptr<Robot> load_file(const std::string& path, const std::string& base, const std::string& flange,
                                  std::string& error) {
+  // A regular file of sane size only (not a FIFO, a device, a folder; a real arm's URDF
+  // without meshes is tens of kilobytes).
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::is_regular_file(st)) {
+    error = "cannot read robot description '" + path + "': not a readable regular file";
+    return nullptr;
+  }
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxUrdfBytes) {
+    error = "robot description '" + path + "' is larger than " + std::to_string(kMaxUrdfBytes) + " bytes: refused";
+    return nullptr;
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     error = "cannot read robot description '" + path + "'";

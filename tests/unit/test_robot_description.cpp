@@ -384,6 +384,8 @@ TEST(RobotDescription, RefusesEachKindOfBrokenDescriptionNamingIt) {
   std::string error;
   EXPECT_EQ(robot::load_file("/nonexistent/arm.urdf", "", "", error), nullptr);
   EXPECT_NE(error.find("cannot read robot description '/nonexistent/arm.urdf'"), std::string::npos) << error;
+  EXPECT_EQ(robot::load_file("/dev/zero", "", "", error), nullptr);  // never read: not a regular file
+  EXPECT_NE(error.find("not a readable regular file"), std::string::npos) << error;
 }
 
 TEST(RobotDescription, CanonicalParametersChangeWithTheDescription) {
