@@ -23,10 +23,13 @@ build: deps $(BUILD_DIR)/build.ninja
 	cmake --build --preset default
 
 # Python tools for the protocol tests (pytest, websockets), pinned, in a local venv.
-$(VENV)/.stamp: tests/integration/requirements.txt
+# Real arms' URDFs for test_robot_vs_pinocchio.py (example-robot-data, ~131 MB, pip's cache
+# keeps the download): installed into the venv, never copied into the repository.
+$(VENV)/.stamp: tests/integration/requirements.txt tests/integration/requirements-robots.txt
 	@$(DEPS) python
 	python3 -m venv $(VENV)
 	$(VENV)/bin/pip install -q -r tests/integration/requirements.txt
+	$(VENV)/bin/pip install -q -r tests/integration/requirements-robots.txt
 	touch $@
 
 # The operator HMI (TypeScript, Vite, three.js), served by the gateway from hmi/dist.
@@ -149,8 +152,11 @@ SAFETY_ARG = $(if $(SAFETY),--safety $(SAFETY))
 # ROS_DOMAIN_ID's domain (else 0).
 ROS2 ?=
 ROS2_ARG = $(if $(filter-out 0,$(ROS2)),--ros2)
+# `make run ROBOT=path/to/arm.urdf` (issue 38; optional ROBOT_BASE, ROBOT_FLANGE): another arm
+# than the built-in ABB IRB 120 (docs/robot.md "Bring your own arm").
+ROBOT_ARG = $(if $(ROBOT),--robot $(ROBOT)) $(if $(ROBOT_BASE),--base $(ROBOT_BASE)) $(if $(ROBOT_FLANGE),--flange $(ROBOT_FLANGE))
 run: build hmi/dist/index.html adapters/opcua/dist/main.js $(if $(filter-out 0,$(ROS2)),$(ROS2_VENV)/.stamp)
-	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(ROS2_ARG)
+	$(BIN)/safestate run --bind 127.0.0.1 --port 8080 --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(ROS2_ARG) $(ROBOT_ARG)
 
 # Measurements (not tests), all of issue 7 in one run; rewrites docs/performance.md.
 # RT_SECONDS=10 make bench for a quick look (the document then says 10 s).
@@ -205,4 +211,4 @@ run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
 	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
 	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --cpu $(ECAT_CPU) --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
-	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(BUS_ARG)
+	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(BUS_ARG) $(ROBOT_ARG)

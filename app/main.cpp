@@ -13,7 +13,9 @@
 #include "checker.hpp"
 #include "safestate/gateway/admission.hpp"
 #include "safestate/gateway/gateway.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/runtime/runtime.hpp"
+#include "safestate/safety/safety_config.hpp"
 #include "safestate/scenario/scenario.hpp"
 
 using namespace safestate::core;
@@ -25,12 +27,29 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
 int safety_check_main(const std::string& file, bool builtin);
 int safety_canonical_main(const std::string& file, bool with_checksum);
 CLI::App* add_rta_command(CLI::App& app);
+std::string rta_safety_file();
+int robot_fk_main(const std::string& q_deg, const std::string& qd_deg_s, const std::string& tcp_mm);
 int run_rta_command();
 CLI::App* add_ecat_config_command(CLI::App& app);
 int run_ecat_config_command();
 }
 
 namespace {
+// `--robot FILE.urdf --base LINK --flange LINK` (issue 38): the arm, read before anything is
+// built. Without them: the safety configuration's `robot` key (run, rta), else the built-in
+// ABB IRB 120 (examples/robots/abb_irb120.urdf).
+struct RobotOptions {
+  std::string file;
+  std::string base;
+  std::string flange;
+};
+
+void add_robot_options(CLI::App* c, RobotOptions& o) {
+  c->add_option("--robot", o.file, "the arm's URDF (default: the built-in ABB IRB 120, examples/robots/abb_irb120.urdf)");
+  c->add_option("--base", o.base, "the URDF's base link (default: its root)");
+  c->add_option("--flange", o.flange, "the URDF's flange link (default: tool0, else the tip of its only chain)");
+}
+
 int print_table() {
   std::printf("%-4s %-40s %-22s %-5s\n", "rule", "trigger", "to", "stop");
   for (const Transition& t : kTransitions) {
@@ -217,7 +236,42 @@ int main(int argc, char** argv) {
   safety_canonical->add_flag("--checksum", canonical_checksum, "also print its SHA-256 and checksum");
   auto* rta = safestate::app::add_rta_command(app);
   auto* ecat_config = safestate::app::add_ecat_config_command(app);
+  RobotOptions robot_opt;
+  for (CLI::App* c : {replay, demo, run, gateway, ecat_sim, check, safety_check, rta}) {
+    add_robot_options(c, robot_opt);
+  }
+  CLI::App* robot_cmd = app.add_subcommand("robot", "the arm's description (URDF): forward kinematics");
+  robot_cmd->require_subcommand(1);
+  std::string fk_q;
+  CLI::App* robot_fk = robot_cmd->add_subcommand(
+      "fk", "print every link origin, the flange and the TCP (mm, JSON) at joint positions --q (degrees)");
+  add_robot_options(robot_fk, robot_opt);
+  robot_fk->add_option("--q", fk_q, "six joint positions in degrees, comma-separated; '-': lines of 6 (q) or 12 "
+                                     "(q, qd) numbers on stdin, one JSON line each")
+      ->required();
+  std::string fk_qd;
+  robot_fk->add_option("--qd", fk_qd, "six joint speeds in deg/s: also print the point speeds (core::point_speed)");
+  std::string fk_tcp;
+  robot_fk->add_option("--tcp", fk_tcp, "the TCP in the flange frame, mm: X,Y,Z (default 0,0,0)");
   CLI11_PARSE(app, argc, argv);
+  {
+    // The safety configuration's `robot` key names the arm when no --robot is given.
+    std::string file = run->parsed() ? run_opt.safety_file : safestate::app::rta_safety_file();
+    safestate::safety::RobotKey key;
+    if (robot_opt.file.empty() && !file.empty() && safestate::safety::robot_key_of_file(file, key)) {
+      robot_opt.file = key.urdf;
+      if (robot_opt.base.empty()) robot_opt.base = key.base;
+      if (robot_opt.flange.empty()) robot_opt.flange = key.flange;
+    }
+    std::string error;
+    if (!safestate::robot::select(robot_opt.file, robot_opt.base, robot_opt.flange, error)) {
+      std::fprintf(stderr, "safestate: robot description refused: %s\n", error.c_str());
+      return 2;
+    }
+  }
+  if (robot_fk->parsed()) {
+    return safestate::app::robot_fk_main(fk_q, fk_qd, fk_tcp);
+  }
   if (rta->parsed()) {
     return safestate::app::run_rta_command();
   }
@@ -287,6 +341,13 @@ int main(int argc, char** argv) {
     }
     for (const auto& h : run_hosts) {
       run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--allow-host", h});
+    }
+    if (!robot_opt.file.empty()) {  // the gateway serves the same arm at /api/robot
+      run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--robot", robot_opt.file});
+      if (!robot_opt.base.empty()) run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--base", robot_opt.base});
+      if (!robot_opt.flange.empty()) {
+        run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--flange", robot_opt.flange});
+      }
     }
     run_opt.gateway_args.insert(run_opt.gateway_args.end(), {"--max-clients", std::to_string(run_max_clients),
                                                               "--max-http", std::to_string(run_max_http)});

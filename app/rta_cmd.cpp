@@ -82,4 +82,6 @@ CLI::App* add_rta_command(CLI::App& app) {
 
 int run_rta_command() { return rta_main(g_rta); }
 
+std::string rta_safety_file() { return g_rta.safety_file; }
+
 }  // namespace safestate::app

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/safety/safety_config.hpp"
 #include "safestate/sim/cell.hpp"
@@ -90,7 +91,7 @@ Result run(const safety::Loaded& s, int axis, int cat, float speed, float payloa
     r.why = "could not start the program";
     return r;
   }
-  const float v_target = speed * motion::kRobot.qd_max_rad_s[i];
+  const float v_target = speed * safestate::robot::active().model.qd_max_rad_s[i];
   // At speed: the planner's plateau (it plans below the limits by their margin, SPEC §10),
   // the axis' speed steady for kSteadyCycles.
   constexpr int kSteadyCycles = 5;

@@ -1,10 +1,12 @@
 // sim_dynamics: the simulated arm's rigid-body model and torques, for an outside oracle
 // (tests/integration/test_dynamics_vs_pinocchio.py).
 //
-//   sim_dynamics --model   prints core::kIrb120Links, gravity, the rated torques, the joint
-//                          ranges and tool0's rotation in link 6 as JSON (SI units)
+//   sim_dynamics [--robot FILE.urdf [--base LINK] [--flange LINK]] ...: the arm (default: the
+//                          built-in IRB 120, examples/robots/abb_irb120.urdf)
+//   sim_dynamics --model   prints the description's name, base and flange links, joint names,
+//                          ranges and gravity as JSON (SI units)
 //   sim_dynamics           reads lines of 21 numbers from stdin, q[6] qd[6] qdd[6] f_world[3]
-//                          (rad, rad/s, rad/s^2, N in the base frame, on the TCP = tool0,
+//                          (rad, rad/s, rad/s^2, N in the base frame, on the TCP = the flange,
 //                          no payload) and prints the 6 joint torques (N m) of
 //                          sim::ArmDynamics::torques() per line, full precision.
 //
@@ -24,6 +26,7 @@
 
 #include "safestate/core/dynamics.hpp"
 #include "safestate/motion/robot.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/sim/dynamics.hpp"
 
 namespace {
@@ -44,41 +47,23 @@ std::vector<double> to_vec(const std::array<float, N>& a) {
   return v;
 }
 
-const char* axis_name(core::JointAxis a) {
-  switch (a) {
-    case core::JointAxis::x:
-      return "x";
-    case core::JointAxis::y:
-      return "y";
-    case core::JointAxis::z:
-      break;
-  }
-  return "z";
-}
-
 int print_model() {
-  nlohmann::json links = nlohmann::json::array();
-  for (const core::LinkInertial& l : core::kIrb120Links) {
-    links.push_back({{"joint_origin_m", to_vec(l.joint_origin_m)},
-                     {"axis", axis_name(l.axis)},
-                     {"mass_kg", d(l.mass_kg)},
-                     {"com_m", to_vec(l.com_m)},
-                     {"inertia", to_vec(l.inertia)}});
-  }
-  nlohmann::json tool0 = nlohmann::json::array();
-  for (const auto& row : safestate::sim::kTool0InLink6) {
-    tool0.push_back(row);
-  }
+  const safestate::robot::Robot& r = safestate::robot::active();
   const nlohmann::json model = {
-      {"source", "core/include/safestate/core/dynamics.hpp (ROS-Industrial irb120_3_58_macro.xacro inertials)"},
-      {"frames", "URDF: joint k at joint_origin_m in link k-1's frame, about axis; com_m and inertia "
-                 "(about the COM: ixx ixy ixz iyy iyz izz) in link k's frame; all frames parallel at q = 0"},
-      {"links", links},
+      {"name", r.d.name},
+      {"source", r.d.source},
+      {"base", r.d.base},
+      {"flange", r.d.flange},
+      {"joints", [&] {
+         nlohmann::json j = nlohmann::json::array();
+         for (const auto& jt : r.d.joints) {
+           j.push_back(jt.name);
+         }
+         return j;
+       }()},
       {"gravity_m_s2", {0.0, 0.0, -d(core::kGravityM_S2)}},
-      {"rated_torque_nm", to_vec(core::kRatedTorqueNm)},
-      {"q_min_rad", to_vec(safestate::motion::kRobot.q_min_rad)},
-      {"q_max_rad", to_vec(safestate::motion::kRobot.q_max_rad)},
-      {"tool0_rotation_in_link6", tool0},
+      {"q_min_rad", to_vec(r.model.q_min_rad)},
+      {"q_max_rad", to_vec(r.model.q_max_rad)},
   };
   std::cout << model.dump(2) << '\n';
   return 0;
@@ -139,6 +124,19 @@ int run(std::span<char*> argv) {
   for (const char* a : argv.subspan(1)) {
     args.emplace_back(a);
   }
+  // --robot FILE [--base LINK] [--flange LINK] first: the arm (default: the built-in IRB 120).
+  std::string file;
+  std::string base;
+  std::string flange;
+  while (args.size() >= 2U && (args[0] == "--robot" || args[0] == "--base" || args[0] == "--flange")) {
+    (args[0] == "--robot" ? file : args[0] == "--base" ? base : flange) = args[1];
+    args.erase(args.begin(), args.begin() + 2);
+  }
+  std::string error;
+  if (!safestate::robot::select(file, base, flange, error)) {
+    std::cerr << "sim_dynamics: " << error << '\n';
+    return 2;
+  }
   if (args.empty()) {
     return torques_from_stdin();
   }
@@ -146,8 +144,8 @@ int run(std::span<char*> argv) {
     return print_model();
   }
   if (args.size() == 1 && (args[0] == "--help" || args[0] == "-h")) {
-    std::cout << "usage: sim_dynamics [--model]\n"
-                 "  --model  the arm's rigid-body table as JSON\n"
+    std::cout << "usage: sim_dynamics [--robot FILE.urdf [--base LINK] [--flange LINK]] [--model]\n"
+                 "  --model  the arm's description: name, links, joints, ranges, gravity (JSON)\n"
                  "  (none)   stdin lines 'q[6] qd[6] qdd[6] f_world[3]' -> 6 joint torques (N m) per line\n";
     return 0;
   }

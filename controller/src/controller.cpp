@@ -14,10 +14,19 @@ Controller::Controller(const core::Config& cfg, const motion::RobotModel& model)
 
 core::ArmGeometry Controller::arm_geometry(const motion::RobotModel& model) noexcept {
   core::ArmGeometry g{};
+  const auto frame = [](const motion::FixedFrame& f) {
+    core::ArmFrame a{};
+    a.origin_mm = f.xyz_mm;
+    for (std::size_t r = 0; r < 3U; ++r) {
+      a.rotation[r] = f.R[r];
+    }
+    return a;
+  };
   for (std::size_t k = 0; k < core::kAxes; ++k) {
-    const motion::DhRow& r = model.dh[k];
-    g.dh[k] = core::DhParam{r.a_mm, r.alpha_rad, r.d_mm, r.theta_offset_rad};
+    g.joint[k].frame = frame(model.joints[k].origin);
+    g.joint[k].axis = model.joints[k].axis;
   }
+  g.flange = frame(model.flange);
   return g;
 }
 

@@ -20,6 +20,7 @@
 //    see of the person, not what the core validated: that is `safety`).
 //  - The black box of a stopping transition is {first, last, missing, cycles:[...]};
 //    a cycle whose slot no longer holds it is {"t": T, "missing": true}.
+#include "safestate/robot/description.hpp"
 #include "safestate/gateway/views.hpp"
 
 #include <algorithm>
@@ -33,6 +34,7 @@
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/vocab/names.hpp"
 #include "safestate/motion/robot.hpp"
+#include "safestate/safety/jcs.hpp"
 #include "safestate/safety/safety_config.hpp"
 
 namespace safestate::gateway {
@@ -626,21 +628,43 @@ Json event_message(std::int64_t id, std::uint64_t t, const std::string& time, co
 }
 
 Json robot_json() {
-  const motion::RobotModel& r = motion::kRobot;
+  const motion::RobotModel& r = safestate::robot::active().model;
   Json j;
   j["name"] = r.name;
   j["reach"] = static_cast<double>(r.reach_mm);
-  Json dh = Json::array();
-  for (const motion::DhRow& row : r.dh) {
-    Json d;
-    d["a"] = static_cast<double>(row.a_mm);
-    d["alpha"] = rounded(static_cast<double>(row.alpha_rad), 1e6);
-    d["d"] = static_cast<double>(row.d_mm);
-    d["theta_offset"] = rounded(static_cast<double>(row.theta_offset_rad), 1e6);
-    dh.push_back(std::move(d));
+  const auto vec = [](const std::array<float, 3>& v) { return rounded_array(v, 0, 3, 1e6); };
+  const auto mat = [&](const motion::Mat3f& m) {
+    Json rows = Json::array();
+    for (const auto& row : m) {
+      rows.push_back(vec(row));
+    }
+    return rows;
+  };
+  const safestate::robot::Robot& rb = safestate::robot::active();
+  Json joints = Json::array();
+  for (std::size_t k = 0; k < motion::kJoints; ++k) {
+    Json o;
+    o["name"] = rb.d.joints[k].name;
+    o["link"] = rb.d.joints[k].child;
+    o["origin"] = vec(r.joints[k].origin.xyz_mm);
+    o["rotation"] = mat(r.joints[k].origin.R);
+    o["axis"] = vec(r.joints[k].axis);
+    joints.push_back(std::move(o));
   }
-  j["convention"] = "standard DH: A_k = Rot_z(q_k + theta_offset) Trans_z(d) Trans_x(a) Rot_x(alpha)";
-  j["dh"] = std::move(dh);
+  j["convention"] =
+      "URDF chain: joint k's frame at origin (mm) turned by rotation (rows) in joint k-1's frame, turning about axis "
+      "(its own frame); flange in joint 6's frame";
+  j["base"] = rb.d.base;
+  j["flange_link"] = rb.d.flange;
+  j["source"] = rb.d.source;
+  j["urdf"] = rb.d.urdf;  // the description itself, for a viewer that draws the URDF
+  j["parameters_checksum"] =
+      safety::checksum_text(safety::jcs::canonicalize(Json::parse(safestate::robot::canonical_parameters(rb))).value_or(""));
+  j["joints"] = std::move(joints);
+  Json flange;
+  flange["origin"] = vec(r.flange.xyz_mm);
+  flange["rotation"] = mat(r.flange.R);
+  j["flange"] = std::move(flange);
   Json limits = Json::array();
   for (std::size_t i = 0; i < motion::kJoints; ++i) {
     Json l;

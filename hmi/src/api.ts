@@ -68,7 +68,7 @@ export interface SimPerson {
   in_outer: boolean;
   in_inner: boolean;
   separation_mm: number; // body edge to the nearest robot point, horizontal
-  nearest_point: number; // 0..6 DH frame origin, 7 the TCP
+  nearest_point: number; // 0..5 a joint origin, 6 the flange, 7 the TCP
 }
 
 /** The status's `sim` object (docs/collaborative.md "The simulated person"). */
@@ -173,17 +173,31 @@ export interface HmiEvent {
   blackbox?: string | null; // the URL of its black box (/api/events/ID/blackbox), or null
 }
 
-export interface DhRow {
-  a: number;
-  alpha: number;
-  d: number;
-  theta_offset: number;
+type V3 = [number, number, number];
+
+/** A frame fixed in its parent (mm; rotation as rows: columns are the child's axes). */
+export interface FixedFrame {
+  origin: V3;
+  rotation: [V3, V3, V3];
+}
+
+/** Joint k of the URDF chain (docs/robot.md): its frame in joint k-1's, and its axis. */
+export interface ChainJoint extends FixedFrame {
+  name: string;
+  link: string;
+  axis: V3;
 }
 
 export interface Robot {
   name: string;
+  source: string; // the URDF file, or "built-in"
+  parameters_checksum: string; // the description's part of the safety checksum
+  urdf: string; // the description as read
   reach: number;
-  dh: DhRow[];
+  base: string;
+  flange_link: string;
+  joints: ChainJoint[];
+  flange: FixedFrame;
   joint_limits: { min: number; max: number }[];
   velocity_limits: number[];
   link_names: string[];

@@ -388,7 +388,7 @@ class WebGlArm implements ArmDrawing {
 
   update(joints: number[]): void {
     this.lastJoints = joints;
-    const f = forward(this.robot.dh, joints, this.tcpOffset);
+    const f = forward(this.robot.joints, this.robot.flange, joints, this.tcpOffset);
     for (let k = 0; k < 6; k++) WebGlArm.segment(this.links[k], f.origin[k], f.origin[k + 1]);
     for (let k = 0; k < 6; k++) {
       const m = this.housings[k];
@@ -466,7 +466,7 @@ class WebGlArm implements ArmDrawing {
         }
       }
     }
-    this.placeSeparation(forward(this.robot.dh, this.lastJoints, this.tcpOffset));
+    this.placeSeparation(forward(this.robot.joints, this.robot.flange, this.lastJoints, this.tcpOffset));
     this.exposePerson();
     this.requestRender();
   }
@@ -663,7 +663,7 @@ class FlatArm implements ArmDrawing {
 
   update(joints: number[]): void {
     this.lastJoints = joints;
-    this.last = forward(this.robot.dh, joints, this.tcpOffset);
+    this.last = forward(this.robot.joints, this.robot.flange, joints, this.tcpOffset);
     this.trail.push(this.last.tcp);
     exposeDrawn(this.container, joints, this.last);
     this.draw();

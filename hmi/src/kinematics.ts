@@ -1,17 +1,18 @@
-// Forward kinematics of the arm from /api/robot, built exactly as the core builds it
-// (motion/src/kinematics.cpp `forward()`, docs/robot.md): standard DH,
-// A_k = Rot_z(q_k + θ_offset,k) · Trans_z(d_k) · Trans_x(a_k) · Rot_x(α_k), T_0k = A_1 ⋯ A_k,
-// TCP = p_6 + R_6 · tcp_offset. So the drawn TCP is the one in status.tcp.
-import type { DhRow } from './api';
+// Forward kinematics of the arm from /api/robot, built as the motion layer builds it
+// (motion/src/kinematics.cpp `forward()`, docs/robot.md): a chain of six joints from the
+// robot's URDF, joint k's frame placed at `origin` turned by `rotation` in joint k-1's frame,
+// then turned by q_k about its `axis`; the flange fixed in joint 6's frame;
+// TCP = p_flange + R_flange · tcp_offset. So the drawn TCP is the one in status.tcp.
+import type { ChainJoint, FixedFrame } from './api';
 
 export type Vec3 = [number, number, number];
 export type Mat3 = [Vec3, Vec3, Vec3]; // rows
 
 export interface Frames {
-  origin: Vec3[]; // origin[0] = base, origin[k] = origin of DH frame k (k = 1..6)
-  z: Vec3[]; // z[k]: z axis of frame k (joint k+1 turns about it)
-  x: Vec3[]; // x[k]: x axis of frame k
-  R: Mat3; // rotation of frame 6
+  origin: Vec3[]; // origin[k] = joint k+1's origin (k = 0..5), origin[6] = the flange
+  z: Vec3[]; // z[k]: the axis joint k+1 turns about; z[6]: the flange's z
+  x: Vec3[]; // x[k]: x axis of joint k+1's frame (at its zero); x[6]: the flange's x
+  R: Mat3; // rotation of the flange
   tcp: Vec3;
 }
 
@@ -46,36 +47,57 @@ function mulMM(A: Mat3, B: Mat3): Mat3 {
 const column = (R: Mat3, c: number): Vec3 => [R[0][c], R[1][c], R[2][c]];
 const add = (a: Vec3, b: Vec3): Vec3 => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
 
-/** One standard-DH link transform A_k (kinematics.cpp `dh_link`). */
-export function dhLink(row: DhRow, q: number): { p: Vec3; R: Mat3 } {
-  const th = q + row.theta_offset;
-  const ct = Math.cos(th);
-  const st = Math.sin(th);
-  const ca = Math.cos(row.alpha);
-  const sa = Math.sin(row.alpha);
-  return {
-    p: [row.a * ct, row.a * st, row.d],
-    R: [
-      [ct, -st * ca, st * sa],
-      [st, ct * ca, -ct * sa],
-      [0, sa, ca],
-    ],
-  };
+/** The turn of a joint about its unit axis u: R = I + sin q K + (1 - cos q) K². */
+export function axisTurn(u: Vec3, q: number): Mat3 {
+  const s = Math.sin(q);
+  const v = 1 - Math.cos(q);
+  const K: Mat3 = [
+    [0, -u[2], u[1]],
+    [u[2], 0, -u[0]],
+    [-u[1], u[0], 0],
+  ];
+  const K2 = mulMM(K, K);
+  const R: Mat3 = [
+    [0, 0, 0],
+    [0, 0, 0],
+    [0, 0, 0],
+  ];
+  for (let r = 0; r < 3; r++) {
+    for (let c = 0; c < 3; c++) {
+      R[r][c] = (r === c ? 1 : 0) + s * K[r][c] + v * K2[r][c];
+    }
+  }
+  return R;
 }
 
-export function forward(dh: DhRow[], q: number[], tcpOffset: Vec3 = [0, 0, 0]): Frames {
+/**
+ * Frames of the chain at q: origin[k] (k = 0..5) is joint k+1's origin (on its axis), z[k]
+ * its axis; origin[6] the flange, z[6] and x[6] its axes.
+ */
+export function forward(
+  joints: ChainJoint[],
+  flange: FixedFrame,
+  q: number[],
+  tcpOffset: Vec3 = [0, 0, 0],
+): Frames {
   let p: Vec3 = [0, 0, 0];
   let R: Mat3 = IDENTITY;
-  const origin: Vec3[] = [p];
-  const z: Vec3[] = [column(R, 2)];
-  const x: Vec3[] = [column(R, 0)];
-  for (let k = 0; k < dh.length; k++) {
-    const A = dhLink(dh[k], q[k] ?? 0);
-    p = add(p, mulMV(R, A.p));
-    R = mulMM(R, A.R);
+  const origin: Vec3[] = [];
+  const z: Vec3[] = [];
+  const x: Vec3[] = [];
+  for (let k = 0; k < joints.length; k++) {
+    const j = joints[k];
+    p = add(p, mulMV(R, j.origin));
+    R = mulMM(R, j.rotation);
     origin.push(p);
-    z.push(column(R, 2));
+    z.push(mulMV(R, j.axis));
     x.push(column(R, 0));
+    R = mulMM(R, axisTurn(j.axis, q[k] ?? 0));
   }
+  p = add(p, mulMV(R, flange.origin));
+  R = mulMM(R, flange.rotation);
+  origin.push(p);
+  z.push(column(R, 2));
+  x.push(column(R, 0));
   return { origin, z, x, R, tcp: add(p, mulMV(R, tcpOffset)) };
 }

@@ -556,6 +556,7 @@ async function loadRobot(): Promise<void> {
     }
   }
   jog.setRobot(robot);
+  safety.setRobot(robot);
   const container = $('arm');
   container.dataset.robot = robot.name;
   armView = createArmView(container, robot);

@@ -88,6 +88,7 @@ export class SafetyPage {
           h('h2', {}, 'Safety configuration'),
           el('sp-name', 'div', 'sp-name', 'Loading…'),
           el('sp-source', 'div', 'sp-source', ''),
+          el('sp-robot', 'div', 'sp-robot', ''),
         ),
         h(
           'div',
@@ -499,6 +500,19 @@ export class SafetyPage {
   setHighlight(hl: Highlight): void {
     this.hl = hl;
     this.render();
+  }
+
+  /**
+   * The arm the configuration is for (issue 38): its name and the checksum of the
+   * description's parameters (the robot's part of the configuration's checksum), from
+   * /api/robot.
+   */
+  setRobot(r: { name: string; parameters_checksum?: string; source?: string }): void {
+    setText(
+      this.e['sp-robot'],
+      `Robot: ${r.name}` + (r.parameters_checksum ? ` · description ${r.parameters_checksum}` : '') +
+        (r.source ? ` (${r.source})` : ''),
+    );
   }
 
   // ------------------------------------------------------------ rendering

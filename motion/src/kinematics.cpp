@@ -35,16 +35,48 @@ Mat3 mul(const Mat3& A, const Mat3& B) noexcept {
 
 Vec3 column(const Mat3& R, std::size_t c) noexcept { return {R[0][c], R[1][c], R[2][c]}; }
 
-// One standard-DH link transform A_k, written out rather than as four matrix products:
-// it runs 6 times per scan on the M4.
-Pose dh_link(const DhRow& row, float q) noexcept {
-  const float th = q + row.theta_offset_rad;
-  const float ct = std::cos(th);
-  const float st = std::sin(th);
-  const float ca = std::cos(row.alpha_rad);
-  const float sa = std::sin(row.alpha_rad);
-  return Pose{{row.a_mm * ct, row.a_mm * st, row.d_mm},
-              {{{ct, -st * ca, st * sa}, {st, ct * ca, -ct * sa}, {0.0F, sa, ca}}}};
+bool is_eye(const Mat3& R) noexcept {
+  return R[0][0] == 1.0F && R[1][1] == 1.0F && R[2][2] == 1.0F && R[0][1] == 0.0F && R[0][2] == 0.0F &&
+         R[1][0] == 0.0F && R[1][2] == 0.0F && R[2][0] == 0.0F && R[2][1] == 0.0F;
+}
+
+// R * Rot(e_a, q) for a unit axis along column a: columns b and c (a, b, c cyclic) turn,
+// b' = cos q b + sin q c, c' = cos q c - sin q b (sign: s < 0 for the minus axis).
+void turn_columns(Mat3& R, std::size_t b, std::size_t c, float co, float si) noexcept {
+  for (std::size_t r = 0; r < 3; ++r) {
+    const float vb = R[r][b];
+    const float vc = R[r][c];
+    R[r][b] = (co * vb) + (si * vc);
+    R[r][c] = (co * vc) - (si * vb);
+  }
+}
+
+// T.R * Rot(u, q): the turn of a joint about its unit axis u (the core's arm.cpp turns frame
+// vectors instead). An axis along +-x, +-y, +-z turns two columns; any other axis is
+// Rodrigues' matrix R = cos q I + (1 - cos q) u u^T + sin q [u]x, then one product.
+void turn(Mat3& R, const Vec3& u, float q) noexcept {
+  const float si = std::sin(q);
+  const float co = std::cos(q);
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::size_t b = (a + 1U) % 3U;
+    const std::size_t c = (a + 2U) % 3U;
+    if (u[b] == 0.0F && u[c] == 0.0F && (u[a] == 1.0F || u[a] == -1.0F)) {
+      turn_columns(R, b, c, co, u[a] * si);
+      return;
+    }
+  }
+  const float v = 1.0F - co;
+  const Mat3 Q{{{co + u[0] * u[0] * v, u[0] * u[1] * v - u[2] * si, u[0] * u[2] * v + u[1] * si},
+                {u[1] * u[0] * v + u[2] * si, co + u[1] * u[1] * v, u[1] * u[2] * v - u[0] * si},
+                {u[2] * u[0] * v - u[1] * si, u[2] * u[1] * v + u[0] * si, co + u[2] * u[2] * v}}};
+  R = mul(R, Q);
+}
+
+void place(Pose& T, const FixedFrame& f) noexcept {
+  T.p = add(T.p, mul(T.R, f.xyz_mm));
+  if (!is_eye(f.R)) {
+    T.R = mul(T.R, f.R);
+  }
 }
 
 // Geometric Jacobian column sum: joint j+1 turns about z[j] through origin[j], so it moves
@@ -78,16 +110,17 @@ void find_fastest(PointSpeeds& out) noexcept {
 }  // namespace
 
 void forward(const RobotModel& model, const Joints& q, Frames& out) noexcept {
-  Pose T{{0.0F, 0.0F, 0.0F}, {{{1.0F, 0.0F, 0.0F}, {0.0F, 1.0F, 0.0F}, {0.0F, 0.0F, 1.0F}}}};
-  out.origin[0] = T.p;
-  out.z[0] = column(T.R, 2);
+  Pose T{{0.0F, 0.0F, 0.0F}, kEye};
   for (std::size_t k = 0; k < kJoints; ++k) {
-    const Pose A = dh_link(model.dh[k], q[k]);
-    T.p = add(T.p, mul(T.R, A.p));
-    T.R = mul(T.R, A.R);
-    out.origin[k + 1] = T.p;
-    out.z[k + 1] = column(T.R, 2);
+    const ChainJoint& j = model.joints[k];
+    place(T, j.origin);
+    out.origin[k] = T.p;
+    out.z[k] = mul(T.R, j.axis);
+    turn(T.R, j.axis, q[k]);
   }
+  place(T, model.flange);
+  out.origin[kJoints] = T.p;
+  out.z[kJoints] = column(T.R, 2);
   out.tcp = add(T.p, mul(T.R, model.tcp_offset_mm));
   out.R = T.R;
 }

@@ -40,8 +40,9 @@ void LimitPlanner::configure(const core::SafetyLimits& limits, const RobotModel&
                                   (model.tcp_offset_mm[1] * model.tcp_offset_mm[1]) +
                                   (model.tcp_offset_mm[2] * model.tcp_offset_mm[2]));
   float chain = tcp_len;
-  for (std::size_t k = kJoints; k-- > 0U;) {  // lever_j: from axis j (frame j-1) to the TCP
-    chain += absf(model.dh[k].a_mm) + absf(model.dh[k].d_mm);
+  for (std::size_t k = kJoints; k-- > 0U;) {  // lever_j: from axis j (joint j's origin) to the TCP
+    const Vec3f& o = (k + 1U < kJoints) ? model.joints[k + 1U].origin.xyz_mm : model.flange.xyz_mm;
+    chain += absf(o[0]) + absf(o[1]) + absf(o[2]);
     lever_[k] = chain;
   }
   tcp_ = kSpeedFactor * positive(limits.tcp_max_speed_mm_s);

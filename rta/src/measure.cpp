@@ -12,6 +12,7 @@
 #include <functional>
 #include <memory>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/rta/rta.hpp"
 #include "safestate/controller/controller.hpp"
 #include "safestate/core/arm.hpp"
@@ -202,7 +203,7 @@ constexpr float kBenchTcpSpeedMmS = 300.0F;              // axis 1 at <= 0.82 ra
 core::JointArray positions(const sim::Cell& c) { return c.view().joints_rad; }
 
 core::ArmPose pose_at(const core::JointArray& q, const core::SafetyLimits& l) {
-  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(motion::kRobot));
+  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(safestate::robot::active().model));
   core::ArmPose p{};
   core::arm_forward(arm, q, l.tcp_mm, p);
   return p;

@@ -1,5 +1,6 @@
 // SPEC §13 response time analysis: the terms, from the code's own constants.
 // @req RTA-TERMS
+#include "safestate/robot/description.hpp"
 #include "safestate/rta/rta.hpp"
 
 #include <nlohmann/json.hpp>
@@ -62,8 +63,8 @@ struct Builder {
     const float payload_scale = sim::payload_decel_scale(s.limits.payload_kg / motion::kRatedPayloadKg);
     const float dt = static_cast<float>(c) * 1.0e-6F;
     for (std::size_t i = 0; i < motion::kJoints; ++i) {
-      const float per_cycle = sim::kBrakeStopDecelFactor * motion::kRobot.qdd_max_rad_s2[i] * payload_scale * dt;
-      const auto n = static_cast<std::uint64_t>(std::ceil((motion::kRobot.qd_max_rad_s[i] / per_cycle) - 1.0e-4F));
+      const float per_cycle = sim::kBrakeStopDecelFactor * safestate::robot::active().model.qdd_max_rad_s2[i] * payload_scale * dt;
+      const auto n = static_cast<std::uint64_t>(std::ceil((safestate::robot::active().model.qd_max_rad_s[i] / per_cycle) - 1.0e-4F));
       if (n > worst) {
         worst = n;
         axis = i + 1U;

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/gateway/event_log.hpp"
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/runtime/runtime.hpp"
@@ -388,6 +389,15 @@ bool load_safety(const RunOptions& opt, ActiveSafety& out) {
   }
   out.config = *r.config;
   out.source = opt.safety_file;
+  // Issue 38: the arm the configuration was checked against is the one the cell runs.
+  if (out.config.robot.robot.get() != &robot::active() &&
+      robot::canonical_parameters(*out.config.robot.robot) != robot::canonical_parameters(robot::active())) {
+    std::fprintf(stderr, "safestate run: safety configuration %s names robot %s (%s), --robot gives %s (%s); not started\n",
+                 opt.safety_file.c_str(), out.config.robot.robot->d.name.c_str(),
+                 out.config.robot.robot->d.source.c_str(), robot::active().d.name.c_str(),
+                 robot::active().d.source.c_str());
+    return false;
+  }
   if (out.config.canonical.size() >= bridge::kSafetyTextChars || out.source.size() >= bridge::kSafetySourceChars) {
     std::fprintf(stderr, "safestate run: safety configuration %s: too large to hand to the gateway; not started\n",
                  opt.safety_file.c_str());

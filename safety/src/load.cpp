@@ -9,6 +9,8 @@
 #include <sstream>
 #include <utility>
 
+#include <nlohmann/json.hpp>
+
 #include "safestate/safety/jcs.hpp"
 #include "safestate/safety/safety_config.hpp"
 
@@ -37,6 +39,18 @@ constexpr std::string_view kDefault = R"json({
 }
 )json";
 
+// The same for any other arm (issue 38): no `joints` key, so the joint table is the robot's
+// own, from its URDF.
+constexpr std::string_view kDefaultOtherRobot = R"json({
+  "format": "safestate-safety/1",
+  "name": "built-in default (robot's own ranges, no zones)",
+  "tool": { "tcp_mm": [0, 0, 0], "radius_mm": 0, "payload_kg": 0 },
+  "tcp_max_speed_mm_s": 2000,
+  "reduced": { "tcp_max_speed_mm_s": 250, "ramp_ms": 500 },
+  "stop": { "max_time_ms": 1000 }
+}
+)json";
+
 constexpr double kPi = 3.14159265358979323846;
 
 std::string n(double x) { return jcs::number_to_string(x).value_or("?"); }
@@ -55,10 +69,12 @@ const char* kind_name(core::ZoneKind k) {
 
 }  // namespace
 
-std::string_view default_safety_text() noexcept { return kDefault; }
+std::string_view default_safety_text() noexcept {
+  return robot::is_builtin(robot::active()) ? kDefault : kDefaultOtherRobot;
+}
 
 Loaded default_safety() {
-  Result r = parse_safety(kDefault);
+  Result r = parse_safety(default_safety_text());
   // The text is a constant of this file and a unit test parses it; an error here is a
   // programming error, reported loudly rather than hidden behind partial limits.
   if (!r.ok()) {
@@ -97,7 +113,36 @@ Result load_safety_file(const std::string& path) {
     r.errors.push_back({"", "cannot read " + path});
     return r;
   }
-  return parse_safety(text);
+  return parse_safety(text, std::filesystem::path(path).parent_path().string());
+}
+
+bool robot_key_of_file(const std::string& path, RobotKey& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return false;
+  }
+  std::string text(kMaxFileBytes + 1U, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object() || !doc.contains("robot") || !doc.at("robot").is_object()) {
+    return false;
+  }
+  const nlohmann::json& r = doc.at("robot");
+  const auto str = [&](const char* k) {
+    return (r.contains(k) && r.at(k).is_string()) ? r.at(k).get<std::string>() : std::string();
+  };
+  out.urdf = str("urdf");
+  if (out.urdf.empty()) {
+    return false;
+  }
+  const std::filesystem::path p(out.urdf);
+  if (!p.is_absolute()) {
+    out.urdf = (std::filesystem::path(path).parent_path() / p).string();
+  }
+  out.base = str("base");
+  out.flange = str("flange");
+  return true;
 }
 
 std::string summary(const Loaded& c) {
@@ -105,6 +150,20 @@ std::string summary(const Loaded& c) {
   std::ostringstream o;
   o << "name:      " << c.name << "\n";
   o << "checksum:  " << c.checksum << "\n";
+  if (c.robot.robot) {
+    const robot::Robot& rb = *c.robot.robot;
+    o << "robot:     " << rb.d.name << " (" << rb.d.source << ", " << rb.d.base << " -> " << rb.d.flange
+      << "), parameters " << c.robot.checksum
+      << (c.robot.in_checksum ? " (in the checksum)" : " (the built-in IRB 120's)") << "\n";
+    o << "           joint                 range deg            max deg/s\n";
+    for (std::size_t i = 0; i < robot::kJoints; ++i) {
+      char line[160];
+      std::snprintf(line, sizeof line, "           %-20.20s  %-9s .. %-9s  %s\n", rb.d.joints[i].name.c_str(),
+                    deg(rb.model.q_min_rad[i]).c_str(), deg(rb.model.q_max_rad[i]).c_str(),
+                    deg(rb.model.qd_max_rad_s[i]).c_str());
+      o << line;
+    }
+  }
   o << "tool:      tcp [" << f(l.tcp_mm[0]) << ", " << f(l.tcp_mm[1]) << ", " << f(l.tcp_mm[2]) << "] mm, radius "
     << f(l.tool_radius_mm) << " mm, payload " << f(l.payload_kg) << " kg\n";
   o << "joints:    axis  min deg   max deg   max deg/s\n";

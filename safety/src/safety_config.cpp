@@ -8,11 +8,13 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <utility>
 
 #include <nlohmann/json.hpp>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/safety/jcs.hpp"
 #include "safestate/safety/safety_config.hpp"
@@ -50,10 +52,12 @@ struct ObjectSpec {
 };
 
 const std::vector<KeySpec> kTop = {{"format", true},        {"name", true},   {"tool", true},
-                                   {"joints", true},        {"tcp_max_speed_mm_s", true},
+                                   {"robot", false},        {"joints", false},       {"tcp_max_speed_mm_s", true},
                                    {"reduced", true},       {"orientation", false},
                                    {"zones", false},        {"stop", true},   {"collaborative", false},
                                    {"brake_test", false}};
+// `urdf` or `parameters` (the checksummed form the gateway reads back may hold only the latter).
+const std::vector<KeySpec> kRobotKey = {{"urdf", false}, {"base", false}, {"flange", false}, {"parameters", false}};
 const std::vector<KeySpec> kTool = {{"tcp_mm", true}, {"radius_mm", true}, {"payload_kg", true}};
 const std::vector<KeySpec> kJoint = {{"min_deg", true}, {"max_deg", true}, {"max_speed_deg_s", true}};
 const std::vector<KeySpec> kReduced = {{"tcp_max_speed_mm_s", true}, {"ramp_ms", true}};
@@ -73,6 +77,7 @@ const std::vector<ObjectSpec>& object_specs() {
   static const std::vector<ObjectSpec> specs = {
       {"", kTop},
       {"tool", kTool},
+      {"robot", kRobotKey},
       {"joints[]", kJoint},
       {"reduced", kReduced},
       {"orientation", kOrientation},
@@ -350,6 +355,11 @@ bool zone_name_chars(const std::string& s) {
 }
 
 double rad_to_deg(double r) { return r * 180.0 / kPi; }
+
+std::string resolve_path(const std::string& dir, const std::string& p) {
+  const std::filesystem::path path(p);
+  return (path.is_absolute() || dir.empty()) ? p : (std::filesystem::path(dir) / path).string();
+}
 // The robot's range in degrees, to 1/1000 degree (robot.hpp holds float radians).
 double robot_deg(float rad) { return std::round(rad_to_deg(static_cast<double>(rad)) * 1000.0) / 1000.0; }
 
@@ -488,7 +498,9 @@ std::optional<std::string> canonical_json(std::string_view text, std::vector<Err
   return c;
 }
 
-Result parse_safety(std::string_view text) {
+Result parse_safety(std::string_view text) { return parse_safety(text, "."); }
+
+Result parse_safety(std::string_view text, const std::string& dir) {
   Result result;
   Checker ck;
   const std::optional<json> parsed = parse_tree(text, ck.errors);
@@ -528,13 +540,52 @@ Result parse_safety(std::string_view text) {
     }
   }
 
+  // The robot first: the joint table's defaults and bounds are its own (issue 38).
+  cfg.robot.robot = safestate::robot::active_shared();
+  if (doc.contains("robot") && ck.object(doc.at("robot"), "robot", kRobotKey)) {
+    const json& r = doc.at("robot");
+    if (!r.contains("urdf") && !r.contains("parameters")) {
+      ck.add("robot.urdf", "missing (required): the arm's URDF file");
+    }
+    const auto urdf = r.contains("urdf") ? ck.string(r, "robot", "urdf") : std::optional<std::string>(std::string());
+    const auto base = r.contains("base") ? ck.string(r, "robot", "base") : std::optional<std::string>(std::string());
+    const auto flange =
+        r.contains("flange") ? ck.string(r, "robot", "flange") : std::optional<std::string>(std::string());
+    if (urdf && base && flange && r.contains("parameters")) {
+      // The form the checksum covers (robot.parameters added), as the gateway reads it back
+      // from the core: the parameters must be exactly those of the robot the program runs.
+      const std::optional<std::string> want =
+          jcs::canonicalize(json::parse(safestate::robot::canonical_parameters(*cfg.robot.robot)));
+      const std::optional<std::string> got = jcs::canonicalize(r.at("parameters"));
+      if (!r.at("parameters").is_object() || !got || got != want) {
+        ck.add("robot.parameters", "are not the parameters of the robot this program runs (" +
+                                       cfg.robot.robot->d.name + ", " + cfg.robot.robot->d.source + ")");
+      }
+      cfg.robot.from_key = true;
+    } else if (urdf && base && flange && !urdf->empty()) {
+      std::string error;
+      std::shared_ptr<const safestate::robot::Robot> loaded =
+          safestate::robot::load_file(resolve_path(dir, *urdf), *base, *flange, error);
+      if (loaded) {
+        cfg.robot.robot = std::move(loaded);
+        cfg.robot.from_key = true;
+      } else {
+        ck.add("robot", error);
+      }
+    }
+  }
+  const safestate::robot::Robot& rb = *cfg.robot.robot;
+  for (std::size_t i = 0; i < core::kAxes; ++i) {  // no `joints` key: the robot's own limits
+    lim.joints[i] = core::JointLimit{rb.model.q_min_rad[i], rb.model.q_max_rad[i], rb.model.qd_max_rad_s[i]};
+  }
+
   if (doc.contains("joints")) {
     const json& j = doc.at("joints");
     if (!j.is_array() || j.size() != core::kAxes) {
       ck.add("joints", "must be an array of " + std::to_string(core::kAxes) + " joints (found " +
                            (j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j)) + ")");
     } else {
-      const motion::RobotModel& robot = motion::kRobot;
+      const motion::RobotModel& robot = rb.model;
       for (std::size_t i = 0; i < core::kAxes; ++i) {
         const std::string p = index("joints", i);
         if (!ck.object(j[i], p, kJoint)) continue;
@@ -673,11 +724,25 @@ Result parse_safety(std::string_view text) {
     result.errors = std::move(ck.errors);
     return result;
   }
-  const std::optional<std::string> canonical = jcs::canonicalize(doc);
-  if (!canonical) {
+  // The robot's part: the parameters its models use. A robot other than the built-in IRB 120
+  // puts them into what the checksum covers, as robot.parameters (docs/robot.md "Checksum").
+  cfg.robot.parameters = safestate::robot::canonical_parameters(rb);
+  const json params = json::parse(cfg.robot.parameters);
+  const std::optional<std::string> params_canonical = jcs::canonicalize(params);
+  cfg.robot.in_checksum = cfg.robot.from_key || !safestate::robot::is_builtin(rb);
+  json covered = doc;
+  if (cfg.robot.in_checksum) {
+    if (!covered.contains("robot")) {
+      covered["robot"] = json::object();
+    }
+    covered["robot"]["parameters"] = params;
+  }
+  const std::optional<std::string> canonical = jcs::canonicalize(covered);
+  if (!canonical || !params_canonical) {
     result.errors.push_back({"", "cannot be put in RFC 8785 form"});
     return result;
   }
+  cfg.robot.checksum = checksum_text(*params_canonical);
   if (cfg.collaborative) {
     to_core(*cfg.collaborative, lim.payload_kg, lim.collaborative);
   }

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/safety/safety_config.hpp"
 
@@ -113,6 +114,11 @@ Problem finish_config(const ConfigLines& lines, bool max_stop_set, Scenario& s, 
         all += (all.empty() ? "" : "; ") + e.text();
       }
       return "config safety: " + path.string() + ": " + all;
+    }
+    // Issue 38: a configuration for another arm than the one replayed (`--robot`) is refused.
+    if (robot::canonical_parameters(*r.config->robot.robot) != robot::canonical_parameters(robot::active())) {
+      return "config safety: " + path.string() + ": names robot " + r.config->robot.robot->d.name + " (" +
+             r.config->robot.robot->d.source + "), the replay runs " + robot::active().d.name + " (--robot)";
     }
     s.safety = r.config->limits;
     checksum = r.config->limits.checksum;

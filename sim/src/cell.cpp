@@ -3,6 +3,7 @@
 #include "safestate/controller/controller.hpp"
 #include "safestate/core/command_queue.hpp"
 #include "safestate/motion/kinematics.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/sim/plant.hpp"
 
 namespace safestate::sim {
@@ -11,8 +12,8 @@ struct Cell::Impl {
   Impl(const core::Config& c, hal::Backend* b)
       : cfg(c),
         bus(b),
-        controller(c, motion::kRobot),
-        plant(motion::kRobot, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()) {
+        controller(c, robot::active().model),
+        plant(robot::active().model, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()) {
     load_demo();
   }
   void load_demo() noexcept {

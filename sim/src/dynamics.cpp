@@ -13,6 +13,7 @@
 #include <kdl/segment.hpp>
 
 #include "safestate/core/dynamics.hpp"
+#include "safestate/robot/description.hpp"
 
 namespace safestate::sim {
 namespace {
@@ -21,26 +22,13 @@ constexpr unsigned int kN = kDynAxes;  // KDL sizes and indexes with unsigned in
 
 double d(float v) noexcept { return static_cast<double>(v); }
 
-KDL::Vector vec(const std::array<float, 3>& v) noexcept { return {d(v[0]), d(v[1]), d(v[2])}; }
+KDL::Vector vec(const robot::Vec3d& v) noexcept { return {v[0], v[1], v[2]}; }
 
-KDL::Vector unit_axis(core::JointAxis a) noexcept {
-  switch (a) {
-    case core::JointAxis::x:
-      return {1.0, 0.0, 0.0};
-    case core::JointAxis::y:
-      return {0.0, 1.0, 0.0};
-    case core::JointAxis::z:
-      break;
-  }
-  return {0.0, 0.0, 1.0};
+KDL::Rotation rot(const robot::Mat3d& r) noexcept {
+  return {r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2]};
 }
 
-// tool0 coordinates -> link 6 coordinates (kTool0InLink6, a pure rotation).
-KDL::Vector tool0_to_link6(const Vec3& p) noexcept {
-  const auto& r = kTool0InLink6;
-  return {r[0][0] * p[0] + r[0][1] * p[1] + r[0][2] * p[2], r[1][0] * p[0] + r[1][1] * p[1] + r[1][2] * p[2],
-          r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2]};
-}
+KDL::Frame frame(const robot::FrameD& f) noexcept { return {rot(f.R), vec(f.xyz_m)}; }
 
 template <std::size_t N>
 bool finite(const std::array<double, N>& v) noexcept {
@@ -65,25 +53,32 @@ struct ArmDynamics::Impl {
   KDL::JntArray tau = KDL::JntArray(kN);
   KDL::Wrenches f_ext = KDL::Wrenches(kN, KDL::Wrench::Zero());
   KDL::Frame link6;
+  KDL::Frame flange;  // the flange (tool0) in link 6's frame
+  robot::Description desc;
+
+  explicit Impl(const robot::Robot& r) : flange(frame(r.d.flange_frame)), desc(r.d) {}
+
+  // A point in flange (tool0) coordinates, in link 6's frame.
+  [[nodiscard]] KDL::Vector in_link6(const Vec3& p) const noexcept { return flange * KDL::Vector(p[0], p[1], p[2]); }
 
   void build(double payload_kg, const Vec3& payload_tool0_m) {
     KDL::Chain c;
     for (std::size_t k = 0; k < kDynAxes; ++k) {
-      const core::LinkInertial& l = core::kIrb120Links[k];
-      const KDL::Vector origin = vec(l.joint_origin_m);
-      // Joint k turns about `axis` through `origin` (link k-1's frame). KDL's Segment stores
-      // f_tip relative to the joint's pose at q = 0 (Frame(origin)), so passing
-      // Frame(origin) makes the segment's tip frame link k's frame: pose(q) =
-      // Frame(Rot(axis, q), origin), parallel to the parent's at q = 0 as in the URDF.
-      const KDL::Joint joint(origin, unit_axis(l.axis), KDL::Joint::RotAxis);
-      // Table order: ixx ixy ixz iyy iyz izz; KDL's: Ixx Iyy Izz Ixy Ixz Iyz.
-      const auto& in = l.inertia;
-      const KDL::RotationalInertia ic(d(in[0]), d(in[3]), d(in[5]), d(in[1]), d(in[2]), d(in[4]));
-      KDL::RigidBodyInertia inertia(d(l.mass_kg), vec(l.com_m), ic);  // about the COM, moved to the origin
+      const robot::Joint& j = desc.joints[k];
+      const KDL::Frame origin = frame(j.origin);
+      // Joint k turns about `axis` (in its own frame, placed at `origin` in joint k-1's) through
+      // the origin's point. KDL's Joint(origin, axis) takes both in the segment's root frame
+      // (joint k-1's) and stores f_tip relative to the joint's pose at q = 0, so passing
+      // `origin` as the tip makes the segment's tip frame joint k's (its child link's) frame.
+      const KDL::Joint joint(origin.p, origin.M * vec(j.axis), KDL::Joint::RotAxis);
+      const robot::Inertial& in = j.inertial;
+      const KDL::RotationalInertia ic(in.inertia[0][0], in.inertia[1][1], in.inertia[2][2], in.inertia[0][1],
+                                      in.inertia[0][2], in.inertia[1][2]);
+      KDL::RigidBodyInertia inertia(in.mass_kg, vec(in.com_m), ic);  // about the COM, moved to the origin
       if (k + 1 == kDynAxes && std::isfinite(payload_kg) && payload_kg > 0.0) {
-        inertia = inertia + KDL::RigidBodyInertia(payload_kg, tool0_to_link6(payload_tool0_m));
+        inertia = inertia + KDL::RigidBodyInertia(payload_kg, in_link6(payload_tool0_m));
       }
-      c.addSegment(KDL::Segment(joint, KDL::Frame(origin), inertia));
+      c.addSegment(KDL::Segment(joint, origin, inertia));
     }
     id.reset();
     fk.reset();
@@ -96,7 +91,11 @@ struct ArmDynamics::Impl {
   bool link6_frame() noexcept { return fk->JntToCart(q, link6) >= 0; }
 };
 
-ArmDynamics::ArmDynamics() : impl_(std::make_unique<Impl>()) { impl_->build(0.0, Vec3{0.0, 0.0, 0.0}); }
+ArmDynamics::ArmDynamics() : ArmDynamics(robot::active()) {}
+
+ArmDynamics::ArmDynamics(const robot::Robot& r) : impl_(std::make_unique<Impl>(r)) {
+  impl_->build(0.0, Vec3{0.0, 0.0, 0.0});
+}
 
 ArmDynamics::~ArmDynamics() = default;
 
@@ -124,7 +123,7 @@ bool ArmDynamics::torques(const JointVec& q, const JointVec& qd, const JointVec&
   // moment about link 6's origin, therefore gives tau = ID - J^T f (checked numerically by
   // tests/unit/test_sim_dynamics.cpp against finite differences of tcp()).
   const KDL::Vector f6 = m.link6.M.Inverse(KDL::Vector(f_world_n[0], f_world_n[1], f_world_n[2]));
-  const KDL::Vector r6 = tool0_to_link6(tcp_tool0_m);
+  const KDL::Vector r6 = m.in_link6(tcp_tool0_m);
   m.f_ext[kDynAxes - 1] = KDL::Wrench(f6, r6 * f6);
   const int rc = m.id->CartToJnt(m.q, m.qd, m.qdd, m.f_ext, m.tau);
   m.f_ext[kDynAxes - 1] = KDL::Wrench::Zero();
@@ -146,7 +145,7 @@ void ArmDynamics::tcp(const JointVec& q, const Vec3& tcp_tool0_m, Vec3& p_world_
     p_world_m.fill(std::numeric_limits<double>::quiet_NaN());
     return;
   }
-  const KDL::Vector p = m.link6 * tool0_to_link6(tcp_tool0_m);
+  const KDL::Vector p = m.link6 * m.in_link6(tcp_tool0_m);
   p_world_m = {p.x(), p.y(), p.z()};
 }
 

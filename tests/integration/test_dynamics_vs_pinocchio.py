@@ -1,19 +1,19 @@
 """The simulated arm's rigid-body dynamics against an independent oracle, Pinocchio.
 
-`sim_dynamics --model` prints the table the simulator uses (core::kIrb120Links, gravity,
-tool0's rotation in link 6); Pinocchio builds its own model from those numbers alone
-(revolute joints RX/RY/RZ at the joint origins, bodies with mass, centre of mass and
-inertia about it) and computes:
+The simulator (`sim_dynamics`, KDL's recursive Newton-Euler on the chain robot/ makes from the
+URDF: fixed joints folded, each moving link's inertial with its fixed links) and Pinocchio,
+which reads the same URDF itself (examples/robots/abb_irb120.urdf, the shipped default), must
+agree:
 
 - inverse dynamics (rnea) on 200 random states, seeded: q within the joint ranges, qd up to
-  3 rad/s, qdd up to 20 rad/s^2; `sim_dynamics` (KDL's recursive Newton-Euler) must agree
-  within 1e-6 N m + 1e-6 relative;
+  3 rad/s, qdd up to 20 rad/s^2; within 1e-6 N m + 1e-6 relative;
 - the external force's part: with a random force on tool0 (base frame), the simulator's
   torques must be rnea - J^T f, J the linear rows of Pinocchio's frame Jacobian of tool0
   (LOCAL_WORLD_ALIGNED), i.e. the force of the environment on the TCP loads the drives as
   tau = ID - J^T f.
 
-What this does not check: that the table matches the real robot (docs/robot.md "Dynamics").
+Other arms (UR3, UR5, UR10) are compared in test_robot_vs_pinocchio.py. What this does not
+check: that the description matches the real robot (docs/robot.md "Dynamics").
 """
 import json
 import os
@@ -24,6 +24,7 @@ import pinocchio as pin
 import pytest
 
 BIN = os.environ["SIM_DYNAMICS_BIN"]
+URDF = os.environ["IRB120_URDF"]
 SEED = 20
 STATES = 200
 ABS_TOL = 1e-6
@@ -31,7 +32,7 @@ REL_TOL = 1e-6
 
 
 def sim_dynamics(*args, stdin=None):
-    r = subprocess.run([BIN, *args], input=stdin, capture_output=True, text=True, timeout=60)
+    r = subprocess.run([BIN, "--robot", URDF, *args], input=stdin, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     return r.stdout
 
@@ -43,20 +44,9 @@ def table():
 
 @pytest.fixture(scope="module")
 def model(table):
-    joint_models = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
-    m = pin.Model()
-    parent = 0
-    for k, link in enumerate(table["links"], start=1):
-        placement = pin.SE3(np.eye(3), np.array(link["joint_origin_m"]))
-        jid = m.addJoint(parent, joint_models[link["axis"]](), placement, f"joint_{k}")
-        ixx, ixy, ixz, iyy, iyz, izz = link["inertia"]
-        inertia_com = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        m.appendBodyToJoint(jid, pin.Inertia(link["mass_kg"], np.array(link["com_m"]), inertia_com),
-                            pin.SE3.Identity())
-        parent = jid
+    m = pin.buildModelFromUrdf(URDF)
+    assert [m.names[i] for i in range(1, m.njoints)] == table["joints"]
     m.gravity = pin.Motion(np.array(table["gravity_m_s2"]), np.zeros(3))
-    tool0 = pin.SE3(np.array(table["tool0_rotation_in_link6"]), np.zeros(3))
-    m.addFrame(pin.Frame("tool0", parent, tool0, pin.FrameType.OP_FRAME))
     return m
 
 
@@ -86,10 +76,10 @@ def assert_close(ours, oracle, what):
                                    f"sim {ours[worst]!r} pinocchio {oracle[worst]!r}")
 
 
-def test_the_model_is_the_irb120_table(table, model):
-    assert len(table["links"]) == 6 and model.nq == 6
+def test_the_model_is_the_irb120(table, model):
+    assert table["name"] == "abb_irb120_3_58" and table["flange"] == "tool0" and model.nq == 6
     assert table["gravity_m_s2"][2] == pytest.approx(-9.81, rel=1e-6)
-    total = sum(link["mass_kg"] for link in table["links"])
+    total = sum(model.inertias[i].mass for i in range(1, model.njoints))
     assert total == pytest.approx(11.931, abs=1e-4)  # 3.067 + 3.909 + 2.944 + 1.328 + 0.546 + 0.137
     # tool0 at home: 302 + 72 mm forward, 290 + 270 + 70 mm up; its z along the base's x.
     data = model.createData()

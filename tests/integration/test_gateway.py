@@ -776,9 +776,11 @@ def test_api_events_paging_and_bad_parameters(cell):
 
 def test_api_robot(cell):
     r = get_json(cell.port, "/api/robot")
-    assert "IRB 120" in r["name"]
-    assert len(r["dh"]) == 6 and all(set(row) >= {"a", "alpha", "d", "theta_offset"} for row in r["dh"])
-    assert r["dh"][0]["d"] == 290.0 and r["dh"][1]["a"] == 270.0
+    assert r["name"] == "abb_irb120_3_58" and r["source"] == "built-in"  # examples/robots/abb_irb120.urdf
+    assert len(r["joints"]) == 6 and all(set(j) >= {"name", "link", "origin", "rotation", "axis"} for j in r["joints"])
+    assert r["joints"][1]["origin"] == [0.0, 0.0, 290.0] and r["joints"][2]["origin"] == [0.0, 0.0, 270.0]
+    assert r["flange"]["origin"] == [72.0, 0.0, 0.0] and r["flange_link"] == "tool0"
+    assert "<robot name=\"abb_irb120_3_58\">" in r["urdf"] and len(r["parameters_checksum"]) == 8
     assert len(r["joint_limits"]) == 6 and all(l["min"] < 0 < l["max"] for l in r["joint_limits"])
     assert len(r["velocity_limits"]) == 6 and len(r["link_names"]) == 7 and len(r["tcp_offset"]) == 3
     assert r["units"]["length"] == "mm" and r["units"]["angle"] == "rad"

@@ -113,8 +113,8 @@ TEST(RobotModel, LimitsAreSane) {
     ASSERT_NE(name, nullptr);
     EXPECT_GT(std::strlen(name), 0U);
   }
-  EXPECT_STREQ(kRobot.link_names[0], "base");
-  EXPECT_STREQ(kRobot.link_names[kLinks - 1], "flange");
+  EXPECT_STREQ(kRobot.link_names[0], "base_link");  // the URDF's (examples/robots/abb_irb120.urdf)
+  EXPECT_STREQ(kRobot.link_names[kLinks - 1], "link_6");
 }
 
 TEST(RobotModel, DatasheetDegreesBecomeRadians) {
@@ -126,8 +126,11 @@ TEST(RobotModel, DatasheetDegreesBecomeRadians) {
 }
 
 TEST(RobotModel, CatalogueReachIsToTheWristCentre) {
-  const float reach = kRobot.dh[1].a_mm + std::hypot(kRobot.dh[2].a_mm, kRobot.dh[3].d_mm);
-  EXPECT_NEAR(reach, kRobot.reach_mm, 1.0F);  // 270 + hypot(70, 302) = 580.0
+  // Upper arm (joint 3's origin above joint 2's), then the elbow offset and the forearm.
+  const float reach = kRobot.joints[2].origin.xyz_mm[2] +
+                      std::hypot(kRobot.joints[3].origin.xyz_mm[2], kRobot.joints[4].origin.xyz_mm[0]);
+  EXPECT_NEAR(reach, 580.0F, 1.0F);  // 270 + hypot(70, 302) = 580.0 [PS]
+  EXPECT_FLOAT_EQ(kRobot.reach_mm, 270.0F + 70.0F + 302.0F + 72.0F);  // the bound: offsets added
 }
 
 // --- forward kinematics ------------------------------------------------------------------

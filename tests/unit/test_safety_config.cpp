@@ -493,3 +493,116 @@ TEST(SafetySummary, NamesTheLimits) {
   }
   EXPECT_NE(s.find(r.config->checksum), std::string::npos);
 }
+
+// --- the robot's part (issue 38) ------------------------------------------------------------
+
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::string with_robot(const std::string& robot_json) {
+  json d = json::parse(default_safety_text());
+  d.erase("joints");
+  d["robot"] = json::parse(robot_json);
+  return d.dump();
+}
+
+}  // namespace
+
+TEST(SafetyRobot, BuiltInArmWithoutKeyKeepsTheFilesChecksum) {
+  const Loaded d = default_safety();
+  EXPECT_FALSE(d.robot.from_key);
+  EXPECT_FALSE(d.robot.in_checksum);
+  std::vector<Error> errors;
+  EXPECT_EQ(d.checksum, checksum_text(*canonical_json(default_safety_text(), errors)));
+  EXPECT_EQ(d.robot.robot->d.name, "abb_irb120_3_58");
+  ASSERT_EQ(d.robot.checksum.size(), 8U);
+}
+
+TEST(SafetyRobot, TheKeysUrdfIsCheckedAndItsParametersAreInTheChecksum) {
+  const std::string dir = kSource + "/examples/robots";
+  const Result a = parse_safety(with_robot(R"({"urdf": "abb_irb120.urdf"})"), dir);
+  ASSERT_TRUE(a.ok()) << (a.errors.empty() ? "" : a.errors.front().text());
+  EXPECT_TRUE(a.config->robot.from_key);
+  EXPECT_TRUE(a.config->robot.in_checksum);
+  // The checksummed form carries the parameters the models use.
+  const json c = json::parse(a.config->canonical);
+  ASSERT_TRUE(c.at("robot").contains("parameters"));
+  EXPECT_EQ(c.at("robot").at("parameters").at("joints").at(1).at("origin_mm"), json::parse("[0,0,290]"));
+  // Without joints the table is the robot's own.
+  EXPECT_FLOAT_EQ(a.config->limits.joints[2].max_rad, motion::kRobot.q_max_rad[2]);
+  EXPECT_FLOAT_EQ(a.config->limits.joints[5].max_speed_rad_s, motion::kRobot.qd_max_rad_s[5]);
+
+  // The same arm 1 mm longer in the upper arm: another configuration.
+  const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-irb120-longer.urdf";
+  std::string text = slurp(dir + "/abb_irb120.urdf");
+  const std::string from = "<origin xyz=\"0 0 0.27\" rpy=\"0 0 0\"/>";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "<origin xyz=\"0 0 0.271\" rpy=\"0 0 0\"/>");
+  std::ofstream(tmp) << text;
+  const Result b = parse_safety(with_robot(R"({"urdf": ")" + tmp.string() + R"("})"), dir);
+  ASSERT_TRUE(b.ok());
+  EXPECT_NE(a.config->checksum, b.config->checksum);
+  EXPECT_NE(a.config->robot.checksum, b.config->robot.checksum);
+  std::filesystem::remove(tmp);
+
+  // Read back as the gateway does (the canonical form, robot.parameters present): accepted
+  // when they are the running arm's (the built-in IRB 120 here), refused for another.
+  const Result back = parse_safety(a.config->canonical);
+  ASSERT_TRUE(back.ok()) << (back.errors.empty() ? "" : back.errors.front().text());
+  EXPECT_EQ(back.config->checksum, a.config->checksum);
+  const Result other = parse_safety(b.config->canonical);
+  ASSERT_FALSE(other.ok());
+  EXPECT_EQ(other.errors.front().path, "robot.parameters");
+}
+
+TEST(SafetyRobot, ABrokenUrdfIsAnErrorOfTheRobotKey) {
+  const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-prismatic.urdf";
+  std::string text = slurp(kSource + "/examples/robots/abb_irb120.urdf");
+  const std::string from = "<joint name=\"joint_3\" type=\"revolute\">";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "<joint name=\"joint_3\" type=\"prismatic\">");
+  std::ofstream(tmp) << text;
+  const Result r = parse_safety(with_robot(R"({"urdf": ")" + tmp.string() + R"("})"), ".");
+  std::filesystem::remove(tmp);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.errors.front().path, "robot");
+  EXPECT_NE(r.errors.front().message.find("joint 'joint_3' is prismatic"), std::string::npos) << r.errors.front().message;
+  const Result missing = parse_safety(with_robot(R"({"urdf": "no-such.urdf"})"), "/nonexistent");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.errors.front().message.find("cannot read robot description"), std::string::npos);
+}
+
+TEST(SafetyRobot, SummaryNamesTheRobotAndItsJointTable) {
+  const std::string s = summary(default_safety());
+  for (const char* word : {"robot:     abb_irb120_3_58", "parameters ", "joint_1", "joint_6", "-165", "400"}) {
+    EXPECT_NE(s.find(word), std::string::npos) << word << "\n" << s;
+  }
+}
+
+// On another arm than the built-in one, a file without a `robot` key is checksummed with
+// robot.parameters added (and no urdf): the gateway reads that form back (run on a UR5 with
+// the built-in configuration found this).
+TEST(SafetyRobot, TheChecksummedFormOfAFileWithoutRobotKeyReadsBack) {
+  const std::shared_ptr<const robot::Robot> before = robot::active_shared();
+  std::string text = slurp(kSource + "/examples/robots/abb_irb120.urdf");
+  const std::string from = "<origin xyz=\"0 0 0.27\" rpy=\"0 0 0\"/>";
+  text.replace(text.find(from), from.size(), "<origin xyz=\"0 0 0.28\" rpy=\"0 0 0\"/>");
+  std::string error;
+  std::shared_ptr<const robot::Robot> other = robot::load_text(text, "test", "", "", error);
+  ASSERT_NE(other, nullptr) << error;
+  robot::set_active(other);
+  const Result r = parse_safety(default_safety_text());
+  const bool ok = r.ok();
+  const Result back = ok ? parse_safety(r.config->canonical) : Result{};
+  robot::set_active(before);
+  ASSERT_TRUE(ok);
+  EXPECT_TRUE(r.config->robot.in_checksum);
+  EXPECT_FALSE(r.config->robot.from_key);
+  EXPECT_NE(r.config->canonical.find("\"parameters\""), std::string::npos);
+  ASSERT_TRUE(back.ok()) << (back.errors.empty() ? "" : back.errors.front().text());
+  EXPECT_EQ(back.config->checksum, r.config->checksum);
+}

@@ -12,6 +12,7 @@
 
 #include "safestate/core/dynamics.hpp"
 #include "safestate/motion/kinematics.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/sim/dynamics.hpp"
 
 using safestate::sim::ArmDynamics;
@@ -61,15 +62,18 @@ void expect_rel(double actual, double expected, double rel, const char* what) {
 
 }  // namespace
 
-TEST(ArmDynamics, TcpAtHomeIsTheFlangeOfTheTable) {
+TEST(ArmDynamics, TcpAtHomeIsTheFlangeOfTheDescription) {
   ArmDynamics dyn;
   Vec3 p{};
   dyn.tcp(kZero, kTool0, p);
-  // Link 6's origin: the sum of the joint origins (all frames parallel at q = 0).
+  // tool0's origin: the sum of the joint origins and the flange's offset (the IRB 120's joint
+  // frames are all parallel at q = 0, examples/robots/abb_irb120.urdf).
+  const safestate::robot::Robot& r = safestate::robot::active();
   std::array<double, 3> o{0.0, 0.0, 0.0};
-  for (const auto& l : core::kIrb120Links) {
-    for (std::size_t c = 0; c < 3; ++c) o[c] += d(l.joint_origin_m[c]);
+  for (const auto& j : r.d.joints) {
+    for (std::size_t c = 0; c < 3; ++c) o[c] += j.origin.xyz_m[c];
   }
+  for (std::size_t c = 0; c < 3; ++c) o[c] += r.d.flange_frame.xyz_m[c];
   for (std::size_t c = 0; c < 3; ++c) EXPECT_NEAR(p[c], o[c], 1e-12) << c;
   EXPECT_NEAR(p[0], 0.374, 1e-6);  // 302 + 72 mm forward
   EXPECT_NEAR(p[2], 0.630, 1e-6);  // 290 + 270 + 70 mm up

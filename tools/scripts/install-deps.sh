@@ -11,7 +11,7 @@
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
-  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev libboost-dev libsqlite3-dev libssl-dev liborocos-kdl-dev libpugixml-dev valgrind python3"
+  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev libboost-dev libsqlite3-dev libssl-dev liborocos-kdl-dev liburdfdom-dev libpugixml-dev valgrind python3"
   [fuzz]="clang-19 llvm-19 libclang-rt-19-dev"
   [python]="python3 python3-venv python3-pip"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"

@@ -146,13 +146,14 @@ void ZoneMonitor::restart() noexcept {
 }
 
 void ZoneMonitor::reset(const PreparedArm& arm, const Vec3& tcp_flange_mm) noexcept {
-  // reach_k: |a| + |d| of every DH row from k on, plus the TCP offset (L1 norms, above the
-  // straight-line distances): no point after joint k is further from its axis, in any pose.
-  float tail = std::fabs(tcp_flange_mm[0]) + std::fabs(tcp_flange_mm[1]) + std::fabs(tcp_flange_mm[2]);
+  // reach_k: the fixed offsets of every frame after joint k (joints k+1..6, the flange) plus
+  // the TCP offset (L1 norms, above the straight-line distances): no point after joint k is
+  // further from its axis, in any pose.
+  const auto l1 = [](const Vec3& v) { return std::fabs(v[0]) + std::fabs(v[1]) + std::fabs(v[2]); };
+  float tail = l1(tcp_flange_mm) + l1(arm.geometry.flange.origin_mm);
   for (std::size_t k = kAxes; k > 0U; --k) {
-    const DhParam& p = arm.geometry.dh[k - 1U];
-    tail += std::fabs(p.a_mm) + std::fabs(p.d_mm);
     reach_[k - 1U] = tail;
+    tail += l1(arm.geometry.joint[k - 1U].frame.origin_mm);
   }
   cull_ = !std::isnan(tail) && !std::isinf(tail);
   restart();

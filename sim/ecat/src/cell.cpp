@@ -1,3 +1,4 @@
+#include "safestate/robot/description.hpp"
 #include "safestate/ecat/cell.hpp"
 
 #include <algorithm>
@@ -185,7 +186,7 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
 
 EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices)
     : cycle_us_(cycle_us),
-      plant_(motion::kRobot, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
+      plant_(safestate::robot::active().model, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
       segment_(with_cycle(devices, cycle_us)) {
   segment_.on_process_data([this] { on_exchange(); });
   latch_inputs();
@@ -195,7 +196,7 @@ void EmulatedCell::latch_inputs() noexcept {
   plant_.read(in_);
   // @req COL-SIM-PERSON
   // The person's devices see it against the arm where the drives' positions put it.
-  motion::RobotModel model = motion::kRobot;
+  motion::RobotModel model = safestate::robot::active().model;
   model.tcp_offset_mm = tcp_mm_;
   motion::Joints q{};
   for (std::size_t a = 0; a < hal::kAxes; ++a) {

@@ -1,5 +1,6 @@
 // Response time of a safety function on the wire, timed by the emulated segment per exchange
 // (issue 21 item 4). See wire_timing.hpp for what counts as the reaction and the safe state.
+#include "safestate/robot/description.hpp"
 #include "safestate/ecat/wire_timing.hpp"
 
 #include <algorithm>
@@ -17,7 +18,7 @@ namespace safestate::ecat {
 namespace {
 
 const core::PreparedArm& arm_model() {
-  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(motion::kRobot));
+  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(safestate::robot::active().model));
   return arm;
 }
 

@@ -2,8 +2,7 @@
 // Built for the supervisor's scan loop and for a Cortex-M4: float only (single-precision
 // FPU), no heap, no exceptions, every result written to caller-owned storage.
 //
-// Units: mm, rad, s. All vectors are in the base frame (DH frame 0: z up along axis 1,
-// x forward through the arm at q = 0).
+// Units: mm, rad, s. All vectors are in the base frame (the URDF's base link).
 #pragma once
 
 #include <array>
@@ -30,16 +29,16 @@ struct Rpy {
   float yaw;
 };
 
-// Point numbering used by Frames and PointSpeeds: 0 = base origin (never moves),
-// k = 1..6 = origin of DH frame k (moved by joints 1..k only), 7 = TCP.
-// Frame origins: 1 = on axis 2 (shoulder), 2 = on axis 3 (elbow), 3 = on axis 4 at the
-// elbow offset, 4 = 5 = wrist centre, 6 = flange centre.
+// Point numbering used by Frames and PointSpeeds: k = 0..5 = origin of joint k+1's frame
+// (the link origins: 0 never moves, k is moved by joints 1..k only), 6 = the flange, 7 = TCP.
+// On the IRB 120: 0 = base, 1 = on axis 2 (shoulder), 2 = on axis 3 (elbow), 3 = on axis 4
+// at the elbow offset, 4 = 5 = wrist centre, 6 = flange centre (tool0).
 inline constexpr std::size_t kPoints = kLinks + 1;
 inline constexpr std::uint8_t kTcpPoint = 7;
 
 struct Frames {
-  std::array<Vec3, kLinks> origin;  // origin of DH frame k, mm
-  std::array<Vec3, kLinks> z;       // unit z of frame k: joint k+1 turns about z[k] at origin[k]
+  std::array<Vec3, kLinks> origin;  // point k (above), mm
+  std::array<Vec3, kLinks> z;       // joint k+1 turns about the unit z[k] through origin[k]; z[6]: the flange's z
   Vec3 tcp;                         // mm
   Mat3 R;  // TCP orientation; equals the flange's because the tool offset is a translation
 };

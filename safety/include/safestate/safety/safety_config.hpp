@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -13,6 +14,7 @@
 
 #include "safestate/core/collaborative.hpp"
 #include "safestate/core/safety_limits.hpp"
+#include "safestate/robot/description.hpp"
 
 namespace safestate::safety {
 
@@ -70,9 +72,23 @@ struct BrakeTest {
   double max_drift_deg = 0.5;
 };
 
+// The robot a configuration was checked against (issue 38): the one its `robot` key names
+// (its `urdf`, relative to the configuration's folder, with `base` and `flange`), else the
+// program's active robot (`--robot`, else the built-in IRB 120).
+struct RobotPart {
+  std::shared_ptr<const robot::Robot> robot;
+  bool from_key = false;       // the configuration has a `robot` key
+  std::string parameters;      // robot::canonical_parameters(): what the models use
+  std::string checksum;        // first 8 hex digits of SHA-256(RFC 8785 form of `parameters`)
+  bool in_checksum = false;    // not the built-in IRB 120's parameters: part of the checksum
+};
+
 struct Loaded {
   std::string name;
-  std::string canonical;  // RFC 8785 form of the file, UTF-8
+  RobotPart robot;
+  // RFC 8785 form of the file, UTF-8; for a robot other than the built-in IRB 120, of the file
+  // with the robot's parameters as robot.parameters (a changed URDF is a changed configuration).
+  std::string canonical;
   std::string checksum;   // first 8 hex digits of SHA-256(canonical), upper case
   core::SafetyLimits limits{};  // limits.checksum holds the same 32 bits
   std::optional<Collaborative> collaborative;  // absent when the file has no such key
@@ -89,7 +105,20 @@ struct Result {
 // Parses and checks a safety configuration given as text. `errors` lists every problem
 // (unknown, missing, mistyped or out-of-range keys and the consistency checks of §10);
 // when it is empty the configuration is complete and `config` is set. Never throws.
+// A `robot` key's relative `urdf` is taken relative to `dir` (load_safety_file: the file's
+// folder; parse_safety(text): the working directory).
 Result parse_safety(std::string_view text);
+Result parse_safety(std::string_view text, const std::string& dir);
+
+// The `robot` key of a configuration file, to select the robot before anything is built
+// (`safestate run --safety FILE`): false when the file cannot be read, is not JSON or has
+// no such key (then parse_safety reports what is wrong).
+struct RobotKey {
+  std::string urdf;  // resolved against the file's folder
+  std::string base;
+  std::string flange;
+};
+bool robot_key_of_file(const std::string& path, RobotKey& out);
 
 // Reads FILE (refused above kMaxFileBytes, before parsing) and parses it. This is the
 // function `safestate run --safety FILE` and the scenario runner call. Never throws.

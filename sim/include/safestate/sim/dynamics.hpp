@@ -1,9 +1,9 @@
-// The simulated arm's rigid-body dynamics (issue 20 item 4): the joint torques the drives
-// must apply for a motion of the ABB IRB 120 under gravity, plus a force the environment
+// The simulated arm's rigid-body dynamics (issue 20 item 4, issue 38): the joint torques the
+// drives must apply for a motion of the arm under gravity, plus a force the environment
 // exerts on the TCP. Orocos KDL's recursive Newton-Euler solver (ChainIdSolver_RNE) on a
-// chain built from core::kIrb120Links alone (the ROS-Industrial URDF's inertials, see
-// core/include/safestate/core/dynamics.hpp); Pinocchio checks it from outside
-// (tests/integration/test_dynamics_vs_pinocchio.py). Not modelled: friction, motor (rotor)
+// chain built from the robot's URDF (robot::Robot: joint frames, axes and each moving link's
+// inertial with its fixed links folded in); Pinocchio checks it from outside, loading the same
+// URDF itself (tests/integration/test_dynamics_vs_pinocchio.py). Not modelled: friction, motor (rotor)
 // inertia, gear elasticity (docs/robot.md "Dynamics").
 //
 // Real-time use: the constructor and set_payload() allocate (KDL's chain and solvers);
@@ -15,25 +15,22 @@
 #include <cstddef>
 #include <memory>
 
+namespace safestate::robot {
+struct Robot;
+}
+
 namespace safestate::sim {
 
 inline constexpr std::size_t kDynAxes = 6;
 using JointVec = std::array<double, kDynAxes>;
 using Vec3 = std::array<double, 3>;
 
-// tool0 (ABB's flange frame) in link 6's frame: link 6's origin turned +90 deg about y, so
-// tool0 z = link 6 x and tool0 x = -(link 6 z). Row-major; the columns are tool0's x, y, z
-// axes in link-6 coordinates (p_link6 = R * p_tool0).
-inline constexpr std::array<std::array<double, 3>, 3> kTool0InLink6{{
-    {0.0, 0.0, 1.0},
-    {0.0, 1.0, 0.0},
-    {-1.0, 0.0, 0.0},
-}};
-
 class ArmDynamics {
  public:
-  // Builds the unloaded arm's chain (6 revolute segments) and its solvers.
+  // Builds the unloaded arm's chain (6 revolute segments) and its solvers: of the active
+  // robot (robot::active()), or of `r`. "tool0" below is the robot's flange link.
   ArmDynamics();
+  explicit ArmDynamics(const robot::Robot& r);
   ~ArmDynamics();
   // KDL's solvers keep a reference to the chain: the object stays where it was built.
   ArmDynamics(const ArmDynamics&) = delete;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "safestate/robot/description.hpp"
 #include "safestate/ecat/segment.hpp"
 #include "safestate/ecat/wire_timing.hpp"
 #include "safestate/hal/process_image.hpp"
@@ -246,7 +247,7 @@ class EmulatedCell {
   WireTiming timing_{};
   std::uint64_t next_free_ns_ = 0;
   std::uint64_t last_exchange_ns_ = 0;
-  std::array<float, 3> tcp_mm_ = motion::kRobot.tcp_offset_mm;
+  std::array<float, 3> tcp_mm_ = safestate::robot::active().model.tcp_offset_mm;
   sim::Person person_{};
   sim::PersonSensors person_sensors_{};
   sim::PersonView person_view_{};
