@@ -370,6 +370,26 @@ def test_stale_and_unknown_when_the_core_stalls_and_known_again(ros):
     ros.user.state(lambda m: m.known, 20, mark, "a known state after the core resumes")
 
 
+def test_stale_and_unknown_when_the_gateway_hangs_and_known_again(ros):
+    """A gateway that hangs with its socket open (SIGSTOP): no status, so unknown and STALE within
+    1 s; the session survives a short hang and the state is known again once status flows."""
+    ros.known()
+    gw = get_json(ros.cell.port, "/api/status")["gateway_pid"]
+    mark, d_mark = ros.user.mark("state"), ros.user.mark("diag")
+    os.kill(gw, signal.SIGSTOP)
+    t0 = time.monotonic()
+    try:
+        t_state, m = ros.user.wait("state", lambda m: not m.known, 10, mark, "the unknown state")
+        t_diag, d = ros.user.wait("diag", lambda a: all(level(s) == STALE for s in a.status), 10, d_mark,
+                                  "STALE diagnostics")
+    finally:
+        os.kill(gw, signal.SIGCONT)
+    assert "no status from the gateway" in diag_status(d, "state").message, diag_status(d, "state").message
+    assert t_state - t0 < STALE_S and t_diag - t0 < STALE_S, (t_state - t0, t_diag - t0)
+    ros.user.state(lambda m: m.known, 20, mark, "a known state after the gateway resumes")
+    assert ros.user.call("start").message == "RESET_REQUIRED", "the session and its commands go on"
+
+
 def test_stale_and_unknown_when_the_core_dies(tmp_path):
     r = RosCell(tmp_path)
     try:
