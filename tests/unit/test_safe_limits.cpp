@@ -825,3 +825,69 @@ TEST(JointLimits, APositionThatIsNotANumberIsOutsideItsRange) {
     EXPECT_EQ(b.command(core::CommandId::servo_on), core::Result::OK);
   }
 }
+
+// SPEC §10 recovery for a zone, as for a joint above: the sphere of a TCP found inside a
+// keep_out box without power may move out with power on (T1), but going deeper trips
+// ZONE_VIOLATION well within the margin SPEC has the planner keep from a zone (10 mm): a
+// quarter of it. (kWorseZoneMm is shared by the core and the reference: the differential test
+// cannot see it.)
+// @req LIM-RECOVERY LIM-ZONE
+TEST(Recovery, AToolSphereAQuarterOfThePlannersZoneMarginDeeperTrips) {
+  constexpr float kQuarterMarginMm = 2.5F;
+  core::SafetyLimits l = builtin();
+  l.tool_radius_mm = 40.0F;
+  const core::ArmPose home = home_pose(l);
+  // The sphere 20 mm behind the box's +x face, every other face far: 60 mm inside. The box is
+  // short in x, so that the link points (the flange 120 mm behind the TCP, the tool pointing
+  // along +x at home) stay outside it: the sphere alone is inside.
+  const core::Zone z = box("fixture", core::ZoneKind::keep_out,
+                           {home.tcp[0] - 60.0F, home.tcp[1] - 400.0F, home.tcp[2] - 400.0F},
+                           {home.tcp[0] + 20.0F, home.tcp[1] + 400.0F, home.tcp[2] + 400.0F});
+  l.zones[0] = z;
+  l.zone_count = 1;
+  // Axis 2 turned until the sphere is a quarter of the margin deeper (the core's own measure).
+  const auto pose_at = [&l](float q2) {
+    core::ArmPose p{};
+    core::arm_forward(arm(), {0.0F, q2, 0.0F, 0.0F, 0.0F, 0.0F}, l.tcp_mm, p);
+    return p;
+  };
+  const float at_home = core::ZoneMonitor::outside_mm(z, home, l.tool_radius_mm);
+  ASSERT_NEAR(at_home, 60.0F, 0.5F);
+  float q2 = 0.0F;
+  float deeper = 0.0F;
+  for (const float step : {1.0e-4F, -1.0e-4F}) {
+    for (q2 = 0.0F, deeper = 0.0F; std::fabs(q2) < 0.1F && deeper < kQuarterMarginMm;) {
+      q2 += step;
+      deeper = core::ZoneMonitor::outside_mm(z, pose_at(q2), l.tool_radius_mm) - at_home;
+    }
+    if (deeper >= kQuarterMarginMm) break;
+  }
+  ASSERT_GE(deeper, kQuarterMarginMm);
+  ASSERT_LT(deeper, kQuarterMarginMm + 0.5F);
+  test::Bench b;
+  b.configure_limits(l, arm(), true);
+  b.to_operational(core::Mode::T1);  // recovery: T1 allows servo_on with the limit violated
+  ASSERT_EQ(b.out.state, core::State::OPERATIONAL);
+  ASSERT_TRUE(b.out.safety.recovery);
+  // Out of the box by about as much (better: allowed, and the new best), then back to where
+  // power came on: deeper than the best by that much again.
+  const float better = at_home - core::ZoneMonitor::outside_mm(z, pose_at(-q2), l.tool_radius_mm);
+  ASSERT_GT(better, kQuarterMarginMm - 0.5F);
+  ASSERT_LT(better, kQuarterMarginMm + 0.5F);
+  b.fb.drive[1].position_rad = -q2;
+  b.cycle(3);
+  ASSERT_EQ(b.out.state, core::State::OPERATIONAL) << "moving out is allowed";
+  b.fb.drive[1].position_rad = 0.0F;
+  b.cycle();
+  EXPECT_EQ(b.out.state, core::State::IDLE) << "about a quarter of the zone margin deeper than the best";
+  EXPECT_TRUE(b.alarm(core::AlarmId::ZONE_VIOLATION));
+  // From the start again: deeper than where power came on by a quarter of the margin.
+  test::Bench c;
+  c.configure_limits(l, arm(), true);
+  c.to_operational(core::Mode::T1);
+  ASSERT_EQ(c.out.state, core::State::OPERATIONAL);
+  c.fb.drive[1].position_rad = q2;
+  c.cycle();
+  EXPECT_EQ(c.out.state, core::State::IDLE) << "a quarter of the zone margin deeper";
+  EXPECT_TRUE(c.alarm(core::AlarmId::ZONE_VIOLATION));
+}
