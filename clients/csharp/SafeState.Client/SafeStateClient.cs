@@ -636,14 +636,44 @@ namespace SafeState.Client
                     w.Suppressed = 0;
                 }
                 emit = ++w.Count <= options.MaxErrorsPerSecond;
-                if (!emit) ++w.Suppressed;
+                if (!emit && ++w.Suppressed == 1) ScheduleFlush(kind, w.Start, 1000 - (now - w.Start));
             }
             if (suppressed > 0)
             {
-                Raise(Error, new ClientError(kind, suppressed + " more " + kind + " errors were not raised (over " +
-                                                   options.MaxErrorsPerSecond + " a second)"));
+                RaiseSuppressed(kind, suppressed);
             }
             if (emit) Raise(Error, new ClientError(kind, message, code));
+        }
+
+        // The count of a window's suppressed errors is raised when the window ends, not only when
+        // a later error of that kind happens to come: a flood that stops must still be accounted
+        // for in full (every error raised or counted).
+        private void ScheduleFlush(ClientErrorKind kind, long windowStart, long delayMs)
+        {
+            Task.Delay(TimeSpan.FromMilliseconds(Math.Max(1, delayMs)), life.Token).ContinueWith(t =>
+            {
+                if (t.IsCanceled) return;
+                int suppressed = 0;
+                lock (gate)
+                {
+                    ErrorWindow w;
+                    if (errorWindows.TryGetValue(kind, out w) && w.Start == windowStart)
+                    {
+                        suppressed = w.Suppressed;
+                        w.Suppressed = 0;
+                    }
+                }
+                if (suppressed > 0)
+                {
+                    RaiseSuppressed(kind, suppressed);
+                }
+            }, TaskScheduler.Default);
+        }
+
+        private void RaiseSuppressed(ClientErrorKind kind, int suppressed)
+        {
+            Raise(Error, new ClientError(kind, suppressed + " more " + kind + " errors were not raised (over " +
+                                               options.MaxErrorsPerSecond + " a second)"));
         }
 
         private sealed class ErrorWindow

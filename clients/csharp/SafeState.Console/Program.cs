@@ -1,7 +1,7 @@
 // SafeState.Console: a line-oriented client of the gateway, usable over SSH and in scripts.
 //   mono SafeState.Console.exe --url ws://HOST:PORT/ws --role ROLE [--token-file F] [--live]
 // Reads lines from stdin in the .scn spelling (spec/scenario-format.md) and prints each
-// command's reply as one line `reply SEQ CMD RESULT` on stdout. Exits 0 at end of input
+// command's reply as one line `reply SEQ CMD RESULT` on stdout, in the order of the commands. Exits 0 at end of input
 // once every command is answered; 1 when a command got no reply (timeout, lost link) or a
 // `wait` timed out; 2 on a usage or connection error or a malformed line.
 using System;
@@ -120,6 +120,7 @@ namespace SafeState.ConsoleApp
         private readonly SafeStateClient client;
         private readonly object output = new object();
         private readonly List<Task> outstanding = new List<Task>();
+        private Task printed = Task.FromResult(0);  // the last reply line in command order
         private readonly bool tty;
         private string lastLine = "";
         private int failures;
@@ -229,21 +230,36 @@ namespace SafeState.ConsoleApp
             return null;
         }
 
-        // Prints the reply line when it comes; a command without reply counts as a failure.
+        // Prints the reply line when it comes, in the order the commands were given: the client
+        // completes replies on the thread pool (RunContinuationsAsynchronously), so two replies in
+        // one frame could otherwise print in either order and a script's output would vary.
+        // A command without reply counts as a failure.
         private void Track(string name, PendingCommand command)
         {
-            Task t = command.Reply.ContinueWith(r =>
+            Task t;
+            lock (outstanding)
             {
-                if (r.Status == TaskStatus.RanToCompletion)
-                {
-                    Print("reply " + command.Seq + " " + name + " " + Wire.Name(r.Result));
-                    return;
-                }
-                Interlocked.Increment(ref failures);
-                Exception e = r.Exception != null ? r.Exception.InnerException : null;
-                Print("noreply " + name + " " + (e != null ? e.Message : "cancelled"));
-            }, TaskContinuationOptions.ExecuteSynchronously);
-            lock (outstanding) outstanding.Add(t);
+                t = PrintInOrder(printed, name, command);
+                printed = t;
+                outstanding.Add(t);
+            }
+        }
+
+        private async Task PrintInOrder(Task previous, string name, PendingCommand command)
+        {
+            Result result = default(Result);
+            Exception error = null;
+            try { result = await command.Reply.ConfigureAwait(false); }
+            catch (Exception e) { error = e; }
+            await previous.ConfigureAwait(false);  // never faults: every link of the chain catches
+            if (error == null)
+            {
+                Print("reply " + command.Seq + " " + name + " " + Wire.Name(result));
+                return;
+            }
+            Interlocked.Increment(ref failures);
+            Exception inner = error is AggregateException && error.InnerException != null ? error.InnerException : error;
+            Print("noreply " + name + " " + (inner is TaskCanceledException ? "cancelled" : inner.Message));
         }
 
         private async Task Barrier()

@@ -1,8 +1,10 @@
 // SafeState.Console as a user runs it: a process, commands on stdin, replies on stdout.
 using System;
+using System.Collections.Generic;
 using System.Diagnostics;
 using System.IO;
 using System.Linq;
+using System.Threading.Tasks;
 using NUnit.Framework;
 
 namespace SafeState.Tests
@@ -93,6 +95,36 @@ namespace SafeState.Tests
                 StringAssert.Contains("history ", stdout);
                 StringAssert.IsMatch("history [0-9]+ events, last id [0-9]+", stdout);
                 StringAssert.Contains("connected to safestate", stderr);
+            }
+        }
+
+        [Test]
+        public void RepliesPrintInTheOrderOfTheCommandsWhenTheServerAnswersOutOfOrder()
+        {
+            // A reset is answered up to 50 cycles late, after commands sent behind it (SPEC §5);
+            // the client completes replies on the thread pool. A script's stdout must still list
+            // its replies in command order, or no two runs of one script print the same.
+            using (var stub = new StubServer())
+            {
+                Task server = Task.Run(async () =>
+                {
+                    await StubTests.Welcome(stub);
+                    var seqs = new List<long>();
+                    for (int i = 0; i < 3; ++i) seqs.Add(StubTests.SeqOf(await stub.ReceiveAsync()));
+                    string[] results = { "OK", "BUSY", "WRONG_STATE" };
+                    for (int i = 2; i >= 0; --i)
+                    {
+                        await stub.SendText("{\"type\":\"reply\",\"seq\":" + seqs[i] + ",\"result\":\"" + results[i] + "\"}");
+                        await Task.Delay(20);  // three frames, the last command's answer first
+                    }
+                });
+                string stdout, stderr;
+                int code = Run("--url " + stub.Ws + " --role pendant", "reset\nservo_on\nstart\n", out stdout, out stderr);
+                Assert.IsTrue(server.Wait(5000), "the stub finished");
+                Assert.AreEqual(0, code, stdout + stderr);
+                string[] replies = stdout.Split('\n').Where(l => l.StartsWith("reply ")).ToArray();
+                CollectionAssert.AreEqual(new[] { "reply 1 reset OK", "reply 2 servo_on BUSY", "reply 3 start WRONG_STATE" },
+                                          replies, stdout + stderr);
             }
         }
 
