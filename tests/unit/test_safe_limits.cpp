@@ -891,3 +891,35 @@ TEST(Recovery, AToolSphereAQuarterOfThePlannersZoneMarginDeeperTrips) {
   EXPECT_EQ(c.out.state, core::State::IDLE) << "a quarter of the zone margin deeper";
   EXPECT_TRUE(c.alarm(core::AlarmId::ZONE_VIOLATION));
 }
+
+// Each source of reduced mode is told apart (status `reduced_by`) and brings its own limit
+// (SPEC §10/§11): a reduced zone brings reduced.tcp_max_speed_mm_s (250) even with
+// collaborative operation on, whose lower 200 mm/s comes only with the outer field. A TCP at
+// 225 mm/s in the reduced zone is within its limit; the outer field interrupted as well, it is
+// not (after the field's ramp).
+// @req LIM-REDUCED COL-FIELD-REDUCED LIM-SPEED
+TEST(ReducedMode, EachSourceIsNamedAndBringsItsOwnLimit) {
+  core::SafetyLimits l = collaborative();
+  const core::ArmPose home = home_pose(l);
+  l.zones[0] = box("loading", core::ZoneKind::reduced, {home.tcp[0] - 50.0F, home.tcp[1] - 50.0F, home.tcp[2] - 50.0F},
+                   {home.tcp[0] + 50.0F, home.tcp[1] + 50.0F, home.tcp[2] + 50.0F});
+  l.zone_count = 1;
+  test::Bench b;
+  b.configure_limits(l, arm(), true);
+  b.to_operational(core::Mode::AUTO);
+  tcp_at(b, l, 225.0F);
+  b.cycle(600);
+  ASSERT_EQ(b.out.state, core::State::OPERATIONAL) << "225 mm/s in the zone: within its 250";
+  EXPECT_TRUE(b.out.safety.reduced);
+  EXPECT_EQ(b.out.safety.reduced_by, core::kReducedByZone);
+  EXPECT_FLOAT_EQ(b.out.safety.speed_limit_mm_s, 250.0F);
+  outer_field(b, true);
+  b.cycle();
+  EXPECT_EQ(b.out.safety.reduced_by, core::kReducedByZone | core::kReducedByField);
+  reduced_input(b, true);
+  b.cycle();
+  EXPECT_EQ(b.out.safety.reduced_by, core::kReducedByZone | core::kReducedByField | core::kReducedByInput);
+  const int k = b.until([](const core::SupervisorOut& o) { return o.state != core::State::OPERATIONAL; }, 2000);
+  EXPECT_GT(k, 400) << "the field's 200 mm/s after its ramp";
+  EXPECT_TRUE(b.alarm(core::AlarmId::SPEED_LIMIT));
+}
