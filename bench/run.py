@@ -856,7 +856,7 @@ def admission():
 
 def opcua(*args):
     """Issue 14: a sim E-stop press to an OPC UA subscription's notification, idle and loaded: its goal
-    row and section of docs/performance.md (bench/opcua_estop.py, about 2 minutes; asyncua, so the
+    row and section of docs/performance.md (bench/opcua_estop.py, about 4 minutes; asyncua, so the
     test venv's Python, VENV_PY)."""
     subprocess.run([PY, os.path.join(ROOT, "bench", "opcua_estop.py"), *args], check=True, cwd=ROOT)
 

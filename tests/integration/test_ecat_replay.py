@@ -114,8 +114,13 @@ def replayed(tmp_path_factory):
                     if not queue:
                         return
                     scn = queue.pop(0)
-                done[scn.name] = replay(name, scn, tmp_path_factory.mktemp(scn.stem))
+                    # pytest's TempPathFactory is not thread-safe: two workers making their
+                    # directories at once once failed one ("bt-abort-estop is not a normalized
+                    # and relative path", issue 40's measurement), and its worker with it.
+                    tmp = tmp_path_factory.mktemp(scn.stem)
+                done[scn.name] = replay(name, scn, tmp)
 
+    tmp_path_factory.getbasetemp()  # made once, before the workers
     threads = [threading.Thread(target=worker, args=(k,)) for k in range(WORKERS)]
     for t in threads:
         t.start()
