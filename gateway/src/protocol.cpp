@@ -24,13 +24,14 @@
 #include <sstream>
 #include <vector>
 
-#include "safestate/sim/cell.hpp"
+#include "safestate/vocab/faults.hpp"
+#include "safestate/vocab/inputs.hpp"
+#include "safestate/vocab/person.hpp"
 
 namespace safestate::gateway {
 
 namespace {
 
-using bridge::Contact;
 
 constexpr std::array<const char*, 3> kRoleNames{"pendant", "remote", "observer"};
 constexpr std::array<const char*, 6> kErrorNames{"BAD_MESSAGE", "NOT_HELLO",  "ROLE_TAKEN",
@@ -222,190 +223,25 @@ ClientMessage parse_sim(const Json& j) {
 }
 
 // ------------------------------------------------------------------ sim vocabulary
-struct Write {
-  Contact contact;
-  bool closed;
-};
-struct Word {
-  const char* word;
-  std::array<Write, 3> writes;
-  std::size_t count;
-};
-struct Shorthand {
-  const char* key;
-  const char* expected;
-  std::array<Word, 4> words;
-  std::size_t count;
-};
-
-// clang-format off
-constexpr std::array<Shorthand, 7> kShorthands{{
-  {"estop", "pressed|released", {{
-    {"pressed", {{{Contact::estop_a, false}, {Contact::estop_b, false}, {}}}, 2},
-    {"released", {{{Contact::estop_a, true}, {Contact::estop_b, true}, {}}}, 2}, {}, {}}}, 2},
-  {"gate", "open|closed", {{
-    {"open", {{{Contact::gate_a, false}, {Contact::gate_b, false}, {}}}, 2},
-    {"closed", {{{Contact::gate_a, true}, {Contact::gate_b, true}, {}}}, 2}, {}, {}}}, 2},
-  {"enable", "released|centre|panic", {{
-    {"released", {{{Contact::enable_a, false}, {Contact::enable_b, false}, {Contact::enable_panic, false}}}, 3},
-    {"centre", {{{Contact::enable_a, true}, {Contact::enable_b, true}, {Contact::enable_panic, false}}}, 3},
-    {"panic", {{{Contact::enable_a, false}, {Contact::enable_b, false}, {Contact::enable_panic, true}}}, 3}, {}}}, 3},
-  {"mode", "AUTO|T1|T2|NONE", {{
-    {"AUTO", {{{Contact::mode_auto, true}, {Contact::mode_t1, false}, {Contact::mode_t2, false}}}, 3},
-    {"T1", {{{Contact::mode_auto, false}, {Contact::mode_t1, true}, {Contact::mode_t2, false}}}, 3},
-    {"T2", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, true}}}, 3},
-    {"NONE", {{{Contact::mode_auto, false}, {Contact::mode_t1, false}, {Contact::mode_t2, false}}}, 3}}}, 4},
-  {"reduced", "normal|reduced", {{
-    {"normal", {{{Contact::reduced_a, true}, {Contact::reduced_b, true}, {}}}, 2},
-    {"reduced", {{{Contact::reduced_a, false}, {Contact::reduced_b, false}, {}}}, 2}, {}, {}}}, 2},
-  {"field.outer", "clear|interrupted", {{
-    {"clear", {{{Contact::field_outer_a, true}, {Contact::field_outer_b, true}, {}}}, 2},
-    {"interrupted", {{{Contact::field_outer_a, false}, {Contact::field_outer_b, false}, {}}}, 2}, {}, {}}}, 2},
-  {"field.inner", "clear|interrupted", {{
-    {"clear", {{{Contact::field_inner_a, true}, {Contact::field_inner_b, true}, {}}}, 2},
-    {"interrupted", {{{Contact::field_inner_a, false}, {Contact::field_inner_b, false}, {}}}, 2}, {}, {}}}, 2},
-}};
-// clang-format on
-
-struct RawContact {
-  const char* key;
-  Contact contact;
-};
-constexpr std::array<RawContact, bridge::kContactCount> kRawContacts{{
-    {"estop.a", Contact::estop_a},
-    {"estop.b", Contact::estop_b},
-    {"gate.a", Contact::gate_a},
-    {"gate.b", Contact::gate_b},
-    {"enable.a", Contact::enable_a},
-    {"enable.b", Contact::enable_b},
-    {"enable.panic", Contact::enable_panic},
-    {"mode.auto", Contact::mode_auto},
-    {"mode.t1", Contact::mode_t1},
-    {"mode.t2", Contact::mode_t2},
-    {"reset_button", Contact::reset_button},
-    {"reduced.a", Contact::reduced_a},
-    {"reduced.b", Contact::reduced_b},
-    {"field.outer.a", Contact::field_outer_a},
-    {"field.outer.b", Contact::field_outer_b},
-    {"field.inner.a", Contact::field_inner_a},
-    {"field.inner.b", Contact::field_inner_b},
-}};
-
-void apply(const Write& w, bridge::CommandRecord& out) noexcept {
-  const std::uint32_t b = 1U << static_cast<unsigned>(w.contact);
-  out.set_mask |= b;
-  out.set_values = w.closed ? (out.set_values | b) : (out.set_values & ~b);
-}
-
-// 0/1, true/false or "0"/"1".
-bool contact_value(const Json& v, bool& closed) {
+// The `set` object's values in the vocabulary's words (vocab/inputs.hpp): a string as it is,
+// a boolean or an integer as its digits (raw contacts take 0/1, true/false or "0"/"1").
+bool value_word(const Json& v, std::string& out) {
+  if (v.is_string()) {
+    out = v.get<std::string>();
+    return true;
+  }
   if (v.is_boolean()) {
-    closed = v.get<bool>();
+    out = v.get<bool>() ? "1" : "0";
     return true;
   }
   if (v.is_number_integer()) {
-    const auto x = v.get<std::int64_t>();
-    closed = x == 1;
-    return x == 0 || x == 1;
-  }
-  if (v.is_string()) {
-    const auto& s = v.get_ref<const std::string&>();
-    closed = s == "1";
-    return s == "0" || s == "1";
+    out = std::to_string(v.get<std::int64_t>());
+    return true;
   }
   return false;
 }
 
 std::string value_text(const Json& v) { return v.dump(); }
-
-// "" when `key` was handled, "?" when it is not a shorthand, else the problem.
-std::string apply_shorthand(const std::string& key, const Json& value, bridge::CommandRecord& out) {
-  for (const Shorthand& s : kShorthands) {
-    if (key != s.key) {
-      continue;
-    }
-    if (value.is_string()) {
-      for (std::size_t i = 0; i < s.count; ++i) {
-        if (value.get_ref<const std::string&>() == s.words[i].word) {
-          for (std::size_t k = 0; k < s.words[i].count; ++k) {
-            apply(s.words[i].writes[k], out);
-          }
-          return {};
-        }
-      }
-    }
-    return "bad value " + value_text(value) + " for input " + key + " (expected " + s.expected + ")";
-  }
-  return "?";
-}
-
-// SPEC §11's distance sensor: `separation_mm` an integer >= 0 (mm), `separation_valid` 0|1.
-// "" when handled, "?" when `key` is neither, else the problem.
-std::string apply_separation(const std::string& key, const Json& value, bridge::CommandRecord& out) {
-  if (key == "separation_mm") {
-    if (!value.is_number_integer() || value.get<std::int64_t>() < 0 || value.get<std::int64_t>() > 100000000) {
-      return "bad value " + value_text(value) + " for input separation_mm (expected an integer number of mm >= 0)";
-    }
-    out.separation_mm = static_cast<std::int32_t>(value.get<std::int64_t>());
-    out.separation_set |= bridge::kSetSeparation;
-    return {};
-  }
-  if (key == "separation_valid") {
-    bool valid = false;
-    if (!contact_value(value, valid)) {
-      return "bad value " + value_text(value) + " for input separation_valid (expected 0|1)";
-    }
-    out.separation_set = static_cast<std::uint8_t>(out.separation_set | bridge::kSetValid |
-                                                   (valid ? bridge::kSeparationValid : 0U));
-    return {};
-  }
-  return "?";
-}
-
-std::string apply_raw(const std::string& key, const Json& value, bridge::CommandRecord& out) {
-  if (std::string p = apply_separation(key, value, out); p != "?") {
-    return p;
-  }
-  for (const RawContact& r : kRawContacts) {
-    if (key != r.key) {
-      continue;
-    }
-    bool closed = false;
-    if (!contact_value(value, closed)) {
-      return "bad value " + value_text(value) + " for contact " + key + " (expected 0|1)";
-    }
-    apply(Write{r.contact, closed}, out);
-    return {};
-  }
-  return "unknown input \"" + key + "\"";
-}
-
-bool axis_1_to_6(const std::string& s, std::uint8_t& axis) {
-  unsigned v = 0;
-  const char* end = s.data() + s.size();
-  const auto [p, ec] = std::from_chars(s.data(), end, v);
-  if (ec != std::errc{} || p != end || v < 1U || v > core::kAxes) {
-    return false;
-  }
-  axis = static_cast<std::uint8_t>(v);
-  return true;
-}
-
-// A whole-token finite decimal number, as the scenario language's reals (no sign: '-' only).
-bool real(const std::string& s, double& out) {
-  double v = 0.0;
-  const char* end = s.data() + s.size();
-  const auto [p, ec] = std::from_chars(s.data(), end, v);
-  if (s.empty() || ec != std::errc{} || p != end || !std::isfinite(v)) {
-    return false;
-  }
-  out = v;
-  return true;
-}
-
-// SPEC §11 collision detection, as scenario/src/collision_keys.cpp: the limits and units.
-constexpr double kMaxContactN = 5000.0;      // stored in tenths of a newton
-constexpr double kMaxTorqueBiasPct = 300.0;  // the drives' peak; stored as int16 per mille
 
 // ------------------------------------------------------------------ sim person
 // SPEC §11, the simulated person, in the words and limits of the scenario's `person` keys
@@ -425,7 +261,7 @@ std::string on_floor(const Json& v, const std::string& what, float& out) {
   if (!json_real(v, x)) {
     return what + " " + value_text(v) + " is not a number (mm)";
   }
-  if (std::fabs(x) > static_cast<double>(sim::kPersonMaxRangeMm)) {
+  if (std::fabs(x) > static_cast<double>(vocab::kPersonMaxRangeMm)) {
     return what + " " + value_text(v) + " is off the floor (|x|, |y| <= 20000 mm)";
   }
   out = static_cast<float>(x);
@@ -443,10 +279,10 @@ std::string person_at(const Json& person, bridge::PersonRecord& p) {
   if (std::string e = on_floor(at[1], "person at: Y", p.y_mm); !e.empty()) {
     return e;
   }
-  p.radius_mm = sim::kPersonDefaultRadiusMm;
+  p.radius_mm = vocab::kPersonDefaultRadiusMm;
   if (const auto r = person.find("radius_mm"); r != person.end()) {
     double v = 0.0;
-    if (!json_real(*r, v) || v <= 0.0 || v > static_cast<double>(sim::kPersonMaxRadiusMm)) {
+    if (!json_real(*r, v) || v <= 0.0 || v > static_cast<double>(vocab::kPersonMaxRadiusMm)) {
       return "person radius_mm " + value_text(*r) + " is not a number of mm in (0, 1000]";
     }
     p.radius_mm = static_cast<float>(v);
@@ -483,14 +319,14 @@ std::string person_walk(const Json& walk, bridge::PersonRecord& p) {
     if (v <= 0.0) {
       return point + ": speed " + value_text(w[2]) + " mm/s is not above 0 (\"stand\" stops)";
     }
-    if (v > static_cast<double>(sim::kPersonMaxSpeedMmS)) {
+    if (v > static_cast<double>(vocab::kPersonMaxSpeedMmS)) {
       return point + ": speed " + value_text(w[2]) + " mm/s is over 2000 (ISO 13855's fastest approach)";
     }
     q.speed_mm_s = static_cast<float>(v);
     if (w.size() == 4U) {
       // A JSON integer (a huge unsigned one reads negative here and is refused too).
       const std::int64_t ms = w[3].is_number_integer() ? w[3].get<std::int64_t>() : -1;
-      if (ms < 0 || ms > static_cast<std::int64_t>(sim::kPersonMaxStandMs)) {
+      if (ms < 0 || ms > static_cast<std::int64_t>(vocab::kPersonMaxStandMs)) {
         return point + ": stand " + value_text(w[3]) + " is not a whole number of ms up to 3600000";
       }
       q.stand_ms = static_cast<std::uint32_t>(ms);
@@ -502,7 +338,7 @@ std::string person_walk(const Json& walk, bridge::PersonRecord& p) {
 }
 
 std::string person_fields(const Json& f, bridge::PersonRecord& p) {
-  sim::PersonSensors s{};
+  vocab::PersonSensors s{};
   double outer = 0.0;
   double inner = 0.0;
   if (!f.is_array() || f.size() != 2U || !json_real(f[0], outer) || !json_real(f[1], inner)) {
@@ -510,7 +346,7 @@ std::string person_fields(const Json& f, bridge::PersonRecord& p) {
   }
   s.outer_mm = static_cast<float>(outer);
   s.inner_mm = static_cast<float>(inner);
-  if (!sim::valid(s)) {
+  if (!vocab::valid(s)) {
     return "person fields " + value_text(f) + " are not 0 < INNER < OUTER <= 20000 mm";
   }
   p.fields_outer_mm = s.outer_mm;
@@ -575,14 +411,28 @@ std::string encode_sim_set(const Json& set, bridge::CommandRecord& out) {
   if (!set.is_object() || set.empty()) {
     return "\"set\" needs at least one input";
   }
+  vocab::InputStep step;
   for (const auto& [key, value] : set.items()) {
-    std::string problem = apply_shorthand(key, value, out);
-    if (problem == "?") {
-      problem = apply_raw(key, value, out);
+    std::string word;
+    if (!value_word(value, word)) {
+      return "bad value " + value_text(value) + " for input " + key + " (a string, 0/1 or true/false)";
     }
-    if (!problem.empty()) {
+    if (std::string problem = vocab::parse_input(key, word, step); !problem.empty()) {
       return problem;
     }
+  }
+  for (const vocab::ContactWrite& w : step.writes) {
+    const std::uint32_t b = 1U << static_cast<unsigned>(w.contact);
+    out.set_mask |= b;
+    out.set_values = w.closed ? (out.set_values | b) : (out.set_values & ~b);
+  }
+  if (step.separation_mm) {
+    out.separation_mm = *step.separation_mm;
+    out.separation_set |= bridge::kSetSeparation;
+  }
+  if (step.separation_valid) {
+    out.separation_set = static_cast<std::uint8_t>(out.separation_set | bridge::kSetValid |
+                                                   (*step.separation_valid ? bridge::kSeparationValid : 0U));
   }
   return {};
 }
@@ -590,63 +440,14 @@ std::string encode_sim_set(const Json& set, bridge::CommandRecord& out) {
 std::string encode_sim_fault(std::string_view line, bridge::CommandRecord& out) {
   out = bridge::CommandRecord{};
   out.kind = bridge::RecordKind::sim_fault;
-  std::vector<std::string> a;
-  std::istringstream in{std::string(line)};
-  for (std::string w; in >> w;) {
-    a.push_back(w);
+  vocab::Fault f{};
+  if (std::string problem = vocab::parse_fault(vocab::split_words(line), f, vocab::FaultSource::network); !problem.empty()) {
+    return problem;
   }
-  auto set = [&out](sim::FaultKind k, std::uint8_t axis) {
-    out.fault_kind = static_cast<std::uint8_t>(k);
-    out.fault_axis = axis;
-    return std::string{};
-  };
-  std::uint8_t axis = 0;
-  double x = 0.0;
-  // SPEC §11: `contact F` (N, 0..5000, 0 removes the surface), `drive N torque_bias X`
-  // (% of rated torque, -300..300). A bad number names itself; nothing is set.
-  if (a.size() == 2 && a[0] == "contact") {
-    if (!real(a[1], x) || x < 0.0 || x > kMaxContactN) {
-      out = bridge::CommandRecord{};
-      return "bad contact force \"" + a[1] + "\" in fault \"" + std::string(line) + "\" (expected a number of newtons 0..5000)";
-    }
-    set(sim::FaultKind::contact, 0);
-    out.fault_value = static_cast<std::uint16_t>(std::lround(x * 10.0));
-    return {};
-  }
-  if (a.size() == 4 && a[0] == "drive" && a[2] == "torque_bias") {
-    if (!axis_1_to_6(a[1], axis)) {
-      out = bridge::CommandRecord{};
-      return "bad drive \"" + a[1] + "\" in fault \"" + std::string(line) + "\" (expected 1..6)";
-    }
-    if (!real(a[3], x) || x < -kMaxTorqueBiasPct || x > kMaxTorqueBiasPct) {
-      out = bridge::CommandRecord{};
-      return "bad torque bias \"" + a[3] + "\" in fault \"" + std::string(line) +
-             "\" (expected a percentage of rated torque -300..300)";
-    }
-    set(sim::FaultKind::drive_torque_bias, axis);
-    out.fault_value = static_cast<std::uint16_t>(static_cast<std::int16_t>(std::lround(x * 10.0)));  // per mille
-    return {};
-  }
-  if (a.size() == 3 && a[0] == "drive" && axis_1_to_6(a[1], axis)) {
-    if (a[2] == "fault") return set(sim::FaultKind::drive_fault, axis);
-    if (a[2] == "clear") return set(sim::FaultKind::drive_clear, axis);
-    if (a[2] == "runaway") return set(sim::FaultKind::drive_runaway, axis);
-    if (a[2] == "nostop") return set(sim::FaultKind::drive_nostop, axis);
-  }
-  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], axis)) {
-    return set(sim::FaultKind::brake_stuck, axis);
-  }
-  if (a.size() == 3 && a[0] == "brake" && a[2] == "weak" && axis_1_to_6(a[1], axis)) {
-    return set(sim::FaultKind::brake_weak, axis);  // SPEC §12: holds less than the test torque
-  }
-  if (a.size() == 2 && a[0] == "fieldbus" && a[1] == "lost") return set(sim::FaultKind::fieldbus_lost, 0);
-  if (a.size() == 2 && a[0] == "contactor" && a[1] == "stuck_open") {
-    return set(sim::FaultKind::contactor_stuck_open, 0);
-  }
-  if (a.size() == 2 && a[0] == "clear" && a[1] == "all") return set(sim::FaultKind::clear_all, 0);
-  return "bad fault \"" + std::string(line) +
-         "\" (expected drive N fault|clear|runaway|nostop, drive N torque_bias X, fieldbus lost, contactor stuck_open,"
-         " brake N stuck|weak, contact F, clear all; N 1..6)";
+  out.fault_kind = static_cast<std::uint8_t>(f.kind);
+  out.fault_axis = f.axis;
+  out.fault_value = f.value;
+  return {};
 }
 
 // @req COL-SIM-PERSON

@@ -9,6 +9,8 @@
 #include <cstring>
 
 #include "safestate/runtime/runtime.hpp"
+#include "safestate/vocab/faults.hpp"
+#include "safestate/vocab/inputs.hpp"
 
 namespace safestate::runtime {
 
@@ -33,27 +35,18 @@ void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) noexcept {
   }
 }
 
-// The contacts of RawInputs in bridge::Contact order: the one place that maps the two.
-std::array<bool*, bridge::kContactCount> contacts(core::RawInputs& r) noexcept {
-  return {&r.estop_a,      &r.estop_b,   &r.gate_a,  &r.gate_b,  &r.enable_a,  &r.enable_b,
-          &r.enable_panic, &r.mode_auto, &r.mode_t1, &r.mode_t2, &r.reset_button, &r.reduced_a, &r.reduced_b,
-          &r.field_outer_a, &r.field_outer_b, &r.field_inner_a, &r.field_inner_b};
-}
-
-std::uint32_t contacts_of(core::RawInputs r) noexcept {
+std::uint32_t contacts_of(const core::RawInputs& r) noexcept {
   std::uint32_t m = 0;
-  const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
-    m |= *c[i] ? (1U << i) : 0U;
+    m |= vocab::contact_of(r, static_cast<vocab::Contact>(i)) ? (1U << i) : 0U;
   }
   return m;
 }
 
 void apply_contacts(const bridge::CommandRecord& rec, core::RawInputs& r) noexcept {
-  const auto c = contacts(r);
   for (std::size_t i = 0; i < bridge::kContactCount; ++i) {
     if ((rec.set_mask & (1U << i)) != 0U) {
-      *c[i] = (rec.set_values & (1U << i)) != 0U;
+      vocab::apply(vocab::ContactWrite{static_cast<vocab::Contact>(i), (rec.set_values & (1U << i)) != 0U}, r);
     }
   }
   // SPEC §11's distance sensor, as the scenario format's `in separation_mm=N`: a reading
@@ -320,10 +313,8 @@ void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& p
       apply_contacts(rec, cell.inputs());
       break;
     case bridge::RecordKind::sim_fault:
-      if (rec.fault_kind <= static_cast<std::uint8_t>(sim::FaultKind::clear_all) ||
-          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::brake_weak) ||
-          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::contact) ||
-          rec.fault_kind == static_cast<std::uint8_t>(sim::FaultKind::drive_torque_bias)) {
+      // The gateway has checked the fault; the runtime does not trust it (vocab::injectable).
+      if (vocab::injectable(static_cast<vocab::FaultKind>(rec.fault_kind), vocab::FaultSource::network)) {
         cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis, rec.fault_value});
       }
       break;

@@ -45,13 +45,6 @@ bool set_config(std::string_view key, std::string_view value, Scenario& s, Probl
   return true;
 }
 
-bool parse_fault(const util::Tokens& a, sim::Fault& f) noexcept {
-  if (a.size() == 3 && a[0] == "brake" && a[2] == "weak" && util::axis_1_to_6(a[1], f.axis)) {
-    f.kind = sim::FaultKind::brake_weak;
-    return true;
-  }
-  return false;
-}
 
 bool parse_expect(std::string_view tok, Expectation& e, Problem& problem) {
   std::string_view key;

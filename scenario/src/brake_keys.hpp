@@ -17,8 +17,6 @@ namespace safestate::scenario::brake_keys {
 // True when `key` is `brake_test_age_h` (`problem` set for a bad value).
 bool set_config(std::string_view key, std::string_view value, Scenario& s, util::Problem& problem);
 
-// `brake N weak`. True when the words are this fault.
-bool parse_fault(const util::Tokens& words, sim::Fault& f) noexcept;
 
 // `brake_test=none|passed|failed`. True when `tok` is this key (`problem` set for a bad value).
 bool parse_expect(std::string_view tok, Expectation& e, util::Problem& problem);

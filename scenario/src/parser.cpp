@@ -58,38 +58,12 @@
 #include "safestate/scenario/scenario.hpp"
 #include "parse_util.hpp"
 #include "brake_keys.hpp"
-#include "collision_keys.hpp"
 #include "person_keys.hpp"
 #include "safety_keys.hpp"
 
 namespace safestate::scenario {
 
 std::string ParseError::text() const { return file + ":" + std::to_string(line) + ": " + message; }
-
-void apply(const InputStep& step, core::RawInputs& raw) noexcept {
-  for (const ContactWrite& w : step.writes) {
-    switch (w.contact) {
-      case Contact::estop_a: raw.estop_a = w.closed; break;
-      case Contact::estop_b: raw.estop_b = w.closed; break;
-      case Contact::gate_a: raw.gate_a = w.closed; break;
-      case Contact::gate_b: raw.gate_b = w.closed; break;
-      case Contact::enable_a: raw.enable_a = w.closed; break;
-      case Contact::enable_b: raw.enable_b = w.closed; break;
-      case Contact::enable_panic: raw.enable_panic = w.closed; break;
-      case Contact::mode_auto: raw.mode_auto = w.closed; break;
-      case Contact::mode_t1: raw.mode_t1 = w.closed; break;
-      case Contact::mode_t2: raw.mode_t2 = w.closed; break;
-      case Contact::reset_button: raw.reset_button = w.closed; break;
-      case Contact::reduced_a: raw.reduced_a = w.closed; break;
-      case Contact::reduced_b: raw.reduced_b = w.closed; break;
-      case Contact::field_outer_a: raw.field_outer_a = w.closed; break;
-      case Contact::field_outer_b: raw.field_outer_b = w.closed; break;
-      case Contact::field_inner_a: raw.field_inner_a = w.closed; break;
-      case Contact::field_inner_b: raw.field_inner_b = w.closed; break;
-    }
-  }
-  safety_keys::apply_separation(step, raw);
-}
 
 namespace {
 
@@ -184,119 +158,7 @@ Problem set_config(std::string_view key, std::string_view value, core::Config& c
 // ---------------------------------------------------------------------------------------
 // in
 
-struct InputWord {
-  const char* word;
-  std::array<ContactWrite, 3> writes;
-  std::size_t count;
-};
-
-struct Shorthand {
-  const char* key;
-  const char* expected;  // for messages
-  std::array<InputWord, 4> words;
-  std::size_t count;
-};
-
-constexpr ContactWrite cw(Contact c, bool closed) { return ContactWrite{c, closed}; }
-
-// clang-format off
-const std::array<Shorthand, 5> kShorthands{{
-  {"estop", "pressed|released", {{
-    {"pressed", {cw(Contact::estop_a, false), cw(Contact::estop_b, false), {}}, 2},
-    {"released", {cw(Contact::estop_a, true), cw(Contact::estop_b, true), {}}, 2}, {}, {}}}, 2},
-  {"gate", "open|closed", {{
-    {"open", {cw(Contact::gate_a, false), cw(Contact::gate_b, false), {}}, 2},
-    {"closed", {cw(Contact::gate_a, true), cw(Contact::gate_b, true), {}}, 2}, {}, {}}}, 2},
-  {"enable", "released|centre|panic", {{
-    {"released", {cw(Contact::enable_a, false), cw(Contact::enable_b, false), cw(Contact::enable_panic, false)}, 3},
-    {"centre", {cw(Contact::enable_a, true), cw(Contact::enable_b, true), cw(Contact::enable_panic, false)}, 3},
-    {"panic", {cw(Contact::enable_a, false), cw(Contact::enable_b, false), cw(Contact::enable_panic, true)}, 3},
-    {}}}, 3},
-  {"mode", "AUTO|T1|T2|NONE", {{
-    {"AUTO", {cw(Contact::mode_auto, true), cw(Contact::mode_t1, false), cw(Contact::mode_t2, false)}, 3},
-    {"T1", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, true), cw(Contact::mode_t2, false)}, 3},
-    {"T2", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, false), cw(Contact::mode_t2, true)}, 3},
-    {"NONE", {cw(Contact::mode_auto, false), cw(Contact::mode_t1, false), cw(Contact::mode_t2, false)}, 3}}}, 4},
-  {"reset_button", "0|1", {{
-    {"0", {cw(Contact::reset_button, false), {}, {}}, 1},
-    {"1", {cw(Contact::reset_button, true), {}, {}}, 1}, {}, {}}}, 2},
-}};
-// clang-format on
-
-struct RawContact {
-  const char* key;
-  Contact contact;
-};
-
-constexpr std::array<RawContact, 10> kRawContacts{{
-    {"estop.a", Contact::estop_a},
-    {"estop.b", Contact::estop_b},
-    {"gate.a", Contact::gate_a},
-    {"gate.b", Contact::gate_b},
-    {"enable.a", Contact::enable_a},
-    {"enable.b", Contact::enable_b},
-    {"enable.panic", Contact::enable_panic},
-    {"mode.auto", Contact::mode_auto},
-    {"mode.t1", Contact::mode_t1},
-    {"mode.t2", Contact::mode_t2},
-}};
-
-// 1: key handled (problem may be set); 0: not a shorthand.
-bool parse_shorthand(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
-  for (const Shorthand& s : kShorthands) {
-    if (key != s.key) {
-      continue;
-    }
-    for (std::size_t i = 0; i < s.count; ++i) {
-      const InputWord& w = s.words[i];
-      if (value == w.word) {
-        out.writes.insert(out.writes.end(), w.writes.begin(),
-                          w.writes.begin() + static_cast<std::ptrdiff_t>(w.count));
-        return true;
-      }
-    }
-    problem = "bad value " + quoted(value) + " for input " + std::string(key) + " (expected " + s.expected + ")";
-    return true;
-  }
-  return false;
-}
-
-bool parse_raw_contact(std::string_view key, std::string_view value, InputStep& out, Problem& problem) {
-  for (const RawContact& r : kRawContacts) {
-    if (key != r.key) {
-      continue;
-    }
-    if (value != "0" && value != "1") {
-      problem = "bad value " + quoted(value) + " for contact " + std::string(key) + " (expected 0|1)";
-    } else {
-      out.writes.push_back(ContactWrite{r.contact, value == "1"});
-    }
-    return true;
-  }
-  return false;
-}
-
-Problem parse_in(const Tokens& args, InputStep& out) {
-  if (args.empty()) {
-    return "in needs at least one KEY=VALUE";
-  }
-  for (const std::string_view tok : args) {
-    std::string_view key;
-    std::string_view value;
-    if (!split_pair(tok, key, value)) {
-      return "in: expected KEY=VALUE, found " + quoted(tok);
-    }
-    Problem problem;
-    if (!parse_shorthand(key, value, out, problem) && !parse_raw_contact(key, value, out, problem) &&
-        !safety_keys::parse_input(key, value, out, problem)) {
-      return "unknown input " + quoted(key);
-    }
-    if (!problem.empty()) {
-      return problem;
-    }
-  }
-  return {};
-}
+Problem parse_in(const Tokens& args, InputStep& out) { return vocab::parse_inputs(args, out); }
 
 // ---------------------------------------------------------------------------------------
 // cmd
@@ -373,112 +235,9 @@ Problem parse_cmd(const Tokens& args, std::size_t line, CommandStep& out) {
 // fault
 
 using util::axis_1_to_6;
+using vocab::hex_word;
 
-bool parse_drive_fault(const Tokens& a, sim::Fault& f) noexcept {
-  if (a.size() != 3 || a[0] != "drive" || !axis_1_to_6(a[1], f.axis)) {
-    return false;
-  }
-  constexpr std::array<std::pair<std::string_view, sim::FaultKind>, 4> kinds{{
-      {"fault", sim::FaultKind::drive_fault},
-      {"clear", sim::FaultKind::drive_clear},
-      {"runaway", sim::FaultKind::drive_runaway},
-      {"nostop", sim::FaultKind::drive_nostop},
-  }};
-  for (const auto& [word, kind] : kinds) {
-    if (a[2] == word) {
-      f.kind = kind;
-      return true;
-    }
-  }
-  return false;
-}
-
-// `0x` and one to four hex digits.
-bool hex_word(std::string_view s, std::uint16_t& out) noexcept {
-  if (s.size() < 3 || s.size() > 6 || (s.substr(0, 2) != "0x" && s.substr(0, 2) != "0X")) {
-    return false;
-  }
-  std::uint16_t v = 0;
-  const auto [end, ec] = std::from_chars(s.data() + 2, s.data() + s.size(), v, 16);
-  if (ec != std::errc{} || end != s.data() + s.size()) {
-    return false;
-  }
-  out = v;
-  return true;
-}
-
-// drive N statusword 0xHHHH | drive N slow_enable MS
-bool parse_drive_word_fault(const Tokens& a, sim::Fault& f) noexcept {
-  if (a.size() != 4 || a[0] != "drive" || !axis_1_to_6(a[1], f.axis)) {
-    return false;
-  }
-  if (a[2] == "statusword" && hex_word(a[3], f.value)) {
-    f.kind = sim::FaultKind::drive_statusword;
-    return true;
-  }
-  std::uint16_t ms = 0;
-  if (a[2] == "slow_enable" && to_number(a[3], ms) && ms >= 1U && ms <= 60000U) {
-    f.kind = sim::FaultKind::drive_slow_enable;
-    f.value = ms;
-    return true;
-  }
-  return false;
-}
-
-bool parse_fault_words(const Tokens& a, sim::Fault& f) noexcept {
-  if (parse_drive_fault(a, f) || parse_drive_word_fault(a, f) || brake_keys::parse_fault(a, f) ||
-      collision_keys::parse_fault(a, f)) {
-    return true;
-  }
-  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck_released" && axis_1_to_6(a[1], f.axis)) {
-    f.kind = sim::FaultKind::brake_stuck_released;
-    return true;
-  }
-  if (a.size() == 1 && a[0] == "integrity") {
-    f.axis = 0;
-    f.kind = sim::FaultKind::integrity;
-    return true;
-  }
-  if (a.size() == 3 && a[0] == "brake" && a[2] == "stuck" && axis_1_to_6(a[1], f.axis)) {
-    f.kind = sim::FaultKind::brake_stuck;
-    return true;
-  }
-  f.axis = 0;
-  if (a.size() != 2) {
-    return false;
-  }
-  constexpr std::array<std::pair<std::pair<std::string_view, std::string_view>, sim::FaultKind>, 7> pairs{{
-      {{"fieldbus", "lost"}, sim::FaultKind::fieldbus_lost},
-      {{"contactor", "stuck_open"}, sim::FaultKind::contactor_stuck_open},
-      {{"clear", "all"}, sim::FaultKind::clear_all},
-      {{"selftest", "fail"}, sim::FaultKind::selftest_fail},
-      {{"contactor", "welded"}, sim::FaultKind::contactor_welded},
-      {{"program", "unload"}, sim::FaultKind::program_unload},
-      {{"jog_link", "drop"}, sim::FaultKind::jog_link_drop},
-  }};
-  for (const auto& [words, kind] : pairs) {
-    if (a[0] == words.first && a[1] == words.second) {
-      f.kind = kind;
-      return true;
-    }
-  }
-  return false;
-}
-
-Problem parse_fault(const Tokens& args, FaultStep& out) {
-  if (parse_fault_words(args, out.fault)) {
-    return {};
-  }
-  std::string written;
-  for (const std::string_view a : args) {
-    written += (written.empty() ? "" : " ") + std::string(a);
-  }
-  return "bad fault " + quoted(written) +
-         " (expected drive N fault|clear|runaway|nostop, drive N statusword 0xHHHH, drive N slow_enable MS,"
-         " fieldbus lost, contactor stuck_open|welded, brake N stuck|stuck_released|weak, integrity, selftest fail,"
-         " program unload, jog_link drop, contact F, drive N torque_bias X, clear all; N 1..6, MS 1..60000,"
-         " F 0..5000 newtons, X -300..300 percent of rated torque)";
-}
+Problem parse_fault(const Tokens& args, FaultStep& out) { return vocab::parse_fault(args, out.fault); }
 
 // ---------------------------------------------------------------------------------------
 // expect

@@ -33,14 +33,6 @@ bool set_config(std::string_view key, std::string_view value, std::size_t line, 
 // `s.config.max_stop_ms` from stop.max_time_ms. On a problem, `line` is where to report it.
 util::Problem finish_config(const ConfigLines& lines, bool max_stop_set, Scenario& s, std::size_t& line);
 
-// `in reduced=normal|reduced`, `in reduced.a=0|1`, `in reduced.b=0|1`; SPEC §11:
-// `field.outer=clear|interrupted`, `field.inner=...`, raw `field.outer.a` ... `field.inner.b`,
-// `separation_mm=N` (integer >= 0), `separation_valid=0|1`.
-bool parse_input(std::string_view key, std::string_view value, InputStep& out, util::Problem& problem);
-
-// The distance sensor's part of an `in` line (apply() calls it after the contacts).
-void apply_separation(const InputStep& step, core::RawInputs& raw) noexcept;
-
 // `cmd validate_config CODE`: CODE of exactly 8 hex digits, else sent without a code (the
 // core answers BAD_ARGUMENT), as the parser does for every malformed argument.
 void fill_validate_config(const util::Tokens& args, std::size_t first, core::Command& c) noexcept;

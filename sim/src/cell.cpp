@@ -1,67 +1,71 @@
 #include "safestate/sim/cell.hpp"
 
-#include "safestate/controller/controller.hpp"
-#include "safestate/core/command_queue.hpp"
-#include "safestate/motion/kinematics.hpp"
 #include "safestate/robot/description.hpp"
 #include "safestate/sim/plant.hpp"
 
 namespace safestate::sim {
 
-struct Cell::Impl {
+// The simulated world as the controller's backend: the plant (or, with `bus`, a real
+// fieldbus, the plant then only injecting the platform faults) and the person, who walks
+// one cycle and is seen against the arm as the motion layer computed it last cycle (from
+// measured joints, tool included).
+struct Cell::Impl final : hal::Backend {
   Impl(const core::Config& c, hal::Backend* b)
       : cfg(c),
         bus(b),
-        controller(c, robot::active().model),
-        plant(robot::active().model, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()) {
+        plant(robot::active().model, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()),
+        core(c, robot::active().model, *this) {
     load_demo();
   }
+  Impl(const Impl& o)
+      : hal::Backend(),
+        cfg(o.cfg),
+        bus(o.bus),
+        plant(o.plant),
+        jog_link_up(o.jog_link_up),
+        view(o.view),
+        person(o.person),
+        person_sensors(o.person_sensors),
+        person_discard(o.person_discard),
+        core(o.core, *this) {}
+  Impl& operator=(const Impl&) = delete;
+  ~Impl() override = default;
+
   void load_demo() noexcept {
     std::uint8_t n = 0;
     const motion::Waypoint* p = demo_program(n);
-    controller.load_program(p, n);
+    core.load_program(p, n);
   }
+
+  // @req COL-SIM-PERSON
+  void read(hal::ProcessImageIn& in) noexcept override {
+    if (bus != nullptr) {
+      bus->read(in);
+      plant.read_platform(in);
+    } else {
+      plant.read(in);
+    }
+    person.advance(static_cast<float>(cfg.cycle_us) * 1.0e-6F);
+    person.sense(person_sensors, core.controller().motion().frames(), (bus == nullptr) ? in.safety : person_discard,
+                 view.person);
+  }
+  void write(const hal::ProcessImageOut& out) noexcept override {
+    if (bus != nullptr) {
+      bus->write(out);
+    } else {
+      plant.write(out);
+    }
+  }
+
   core::Config cfg;
   hal::Backend* bus;  // null: the simulated plant
-  controller::Controller controller;
   SimPlant plant;
-  core::CommandQueue<core::kMaxQueueSize> queue;  // holds cfg.queue_size (SPEC §9: 64)
   bool jog_link_up = true;
-  hal::ProcessImageIn in{};
-  hal::ProcessImageOut out{};
-  std::array<core::Command, core::kMaxCommandsPerCycle> batch{};
   CellView view{};
-  core::Cycle now = 0;
-  std::size_t taken = 0;
   Person person;
   PersonSensors person_sensors{};
   core::RawInputs person_discard{};  // with a bus: the person's devices write here, unread
-
-  void update_view() noexcept {
-    const motion::MotionController& m = controller.motion();
-    const core::Feedback& fb = controller.feedback();
-    const motion::Frames& f = m.frames();
-    const motion::Rpy r = motion::to_rpy(f.R);
-    view.tcp = {f.tcp[0], f.tcp[1], f.tcp[2], r.roll, r.pitch, r.yaw};
-    view.tcp_speed_mm_s = fb.tcp_speed_mm_s;
-    view.max_point_speed_mm_s = fb.max_point_speed_mm_s;
-    for (std::size_t i = 0; i < core::kAxes; ++i) {
-      view.joints_rad[i] = in.drive[i].position_rad;
-      view.velocities_rad_s[i] = in.drive[i].velocity_rad_s;
-      view.axis_state[i] = motion::to_string(m.axis_state(i));
-      view.axis_code[i] = static_cast<std::uint8_t>(m.axis_state(i));
-      view.statusword[i] = in.drive[i].statusword;
-      view.controlword[i] = out.drive[i].controlword;
-      view.target_rad[i] = out.drive[i].target_position_rad;
-      view.brake_released[i] = in.brake_released[i];
-    }
-    view.contactor_closed = in.contactor_closed;
-    view.fieldbus_ok = in.fieldbus_ok;
-    view.inputs_stale = in.stale;
-    view.injected = plant.injected();
-    view.program_index = m.program().index();
-    view.program_length = m.program().count();
-  }
+  controller::Cell core;             // last: it reads the world above through *this
 };
 
 Cell::Cell(const core::Config& cfg, hal::Backend* bus) : impl_(std::make_unique<Impl>(cfg, bus)) {}
@@ -73,57 +77,37 @@ void Cell::inject(const Fault& f) noexcept {
   Impl& s = *impl_;
   s.plant.inject(f);
   if (f.kind == FaultKind::program_unload) {
-    s.controller.load_program(nullptr, 0);
+    s.core.load_program(nullptr, 0);
   } else if (f.kind == FaultKind::jog_link_drop) {
     s.jog_link_up = false;
   } else if (f.kind == FaultKind::clear_all) {
     s.jog_link_up = true;
-    if (!s.controller.motion().program().loaded()) {
+    if (!s.core.controller().motion().program().loaded()) {
       s.load_demo();
     }
   }
 }
 
-core::Result Cell::submit(const core::Command& c) noexcept {
-  Impl& s = *impl_;
-  if (s.queue.size() >= s.cfg.queue_size) {
-    return core::Result::QUEUE_FULL;  // the configured capacity, inside the fixed storage
-  }
-  return s.queue.push(c);
-}
+core::Result Cell::submit(const core::Command& c) noexcept { return impl_->core.submit(c); }
 
 bool Cell::jog_link_up() const noexcept { return impl_->jog_link_up; }
 
 void Cell::step() noexcept {
   Impl& s = *impl_;
-  hal::Backend& io = (s.bus != nullptr) ? *s.bus : static_cast<hal::Backend&>(s.plant);
-  io.read(s.in);
-  if (s.bus != nullptr) {
-    s.plant.read_platform(s.in);
-  }
-  // @req COL-SIM-PERSON
-  // The person walks one cycle; the scanner and the distance sensor see it against the
-  // arm as the motion layer computed it last cycle (from measured joints, tool included).
-  s.person.advance(static_cast<float>(s.cfg.cycle_us) * 1.0e-6F);
-  s.person.sense(s.person_sensors, s.controller.motion().frames(), (s.bus == nullptr) ? s.in.safety : s.person_discard,
-                 s.view.person);
-  const std::size_t n = s.queue.peek(s.batch.data(), s.batch.size());
-  s.taken = s.controller.step(s.in, s.batch.data(), n, s.out);
-  s.queue.pop(s.taken);
-  io.write(s.out);
-  s.update_view();
-  ++s.now;
+  s.core.step();
+  static_cast<controller::CellView&>(s.view) = s.core.view();
+  s.view.injected = s.plant.injected();
 }
 
 void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
-  impl_->controller.configure_limits(limits, validated);
+  impl_->core.configure_limits(limits, validated);
   impl_->plant.set_tool(limits.payload_kg, limits.tcp_mm);  // the simulated arm carries the declared tool
 }
 
 void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payload_fraction(fraction); }
 
 void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
-  impl_->controller.load_program(points, count);
+  impl_->core.load_program(points, count);
 }
 
 bool Cell::add_person(float x_mm, float y_mm, float radius_mm) noexcept {
@@ -145,21 +129,20 @@ const PersonSensors& Cell::person_sensors() const noexcept { return impl_->perso
 const Person& Cell::person() const noexcept { return impl_->person; }
 
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {
-  impl_->controller.configure_brake_test(history);
+  impl_->core.configure_brake_test(history);
 }
 
-const core::SupervisorOut& Cell::out() const noexcept { return impl_->controller.status(); }
+const core::SupervisorOut& Cell::out() const noexcept { return impl_->core.out(); }
 const CellView& Cell::view() const noexcept { return impl_->view; }
-const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->in.safety; }
-const core::SafetyInputs& Cell::safety_inputs() const noexcept { return impl_->controller.supervisor().inputs(); }
-const core::Feedback& Cell::feedback() const noexcept { return impl_->controller.feedback(); }
-const core::Command* Cell::commands_taken(std::size_t& n) const noexcept {
-  n = impl_->taken;
-  return impl_->batch.data();
-}
-core::Leaf Cell::leaf() const noexcept { return impl_->controller.supervisor().manager().leaf(); }
-const core::AlarmSet& Cell::alarms() const noexcept { return impl_->controller.supervisor().manager().alarms(); }
-core::Cycle Cell::now() const noexcept { return impl_->now; }
+const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->core.raw_inputs_of_last_cycle(); }
+const core::SafetyInputs& Cell::safety_inputs() const noexcept { return impl_->core.safety_inputs(); }
+const core::Feedback& Cell::feedback() const noexcept { return impl_->core.feedback(); }
+const core::Command* Cell::commands_taken(std::size_t& n) const noexcept { return impl_->core.commands_taken(n); }
+core::Leaf Cell::leaf() const noexcept { return impl_->core.leaf(); }
+const core::AlarmSet& Cell::alarms() const noexcept { return impl_->core.alarms(); }
+core::Cycle Cell::now() const noexcept { return impl_->core.now(); }
 const core::Config& Cell::config() const noexcept { return impl_->cfg; }
+controller::Cell& Cell::controller() noexcept { return impl_->core; }
+const controller::Cell& Cell::controller() const noexcept { return impl_->core; }
 
 }  // namespace safestate::sim

@@ -18,10 +18,6 @@ constexpr double kArriveMm = 1.0e-6;
 
 }  // namespace
 
-bool valid(const PersonSensors& s) noexcept {
-  return std::isfinite(s.inner_mm) && std::isfinite(s.outer_mm) && s.inner_mm > 0.0F && s.inner_mm < s.outer_mm &&
-         s.outer_mm <= kPersonMaxRangeMm;
-}
 
 bool in_field(float x_mm, float y_mm, float radius_mm, float field_mm) noexcept {
   return std::hypot(x_mm, y_mm) - radius_mm <= field_mm;

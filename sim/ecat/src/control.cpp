@@ -11,7 +11,9 @@
 #include <string_view>
 
 #include "safestate/ecat/ecat_sim.hpp"
-#include "safestate/scenario/scenario.hpp"
+#include "safestate/vocab/faults.hpp"
+#include "safestate/vocab/inputs.hpp"
+#include "safestate/vocab/person.hpp"
 
 namespace safestate::ecat {
 
@@ -148,35 +150,38 @@ std::string time_line(EmulatedCell& cell, const std::string& words) {
 // @req COL-SIM-PERSON
 // `person at X Y [radius=R]`, `person walk X Y SPEED [stand MS] ...`, `person stand`, `person
 // leave` (the scenario format's keys, docs/collaborative.md) and `config person_fields=OUTER,INNER`:
-// the simulated person behind the segment. Parsed by the scenario parser (a `person at` before
-// the line stands for whatever the cell holds: the parser checks words, the cell presence).
+// the simulated person behind the segment, in the vocabulary's words (vocab/person.hpp); the
+// words are checked there, whether a person is there to walk by the person itself.
 std::string person_line(EmulatedCell& cell, const std::string& line) {
-  if (line.rfind("config ", 0) == 0) {
-    scenario::ParseResult r = scenario::parse(line + "\n", "control");
-    if (!r.ok()) {
-      return "ERROR " + r.error->message;
-    }
-    if (line.find("person_fields=") == std::string::npos || !cell.set_person_sensors(r.scenario.person_sensors)) {
+  const vocab::Tokens words = vocab::split_words(line);
+  if (!words.empty() && words[0] == "config") {
+    std::string_view key;
+    std::string_view value;
+    if (words.size() != 2U || !vocab::split_pair(words[1], key, value) || key != "person_fields") {
       return "ERROR only config person_fields=OUTER,INNER changes the emulated cell";
+    }
+    sim::PersonSensors sensors = cell.person_sensors();
+    if (const std::string p = vocab::parse_person_fields(value, sensors); !p.empty()) {
+      return "ERROR " + p;
+    }
+    if (!cell.set_person_sensors(sensors)) {
+      return "ERROR the emulated cell refused the fields";
     }
     cell.latch_inputs();
     return "OK";
   }
-  scenario::ParseResult r = scenario::parse("@0 person at 0 0\n@0 " + line + "\n", "control");
-  if (!r.ok()) {
-    return "ERROR " + r.error->message;
-  }
-  const auto* p = r.scenario.steps.size() == 2U ? std::get_if<scenario::PersonStep>(&r.scenario.steps.back().what) : nullptr;
-  if (p == nullptr) {
-    return "ERROR expected one person line";
+  vocab::PersonStep step;
+  bool present = true;  // the words alone; the person itself says whether it is there
+  if (const std::string p = vocab::parse_person(vocab::Tokens(words.begin() + 1, words.end()), step, present); !p.empty()) {
+    return "ERROR " + p;
   }
   sim::Person& person = cell.person();
   bool took = true;
-  switch (p->action) {
-    case scenario::PersonStep::Action::at: took = person.place(p->x_mm, p->y_mm, p->radius_mm); break;
-    case scenario::PersonStep::Action::walk: took = person.walk(p->path.data(), p->path.size()); break;
-    case scenario::PersonStep::Action::stand: took = person.present(); person.stand(); break;
-    case scenario::PersonStep::Action::leave: took = person.present(); person.leave(); break;
+  switch (step.action) {
+    case vocab::PersonStep::Action::at: took = person.place(step.x_mm, step.y_mm, step.radius_mm); break;
+    case vocab::PersonStep::Action::walk: took = person.walk(step.path.data(), step.path.size()); break;
+    case vocab::PersonStep::Action::stand: took = person.present(); person.stand(); break;
+    case vocab::PersonStep::Action::leave: took = person.present(); person.leave(); break;
   }
   if (!took) {
     return "ERROR the person cannot do that (none in the cell, or refused)";
@@ -208,39 +213,42 @@ std::string freeze_line(EmulatedCell& cell, const std::string& line) {
   return "OK";
 }
 
-std::string scenario_line(EmulatedCell& cell, const std::string& line) {
-  scenario::ParseResult r = scenario::parse("@0 " + line + "\n", "control");
-  if (!r.ok()) {
-    std::string m = r.error->message;
-    return "ERROR " + m;
-  }
-  if (r.scenario.steps.size() != 1U) {
-    return "ERROR expected one in or fault line";
-  }
-  const scenario::Directive& d = r.scenario.steps.front().what;
-  if (const auto* in = std::get_if<scenario::InputStep>(&d)) {
+// `in KEY=VALUE ...` and `fault ...` lines in the vocabulary's words (vocab/inputs.hpp,
+// vocab/faults.hpp: the scenario format's, every fault of it; the socket is local).
+std::string world_line(EmulatedCell& cell, const std::string& line) {
+  const vocab::Tokens words = vocab::split_words(line);
+  const vocab::Tokens args(words.begin() + (words.empty() ? 0 : 1), words.end());
+  if (!words.empty() && words[0] == "in") {
+    vocab::InputStep in;
+    if (const std::string p = vocab::parse_inputs(args, in); !p.empty()) {
+      return "ERROR " + p;
+    }
     // SPEC §11's distance sensor is a subdevice of its own (kPosDistance): a segment built
     // without it refuses a separation rather than take it and never put it on the wire.
-    if ((in->separation_mm || in->separation_valid) && cell.segment().size() <= kPosDistance) {
+    if ((in.separation_mm || in.separation_valid) && cell.segment().size() <= kPosDistance) {
       return "ERROR this emulated segment has no distance sensor (separation_mm, separation_valid)";
     }
-    scenario::apply(*in, cell.inputs());
+    vocab::apply(in, cell.inputs());
     cell.latch_inputs();
     cell.mark_input_change();
     return "OK";
   }
-  if (const auto* f = std::get_if<scenario::FaultStep>(&d)) {
+  if (!words.empty() && words[0] == "fault") {
+    vocab::Fault f{};
+    if (const std::string p = vocab::parse_fault(args, f); !p.empty()) {
+      return "ERROR " + p;
+    }
     // On a real bus "fieldbus lost" is the wire going silent, not a flag: the master must
     // find out by itself (the drives' own bus watchdogs react as in the plant).
-    if (f->fault.kind == sim::FaultKind::fieldbus_lost) {
+    if (f.kind == vocab::FaultKind::fieldbus_lost) {
       cell.segment().go_silent();
-    } else if (f->fault.kind == sim::FaultKind::clear_all) {
+    } else if (f.kind == vocab::FaultKind::clear_all) {
       cell.segment().clear_wire_faults();
       for (std::size_t i = 0; i < cell.segment().size(); ++i) {
         cell.segment().esc(i).dictionary().refuse(0, 0, 0);
       }
     }
-    cell.inject(f->fault);
+    cell.inject(f);
     cell.latch_inputs();
     return "OK";
   }
@@ -270,7 +278,7 @@ std::string json_line(EmulatedCell& cell, const std::string& line) {
       return "ERROR value of \"" + k + "\" must be a number or a string";
     }
   }
-  return scenario_line(cell, in);
+  return world_line(cell, in);
 }
 
 // Distributed clocks, per subdevice (docs/ethercat.md, "Distributed clocks"): the SYNC0
@@ -483,7 +491,7 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
     }
   }
   if (verb == "in" || verb == "fault") {
-    return scenario_line(cell, line);
+    return world_line(cell, line);
   }
   return "ERROR unknown line (expected in ..., fault ..., person ..., config person_fields=, tool KG X Y Z, plant "
          "lockstep|paced|reset, time ..., freeze MS [at-op], status, dc reset, or a JSON sim message)";

@@ -22,6 +22,7 @@
 #include <type_traits>
 
 #include "safestate/core/alarms.hpp"
+#include "safestate/vocab/inputs.hpp"
 #include "safestate/core/safety_status.hpp"
 #include "safestate/core/states.hpp"
 #include "safestate/core/types.hpp"
@@ -34,13 +35,10 @@ inline constexpr std::uint32_t kLayoutVersion = 8U;  // 2: instance, gateway_res
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault, sim_person };
 
-// Contacts a `sim` message may set (the scenario vocabulary), in RawInputs order.
-enum class Contact : std::uint8_t {
-  estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic, mode_auto, mode_t1, mode_t2, reset_button,
-  reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
-  field_outer_a, field_outer_b, field_inner_a, field_inner_b,  // SPEC §11 protective fields, NC (1 = clear)
-};
-inline constexpr std::size_t kContactCount = 17;
+// Contacts a `sim` message may set: the vocabulary's (vocab/inputs.hpp), bit i = Contact i.
+using vocab::Contact;
+inline constexpr std::size_t kContactCount = vocab::kContacts;
+static_assert(kContactCount <= 32U, "set_mask and contacts are 32-bit");
 
 // A `sim` record's distance sensor (SPEC §11): which of separation_mm / separation_valid it writes.
 inline constexpr std::uint8_t kSetSeparation = 0x01U;    // separation_mm written (and valid, unless kSetValid)

@@ -22,47 +22,21 @@
 #include "safestate/core/signals.hpp"
 #include "safestate/core/types.hpp"
 #include "safestate/sim/cell.hpp"
+#include "safestate/vocab/faults.hpp"
+#include "safestate/vocab/inputs.hpp"
+#include "safestate/vocab/person.hpp"
 
 namespace safestate::scenario {
 
 // ---------------------------------------------------------------------------------------
 // What a file says
 
-// One physical contact of RawInputs (SPEC §2). For the NC inputs `closed` = healthy.
-enum class Contact : std::uint8_t {
-  estop_a,
-  estop_b,
-  gate_a,
-  gate_b,
-  enable_a,
-  enable_b,
-  enable_panic,
-  mode_auto,
-  mode_t1,
-  mode_t2,
-  reset_button,
-  reduced_a,  // SPEC §10 reduced-speed request, NC
-  reduced_b,
-  field_outer_a,  // SPEC §11 protective fields, OSSD, NC (1 = clear)
-  field_outer_b,
-  field_inner_a,
-  field_inner_b,
-};
-
-struct ContactWrite {
-  Contact contact = Contact::estop_a;
-  bool closed = false;
-};
-
-// `in KEY=VALUE ...`: the contacts to write, in file order (a shorthand expands to the
-// contacts it sets).
-struct InputStep {
-  std::vector<ContactWrite> writes;
-  // SPEC §11 distance sensor: `separation_mm=N` (also makes the reading valid unless the
-  // same line sets `separation_valid`), `separation_valid=0|1`.
-  std::optional<std::int32_t> separation_mm;
-  std::optional<bool> separation_valid;
-};
+// The world's vocabulary (vocab/): the contacts, `in` lines, faults and the person.
+using vocab::Contact;
+using vocab::ContactWrite;
+using vocab::InputStep;
+using vocab::PersonStep;
+using vocab::apply;  // an InputStep onto RawInputs
 
 // `cmd [from=pendant|remote] NAME ARGS...`: the binary record handed to the core, and
 // the name as written (for the trace of an unknown command).
@@ -73,7 +47,7 @@ struct CommandStep {
 
 // `fault ...`
 struct FaultStep {
-  sim::Fault fault{};
+  vocab::Fault fault{};
 };
 
 enum class ExpectKey : std::uint8_t {
@@ -155,15 +129,6 @@ struct ExpectStep {
 
 // `person ...` (docs/collaborative.md "The simulated person", an extension beyond the shared
 // format): the simulated person enters at a point, walks a path, stands, leaves.
-struct PersonStep {
-  enum class Action : std::uint8_t { at, walk, stand, leave };
-  Action action = Action::stand;
-  float x_mm = 0.0F;  // at
-  float y_mm = 0.0F;
-  float radius_mm = sim::kPersonDefaultRadiusMm;
-  std::vector<sim::PersonWaypoint> path;  // walk (1..16 points)
-};
-
 using Directive = std::variant<InputStep, CommandStep, FaultStep, ExpectStep, PersonStep>;
 
 struct Step {
@@ -214,8 +179,6 @@ struct ParseResult {
 // The limits a run monitors: the scenario's safety configuration or the built-in one.
 [[nodiscard]] const core::SafetyLimits& safety_limits(const Scenario& s);
 
-// Writes the contacts of an `in` line into the raw process image.
-void apply(const InputStep& step, core::RawInputs& raw) noexcept;
 
 // ---------------------------------------------------------------------------------------
 // Running a file

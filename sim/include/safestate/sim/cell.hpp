@@ -1,6 +1,7 @@
-// The simulated cell: the real controller (signal layer, supervisor, motion layer)
-// driving a simulated plant (six CiA 402 drives, contactor, brakes, I/O, arm physics)
-// one scan cycle at a time. Deterministic: no clock, no randomness. This facade is what
+// The simulated cell: the controller on a backend (controller/cell.hpp: signal layer,
+// supervisor, motion layer, the platform's checks) driving a simulated plant (six CiA 402
+// drives, contactor, brakes, I/O, arm physics) and a simulated person, one scan cycle at a
+// time: the plant and the person are the backend, the controller does not know it. Deterministic: no clock, no randomness. This facade is what
 // `safestate replay`, the tests and the runtime use.
 #pragma once
 
@@ -8,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "safestate/controller/cell.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/core/signals.hpp"
 #include "safestate/core/supervisor.hpp"
@@ -15,61 +17,18 @@
 #include "safestate/hal/process_image.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/sim/person.hpp"
+#include "safestate/vocab/faults.hpp"
 
 namespace safestate::sim {
 
-// Fault injection, exactly the vocabulary of spec/scenario-format.md.
-enum class FaultKind : std::uint8_t {
-  drive_fault,      // drive N reports Fault
-  drive_clear,      // drive N's cause is gone (it still needs a fault reset)
-  drive_runaway,    // drive N accelerates at its limit, ignoring set-points
-  drive_nostop,     // drive N keeps its velocity, ignoring stop ramps
-  fieldbus_lost,    // cyclic data stops being valid
-  contactor_stuck_open,
-  brake_stuck,      // brake N never releases
-  clear_all,        // every injected cause is gone (drives still need a fault reset)
-  // "More keys, faults and settings" of the format (appended: older codes keep their value).
-  integrity,             // the core's integrity check fails (HAL integrity input)
-  selftest_fail,         // the platform's start-up self-test fails
-  drive_statusword,      // drive N reports the raw word `value` until `drive N clear`
-  drive_slow_enable,     // each enabling CiA 402 step of drive N takes `value` ms
-  contactor_welded,      // the contactor's feedback (and power) stay closed
-  brake_stuck_released,  // brake N's feedback stays released (and it does not hold)
-  program_unload,        // the program is unloaded (the cell's own, not the plant's)
-  jog_link_drop,         // the pendant's jog commands are lost on the way (cell)
-  // SPEC §12 (appended likewise).
-  brake_weak,            // brake N holds less than the brake test's torque (it slips under it)
-  // SPEC §11 collision detection (appended likewise).
-  contact,               // a force of `value` / 10 N pushes against the TCP's motion (0: none)
-  drive_torque_bias,     // drive N reports `value` (int16, per mille of rated) more torque than it applies
-};
+// Fault injection: the vocabulary's (vocab/faults.hpp).
+using vocab::Fault;
+using vocab::FaultKind;
 
-struct Fault {
-  FaultKind kind = FaultKind::clear_all;
-  std::uint8_t axis = 0;    // 1..6 for the drive_* and brake_* kinds
-  std::uint16_t value = 0;  // drive_statusword: the word; drive_slow_enable: ms per step;
-                            // contact: tenths of a newton; drive_torque_bias: int16 per mille
-};
-
-// What the simulated cell shows after a cycle, besides the supervisor's output.
-struct CellView {
-  std::array<float, 6> joints_rad{};        // measured
-  std::array<float, 6> velocities_rad_s{};  // measured
-  std::array<float, 6> tcp{};               // x, y, z mm; rx, ry, rz rad
-  float tcp_speed_mm_s = 0.0F;              // measured, from measured joint positions
-  float max_point_speed_mm_s = 0.0F;        // TCP and every link origin
-  std::array<const char*, 6> axis_state{};  // PLCopen axis state names
-  std::array<std::uint8_t, 6> axis_code{};   // the same, as motion::AxisState values
-  std::array<std::uint16_t, 6> statusword{};
-  std::array<std::uint16_t, 6> controlword{};
-  std::array<float, 6> target_rad{};        // CSP set-points written this cycle
-  bool contactor_closed = false;            // feedback
-  std::array<bool, 6> brake_released{};     // feedback
-  bool fieldbus_ok = true;
-  bool inputs_stale = false;  // this cycle's frame was late or lost: inputs held
-  std::uint64_t injected = 0;               // injected fault causes (bit set; see SimPlant::injected)
-  std::uint8_t program_index = 0;           // waypoint the program is heading to
-  std::uint8_t program_length = 0;
+// What the simulated cell shows after a cycle, besides the supervisor's output: the
+// controller's view (controller/cell.hpp) and the simulated world's.
+struct CellView : controller::CellView {
+  std::uint64_t injected = 0;  // injected fault causes (bit set; see SimPlant::injected)
   // The simulated person (SPEC §11, docs/collaborative.md "The simulated person"): where it
   // is, how fast it walks, what the scanner and the distance sensor see of it.
   PersonView person{};
@@ -135,6 +94,9 @@ class Cell {
   [[nodiscard]] const core::Command* commands_taken(std::size_t& n) const noexcept;
   [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
   [[nodiscard]] const core::Config& config() const noexcept;
+  // The controller on this world (for a host that runs it: the runtime's loop, its platform).
+  [[nodiscard]] controller::Cell& controller() noexcept;
+  [[nodiscard]] const controller::Cell& controller() const noexcept;
 
  private:
   struct Impl;

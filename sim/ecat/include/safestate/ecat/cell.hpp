@@ -151,6 +151,7 @@ class EmulatedCell {
   // distance sensor's reading show it (against the arm as the drives' positions place it, with
   // the tool's TCP), over what `in` lines set, which apply again once it has left: as in-process.
   sim::Person& person() noexcept { return person_; }
+  [[nodiscard]] const sim::PersonSensors& person_sensors() const noexcept { return person_sensors_; }
   bool set_person_sensors(const sim::PersonSensors& s) noexcept {
     if (!sim::valid(s)) {
       return false;

@@ -1,0 +1,105 @@
+// A controller on a backend: what runs a robot, whatever is behind the process image.
+//   backend.read -> the platform's checks -> Controller::step (motion.measure, supervisor,
+//   motion) -> backend.write
+// The backend is the simulated plant (sim/), an EtherCAT segment (hal/ethercat/) or any other
+// hal::Backend, chosen by the factory (runtime/backends); nothing here knows which. The
+// command queue of SPEC §9 and the view of the last cycle (for the status) live here, so
+// that a second channel is a second instance of this class. No heap after construction, no
+// exceptions, no OS calls, no clock: the same rules as core/.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "safestate/controller/controller.hpp"
+#include "safestate/controller/platform.hpp"
+#include "safestate/core/command_queue.hpp"
+#include "safestate/hal/process_image.hpp"
+
+namespace safestate::controller {
+
+// What the controller shows after a cycle, besides the supervisor's output: the process
+// image as it read and wrote it, and the motion layer's view of the arm.
+struct CellView {
+  std::array<float, 6> joints_rad{};        // measured
+  std::array<float, 6> velocities_rad_s{};  // measured
+  std::array<float, 6> tcp{};               // x, y, z mm; rx, ry, rz rad
+  float tcp_speed_mm_s = 0.0F;              // measured, from measured joint positions
+  float max_point_speed_mm_s = 0.0F;        // TCP and every link origin
+  std::array<const char*, 6> axis_state{};  // PLCopen axis state names
+  std::array<std::uint8_t, 6> axis_code{};  // the same, as motion::AxisState values
+  std::array<std::uint16_t, 6> statusword{};
+  std::array<std::uint16_t, 6> controlword{};
+  std::array<float, 6> target_rad{};        // CSP set-points written this cycle
+  bool contactor_closed = false;            // feedback
+  std::array<bool, 6> brake_released{};     // feedback
+  bool fieldbus_ok = true;
+  bool inputs_stale = false;  // this cycle's frame was late or lost: inputs held
+  std::uint8_t program_index = 0;           // waypoint the program is heading to
+  std::uint8_t program_length = 0;
+};
+
+class Cell {
+ public:
+  // `cfg` must have passed core::validate(); `io` must outlive the cell. Registers the core's
+  // constant tables (ROM) and this cell's controller (RAM) with its platform and runs the
+  // platform's start-up self-test; a host may add regions (its code) before the first step.
+  Cell(const core::Config& cfg, const motion::RobotModel& model, hal::Backend& io) noexcept;
+  // A copy of `other` on another backend (the exhaustive checker forks whole cells).
+  Cell(const Cell& other, hal::Backend& io) noexcept;
+  Cell(const Cell&) = delete;
+  Cell& operator=(const Cell&) = delete;
+  ~Cell() = default;
+
+  void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
+    controller_.configure_limits(limits, validated);
+  }
+  void configure_brake_test(const core::BrakeTestHistory& history) noexcept {
+    controller_.configure_brake_test(history);
+  }
+  void load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
+    controller_.load_program(points, count);
+  }
+  // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
+  core::Result submit(const core::Command& c) noexcept;
+  // One scan cycle.
+  void step() noexcept;
+
+  [[nodiscard]] Platform& platform() noexcept { return platform_; }
+  [[nodiscard]] const Platform& platform() const noexcept { return platform_; }
+  [[nodiscard]] const core::SupervisorOut& out() const noexcept { return controller_.status(); }
+  [[nodiscard]] const CellView& view() const noexcept { return view_; }
+  [[nodiscard]] const core::AlarmSet& alarms() const noexcept { return controller_.supervisor().manager().alarms(); }
+  [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept { return in_.safety; }
+  [[nodiscard]] core::Leaf leaf() const noexcept { return controller_.supervisor().manager().leaf(); }
+  [[nodiscard]] const core::SafetyInputs& safety_inputs() const noexcept { return controller_.supervisor().inputs(); }
+  [[nodiscard]] const core::Feedback& feedback() const noexcept { return controller_.feedback(); }
+  [[nodiscard]] const core::Command* commands_taken(std::size_t& n) const noexcept {
+    n = taken_;
+    return batch_.data();
+  }
+  [[nodiscard]] core::Cycle now() const noexcept { return now_; }
+  [[nodiscard]] const core::Config& config() const noexcept { return cfg_; }
+  [[nodiscard]] const Controller& controller() const noexcept { return controller_; }
+  [[nodiscard]] const hal::ProcessImageIn& image_in() const noexcept { return in_; }
+  [[nodiscard]] const hal::ProcessImageOut& image_out() const noexcept { return out_; }
+
+ private:
+  void register_platform() noexcept;
+  void update_view() noexcept;
+
+  core::Config cfg_;
+  hal::Backend* io_;
+  Controller controller_;
+  Platform platform_;
+  core::CommandQueue<core::kMaxQueueSize> queue_;  // holds cfg.queue_size (SPEC §9: 64)
+  hal::ProcessImageIn in_{};
+  hal::ProcessImageOut out_{};
+  std::array<core::Command, core::kMaxCommandsPerCycle> batch_{};
+  std::size_t taken_ = 0;
+  core::Cycle now_ = 0;
+  CellView view_{};
+};
+
+}  // namespace safestate::controller

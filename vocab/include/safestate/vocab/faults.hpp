@@ -1,0 +1,63 @@
+// The faults the simulated world can be given (spec/scenario-format.md `fault` lines, the
+// gateway's `sim` message, the emulator's control socket): one enumeration, one parser.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "safestate/vocab/tokens.hpp"
+
+namespace safestate::vocab {
+
+// Fault injection, exactly the vocabulary of spec/scenario-format.md.
+enum class FaultKind : std::uint8_t {
+  drive_fault,      // drive N reports Fault
+  drive_clear,      // drive N's cause is gone (it still needs a fault reset)
+  drive_runaway,    // drive N accelerates at its limit, ignoring set-points
+  drive_nostop,     // drive N keeps its velocity, ignoring stop ramps
+  fieldbus_lost,    // cyclic data stops being valid
+  contactor_stuck_open,
+  brake_stuck,      // brake N never releases
+  clear_all,        // every injected cause is gone (drives still need a fault reset)
+  // "More keys, faults and settings" of the format (appended: older codes keep their value).
+  integrity,             // the core's integrity check fails (HAL integrity input)
+  selftest_fail,         // the platform's start-up self-test fails
+  drive_statusword,      // drive N reports the raw word `value` until `drive N clear`
+  drive_slow_enable,     // each enabling CiA 402 step of drive N takes `value` ms
+  contactor_welded,      // the contactor's feedback (and power) stay closed
+  brake_stuck_released,  // brake N's feedback stays released (and it does not hold)
+  program_unload,        // the program is unloaded (the cell's own, not the plant's)
+  jog_link_drop,         // the pendant's jog commands are lost on the way (cell)
+  // SPEC §12 (appended likewise).
+  brake_weak,            // brake N holds less than the brake test's torque (it slips under it)
+  // SPEC §11 collision detection (appended likewise).
+  contact,               // a force of `value` / 10 N pushes against the TCP's motion (0: none)
+  drive_torque_bias,     // drive N reports `value` (int16, per mille of rated) more torque than it applies
+};
+inline constexpr std::uint8_t kFaultKinds = static_cast<std::uint8_t>(FaultKind::drive_torque_bias) + 1U;
+
+struct Fault {
+  FaultKind kind = FaultKind::clear_all;
+  std::uint8_t axis = 0;    // 1..6 for the drive_* and brake_* kinds
+  std::uint16_t value = 0;  // drive_statusword: the word; drive_slow_enable: ms per step;
+                            // contact: tenths of a newton; drive_torque_bias: int16 per mille
+};
+
+inline constexpr double kMaxContactN = 5000.0;      // `contact F`, stored in tenths of a newton
+inline constexpr double kMaxTorqueBiasPct = 300.0;  // `drive N torque_bias X`, the drives' peak
+
+// Where a fault comes from. `network`: the gateway's `sim` message (the HMI's panel) may only
+// inject what a person could do to the plant (drives, brakes, contactor, fieldbus, a contact
+// force); platform faults (integrity, self-test), the program and the jog link are the
+// scenario files' and the emulator's local control socket's.
+enum class FaultSource : std::uint8_t { local, network };
+[[nodiscard]] bool injectable(FaultKind k, FaultSource from) noexcept;
+
+// The words of a fault line ("drive 3 runaway") into `out`. Empty: well formed. Otherwise the
+// problem, naming the bad word (and `out` is left as it was).
+Problem parse_fault(const Tokens& words, Fault& out, FaultSource from = FaultSource::local);
+
+// The fault's words, as parse_fault reads them back ("drive 3 torque_bias -12.5").
+std::string format_fault(const Fault& f);
+
+}  // namespace safestate::vocab
