@@ -41,15 +41,20 @@ bool ram_word_ok(volatile std::uint32_t* w) noexcept {
 }
 
 bool Platform::add_rom(const void* p, std::size_t n) noexcept {
-  if (started_ || roms_ >= kMaxRegions || p == nullptr || n == 0U) {
+  if (cycled_ || roms_ >= kMaxRegions || p == nullptr || n == 0U) {
     return false;
   }
-  rom_[roms_++] = Rom{static_cast<const volatile unsigned char*>(p), n, 0U};
+  rom_[roms_] = Rom{static_cast<const volatile unsigned char*>(p), n, 0U};
+  if (started_) {  // a host's region after the start-up self-test: its reference now, twice
+    rom_[roms_].reference = rom_reference(roms_);
+    self_test_ok_ = self_test_ok_ && (rom_reference(roms_) == rom_[roms_].reference);
+  }
+  ++roms_;
   return true;
 }
 
 bool Platform::add_ram(void* p, std::size_t n) noexcept {
-  if (started_ || rams_ >= kMaxRegions || p == nullptr || n < sizeof(std::uint32_t) ||
+  if (cycled_ || rams_ >= kMaxRegions || p == nullptr || n < sizeof(std::uint32_t) ||
       (reinterpret_cast<std::uintptr_t>(p) % alignof(std::uint32_t)) != 0U) {
     return false;
   }
@@ -87,6 +92,7 @@ void Platform::cycle() noexcept {
   if (!started_) {
     return;
   }
+  cycled_ = true;
   if (roms_ > 0U) {
     const Rom& r = rom_[rom_region_];
     const std::size_t n = (r.n - rom_offset_ < kRomSliceBytes) ? (r.n - rom_offset_) : kRomSliceBytes;

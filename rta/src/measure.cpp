@@ -18,8 +18,7 @@
 #include "safestate/core/arm.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/motion/limits.hpp"
-#include "safestate/sim/cell.hpp"
-#include "safestate/sim/plant.hpp"
+#include "safestate/backends/simulated.hpp"
 
 namespace safestate::rta {
 

@@ -12,7 +12,7 @@
 #include "safestate/core/collision.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/motion/robot.hpp"
-#include "safestate/sim/plant.hpp"
+#include "safestate/backends/simulated.hpp"
 
 namespace safestate::rta {
 

@@ -61,58 +61,38 @@ void apply_contacts(const bridge::CommandRecord& rec, core::RawInputs& r) noexce
 }
 
 // @req COL-SIM-PERSON
-// A `sim` person record (bridge::PersonRecord), all or nothing: tried first on a copy of
-// the person (the cell's own checks, no heap), applied only when every part passes. The
-// gateway has checked the values already; the runtime does not trust it.
-bridge::SimResult apply_person(const bridge::PersonRecord& p, sim::Cell& cell) noexcept {
-  static_assert(bridge::kPersonPoints == sim::kPersonMaxWaypoints);
+// A `sim` person record (bridge::PersonRecord) as the world's all-or-nothing change. The
+// gateway has checked the values already; the world does not trust it.
+bridge::SimResult apply_person(const bridge::PersonRecord& p, vocab::World& world) noexcept {
+  static_assert(bridge::kPersonPoints == vocab::kPersonMaxWaypoints);
   constexpr unsigned kAll = bridge::kPersonFields | bridge::kPersonAt | bridge::kPersonWalk | bridge::kPersonStand |
                            bridge::kPersonLeave;
-  const bool fields = (p.what & bridge::kPersonFields) != 0U;
-  const bool at = (p.what & bridge::kPersonAt) != 0U;
-  const bool walk = (p.what & bridge::kPersonWalk) != 0U;
-  const bool stand = p.what == bridge::kPersonStand;
-  const bool leave = p.what == bridge::kPersonLeave;
-  if (p.what == 0U || (static_cast<unsigned>(p.what) & ~kAll) != 0U ||
-      ((p.what & (bridge::kPersonStand | bridge::kPersonLeave)) != 0U && !stand && !leave)) {
-    return bridge::SimResult::person_invalid;  // nothing, an unknown bit, or stand/leave with more
+  if ((static_cast<unsigned>(p.what) & ~kAll) != 0U ||
+      ((p.what & (bridge::kPersonStand | bridge::kPersonLeave)) != 0U && p.what != bridge::kPersonStand &&
+       p.what != bridge::kPersonLeave)) {
+    return bridge::SimResult::person_invalid;  // an unknown bit, or stand/leave with more
   }
-  if ((walk || stand || leave) && !at && !cell.person().present()) {
-    return bridge::SimResult::person_absent;  // nobody to do it (as the scenario's `person` keys)
+  vocab::PersonCommand c{};
+  c.fields = (p.what & bridge::kPersonFields) != 0U;
+  c.outer_mm = p.fields_outer_mm;
+  c.inner_mm = p.fields_inner_mm;
+  c.at = (p.what & bridge::kPersonAt) != 0U;
+  c.x_mm = p.x_mm;
+  c.y_mm = p.y_mm;
+  c.radius_mm = p.radius_mm;
+  c.walk = (p.what & bridge::kPersonWalk) != 0U;
+  c.points = p.points;
+  for (std::size_t i = 0; i < c.path.size(); ++i) {
+    c.path[i] = vocab::PersonWaypoint{p.path[i].x_mm, p.path[i].y_mm, p.path[i].speed_mm_s, p.path[i].stand_ms};
   }
-  sim::PersonSensors sensors = cell.person_sensors();
-  if (fields) {
-    sensors.outer_mm = p.fields_outer_mm;
-    sensors.inner_mm = p.fields_inner_mm;
-    if (!sim::valid(sensors)) {
-      return bridge::SimResult::person_invalid;
-    }
+  c.stand = p.what == bridge::kPersonStand;
+  c.leave = p.what == bridge::kPersonLeave;
+  switch (world.person(c)) {
+    case vocab::PersonResult::ok: return bridge::SimResult::ok;
+    case vocab::PersonResult::absent: return bridge::SimResult::person_absent;
+    case vocab::PersonResult::invalid: break;
   }
-  std::array<sim::PersonWaypoint, sim::kPersonMaxWaypoints> path{};
-  for (std::size_t i = 0; i < path.size(); ++i) {
-    path[i] = sim::PersonWaypoint{p.path[i].x_mm, p.path[i].y_mm, p.path[i].speed_mm_s, p.path[i].stand_ms};
-  }
-  sim::Person trial = cell.person();
-  if ((at && !trial.place(p.x_mm, p.y_mm, p.radius_mm)) || (walk && !trial.walk(path.data(), p.points))) {
-    return bridge::SimResult::person_invalid;
-  }
-  // Every part passed on the copy: the same on the cell, in the record's order.
-  if (fields) {
-    static_cast<void>(cell.configure_person_sensors(sensors));
-  }
-  if (at) {
-    static_cast<void>(cell.add_person(p.x_mm, p.y_mm, p.radius_mm));
-  }
-  if (walk) {
-    static_cast<void>(cell.set_person_path(path.data(), p.points));
-  }
-  if (stand) {
-    cell.person_stand();
-  }
-  if (leave) {
-    cell.remove_person();
-  }
-  return bridge::SimResult::ok;
+  return bridge::SimResult::person_invalid;
 }
 
 }  // namespace
@@ -132,7 +112,7 @@ void Publisher::reply(const bridge::ReplyRecord& r) noexcept {
 
 void Publisher::publish() noexcept {
   const core::SupervisorOut& o = cell_.out();
-  const sim::CellView& v = cell_.view();
+  const controller::CellView& v = cell_.view();
   const core::AlarmSet& alarms = cell_.alarms();
   const std::uint64_t t = cell_.now() - 1U;  // the cycle just run
 
@@ -233,8 +213,8 @@ void Publisher::publish() noexcept {
   s.safety = o.safety;
   // @req COL-SIM-PERSON
   s.person_shown = person_;
-  if (person_) {
-    const sim::PersonView& pv = v.person;
+  if (person_ && world_ != nullptr) {
+    const vocab::PersonView& pv = world_->person_view();
     s.person_present = pv.present;
     s.person_walking = pv.walking;
     s.person_in_outer = pv.outer_interrupted;
@@ -272,60 +252,60 @@ void Publisher::publish() noexcept {
   seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
 }
 
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
-                 SimForward* forward) noexcept {
+void take_record(const bridge::CommandRecord& rec, controller::Cell& cell, vocab::World* world, Publisher& pub,
+                 std::uint64_t t, SimForward* forward) noexcept {
   bridge::ReplyRecord r{};
   r.seq = rec.seq;
   r.kind = rec.kind;
   r.t = t;
-  switch (rec.kind) {
-    case bridge::RecordKind::command: {
-      core::Command c = rec.command;
-      c.seq = rec.seq;
-      if (cell.submit(c) == core::Result::QUEUE_FULL) {
-        r.cmd = c.id;
-        r.source = c.source;
-        r.result = core::Result::QUEUE_FULL;
-        pub.reply(r);
-      }
-      return;  // otherwise the core answers in the cycle that takes it
-    }
-    case bridge::RecordKind::sim_set:
-    case bridge::RecordKind::sim_fault:
-      if (forward != nullptr) {
-        r.sim = forward->push(rec) ? bridge::SimResult::ok : bridge::SimResult::not_simulated;
-        pub.reply(r);
-        return;
-      }
-      break;
-    case bridge::RecordKind::sim_person:
-      // The person of an emulated segment is ecat-sim's, moved by its control socket's
-      // `person` lines; a `sim` person record is not forwarded there (the forwarding is
-      // asynchronous: a walk the emulator refused could not be answered): refused, never dropped.
-      r.sim = (forward != nullptr) ? bridge::SimResult::person_not_on_bus : apply_person(rec.person, cell);
+  if (rec.kind == bridge::RecordKind::command) {
+    core::Command c = rec.command;
+    c.seq = rec.seq;
+    if (cell.submit(c) == core::Result::QUEUE_FULL) {
+      r.cmd = c.id;
+      r.source = c.source;
+      r.result = core::Result::QUEUE_FULL;
       pub.reply(r);
-      return;
+    }
+    return;  // otherwise the core answers in the cycle that takes it
   }
-  switch (rec.kind) {
-    case bridge::RecordKind::command:
-    case bridge::RecordKind::sim_person: return;
-    case bridge::RecordKind::sim_set:
-      apply_contacts(rec, cell.inputs());
-      break;
-    case bridge::RecordKind::sim_fault:
-      // The gateway has checked the fault; the runtime does not trust it (vocab::injectable).
-      if (vocab::injectable(static_cast<vocab::FaultKind>(rec.fault_kind), vocab::FaultSource::network)) {
-        cell.inject(sim::Fault{static_cast<sim::FaultKind>(rec.fault_kind), rec.fault_axis, rec.fault_value});
-      }
-      break;
+  if (forward != nullptr) {
+    // The person of an emulated segment is ecat-sim's, moved by its control socket's
+    // `person` lines; a `sim` person record is not forwarded there (the forwarding is
+    // asynchronous: a walk the emulator refused could not be answered): refused, never dropped.
+    if (rec.kind == bridge::RecordKind::sim_person) {
+      r.sim = bridge::SimResult::person_not_on_bus;
+    } else {
+      r.sim = forward->push(rec) ? bridge::SimResult::ok : bridge::SimResult::not_simulated;
+    }
+    pub.reply(r);
+    return;
+  }
+  if (world == nullptr) {
+    r.sim = bridge::SimResult::not_simulated;
+    pub.reply(r);
+    return;
   }
   r.sim = bridge::SimResult::ok;
+  switch (rec.kind) {
+    case bridge::RecordKind::command: return;
+    case bridge::RecordKind::sim_set: apply_contacts(rec, world->inputs()); break;
+    case bridge::RecordKind::sim_fault: {
+      // The gateway has checked the fault; the runtime does not trust it (vocab::injectable).
+      const vocab::Fault f{static_cast<vocab::FaultKind>(rec.fault_kind), rec.fault_axis, rec.fault_value};
+      if (vocab::injectable(f.kind, vocab::FaultSource::network)) {
+        world->inject(f);
+      }
+      break;
+    }
+    case bridge::RecordKind::sim_person: r.sim = apply_person(rec.person, *world); break;
+  }
   pub.reply(r);
 }
 
 // ------------------------------------------------------------------ RtLoop
-RtLoop::RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept
-    : seg_(seg), cell_(cell), opt_(opt), pub_(seg, cell, opt.simulated, opt.sim_forward == nullptr) {}
+RtLoop::RtLoop(bridge::Segment& seg, controller::Cell& cell, vocab::World* world, const RtOptions& opt) noexcept
+    : seg_(seg), cell_(cell), world_(world), opt_(opt), pub_(seg, cell, world, opt.simulated) {}
 
 RtLoop::~RtLoop() {
   if (dma_latency_fd_ >= 0) {
@@ -375,7 +355,7 @@ void RtLoop::setup() {
 void RtLoop::one_cycle() noexcept {
   bridge::CommandRecord rec{};
   for (std::uint32_t k = 0; k < opt_.max_records_per_cycle && seg_.commands().pop(rec); ++k) {
-    take_record(rec, cell_, pub_, cell_.now(), opt_.sim_forward);
+    take_record(rec, cell_, world_, pub_, cell_.now(), opt_.sim_forward);
   }
   seg_.metrics().command_queue_depth.store(static_cast<std::uint32_t>(seg_.commands().size()),
                                            std::memory_order_relaxed);
@@ -409,7 +389,9 @@ void RtLoop::run(const std::atomic<bool>& stop, std::uint64_t shutdown_cycles) {
     // A stall longer than the fieldbus watchdog: real EtherCAT drives would have seen
     // their process data stop; so do the simulated ones, and the core locks out.
     if (last_start != 0U && (start - last_start) > watchdog) {
-      cell_.inject(sim::Fault{sim::FaultKind::fieldbus_lost, 0});
+      if (world_ != nullptr) {
+        world_->host_stalled();
+      }
       m.watchdog_trips.fetch_add(1, std::memory_order_relaxed);
     }
     last_start = start;

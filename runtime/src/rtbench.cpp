@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "safestate/backends/factory.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/util/percentile.hpp"
 
@@ -63,8 +64,12 @@ int rtbench_main(const RtBenchOptions& opt) {
     std::fprintf(stderr, "safestate rtbench: %s\n", error.c_str());
     return 1;
   }
-  sim::Cell cell(cfg);
-  RtLoop loop(*seg, cell, opt.rt);
+  std::unique_ptr<backends::Host> host = backends::make_host(cfg, backends::Choice{}, error);  // the simulated cell
+  if (!host) {
+    std::fprintf(stderr, "safestate rtbench: %s\n", error.c_str());
+    return 1;
+  }
+  RtLoop loop(*seg, host->cell(), host->world(), opt.rt);
   const std::size_t cycles = static_cast<std::size_t>(opt.seconds) * 1000000U / opt.rt.cycle_us;
   std::vector<std::uint32_t> log(cycles + 10000U, 0U);  // allocated (and touched) before the loop starts
   loop.log_lateness(log);

@@ -1,3 +1,4 @@
+#include <link.h>
 #include <pthread.h>
 #include <sched.h>
 #include <signal.h>
@@ -21,6 +22,7 @@
 #include "safestate/robot/description.hpp"
 #include "safestate/gateway/event_log.hpp"
 #include "safestate/hal/ethercat.hpp"
+#include "safestate/backends/factory.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/safety/safety_config.hpp"
 
@@ -359,6 +361,30 @@ void publish_bus(const hal::ethercat::Backend& bus, const hal::ethercat::BusConf
   info.count = static_cast<std::uint32_t>(n);
 }
 
+// This program's code (its executable PT_LOAD segment, read-only and executable) for the
+// platform's check of invariable memory: found once at start-up with dl_iterate_phdr.
+struct CodeRegion {
+  const void* p = nullptr;
+  std::size_t n = 0;
+};
+CodeRegion own_code() {
+  CodeRegion r;
+  dl_iterate_phdr(
+      [](dl_phdr_info* info, std::size_t, void* data) -> int {
+        auto* out = static_cast<CodeRegion*>(data);
+        for (int i = 0; i < info->dlpi_phnum; ++i) {
+          const ElfW(Phdr)& ph = info->dlpi_phdr[i];
+          if (ph.p_type == PT_LOAD && (ph.p_flags & PF_X) != 0U && (ph.p_flags & PF_W) == 0U && ph.p_memsz > out->n) {
+            out->p = reinterpret_cast<const void*>(info->dlpi_addr + ph.p_vaddr);
+            out->n = ph.p_memsz;
+          }
+        }
+        return 1;  // the first object is the program itself
+      },
+      &r);
+  return r;
+}
+
 // SPEC §10 at start-up: the configuration (a file, or the built-in one), and whether the
 // event log holds the operator's confirmation of its checksum. Nothing partial: any error
 // in the file and nothing starts.
@@ -524,25 +550,25 @@ int run_main(const RunOptions& opt) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  // --fieldbus ethercat: the cell's controller runs on the EtherCAT backend; BOOT is what
-  // decides whether the bus is right (a wrong or missing subdevice is BOOT_FAILED).
-  std::unique_ptr<hal::ethercat::Backend> bus;
+  // The backend factory chooses what the controller runs on: the simulated cell here, or
+  // --fieldbus ethercat: the controller directly on the EtherCAT backend (no simulator in
+  // this process); BOOT is what decides whether the bus is right (a wrong or missing
+  // subdevice is BOOT_FAILED).
   RtOptions rt = opt.rt;
-  if (opt.fieldbus == "ethercat") {
-    hal::ethercat::BusConfig bc;
-    std::string err;
-    const bool ok = opt.bus_config.empty() ? hal::ethercat::parse_bus_config(hal::ethercat::default_bus_config(), bc, err)
-                                           : hal::ethercat::load_bus_config(opt.bus_config, bc, err);
-    if (!ok) {
-      std::fprintf(stderr, "safestate run: bus configuration: %s\n", err.c_str());
-      return 2;
-    }
+  backends::Choice choice;
+  choice.fieldbus = opt.fieldbus;
+  choice.ifname = opt.ifname;
+  choice.bus_config = opt.bus_config;
+  choice.watchdog_ms = opt.rt.watchdog_ms;
+  std::unique_ptr<backends::Host> host = backends::make_host(cfg, choice, error);
+  if (!host) {
+    std::fprintf(stderr, "safestate run: %s\n", error.c_str());
+    return 2;
+  }
+  hal::ethercat::Backend* const bus = host->ethercat();
+  if (bus != nullptr) {
+    const hal::ethercat::BusConfig& bc = *host->bus_config();
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());
-    // One exchange never holds the loop past its cycle: a frame not back 150 us before the
-    // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
-    const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(opt.rt.cycle_us);
-    bus = std::make_unique<hal::ethercat::Backend>(bc, opt.ifname, opt.rt.cycle_us, budget_us,
-                                                   std::uint64_t{opt.rt.watchdog_ms} * 1000000ULL);
     std::fprintf(stderr,
                  "safestate run: EtherCAT exchange timeout %u us, the bus is lost after %u stale cycles in a row; "
                  "process-data watchdog %u cycles (0x0400 = %u, 0x0420 = %u)\n",
@@ -559,13 +585,24 @@ int run_main(const RunOptions& opt) {
     }
     publish_bus(*bus, bc, seg->header().bus);
     rt.simulated = !opt.ecat_sim_control.empty();
-  } else if (opt.fieldbus != "sim") {
-    std::fprintf(stderr, "safestate run: --fieldbus must be sim or ethercat\n");
-    return 2;
   }
-  sim::Cell cell(cfg, bus.get());
+  controller::Cell& cell = host->cell();
+  // The platform's checks (controller/platform.hpp) cover this program's code too: a CRC of
+  // its text, 64 bytes a cycle beside the core's tables, after a reference taken now.
+  const CodeRegion code = own_code();
+  if (code.p == nullptr || !cell.platform().add_rom(code.p, code.n)) {
+    std::fprintf(stderr, "safestate run: warning: this program's code is not under the platform's CRC check\n");
+  }
+  std::fprintf(stderr,
+               "safestate run: platform checks: CRC-32 of %zu KiB (the core's tables, this program's code; a pass every "
+               "%.0f s), pattern test of %zu words of the controller's state (a pass every %.2f s), start-up self-test %s\n",
+               cell.platform().rom_bytes() / 1024U,
+               static_cast<double>(cell.platform().rom_bytes()) / controller::Platform::kRomSliceBytes * opt.rt.cycle_us * 1e-6,
+               cell.platform().ram_words(),
+               static_cast<double>(cell.platform().ram_words()) / controller::Platform::kRamSliceWords * opt.rt.cycle_us * 1e-6,
+               cell.platform().self_test_ok() ? "passed" : "FAILED (BOOT_FAILED follows)");
   // Before the first cycle, on the simulated cell and on EtherCAT alike.
-  cell.configure_limits(safety.config.limits, safety.validated);
+  host->configure_limits(safety.config.limits, safety.validated);
   cell.configure_brake_test(brake_test_history(opt));
   publish_safety(safety, seg->header().safety);
   // The HMI's sim panel on an emulated segment: records to ecat-sim's control socket.
@@ -576,7 +613,7 @@ int run_main(const RunOptions& opt) {
     rt.sim_forward = &forward;
     forwarder = std::thread([&] { forward_sim(forward, opt.ecat_sim_control, forwarding); });
   }
-  RtLoop loop(*seg, cell, rt);
+  RtLoop loop(*seg, cell, host->world(), rt);
   std::atomic<bool> stop{false};
   std::atomic<bool> ready{false};
   std::thread rt_thread([&] {

@@ -70,7 +70,7 @@ struct Cell::Impl final : hal::Backend {
 
 Cell::Cell(const core::Config& cfg, hal::Backend* bus) : impl_(std::make_unique<Impl>(cfg, bus)) {}
 Cell::~Cell() = default;
-Cell::Cell(const Cell& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+Cell::Cell(const Cell& other) : vocab::World(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
 
 core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
 void Cell::inject(const Fault& f) noexcept {
@@ -91,6 +91,7 @@ void Cell::inject(const Fault& f) noexcept {
 core::Result Cell::submit(const core::Command& c) noexcept { return impl_->core.submit(c); }
 
 bool Cell::jog_link_up() const noexcept { return impl_->jog_link_up; }
+std::uint64_t Cell::injected() const noexcept { return impl_->plant.injected(); }
 
 void Cell::step() noexcept {
   Impl& s = *impl_;
@@ -108,6 +109,41 @@ void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payl
 
 void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
   impl_->core.load_program(points, count);
+}
+
+// @req COL-SIM-PERSON
+vocab::PersonResult Cell::person(const vocab::PersonCommand& c) noexcept {
+  const int alone = (c.stand ? 1 : 0) + (c.leave ? 1 : 0);
+  if ((!c.fields && !c.at && !c.walk && alone == 0) || (alone > 0 && (c.fields || c.at || c.walk || alone > 1)) ||
+      c.points > kPersonMaxWaypoints) {
+    return vocab::PersonResult::invalid;  // nothing, or stand/leave with more
+  }
+  Impl& s = *impl_;
+  if ((c.walk || c.stand || c.leave) && !c.at && !s.person.present()) {
+    return vocab::PersonResult::absent;  // nobody to do it (as the scenario's `person` keys)
+  }
+  PersonSensors sensors = s.person_sensors;
+  if (c.fields) {
+    sensors.outer_mm = c.outer_mm;
+    sensors.inner_mm = c.inner_mm;
+    if (!valid(sensors)) {
+      return vocab::PersonResult::invalid;
+    }
+  }
+  Person trial = s.person;
+  if ((c.at && !trial.place(c.x_mm, c.y_mm, c.radius_mm)) || (c.walk && !trial.walk(c.path.data(), c.points))) {
+    return vocab::PersonResult::invalid;
+  }
+  // Every part passed on the copy: the same on the cell, in the command's order.
+  s.person_sensors = sensors;
+  if (c.stand) {
+    s.person.stand();
+  } else if (c.leave) {
+    s.person.leave();
+  } else {
+    s.person = trial;
+  }
+  return vocab::PersonResult::ok;
 }
 
 bool Cell::add_person(float x_mm, float y_mm, float radius_mm) noexcept {

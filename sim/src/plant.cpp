@@ -315,4 +315,6 @@ void SimPlant::contact(const JointVec& q) noexcept {
   }
 }
 
+motion::Joints home_pose() noexcept { return {0.0F, 0.0F, 0.0F, 0.0F, 0.5F, 0.0F}; }
+
 }  // namespace safestate::sim

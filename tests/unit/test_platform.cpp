@@ -4,6 +4,7 @@
 // controller on a backend (controller/cell.hpp) ANDs them into what the supervisor reads.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 
@@ -37,14 +38,16 @@ TEST(Platform, AHealthyMemoryPassesAndKeepsEveryValue) {
   EXPECT_FALSE(p.self_test_ok()) << "not before the start-up self-test";
   p.start();
   EXPECT_TRUE(p.self_test_ok());
-  for (int k = 0; k < 100; ++k) {
+  const std::size_t rom_cycles = (rom.size() + Platform::kRomSliceBytes - 1) / Platform::kRomSliceBytes;
+  const std::size_t ram_cycles = (ram.size() + Platform::kRamSliceWords - 1) / Platform::kRamSliceWords;
+  for (std::size_t k = 0; k < 3 * std::max(rom_cycles, ram_cycles); ++k) {
     p.cycle();
   }
   EXPECT_TRUE(p.integrity_ok());
-  EXPECT_GE(p.rom_passes(), 10U);
-  EXPECT_GE(p.ram_passes(), 5U);
+  EXPECT_GE(p.rom_passes(), 3U);
+  EXPECT_GE(p.ram_passes(), 3U);
   EXPECT_EQ(ram, before) << "the pattern test restores every word";
-  EXPECT_FALSE(p.add_rom(rom.data(), 1)) << "no region after the start";
+  EXPECT_FALSE(p.add_rom(rom.data(), 1)) << "no region once the background tests run";
 }
 
 TEST(Platform, AChangedConstantIsFoundWithinOnePass) {

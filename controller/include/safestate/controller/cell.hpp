@@ -102,4 +102,7 @@ class Cell {
   CellView view_{};
 };
 
+// The demo program: one pick-and-place round over three stations (ABB IRB 120 joints).
+const motion::Waypoint* demo_program(std::uint8_t& count) noexcept;
+
 }  // namespace safestate::controller

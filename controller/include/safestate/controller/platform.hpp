@@ -4,7 +4,7 @@
 // kind, in software:
 //   - invariable memory (A.4): a CRC-32 of every registered constant region (the core's
 //     tables; on a target also its code), taken once at start-up as the reference and then
-//     recomputed in slices, a few hundred bytes per cycle; a pass that differs is an
+//     recomputed in slices, 64 bytes per cycle; a pass that differs is an
 //     integrity fault, latched (the memory does not heal).
 //   - variable memory (A.5): a non-destructive pattern test of every registered state area
 //     (the supervisor's own object): a few words per cycle, each saved, written with
@@ -38,11 +38,11 @@ class Platform {
   explicit Platform(WordTest word_test = &ram_word_ok) noexcept : word_test_(word_test) {}
 
   static constexpr std::size_t kMaxRegions = 8;
-  static constexpr std::size_t kRomSliceBytes = 512;  // per cycle
-  static constexpr std::size_t kRamSliceWords = 8;     // per cycle
+  static constexpr std::size_t kRomSliceBytes = 64;  // per cycle (the core's tables: ~60 cycles a pass)
+  static constexpr std::size_t kRamSliceWords = 8;   // per cycle (the controller: ~320 cycles a pass)
 
-  // At start-up, before start(): false when the table is full, the region empty or misaligned
-  // (RAM: 4-byte words).
+  // At start-up, before the first cycle(): false when the table is full, the region empty or
+  // misaligned (RAM: 4-byte words). A ROM region added after start() gets its reference then.
   bool add_rom(const void* p, std::size_t n) noexcept;
   bool add_ram(void* p, std::size_t n) noexcept;
   // After a copy of the object holding the RAM regions: regions inside [from, from + n) move
@@ -87,6 +87,7 @@ class Platform {
   std::uint32_t rom_passes_ = 0;
   std::uint32_t ram_passes_ = 0;
   bool started_ = false;
+  bool cycled_ = false;
   bool integrity_ok_ = true;
   bool self_test_ok_ = false;  // until start() says otherwise
 };

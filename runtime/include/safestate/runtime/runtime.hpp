@@ -13,7 +13,9 @@
 #include <vector>
 
 #include "safestate/bridge/segment.hpp"
-#include "safestate/sim/cell.hpp"
+#include "safestate/controller/cell.hpp"
+#include "safestate/core/config.hpp"
+#include "safestate/vocab/world.hpp"
 
 namespace safestate::runtime {
 
@@ -49,34 +51,38 @@ struct RtOptions {
   std::atomic<std::int64_t>* cycle_adjust_ns = nullptr;
 };
 
-// Copies one cycle of the cell into the bridge. Fixed work, no allocation.
+// Copies one cycle of the controller into the bridge. Fixed work, no allocation.
 class Publisher {
  public:
-  // `person`: the cell's own plant is the world (no emulated segment behind it), so the
-  // status shows the simulated person (only when also `simulated`).
-  Publisher(bridge::Segment& seg, const sim::Cell& cell, bool simulated = true, bool person = true) noexcept
-      : seg_(seg), cell_(cell), simulated_(simulated), person_(simulated && person) {}
+  // `world`: the in-process simulated world, or null (a segment). The status shows the
+  // simulated person when there is a world and the cell is `simulated`.
+  Publisher(bridge::Segment& seg, const controller::Cell& cell, const vocab::World* world, bool simulated = true) noexcept
+      : seg_(seg), cell_(cell), world_(world), simulated_(simulated), person_(simulated && world != nullptr) {}
   void publish() noexcept;                         // after cell.step()
   void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
 
  private:
   void event(const bridge::EventRecord& e) noexcept;
   bridge::Segment& seg_;
-  const sim::Cell& cell_;
+  const controller::Cell& cell_;
+  const vocab::World* world_;
   bool simulated_;
   bool person_;
 };
 
-// Applies one record from the gateway to the cell; answers sim records and refused
-// commands at once (commands are otherwise answered by the core). A person record is
-// applied all or nothing; with `forward` (an emulated segment) it is refused
-// (person_not_on_bus).
-void take_record(const bridge::CommandRecord& rec, sim::Cell& cell, Publisher& pub, std::uint64_t t,
-                 SimForward* forward = nullptr) noexcept;
+// Applies one record from the gateway: a command to the controller's queue; a sim record to
+// the in-process world, or with `forward` (an emulated segment) to the emulator's control
+// socket; answers sim records and refused commands at once (commands are otherwise answered
+// by the core). A person record is applied all or nothing; with `forward` it is refused
+// (person_not_on_bus); with neither world nor forward every sim record is NOT_SIMULATED.
+void take_record(const bridge::CommandRecord& rec, controller::Cell& cell, vocab::World* world, Publisher& pub,
+                 std::uint64_t t, SimForward* forward = nullptr) noexcept;
 
 class RtLoop {
  public:
-  RtLoop(bridge::Segment& seg, sim::Cell& cell, const RtOptions& opt) noexcept;
+  // The controller on its backend and, for the in-process simulated cell, its world (null on
+  // a segment): both from the backend factory (backends/factory.hpp).
+  RtLoop(bridge::Segment& seg, controller::Cell& cell, vocab::World* world, const RtOptions& opt) noexcept;
   ~RtLoop();
   RtLoop(const RtLoop&) = delete;
   RtLoop& operator=(const RtLoop&) = delete;
@@ -93,7 +99,8 @@ class RtLoop {
  private:
   void one_cycle() noexcept;
   bridge::Segment& seg_;
-  sim::Cell& cell_;
+  controller::Cell& cell_;
+  vocab::World* world_;
   RtOptions opt_;
   Publisher pub_;
   std::string report_;

@@ -18,6 +18,7 @@
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/sim/person.hpp"
 #include "safestate/vocab/faults.hpp"
+#include "safestate/vocab/world.hpp"
 
 namespace safestate::sim {
 
@@ -34,13 +35,13 @@ struct CellView : controller::CellView {
   PersonView person{};
 };
 
-class Cell {
+class Cell final : public vocab::World {
  public:
   // `cfg` must have passed core::validate(). With `bus`, the controller runs on that HAL
   // backend (a real fieldbus) instead of the simulated plant; inputs() and inject() then
   // act on the unused plant only. `bus` must outlive the cell.
   explicit Cell(const core::Config& cfg, hal::Backend* bus = nullptr);
-  ~Cell();
+  ~Cell() override;
   // A deep copy: the exhaustive checker forks the whole cell to explore alternatives.
   Cell(const Cell& other);
   Cell& operator=(const Cell&) = delete;
@@ -57,7 +58,7 @@ class Cell {
   void load_program(const motion::Waypoint* points, std::uint8_t count) noexcept;
 
   // The physical contacts of SPEC §2; change them between cycles.
-  core::RawInputs& inputs() noexcept;
+  core::RawInputs& inputs() noexcept override;
 
   // SPEC §11, the simulated person (sim/person.hpp). While a person is in the cell, the
   // simulated scanner and distance sensor set the fields (all four channels) and the
@@ -74,7 +75,13 @@ class Cell {
   bool configure_person_sensors(const PersonSensors& s) noexcept;
   [[nodiscard]] const PersonSensors& person_sensors() const noexcept;
   [[nodiscard]] const Person& person() const noexcept;
-  void inject(const Fault& f) noexcept;
+  void inject(const Fault& f) noexcept override;
+  // vocab::World: a person change all or nothing (tried on a copy of the person first), a
+  // host stall (the drives' fieldbus lost), what the world shows.
+  vocab::PersonResult person(const vocab::PersonCommand& c) noexcept override;
+  void host_stalled() noexcept override { inject(Fault{FaultKind::fieldbus_lost, 0, 0}); }
+  [[nodiscard]] const PersonView& person_view() const noexcept override { return view().person; }
+  [[nodiscard]] std::uint64_t injected() const noexcept override;
   // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
   core::Result submit(const core::Command& c) noexcept;
   // False after `jog_link drop` until `clear all`: the pendant's `jog` commands are lost

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "safestate/core/cia402.hpp"
+#include "safestate/controller/cell.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/motion/robot.hpp"
@@ -177,7 +178,7 @@ class SimPlant final : public hal::Backend {
 };
 
 // The demo program of the simulated cell: a pick-and-place round of joint waypoints.
-const motion::Waypoint* demo_program(std::uint8_t& count) noexcept;
+using controller::demo_program;  // controller/cell.hpp
 // Where the simulated arm stands at power-up.
 motion::Joints home_pose() noexcept;
 

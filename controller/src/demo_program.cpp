@@ -1,9 +1,10 @@
-// The demo program of the simulated cell: one pick-and-place round over three stations
+// The demo program the cell runs (the simulated one and ecat-sim's alike; an integrator's
+// own program is loaded with Cell::load_program): one pick-and-place round over three stations
 // of the ABB IRB 120, about 7 s at 100 % override. Joint positions in rad.
 // @req SIM-PROGRAM
-#include "safestate/sim/plant.hpp"
+#include "safestate/controller/cell.hpp"
 
-namespace safestate::sim {
+namespace safestate::controller {
 
 namespace {
 // clang-format off
@@ -28,6 +29,4 @@ const motion::Waypoint* demo_program(std::uint8_t& count) noexcept {
   return kDemo.data();
 }
 
-motion::Joints home_pose() noexcept { return {0.0F, 0.0F, 0.0F, 0.0F, 0.5F, 0.0F}; }
-
-}  // namespace safestate::sim
+}  // namespace safestate::controller
