@@ -14,39 +14,16 @@
 
 #include "safestate/core/types.hpp"
 #include "safestate/scenario/scenario.hpp"
+#include "safestate/vocab/tokens.hpp"
 
 namespace safestate::scenario::util {
 
-// An empty string: no problem. Otherwise what is wrong with the line.
-using Problem = std::string;
-
-using Tokens = std::vector<std::string_view>;
-
-inline std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
-
-// Whole-token decimal numbers: no sign for unsigned types, nothing left over.
-template <typename T>
-bool to_number(std::string_view s, T& out) noexcept {
-  if (s.empty()) {
-    return false;
-  }
-  T v{};
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec != std::errc{} || end != s.data() + s.size()) {
-    return false;
-  }
-  out = v;
-  return true;
-}
-
-inline bool to_real(std::string_view s, double& out) noexcept {
-  double v = 0.0;
-  if (!to_number(s, v) || !std::isfinite(v)) {
-    return false;
-  }
-  out = v;
-  return true;
-}
+// The token helpers are the vocabulary's (vocab/tokens.hpp): one definition.
+using vocab::Problem;
+using vocab::quoted;
+using vocab::to_number;
+using vocab::to_real;
+using vocab::Tokens;
 
 // `<=X`, `>=X`, `<X`, `>X` (`rest` starts at the operator): the comparison into `cmp` and
 // `number` the text after it. False when `rest` starts with none of them.
@@ -74,23 +51,7 @@ bool lookup(std::string_view s, bool (*parse_fn)(const char*, E&) noexcept, E& o
   return parse_fn(buf.data(), out);
 }
 
-inline bool split_pair(std::string_view tok, std::string_view& key, std::string_view& value) noexcept {
-  const std::size_t eq = tok.find('=');
-  if (eq == std::string_view::npos || eq == 0) {
-    return false;
-  }
-  key = tok.substr(0, eq);
-  value = tok.substr(eq + 1);
-  return true;
-}
-
-inline bool axis_1_to_6(std::string_view s, std::uint8_t& axis) noexcept {
-  std::uint8_t v = 0;
-  if (!to_number(s, v) || v < 1 || v > core::kAxes) {
-    return false;
-  }
-  axis = v;
-  return true;
-}
+using vocab::axis_1_to_6;
+using vocab::split_pair;
 
 }  // namespace safestate::scenario::util

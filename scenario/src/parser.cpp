@@ -75,26 +75,6 @@ using util::to_number;
 using util::to_real;
 using util::Tokens;
 
-bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-Tokens split(std::string_view s) {
-  Tokens out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && is_space(s[i])) {
-      ++i;
-    }
-    const std::size_t start = i;
-    while (i < s.size() && !is_space(s[i])) {
-      ++i;
-    }
-    if (i > start) {
-      out.push_back(s.substr(start, i - start));
-    }
-  }
-  return out;
-}
-
 std::string_view strip_comment(std::string_view s) noexcept {
   const std::size_t hash = s.find('#');
   return (hash == std::string_view::npos) ? s : s.substr(0, hash);
@@ -638,7 +618,7 @@ class Parser {
   }
 
   void line(std::size_t number, std::string_view raw) {
-    const Tokens tokens = split(strip_comment(raw));
+    const Tokens tokens = vocab::split_words(strip_comment(raw));
     if (tokens.empty()) {
       return;
     }
