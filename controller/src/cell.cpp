@@ -6,10 +6,16 @@
 
 namespace safestate::controller {
 
+namespace {
+constexpr std::uint32_t kIntegrityPeriodMs = 1000;
+}  // namespace
+
 Cell::Cell(const core::Config& cfg, const motion::RobotModel& model, hal::Backend& io) noexcept
     : cfg_(cfg), io_(&io), controller_(cfg, model) {
   register_platform();
   platform_.start();
+  // SPEC §14 `integrity_period_ms` (1000 ms until the safety configuration carries it).
+  platform_.set_period(kIntegrityPeriodMs * 1000U / cfg.cycle_us);
 }
 
 Cell::Cell(const Cell& other, hal::Backend& io) noexcept

@@ -588,18 +588,18 @@ int run_main(const RunOptions& opt) {
   }
   controller::Cell& cell = host->cell();
   // The platform's checks (controller/platform.hpp) cover this program's code too: a CRC of
-  // its text, 64 bytes a cycle beside the core's tables, after a reference taken now.
+  // its text beside the core's tables, all within the integrity period (SPEC §14), after a
+  // reference taken now.
   const CodeRegion code = own_code();
   if (code.p == nullptr || !cell.platform().add_rom(code.p, code.n)) {
     std::fprintf(stderr, "safestate run: warning: this program's code is not under the platform's CRC check\n");
   }
   std::fprintf(stderr,
-               "safestate run: platform checks: CRC-32 of %zu KiB (the core's tables, this program's code; a pass every "
-               "%.0f s), pattern test of %zu words of the controller's state (a pass every %.2f s), start-up self-test %s\n",
-               cell.platform().rom_bytes() / 1024U,
-               static_cast<double>(cell.platform().rom_bytes()) / controller::Platform::kRomSliceBytes * opt.rt.cycle_us * 1e-6,
-               cell.platform().ram_words(),
-               static_cast<double>(cell.platform().ram_words()) / controller::Platform::kRamSliceWords * opt.rt.cycle_us * 1e-6,
+               "safestate run: platform checks every %.1f s: CRC-32 of %zu KiB (the core's tables, this program's "
+               "code; %zu bytes a cycle), pattern test of %zu words of the controller's state (%zu a cycle), start-up "
+               "self-test %s\n",
+               static_cast<double>(cell.platform().period()) * opt.rt.cycle_us * 1e-6, cell.platform().rom_bytes() / 1024U,
+               cell.platform().rom_slice(), cell.platform().ram_words(), cell.platform().ram_slice(),
                cell.platform().self_test_ok() ? "passed" : "FAILED (BOOT_FAILED follows)");
   // Before the first cycle, on the simulated cell and on EtherCAT alike.
   host->configure_limits(safety.config.limits, safety.validated);

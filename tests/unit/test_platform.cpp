@@ -38,9 +38,10 @@ TEST(Platform, AHealthyMemoryPassesAndKeepsEveryValue) {
   EXPECT_FALSE(p.self_test_ok()) << "not before the start-up self-test";
   p.start();
   EXPECT_TRUE(p.self_test_ok());
-  const std::size_t rom_cycles = (rom.size() + Platform::kRomSliceBytes - 1) / Platform::kRomSliceBytes;
-  const std::size_t ram_cycles = (ram.size() + Platform::kRamSliceWords - 1) / Platform::kRamSliceWords;
-  for (std::size_t k = 0; k < 3 * std::max(rom_cycles, ram_cycles); ++k) {
+  p.set_period(50);  // every region once within 50 cycles
+  EXPECT_EQ(p.rom_slice(), 60U);
+  EXPECT_EQ(p.ram_slice(), 2U);
+  for (std::size_t k = 0; k < 3 * 50; ++k) {
     p.cycle();
   }
   EXPECT_TRUE(p.integrity_ok());
@@ -57,7 +58,8 @@ TEST(Platform, AChangedConstantIsFoundWithinOnePass) {
   p.start();
   p.cycle();
   rom[1999] ^= 0x10U;  // a bit flips after the reference was taken
-  const std::size_t cycles_per_pass = (rom.size() + Platform::kRomSliceBytes - 1) / Platform::kRomSliceBytes;
+  const std::size_t cycles_per_pass = (rom.size() + p.rom_slice() - 1) / p.rom_slice();
+  EXPECT_LE(cycles_per_pass, p.period()) << "within the integrity period";
   for (std::size_t k = 0; k < 2 * cycles_per_pass; ++k) {
     p.cycle();
   }
@@ -96,7 +98,9 @@ TEST(Platform, AWordThatDoesNotHoldAPatternIsFoundWithinOnePass) {
   ASSERT_TRUE(p.add_ram(ram.data(), sizeof ram));
   p.start();
   EXPECT_TRUE(p.self_test_ok()) << "the self-test's own scratch area is healthy";
-  for (std::size_t k = 0; k < 41 / Platform::kRamSliceWords; ++k) {
+  p.set_period(8);  // 64 words in 8 cycles: 8 a cycle
+  ASSERT_EQ(p.ram_slice(), 8U);
+  for (std::size_t k = 0; k < 41 / p.ram_slice(); ++k) {
     p.cycle();
   }
   EXPECT_TRUE(p.integrity_ok()) << "not yet at word 41";

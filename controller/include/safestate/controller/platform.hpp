@@ -4,10 +4,11 @@
 // kind, in software:
 //   - invariable memory (A.4): a CRC-32 of every registered constant region (the core's
 //     tables; on a target also its code), taken once at start-up as the reference and then
-//     recomputed in slices, 64 bytes per cycle; a pass that differs is an
+//     recomputed in slices, all of it within the period (SPEC §14 `integrity_period_ms`,
+//     1000 ms by default); a pass that differs is an
 //     integrity fault, latched (the memory does not heal).
 //   - variable memory (A.5): a non-destructive pattern test of every registered state area
-//     (the supervisor's own object): a few words per cycle, each saved, written with
+//     (the supervisor's own object): all within the same period, each word saved, written with
 //     0x55.../0xAA..., read back, restored; a word that does not read back is an integrity
 //     fault, latched.
 //   - start-up self-test: the CRC's known answer ("123456789" -> CBF43926), the pattern
@@ -38,8 +39,6 @@ class Platform {
   explicit Platform(WordTest word_test = &ram_word_ok) noexcept : word_test_(word_test) {}
 
   static constexpr std::size_t kMaxRegions = 8;
-  static constexpr std::size_t kRomSliceBytes = 64;  // per cycle (the core's tables: ~60 cycles a pass)
-  static constexpr std::size_t kRamSliceWords = 8;   // per cycle (the controller: ~320 cycles a pass)
 
   // At start-up, before the first cycle(): false when the table is full, the region empty or
   // misaligned (RAM: 4-byte words). A ROM region added after start() gets its reference then.
@@ -50,6 +49,12 @@ class Platform {
   void relocate(const void* from, void* to, std::size_t n) noexcept;
   // The start-up self-test and the ROM references.
   void start() noexcept;
+  // SPEC §14 `integrity_period_ms`: every region is tested once within `cycles` cycles (the
+  // slices follow from the regions' sizes; set again by each add). Before the first cycle().
+  void set_period(std::uint32_t cycles) noexcept;
+  [[nodiscard]] std::uint32_t period() const noexcept { return period_; }
+  [[nodiscard]] std::size_t rom_slice() const noexcept { return rom_slice_; }  // bytes a cycle
+  [[nodiscard]] std::size_t ram_slice() const noexcept { return ram_slice_; }  // words a cycle
   // One slice of the background tests (each cycle, between two cycles of the controller).
   void cycle() noexcept;
 
@@ -86,6 +91,9 @@ class Platform {
   std::size_t ram_word_ = 0;
   std::uint32_t rom_passes_ = 0;
   std::uint32_t ram_passes_ = 0;
+  std::uint32_t period_ = 1000;
+  std::size_t rom_slice_ = 4;
+  std::size_t ram_slice_ = 1;
   bool started_ = false;
   bool cycled_ = false;
   bool integrity_ok_ = true;
