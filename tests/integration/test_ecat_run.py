@@ -363,26 +363,41 @@ def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     first exchange whose commanded targets slow down, the safe state the contactor bit cleared
     at the end of the Cat 1 ramp."""
     cell.wait_state("ESTOP_RESET_NEEDED")
-    s = cell.pendant("reset,servo_on,start", "OPERATIONAL")
-    assert s["sub"] == "AUTO_RUNNING", s
 
     def axis1_turning():
         q0, t0 = cell.wire()["joints"][0], time.monotonic()
         time.sleep(0.02)
         return abs(cell.wire()["joints"][0] - q0) / (time.monotonic() - t0) > 0.5
-    try:
-        cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
-    except AssertionError as e:
-        raise AssertionError(f"{e}; status {cell.status()}; wire plant {cell.wire().get('plant')}\n"
-                             f"run log:\n{cell.log('run')[-3000:]}") from None
-    assert cell.control_line("time cat1 from=input") == "OK"
-    stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
-    assert cell.control_line("in gate.a=0") == "OK"
-    time.sleep(0.005)  # the second channel within discrepancy_ms
-    assert cell.control_line("in gate.b=0") == "OK"
-    cell.wait(lambda: cell.wire()["wire_timing"]["safe"] is not None, "the contactor bit cleared after the ramp", 10)
-    w = cell.wire()["wire_timing"]
-    print("guard on the wire:", w)
+
+    # A Cat 1 reaction is the commanded speed falling: it can only be seen when the arm moves
+    # at the trigger. The demo program dwells at its stations (0.4-0.6 s): a guard opened just
+    # as a segment ends finds the targets still, and the first change on the wire is the
+    # contactor at the end of a short ramp (70 cycles once, issue 40). Such a try measures
+    # nothing about the reaction: the program is started again and the guard opened again.
+    for attempt in range(3):
+        s = cell.pendant("reset,servo_on,start", "OPERATIONAL")
+        assert s["sub"] == "AUTO_RUNNING", s
+        try:
+            cell.wait(axis1_turning, "the demo program turning axis 1 at 0.5 rad/s", 15)
+        except AssertionError as e:
+            raise AssertionError(f"{e}; status {cell.status()}; wire plant {cell.wire().get('plant')}\n"
+                                 f"run log:\n{cell.log('run')[-3000:]}") from None
+        assert cell.control_line("time cat1 from=input") == "OK"
+        stale0 = cell.metric("safestate_fieldbus_stale_cycles_total")
+        assert cell.control_line("in gate.a=0") == "OK"
+        time.sleep(0.005)  # the second channel within discrepancy_ms
+        assert cell.control_line("in gate.b=0") == "OK"
+        cell.wait(lambda: cell.wire()["wire_timing"]["safe"] is not None, "the contactor bit cleared after the ramp", 10)
+        w = cell.wire()["wire_timing"]
+        print("guard on the wire:", w)
+        # Moving at the trigger: the commanded step well above the fall that counts as a reaction
+        # (wire_timing.hpp kFallCounts, 2.5 counts a cycle; 0.5 rad/s is about 83).
+        if w["speed_counts"] and w["speed_counts"][0] >= 25.0:
+            break
+        assert cell.control_line("in gate.a=1") == "OK" and cell.control_line("in gate.b=1") == "OK"
+        cell.wait_state("IDLE")  # SPEC §4 row 4: STOPPING -> IDLE, PROTECTIVE_STOP latched until a reset
+    else:
+        raise AssertionError(f"the arm was never moving when the guard opened, in 3 tries: {w}")
     assert w["stop"] == "cat1" and w["early_exchange"] is None, w
     # `safestate rta --bus-config hal/ethercat/default-bus.json`: 2 cycles, worst case 1435 ms
     # (one exchange more per stale cycle meanwhile, as above)
