@@ -256,9 +256,9 @@ struct Harness {
     const bool moving = out.motion.mode == MotionMode::Program || out.motion.mode == MotionMode::Jog;
     if (chance(moving ? 30 : 0)) { plant.vel[rng() % 6U] = static_cast<float>(rng() % 200U) / 100.0F - 1.0F; }
     fb.integrity_ok = !rare(3);
-    // T1 speed: joint 1 creeps to and fro by a few mm at a rate drawn now and then (about 0
-    // to 300 mm/s at the TCP), and now and then a frame brings no fresh sample (its own stream:
-    // the others keep their histories).
+    // T1 speed: joint 1 creeps to and fro at a rate drawn now and then (about 0 to 300 mm/s
+    // at the TCP), and now and then a frame brings no fresh sample (its own stream: the
+    // others keep their histories).
     if (chance(5)) { creep_rate = static_cast<float>(rng() % 300U) / 500.0F; }
     stale_now = static_cast<int>(sample_rng() % 1000U) < 3;
     late_now = clock && !stale_now && static_cast<int>(sample_rng() % 1000U) < 2;
@@ -292,11 +292,14 @@ struct Harness {
       }
     }
   }
-  // T1 speed (issue 35): joint 1's offset from the pose (rad, within +-kCreep), its rate and
-  // direction; the sample timing: this cycle's frame holds the last sample (stale_now) or
-  // carries one a SYNC0 pulse late (late_now, with the drives' clock), the positions of the
-  // last fresh sample and the cycles since it.
-  static constexpr float kCreep = 0.005F;
+  // T1 speed (issue 35): joint 1's offset from the pose (rad, within +-kCreep: a recovering
+  // limit gets no worse by it than its tolerance, kWorseJointRad, kWorseZoneMm within 0.7 m
+  // of axis 1, kWorseOrientationCos), its rate and direction; the sample timing: this cycle's
+  // frame holds the last sample (stale_now) or carries one a SYNC0 pulse late (late_now, with
+  // the drives' clock), the positions of the last fresh sample and the cycles since it.
+  static constexpr float kCreep = 0.0005F;
+  static_assert(2.0F * kCreep < kWorseJointRad && 2.0F * kCreep * 700.0F < kWorseZoneMm &&
+                2.0F * kCreep < kWorseOrientationCos);
   float creep = 0.0F;
   float creep_rate = 0.0F;
   float creep_dir = 1.0F;
