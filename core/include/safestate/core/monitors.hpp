@@ -122,7 +122,7 @@ class T1SpeedMonitor {
  private:
   std::array<Vec3, kT1Points> last_{};  // the points at the last fresh sample
   bool have_last_ = false;
-  Cycle span_ = 1;          // cycles from the sample in last_ to the next fresh one
+  std::uint32_t span_ = 1;   // cycles from the sample in last_ to the next fresh one (saturates)
   float speed_mm_s_ = 0.0F;  // the last fresh sample's fastest point (stands while none comes)
   std::uint8_t axis_ = 0;    // 1..6: the link that point belongs to (the flange, the TCP: 6)
 };
