@@ -49,8 +49,9 @@ void T1SpeedMonitor::check(const CycleView& v, Reporter& r) noexcept {
     if (!have_last_ || !same_sample) {
       if (have_last_) {
         // The cycles between the two samples: as the drives took them when the bus says (a
-        // frame late past its SYNC0 carries the next pulse's sample), else as the frames came.
-        const std::uint32_t cycles = (v.fb.sample_clock && (v.fb.sample_span > 0U)) ? static_cast<std::uint32_t>(v.fb.sample_span) : span_;
+        // frame late past its SYNC0 carries the next pulse's sample; one that repeats the
+        // last sample, span 0, is no fresh sample), else as the frames came.
+        const std::uint32_t cycles = v.fb.sample_clock ? static_cast<std::uint32_t>(v.fb.sample_span) : span_;
         // The farthest a point went, compared squared (one square root); distal first with
         // a strict `>`, so that a tie names the outer point (the wrist centre is origin 4 and
         // 5; the TCP is the flange without a tool). Not finite: unknown, over any limit.
