@@ -41,42 +41,42 @@ void T1SpeedMonitor::check(const CycleView& v, Reporter& r) noexcept {
     // @req MO-SAMPLE-TIME
     // A frame that carries the sample the last one carried is no new sample either.
     const bool same_sample = v.fb.stale || (v.fb.sample_clock && (v.fb.sample_span == 0U));
-    std::array<Vec3, kT1Points> p{};
-    for (std::size_t k = 0; k + 1U < kT1Points; ++k) {
-      p[k] = pose->origin[k + 1U];  // origin[0] (joint 1's, on the base) never moves
-    }
-    p[kT1Points - 1U] = pose->tcp;
     if (!have_last_ || !same_sample) {
+      // The farthest a point went since the last sample, compared squared (one square root),
+      // each point kept for the next sample as it is read (no copy of the whole array: a
+      // byte-wise memcpy in newlib-nano). Distal first with a strict `>`, so that a tie
+      // names the outer point (the wrist centre is origin 4 and 5; the TCP is the flange
+      // without a tool). Not finite: unknown, over any limit.
+      float far2 = 0.0F;
+      std::uint8_t axis = 0U;
+      for (std::size_t k = kT1Points; k > 0U; --k) {
+        // Point k - 1: link origin k (origin[0], joint 1's on the base, never moves), the TCP last.
+        const Vec3& a = (k < kT1Points) ? pose->origin[k] : pose->tcp;
+        Vec3& b = last_[k - 1U];
+        const float dx = a[0] - b[0];
+        const float dy = a[1] - b[1];
+        const float dz = a[2] - b[2];
+        b[0] = a[0];
+        b[1] = a[1];
+        b[2] = a[2];
+        float d2 = (dx * dx) + (dy * dy) + (dz * dz);
+        d2 = (d2 <= std::numeric_limits<float>::max()) ? d2 : kUnknown;  // NaN, inf
+        if (d2 > far2) {
+          far2 = d2;
+          axis = link_of(k - 1U);
+        }
+      }
       if (have_last_) {
         // The cycles between the two samples: as the drives took them when the bus says (a
         // frame late past its SYNC0 carries the next pulse's sample; one that repeats the
         // last sample, span 0, is no fresh sample), else as the frames came.
         const std::uint32_t cycles = v.fb.sample_clock ? static_cast<std::uint32_t>(v.fb.sample_span) : span_;
-        // The farthest a point went, compared squared (one square root); distal first with
-        // a strict `>`, so that a tie names the outer point (the wrist centre is origin 4 and
-        // 5; the TCP is the flange without a tool). Not finite: unknown, over any limit.
-        float far2 = 0.0F;
-        std::uint8_t axis = 0U;
-        for (std::size_t k = kT1Points; k > 0U; --k) {
-          const Vec3& a = p[k - 1U];
-          const Vec3& b = last_[k - 1U];
-          const float dx = a[0] - b[0];
-          const float dy = a[1] - b[1];
-          const float dz = a[2] - b[2];
-          float d2 = (dx * dx) + (dy * dy) + (dz * dz);
-          d2 = (d2 <= std::numeric_limits<float>::max()) ? d2 : kUnknown;  // NaN, inf
-          if (d2 > far2) {
-            far2 = d2;
-            axis = link_of(k - 1U);
-          }
-        }
         speed_mm_s_ = std::sqrt(far2) * v.timing.cycles_per_s / static_cast<float>(cycles);
         axis_ = axis;
       } else {
         speed_mm_s_ = 0.0F;  // the first sample: nothing to differentiate yet
         axis_ = 0U;
       }
-      last_ = p;
       have_last_ = true;
       span_ = 1U;
     } else if (span_ < 0xFFFFU) {
