@@ -206,7 +206,9 @@ class Supervisor {
                         bool validated) noexcept {
     ssm_.configure_limits(limits, arm, cycle_us, validated);
   }
-  void configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept { ssm_.configure_arm(arm, tcp_flange_mm); }
+  void configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept {
+    ssm_.configure_arm(arm, tcp_flange_mm);
+  }
   void configure_brake_test(const BrakeTestHistory& history) noexcept { ssm_.configure_brake_test(history); }
 
  private:
