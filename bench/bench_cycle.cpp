@@ -64,6 +64,7 @@ core::Timing timing() { return core::to_timing(core::Config{}); }
 struct Core {
   core::Supervisor s{timing()};
   core::SupervisorOut out{};
+  Core() { s.configure_arm(bench::workload_arm(), bench::kWorkloadTcp); }  // as the cell's
   void step(const Sample& x) {
     s.step(x.raw, x.fb, x.cmds.data(), x.n, out);
     keep(out);
@@ -76,9 +77,12 @@ struct Ref {
   reference::Supervisor s{t};
   reference::Out out{};
   core::Cycle now = 0;
+  reference::Geometry geo{};  // the T1 points, recorded with the sample
   void step(const Sample& x) {
     signals.update(x.raw, now++, t);
-    s.step(signals.inputs(), x.fb, x.cmds.data(), x.n, out);
+    geo.arm = true;
+    geo.t1_points = x.t1_points;
+    s.step(signals.inputs(), x.fb, x.cmds.data(), x.n, out, geo);
     keep(out);
   }
   [[nodiscard]] core::State state() const { return out.state; }

@@ -32,6 +32,7 @@ std::vector<RowSample> g_quiet;
 
 void collect(const bench::Trace& life) {
   core::Supervisor s{core::to_timing(core::Config{})};
+  s.configure_arm(bench::workload_arm(), bench::kWorkloadTcp);  // as the cell's (T1 speed)
   core::SupervisorOut out{};
   for (const Sample& x : life) {
     const core::Supervisor before = s;

@@ -14,10 +14,17 @@
 #include <random>
 #include <vector>
 
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/arm.hpp"
 #include "safestate/core/supervisor.hpp"
 #include "safestate/sim/cell.hpp"
 
 namespace safestate::bench {
+
+// The workloads' cells run the IRB 120 without a safety configuration: the core watches the
+// arm with its own TCP (tool0). A supervisor replaying them needs the same arm (T1 speed).
+inline core::ArmGeometry workload_arm() { return controller::Controller::arm_geometry(motion::kRobot); }
+inline constexpr core::Vec3 kWorkloadTcp{0.0F, 0.0F, 0.0F};
 
 // One cycle as the supervisor saw it.
 struct Sample {
@@ -26,6 +33,9 @@ struct Sample {
   std::array<core::Command, core::kMaxCommandsPerCycle> cmds{};
   std::uint8_t n = 0;
   core::Leaf leaf_after = core::Leaf::BOOT;  // what the cell's supervisor decided (replay check)
+  // Link origins 1..5, the flange, the TCP at the measured positions (the core's kinematics
+  // of workload_arm()), worked out when recorded: what the reference is handed (T1 speed).
+  std::array<core::Vec3, core::kAxes + 1U> t1_points{};
 };
 using Trace = std::vector<Sample>;
 
@@ -33,6 +43,16 @@ inline Sample record(const sim::Cell& cell) {
   Sample s;
   s.raw = cell.raw_inputs_of_last_cycle();
   s.fb = cell.feedback();
+  core::JointArray q{};
+  for (std::size_t i = 0; i < core::kAxes; ++i) {
+    q[i] = s.fb.drive[i].position_rad;
+  }
+  core::ArmPose p{};
+  core::arm_forward(workload_arm(), q, kWorkloadTcp, p);
+  for (std::size_t k = 0; k < core::kAxes; ++k) {
+    s.t1_points[k] = p.origin[k + 1U];
+  }
+  s.t1_points[core::kAxes] = p.tcp;
   std::size_t n = 0;
   const core::Command* c = cell.commands_taken(n);
   for (std::size_t i = 0; i < n && i < s.cmds.size(); ++i) {

@@ -10,7 +10,11 @@ motion::MotionConfig Controller::motion_config(const core::Config& cfg) noexcept
 }
 
 Controller::Controller(const core::Config& cfg, const motion::RobotModel& model) noexcept
-    : cycle_us_(cfg.cycle_us), model_(model), supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {}
+    : cycle_us_(cfg.cycle_us), model_(model), supervisor_(core::to_timing(cfg)), motion_(model, motion_config(cfg)) {
+  // The core's own kinematics of this arm from the start (T1 speed); configure_limits sets
+  // it again with the limits' TCP, as it does the motion layer's.
+  supervisor_.configure_arm(arm_geometry(model_), model_.tcp_offset_mm);
+}
 
 core::ArmGeometry Controller::arm_geometry(const motion::RobotModel& model) noexcept {
   core::ArmGeometry g{};
@@ -47,6 +51,9 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   feedback_.fieldbus_boot_failed = in.fieldbus_boot_failed;
   feedback_.integrity_ok = in.integrity_ok;
   feedback_.self_test_ok = in.self_test_ok;
+  feedback_.stale = in.stale;
+  feedback_.sample_clock = in.sample_clock;
+  feedback_.sample_span = in.sample_span;
   motion_.measure(in.drive, feedback_, in.stale, in.sample_clock ? static_cast<std::int32_t>(in.sample_span) : -1);
   const std::size_t taken = supervisor_.step(in.safety, feedback_, cmds, n, status_);
   motion_.step(status_, in.drive, out.drive);

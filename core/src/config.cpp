@@ -66,6 +66,7 @@ Timing to_timing(const Config& c) noexcept {
   t.standstill_rad_s = c.standstill_rad_s;
   t.max_commands_per_cycle = c.max_commands_per_cycle;
   t.t1_speed_limit_mm_s = c.t1_speed_limit_mm_s;
+  t.cycles_per_s = 1.0e6F / static_cast<float>(c.cycle_us);
   t.contactor_timeout = ms_to_cycles(c.contactor_timeout_ms, c.cycle_us);
   t.drives_timeout = ms_to_cycles(c.drives_timeout_ms, c.cycle_us);
   t.brakes_timeout = ms_to_cycles(c.brakes_timeout_ms, c.cycle_us);

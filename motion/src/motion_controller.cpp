@@ -274,7 +274,7 @@ void MotionController::measure(const std::array<core::DriveFeedback, kJoints>& d
     q_prev_ = q_meas_;
     have_prev_ = true;
     span_ = 1;
-    // @req MO-T1-MONITOR
+    // For motion and the status (the core's T1 monitor derives its own, issue 35).
     point_speeds(frames_, qdot, speeds_);
   } else if (span_ < 0xFFFFU) {
     ++span_;  // the last sample's speeds stand

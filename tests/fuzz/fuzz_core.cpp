@@ -43,6 +43,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const Timing timing = to_timing(Config{});
   SignalLayer signals;
   SystemStateManager core(timing);
+  core.configure_arm(plant_arm(), Vec3{});  // T1 speed from the core's own kinematics
+  static const PreparedArm arm = prepare_arm(plant_arm());
   ref::Supervisor reference(timing);
   Plant plant;
   RawInputs raw{};
@@ -73,7 +75,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 16: plant.fieldbus = !plant.fieldbus; break;
       case 17: { const unsigned i = in.byte() % 6U; plant.drive_nostop[i] = !plant.drive_nostop[i]; break; }
       case 18: plant.vel[in.byte() % 6U] = static_cast<float>(static_cast<std::int8_t>(in.byte())) / 64.0F; break;
-      case 19: plant.point_speed = static_cast<float>(in.byte()) * 2.0F; break;
+      case 19: {  // when the positions were sampled (T1 speed): held, or the drives' span
+        const unsigned b = in.byte();
+        fb.stale = (b & 1U) != 0U;
+        fb.sample_clock = (b & 2U) != 0U;
+        fb.sample_span = static_cast<std::uint16_t>(b >> 2U);
+        break;
+      }
       case 20: plant.program_finished = !plant.program_finished; break;
       case 21: plant.contactor_stuck_open = !plant.contactor_stuck_open; break;
       case 22: { const unsigned i = in.byte() % 6U; plant.brake_stuck[i] = !plant.brake_stuck[i]; break; }
@@ -99,7 +107,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const SafetyInputs& si = signals.inputs();
       const State before = out.state;
       const std::size_t a = core.step(si, fb, k == 0U ? cmds : nullptr, k == 0U ? n : 0U, out);
-      const std::size_t b = reference.step(si, fb, k == 0U ? cmds : nullptr, k == 0U ? n : 0U, rout);
+      ref::Geometry geo{};  // the T1 points where the plant's arm puts them, for the reference to differentiate
+      JointArray q{};
+      for (std::size_t i = 0; i < kAxes; ++i) q[i] = fb.drive[i].position_rad;
+      ArmPose pose{};
+      arm_forward(arm, q, Vec3{}, pose);
+      geo.arm = true;
+      for (std::size_t i = 0; i + 1U < ref::kT1Points; ++i) geo.t1_points[i] = pose.origin[i + 1U];
+      geo.t1_points[ref::kT1Points - 1U] = pose.tcp;
+      const std::size_t b = reference.step(si, fb, k == 0U ? cmds : nullptr, k == 0U ? n : 0U, rout, geo);
       const bool powered = out.state == State::ARMING || out.state == State::OPERATIONAL || out.state == State::STOPPING;
       const bool power = out.contactor || out.drives_enable || out.brakes_release;
       if (power && !powered) fail("power outside ARMING/OPERATIONAL/STOPPING", t);

@@ -43,7 +43,12 @@ namespace c402 = safestate::core::cia402;
 
 class Bench {
  public:
-  explicit Bench(const Config& cfg = Config{}) : timing_(to_timing(cfg)), sup_(timing_) {}
+  // The core watches the plant's arm (T1 speed from its own kinematics), as a controller's
+  // does from the start; configure_limits() gives it the limits' arm and TCP instead.
+  explicit Bench(const Config& cfg = Config{}) : timing_(to_timing(cfg)), sup_(timing_) {
+    sup_.configure_arm(plant_arm(), Vec3{});
+    plant.cycle_s = static_cast<float>(cfg.cycle_us) * 1.0e-6F;
+  }
 
   RawInputs raw{};
   Plant plant{};

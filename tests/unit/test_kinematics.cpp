@@ -240,7 +240,9 @@ TEST(Rpy, RebuildsTheTcpOrientationAtRandomPoses) {
 
 // --- point speeds ------------------------------------------------------------------------
 
-// @req MO-T1-MONITOR
+// The motion layer's point speeds, its T1 limiting's basis (the core's T1 monitor
+// differentiates positions of its own kinematics: test_monitors' T1SpeedMonitor).
+// @req MO-T1-LIMIT
 TEST(PointSpeeds, MatchFiniteDifferencesOfForward) {
   const RobotModel m = tooled();
   Rng rng;
@@ -335,7 +337,7 @@ TEST(PointSpeeds, NothingMovingNamesNoPoint) {
   EXPECT_EQ(ps.fastest_axis, 0);
 }
 
-// @req MO-T1-MONITOR
+// @req MO-T1-LIMIT
 TEST(PointSpeeds, FoldedWristMakesTheWristCentreFastest) {
   // Forearm up (q3 = -90 deg), wrist bent forward (q5 = +90 deg): the wrist centre is at
   // (-70, 0, 862) and the flange at (2, 0, 862), a little closer to axis 2.

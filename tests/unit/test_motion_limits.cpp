@@ -564,7 +564,7 @@ TEST(BackOff, EndingTheStopMidwayDropsTheRetraceAndHolds) {
 
 // A first sample that comes stale (the bus's first exchange late) is still the first sample:
 // the next one is differentiated against it, over one cycle.
-// @req MO-T1-MONITOR
+// @req MO-SAMPLE-TIME
 TEST(MeasuredSpeed, AStaleFirstSampleStillStartsTheDifferentiation) {
   MotionController mc{kRobot, MotionConfig{}};
   std::array<core::DriveFeedback, kJoints> drives{};

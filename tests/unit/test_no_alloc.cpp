@@ -64,6 +64,7 @@ TEST(NoAlloc, ZeroAllocationsOverAMillionBusyCycles) {
   const Timing timing = to_timing(Config{});
   // Start-up: everything is constructed before arming the counter.
   static Supervisor sup(timing);
+  sup.configure_arm(safestate::test::plant_arm(), Vec3{});  // T1 speed: the plant's arm
   static Plant plant;
   RawInputs raw{};
   Feedback fb{};

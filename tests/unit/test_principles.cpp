@@ -85,7 +85,7 @@ TEST(UnknownIsUnsafe, UndecodableStatuswordIsADriveFault) {
 TEST(UnknownIsUnsafe, NaNSpeedInT1IsOverTheLimit) {
   Bench b;
   b.to_jogging(Mode::T1);
-  b.plant.point_speed = std::nanf("");
+  b.plant.pos[0] = std::nanf("");  // a measured position no one can read: its speed is unknown
   b.cycle();
   EXPECT_EQ(b.out.state, State::IDLE);
   EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));

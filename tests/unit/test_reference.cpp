@@ -106,6 +106,21 @@ ref::Geometry geometry_of(const SafetyLimits& l, const Feedback& fb) {
   return g;
 }
 
+// T1 speed: the points the reference differentiates itself (link origins 1..5, the flange,
+// the TCP) where the core's kinematics puts them at the measured positions of `fb`, the TCP
+// as the core is configured with (lim.tcp_mm, limits or not).
+ref::Geometry& with_t1_points(ref::Geometry& g, const SafetyLimits& l, const Feedback& fb) {
+  JointArray q{};
+  for (std::size_t i = 0; i < kAxes; ++i) q[i] = fb.drive[i].position_rad;
+  const ArmPose p = pose_of(q, l);
+  g.arm = true;
+  for (std::size_t k = 0; k + 1U < ref::kT1Points; ++k) {
+    g.t1_points[k] = p.origin[k + 1U];
+  }
+  g.t1_points[ref::kT1Points - 1U] = p.tcp;
+  return g;
+}
+
 ref::Limits ref_limits(const SafetyLimits& l, bool validated) {
   ref::Limits r{};
   r.configured = true;
@@ -241,7 +256,12 @@ struct Harness {
     const bool moving = out.motion.mode == MotionMode::Program || out.motion.mode == MotionMode::Jog;
     if (chance(moving ? 30 : 0)) { plant.vel[rng() % 6U] = static_cast<float>(rng() % 200U) / 100.0F - 1.0F; }
     fb.integrity_ok = !rare(3);
-    if (chance(5)) { plant.point_speed = static_cast<float>(rng() % 300U); }
+    // T1 speed: joint 1 creeps to and fro at a rate drawn now and then (about 0 to 300 mm/s
+    // at the TCP), and now and then a frame brings no fresh sample (its own stream: the
+    // others keep their histories).
+    if (chance(5)) { creep_rate = static_cast<float>(rng() % 300U) / 500.0F; }
+    stale_now = static_cast<int>(sample_rng() % 1000U) < 3;
+    late_now = clock && !stale_now && static_cast<int>(sample_rng() % 1000U) < 2;
     if (chance(2)) { plant.program_finished = !plant.program_finished; }
     if (rare(20)) { plant.program_loaded = !plant.program_loaded; }
     // SPEC §10: the arm jumps into or out of a limit, the reduced input, the program's check.
@@ -272,6 +292,47 @@ struct Harness {
       }
     }
   }
+  // T1 speed (issue 35): joint 1's offset from the pose (rad, within +-kCreep: a recovering
+  // limit gets no worse by it than its tolerance, kWorseJointRad, kWorseZoneMm within 0.7 m
+  // of axis 1, kWorseOrientationCos), its rate and direction; the sample timing: this cycle's
+  // frame holds the last sample (stale_now) or carries one a SYNC0 pulse late (late_now, with
+  // the drives' clock), the positions of the last fresh sample and the cycles since it.
+  static constexpr float kCreep = 0.0005F;
+  static_assert(2.0F * kCreep < kWorseJointRad && 2.0F * kCreep * 700.0F < kWorseZoneMm &&
+                2.0F * kCreep < kWorseOrientationCos);
+  float creep = 0.0F;
+  float creep_rate = 0.0F;
+  float creep_dir = 1.0F;
+  bool clock = false;  // this history's drives sample at SYNC0 (Feedback::sample_clock)
+  bool stale_now = false;
+  bool late_now = false;
+  JointArray held{};
+  bool have_held = false;
+  std::uint16_t since_sample = 1;
+  std::mt19937 sample_rng{777U};
+  void advance_creep() {
+    creep += creep_dir * creep_rate * 0.001F;
+    if (creep > kCreep || creep < -kCreep) {
+      creep = creep > 0.0F ? kCreep : -kCreep;
+      creep_dir = -creep_dir;
+    }
+  }
+  // The measured positions as the frame brings them, from the true ones.
+  void sample(const JointArray& q) {
+    const bool hold = stale_now && have_held;
+    fb.sample_clock = clock;
+    fb.stale = hold && !clock;
+    if (hold) {
+      since_sample = static_cast<std::uint16_t>(since_sample + 1U);
+      fb.sample_span = 0;
+    } else {
+      held = q;
+      have_held = true;
+      fb.sample_span = clock ? since_sample : 0U;
+      since_sample = 1;
+    }
+    for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = held[i];
+  }
   bool collab = false;  // SPEC §11 configured and perturbed
   std::mt19937 collab_rng{12345U};
   std::mt19937 brake_rng{4242U};
@@ -288,7 +349,10 @@ struct Harness {
   bool validated_at_start = true;
 
   void configure() {
-    if (!safety) return;
+    if (!safety) {
+      core.configure_arm(geometry(), lim.tcp_mm);  // the T1 speed's arm, without limits
+      return;
+    }
     if (brake_cfg) {
       lim.brake_test.configured = true;
       lim.brake_test.interval_h = 0.002F;
@@ -387,6 +451,8 @@ struct Harness {
     button_held_until = 0;
     within_limits = true;
     have_qd_prev = false;
+    have_held = false;
+    since_sample = 1;
     configure();
     log << t << ":power cycle\n";
   }
@@ -427,7 +493,14 @@ struct Harness {
       if (bt.axis >= 1U && bt.axis <= kAxes && bt.dir != 0 && weak[bt.axis - 1U]) {
         slip[bt.axis - 1U] += static_cast<float>(bt.dir) * 0.0005F;
       }
-      for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = (safety ? kPose[pose][i] : 0.0F) + slip[i];
+      advance_creep();
+      if (late_now) {
+        advance_creep();  // the frame carries the next pulse's sample: two cycles of motion
+        since_sample = static_cast<std::uint16_t>(since_sample + 1U);
+      }
+      JointArray q{};
+      for (std::size_t i = 0; i < kAxes; ++i) q[i] = (safety ? kPose[pose][i] : 0.0F) + slip[i] + (i == 0U ? creep : 0.0F);
+      sample(q);
       if (safety) {
         fb.program_within_limits = within_limits;
         geo = geometry_of(lim, fb);
@@ -453,6 +526,7 @@ struct Harness {
         Vec3 f{};
         geo.contact_force_n = tcp_force_from_drives(fb, model, f);
       }
+      with_t1_points(geo, lim, fb);
       for (std::size_t i = 0; i < kAxes; ++i) qd_prev[i] = fb.drive[i].velocity_rad_s;
       have_qd_prev = true;
       const std::size_t n = commands(cmds, t);
@@ -534,6 +608,7 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
     // SPEC §11: one history in four runs a collaborative configuration (every other one of
     // them without automatic resume), with a person walking through the fields.
     h.collab = seed % 4 == 2;
+    h.clock = seed % 3 == 0;  // the drives' sample clock (EtherCAT DC) in one history in three
     h.collab_rng.seed(static_cast<std::uint32_t>(seed) * 15485863U);
     if (h.collab) {
       make_collaborative(h.lim, seed % 8 == 2);
@@ -610,6 +685,7 @@ TEST(Differential, TheComparisonCanFail) {
   Harness h(7);
   h.safety = false;  // the history this test was written on (no SPEC §10 perturbation)
   h.brake_tests = false;  // ... nor SPEC §12's commands
+  h.configure();          // the core's arm (T1 speed)
   h.ref_timing.jog_timeout = 30;
   h.ref_timing.max_stop = 50;
   h.reference = ref::Supervisor{h.ref_timing};

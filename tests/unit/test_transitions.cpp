@@ -400,25 +400,55 @@ TEST(Rule3, TwoDriveFaultsInOneCycleNameTheFirst) {
   EXPECT_EQ(b.ssm().alarms().detail(AlarmId::DRIVE_FAULT).axis, 2U);
 }
 
+// The plant's joints move, the core differentiates the positions of its own kinematics
+// (exactly the limit: TEST(T1SpeedMonitor, ...) in test_monitors.cpp, on positions chosen so).
 // @req TR-C3 MO-T1-MONITOR
 TEST(Rule3, T1SpeedAboveTheLimitIsCat0) {
   Bench b;
   b.to_jogging(Mode::T1);
-  b.plant.point_speed = 250.0F;
+  b.plant.vel[0] = plant_axis1_for(249.0F, b.plant.pos);
   b.cycle(5);
-  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING) << "exactly the limit is allowed";
-  b.plant.point_speed = 250.5F;
+  EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING) << "below the limit";
+  b.plant.vel[0] = plant_axis1_for(251.0F, b.plant.pos);
+  b.cycle();  // the positions of this cycle are 251 mm/s apart from the last (the plant moved after it)
   b.cycle();
   EXPECT_EQ(b.out.state, State::IDLE);
   EXPECT_EQ(b.out.stop, StopCat::CAT0);
   EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
+  EXPECT_EQ(b.ssm().alarms().detail(AlarmId::T1_SPEED_EXCEEDED).axis, 6U) << "the flange, farthest from axis 1";
+  EXPECT_NEAR(b.ssm().alarms().detail(AlarmId::T1_SPEED_EXCEEDED).code, 251, 1) << "mm/s";
+}
+
+// Issue 35: the T1 speed is the core's own, from the measured joint positions through its
+// kinematics, never the figure the motion layer hands over.
+// @req MO-T1-MONITOR
+TEST(Rule3, T1SpeedIsTheCoresOwnNotTheMotionLayers) {
+  {
+    Bench b;  // the joints run away while the motion layer says nothing moves
+    b.to_jogging(Mode::T1);
+    b.plant.motion_speed = 0.0F;
+    b.plant.vel[0] = plant_axis1_for(400.0F, b.plant.pos);
+    b.cycle(3);
+    EXPECT_EQ(b.out.state, State::IDLE);
+    EXPECT_TRUE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
+  }
+  {
+    Bench b;  // the motion layer's figure is wrong the other way: no stop for it
+    b.to_jogging(Mode::T1);
+    b.plant.motion_speed = 900.0F;
+    b.plant.vel[0] = plant_axis1_for(100.0F, b.plant.pos);
+    b.cycle(50);
+    EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
+    EXPECT_FALSE(b.alarm(AlarmId::T1_SPEED_EXCEEDED));
+  }
 }
 
 // @req TR-C3 TR-C6
 TEST(Rule3, KeyToT1WhileMovingFastIsRule6NotAT1SpeedFault) {
   Bench b;
   b.to_auto_running();
-  b.plant.point_speed = 900.0F;
+  b.plant.vel[0] = plant_axis1_for(900.0F, b.plant.pos);
+  b.cycle();
   b.mode(Mode::T1);
   b.cycle();
   EXPECT_EQ(b.out.state, State::STOPPING);
@@ -431,7 +461,7 @@ TEST(Rule3, KeyToT1WhileMovingFastIsRule6NotAT1SpeedFault) {
 TEST(Rule3, T1SpeedIsNotMonitoredInT2) {
   Bench b;
   b.to_jogging(Mode::T2);
-  b.plant.point_speed = 900.0F;
+  b.plant.vel[0] = plant_axis1_for(900.0F, b.plant.pos);
   b.cycle(5);
   EXPECT_EQ(b.out.sub, Sub::MANUAL_JOGGING);
 }

@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "reference.hpp"
+#include "safestate/controller/controller.hpp"
+#include "safestate/core/arm.hpp"
 #include "safestate/core/cia402.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/safety/safety_config.hpp"
@@ -184,6 +186,20 @@ reference::Limits ref_limits(const Configuration& c, std::uint32_t cycle_us) {
   return r;
 }
 
+// T1 speed: the points the reference differentiates itself (link origins 1..5, the flange,
+// the TCP) where the core's kinematics of the cell's arm (the IRB 120) puts them at the
+// measured positions, with the configuration's TCP.
+void t1_points(const core::Feedback& fb, const core::Vec3& tcp_mm, reference::Geometry& g) {
+  static const core::PreparedArm arm = core::prepare_arm(controller::Controller::arm_geometry(motion::kRobot));
+  core::JointArray q{};
+  for (std::size_t i = 0; i < core::kAxes; ++i) q[i] = fb.drive[i].position_rad;
+  core::ArmPose p{};
+  core::arm_forward(arm, q, tcp_mm, p);
+  g.arm = true;
+  for (std::size_t k = 0; k + 1U < reference::kT1Points; ++k) g.t1_points[k] = p.origin[k + 1U];
+  g.t1_points[reference::kT1Points - 1U] = p.tcp;
+}
+
 // How far joint i is outside its range (rad, <= 0 inside), measured from the outside.
 float joint_outside(const core::SafetyLimits& l, std::size_t i, float q) {
   const float below = l.joints[i].min_rad - q;
@@ -337,6 +353,7 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
   // SPEC §11: the force the core's model reads from the drives' torques (its agreement with
   // the arm's dynamics is test_collision's); what it means, rule 8, the reference judges.
   geo.contact_force_n = o.safety.contact_force_n;
+  t1_points(n.cell->feedback(), configurations()[n.lim.config].loaded.limits.tcp_mm, geo);
   n.ref.step(in, n.cell->feedback(), cmds, taken, r, geo);
   stats_.checks += 12;
 

@@ -1,6 +1,8 @@
 // Reference supervisor: SPEC.md §3-§5 as one switch per concern, read top to bottom.
 #include "reference.hpp"
 
+#include <cmath>
+
 #include "safestate/core/cia402.hpp"
 #include "safestate/core/monitors.hpp"  // the recovery tolerances kWorse* (vocabulary), nothing else
 
@@ -127,6 +129,43 @@ bool Supervisor::trips(Track& t, float outside, bool powered, float tolerance) n
     t.best = outside;
   }
   return false;
+}
+
+// SPEC §4 rule 3, ISO 10218-1 5.7.3: how fast the fastest of the TCP and the link origins
+// went between the last two samples of the measured positions. A cycle whose frame brought
+// no new sample (stale, or the drives' clock says it is the same sample again) keeps the
+// last speed; a new one is compared with the last over the cycles between them (the drives'
+// count when their clock gives one). No kinematics, or a point not finite: unknown, too fast.
+void Supervisor::t1_speed(const core::Feedback& fb, const Geometry& g) noexcept {
+  if (!g.arm) {
+    t1_have_last_ = false;
+    t1_speed_ = HUGE_VALF;
+    return;
+  }
+  ++t1_cycles_;
+  const bool repeat = fb.stale || (fb.sample_clock && fb.sample_span == 0U);
+  if (t1_have_last_ && repeat) {
+    return;
+  }
+  float fastest = 0.0F;
+  if (t1_have_last_) {
+    const core::Cycle over = (fb.sample_clock && fb.sample_span != 0U) ? core::Cycle{fb.sample_span} : t1_cycles_;
+    for (std::size_t k = 0; k < kT1Points; ++k) {
+      float sq = 0.0F;
+      for (std::size_t a = 0; a < 3; ++a) {
+        const float d = g.t1_points[k][a] - t1_last_[k][a];
+        sq += d * d;
+      }
+      const float v = std::sqrt(sq) * t_.cycles_per_s / static_cast<float>(over);
+      if (!std::isfinite(v) || v > fastest) {
+        fastest = std::isfinite(v) ? v : HUGE_VALF;
+      }
+    }
+  }
+  t1_speed_ = fastest;
+  t1_last_ = g.t1_points;
+  t1_have_last_ = true;
+  t1_cycles_ = 0;
 }
 
 void Supervisor::judge_limits(const core::SafetyInputs& in, const core::Feedback& fb, const Geometry& g) noexcept {
@@ -291,7 +330,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   if (powered) {
     bool r3 = false;
     if (drive_fault_condition(fb, s0, cat_at_start, step_at_start)) { raise(AlarmId::DRIVE_FAULT); r3 = true; }
-    if (in.mode == Mode::T1 && armed_mode_ == Mode::T1 && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) {
+    if (in.mode == Mode::T1 && armed_mode_ == Mode::T1 && !(t1_speed_ <= t_.t1_speed_limit_mm_s)) {
       raise(AlarmId::T1_SPEED_EXCEEDED);
       r3 = true;
     }
@@ -478,7 +517,7 @@ Result Supervisor::command(const core::SafetyInputs& in, const core::Feedback& f
         case CommandId::reset: {
           if (pending_reset_) return Result::BUSY;
           if (has(AlarmId::PROTECTIVE_STOP) && in.gate_open && in.mode == Mode::AUTO) return Result::FAULT_PRESENT;
-          if (has(AlarmId::T1_SPEED_EXCEEDED) && !(fb.max_point_speed_mm_s <= t_.t1_speed_limit_mm_s)) return Result::FAULT_PRESENT;
+          if (has(AlarmId::T1_SPEED_EXCEEDED) && !(t1_speed_ <= t_.t1_speed_limit_mm_s)) return Result::FAULT_PRESENT;
           if (has(AlarmId::STOP_TIME_EXCEEDED) && !standstill()) return Result::FAULT_PRESENT;
           if (has(AlarmId::BRAKE_NOT_ENGAGED) && brake_not_engaged_) return Result::FAULT_PRESENT;
           // SPEC §10: a position limit still violated is no reason (recovery needs the reset);
@@ -650,6 +689,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   quiet_ = still ? (quiet_ < t_.standstill_cycles ? quiet_ + 1U : quiet_) : 0U;
   if (in.mode_changed) t2_ok_ = false;
   judge_limits(in, fb, g);
+  t1_speed(fb, g);
   const bool clear = !in.field_outer_interrupted && !in.field_inner_interrupted;
   fields_clear_ = clear ? (fields_clear_ <= lim_.resume_delay ? fields_clear_ + 1U : fields_clear_) : 0U;
   brake_test(fb);

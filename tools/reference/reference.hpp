@@ -77,7 +77,17 @@ struct Limits {
   bool bt_last_failed = false;
 };
 
+// T1 speed (SPEC §4 rule 3): the points the T1 limit is about, in the base frame (mm), as a
+// forward kinematics of the measured joint positions puts them: link origins 1..5, the
+// flange, the TCP. The reference differentiates them itself over the cycles between two
+// samples (core::Feedback::stale, sample_clock, sample_span). `arm` false: no kinematics (the
+// core without an arm): the speed is unknown.
+inline constexpr std::size_t kT1Points = 7;
+using Point = std::array<float, 3>;
+
 struct Geometry {
+  bool arm = false;
+  std::array<Point, kT1Points> t1_points{};
   // How far the TCP sphere / link points are outside each keep_in or into each keep_out
   // zone (mm, <= 0: respected; NaN: unknown). Reduced zones are not listed here.
   std::array<float, core::kMaxZones> zone_outside{};
@@ -85,7 +95,7 @@ struct Geometry {
   bool orientation = false;           // an orientation limit is configured
   float orientation_outside = -1.0F;  // cos(max deviation) - cos(angle): <= 0 inside the cone
   bool in_reduced_zone = false;       // the TCP is in a `reduced` zone
-  float tcp_speed_mm_s = 0.0F;        // measured TCP speed
+  float tcp_speed_mm_s = 0.0F;        // measured TCP speed (SPEC §10)
   float contact_force_n = 0.0F;       // SPEC §11: the external force at the TCP the torques show
 };
 
@@ -126,6 +136,8 @@ class Supervisor {
   [[nodiscard]] bool person_in_inner(const core::SafetyInputs& in) const noexcept {
     return collab_acts(in) && in.field_inner_interrupted;
   }
+  // SPEC §4 rule 3: this cycle's fastest T1 point (t1_speed_), from the positions handed over.
+  void t1_speed(const core::Feedback& fb, const Geometry& g) noexcept;
   // SPEC §12: one cycle of the brake test (on the state the cycle began in).
   void brake_test(const core::Feedback& fb) noexcept;
   [[nodiscard]] bool bt_due() const noexcept;
@@ -144,6 +156,12 @@ class Supervisor {
   std::array<Track, core::kAxes> joint_track_{};
   std::array<Track, core::kMaxZones> zone_track_{};
   Track orientation_track_{};
+  // T1 speed: the points of the last sample, whether there is one, the cycles since it
+  // (this one counted), and the speed judged (the last sample's until a new one comes).
+  std::array<Point, kT1Points> t1_last_{};
+  bool t1_have_last_ = false;
+  core::Cycle t1_cycles_ = 0;
+  float t1_speed_ = 0.0F;
   bool reduced_ = false;          // reduced mode active this cycle
   core::Cycle reduced_since_ = 0;
   // This cycle's verdicts.

@@ -7,9 +7,15 @@
 
 namespace safestate::core {
 
+void SafeLimitMonitors::configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept {
+  arm_ = prepare_arm(arm);
+  tcp_ = tcp_flange_mm;
+  arm_configured_ = true;
+}
+
 void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept {
   limits_ = limits;
-  arm_ = prepare_arm(arm);
+  configure_arm(arm, limits_.tcp_mm);
   zones_.reset(arm_, limits_.tcp_mm);  // other zones: nothing the last cycles proved holds for them
   Vec3& a = limits_.orientation_axis;
   const float len = std::sqrt((a[0] * a[0]) + (a[1] * a[1]) + (a[2] * a[2]));
@@ -26,16 +32,19 @@ void SafeLimitMonitors::configure(const SafetyLimits& limits, const ArmGeometry&
 void SafeLimitMonitors::check(const CycleView& v, Reporter& r) noexcept {
   CycleFacts& f = r.facts();
   f.limits.clear();
+  f.pose = nullptr;
+  if (arm_configured_) {  // the pose for T1 speed too, limits or not
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      f.q[i] = v.fb.drive[i].position_rad;
+      f.qd[i] = v.fb.drive[i].velocity_rad_s;
+    }
+    arm_forward(arm_, f.q, tcp_, pose_);
+    f.pose = &pose_;
+  }
   if (v.limits == nullptr) {  // the supervisor passes the limits once configured
     r.hold(AlarmId::REDUCED_SPEED, false, AlarmDetail{});
     return;
   }
-  for (std::size_t i = 0; i < kAxes; ++i) {
-    f.q[i] = v.fb.drive[i].position_rad;
-    f.qd[i] = v.fb.drive[i].velocity_rad_s;
-  }
-  arm_forward(arm_, f.q, limits_.tcp_mm, pose_);
-  f.pose = &pose_;
   // Reduced mode after the zones (its zone source is this cycle's TCP position) and before
   // the speeds (whether the reduced limit is enforced).
   joints_.check(v, r);

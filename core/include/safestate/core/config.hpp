@@ -37,6 +37,9 @@ struct Timing {
   float standstill_rad_s = 0.01F;
   std::uint32_t max_commands_per_cycle = 8;
   float t1_speed_limit_mm_s = 250.0F;
+  // Cycles per second (10^6 / cycle_us): a distance covered over N cycles is
+  // distance x cycles_per_s / N per second (the T1 speed, from positions).
+  float cycles_per_s = 1000.0F;
   Cycle contactor_timeout = 100;
   Cycle drives_timeout = 500;
   Cycle brakes_timeout = 300;

@@ -1,7 +1,8 @@
 // The plain data the core exchanges with the layers around it, once per cycle:
-//  - Feedback: what the HAL read this cycle (drives, contactor, brakes, fieldbus) plus
-//    what the motion layer measured (TCP and link-origin speeds from measured joint
-//    positions) and reports about its program;
+//  - Feedback: what the HAL read this cycle (drives, contactor, brakes, fieldbus, when
+//    the positions were sampled) plus what the motion layer measured (TCP and link-origin
+//    speeds, for motion and the status: the core derives its own) and reports about its
+//    program;
 //  - MotionRequest: what motion is allowed this cycle and how to stop.
 // The motion layer and any HAL backend implement against these structs only.
 #pragma once
@@ -37,7 +38,16 @@ struct Feedback {
   bool fieldbus_boot_failed = false;
   bool integrity_ok = true;                      // external integrity checks (HAL, memory)
   bool self_test_ok = true;                      // the platform's start-up self-test (RAM, watchdog)
-  // From the motion layer, computed from measured joint positions (forward kinematics):
+  // When the measured positions were sampled (hal::ProcessImageIn, copied as read): `stale`,
+  // no fresh sample this cycle (the positions are the last ones held); with `sample_clock`
+  // (the drives sample at SYNC0 and the frame says which pulse) `sample_span` is the cycles
+  // since the previous sample as the drives took them, 0 when it is that same sample again.
+  // The core's T1 speed monitor differentiates its own positions over this span.
+  bool stale = false;
+  bool sample_clock = false;
+  std::uint16_t sample_span = 0;
+  // From the motion layer, computed from measured joint positions (forward kinematics), for
+  // motion itself and the status; the core's monitors do not use them (T1 speed: its own):
   float tcp_speed_mm_s = 0.0F;
   float max_point_speed_mm_s = 0.0F;  // max over the TCP and every link-frame origin
   std::uint8_t fastest_axis = 0;      // 1..6: link whose origin (or the TCP: 6) is fastest

@@ -110,10 +110,21 @@ class DriveMonitor {
 };
 
 // T1: the fastest TCP or link-origin speed <= t1_speed_limit_mm_s while motion armed in T1
-// runs: T1_SPEED_EXCEEDED (rule 3).
+// runs: T1_SPEED_EXCEEDED (rule 3). The speeds are the core's own: the positions of the
+// TCP and of every link origin through the core's kinematics (facts: pose), differentiated
+// over the cycles between two measured samples (Feedback: stale, sample_span). Without
+// the core's arm (SystemStateManager::configure_arm) the speed is unknown: over the limit.
+inline constexpr std::size_t kT1Points = kAxes + 1U;  // link origins 1..5, the flange, the TCP
 class T1SpeedMonitor {
  public:
   void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  std::array<Vec3, kT1Points> last_{};  // the points at the last fresh sample
+  bool have_last_ = false;
+  std::uint32_t span_ = 1;   // cycles from the sample in last_ to the next fresh one (saturates)
+  float speed_mm_s_ = 0.0F;  // the last fresh sample's fastest point (stands while none comes)
+  std::uint8_t axis_ = 0;    // 1..6: the link that point belongs to (the flange, the TCP: 6)
 };
 
 // SS1-t: a controlled stop reaches standstill within max_stop: STOP_TIME_EXCEEDED (rule 3).
@@ -267,11 +278,14 @@ class SpeedLimitMonitor {
 // mode and speeds, in the order their alarms are listed in SPEC §4 rule 3.
 class SafeLimitMonitors {
  public:
-  // Before the first cycle. Until configured the monitors report nothing (unit tests of
-  // the state machine alone); every cell configures them (the built-in configuration
-  // when no file is given).
+  // Before the first cycle: the arm alone (its pose is then computed every cycle, for T1
+  // speed, the limits not monitored), or the limits with their arm and TCP. Until the
+  // limits are configured the monitors report nothing (unit tests of the state machine
+  // alone); every cell configures them (the built-in configuration when no file is given).
+  void configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept;
   void configure(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us) noexcept;
   [[nodiscard]] bool configured() const noexcept { return configured_; }
+  [[nodiscard]] bool arm_configured() const noexcept { return arm_configured_; }
   [[nodiscard]] const SafetyLimits& limits() const noexcept { return limits_; }
   [[nodiscard]] const PreparedArm& arm() const noexcept { return arm_; }
   [[nodiscard]] const ArmPose& pose() const noexcept { return pose_; }
@@ -282,7 +296,9 @@ class SafeLimitMonitors {
  private:
   SafetyLimits limits_{};
   PreparedArm arm_{};
+  Vec3 tcp_{};  // the TCP in the flange frame (limits_.tcp_mm once the limits are configured)
   bool configured_ = false;
+  bool arm_configured_ = false;
   ArmPose pose_{};
   JointLimitMonitor joints_;
   ZoneMonitor zones_;

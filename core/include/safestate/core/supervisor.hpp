@@ -95,6 +95,13 @@ class SystemStateManager {
   // checksum. Without it no safe limit is monitored (the state machine alone).
   void configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
                         bool validated) noexcept;
+  // Before the first cycle, without limits: the arm whose TCP (in the flange frame) and
+  // link origins the T1 speed monitor watches, through the core's own kinematics
+  // (configure_limits sets it with the limits' TCP). Without an arm the T1 speed is unknown:
+  // motion armed in T1 stops at once (unknown is unsafe).
+  void configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept {
+    limits_.configure_arm(arm, tcp_flange_mm);
+  }
   [[nodiscard]] const SafeLimitMonitors& limit_monitors() const noexcept { return limits_; }
   [[nodiscard]] bool config_validated() const noexcept { return config_validated_; }
   // SPEC §12, before the first cycle (after configure_limits): what the event log says
@@ -198,6 +205,9 @@ class Supervisor {
   void configure_limits(const SafetyLimits& limits, const ArmGeometry& arm, std::uint32_t cycle_us,
                         bool validated) noexcept {
     ssm_.configure_limits(limits, arm, cycle_us, validated);
+  }
+  void configure_arm(const ArmGeometry& arm, const Vec3& tcp_flange_mm) noexcept {
+    ssm_.configure_arm(arm, tcp_flange_mm);
   }
   void configure_brake_test(const BrakeTestHistory& history) noexcept { ssm_.configure_brake_test(history); }
 

@@ -1,7 +1,8 @@
 // The motion layer: turns the supervisor's MotionRequest into CSP set-points and CiA 402
-// controlwords for six drives, and measures the TCP and link-origin speeds the
-// supervisor monitors. Same rules as core/: no heap, no exceptions, no clock; time is
-// the cycle period given at construction.
+// controlwords for six drives, and measures the TCP and link-origin speeds (for its own
+// T1 limiting and the status; the supervisor monitors speeds of its own kinematics). Same
+// rules as core/: no heap, no exceptions, no clock; time is the cycle period given at
+// construction.
 #pragma once
 
 #include <array>
