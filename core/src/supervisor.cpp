@@ -58,8 +58,8 @@ struct SystemStateManager::CycleCtx {
   const SafetyInputs& in;
   const Feedback& fb;
   SupervisorOut& out;
-  // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   Reporter& rep;  // what the monitors found this cycle (the manager's, begun for it)
+  // NOLINTEND(cppcoreguidelines-avoid-const-or-ref-data-members)
   Leaf start_leaf = Leaf::BOOT;
   bool cat0 = false;
   bool discard = false;
