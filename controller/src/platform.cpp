@@ -69,11 +69,10 @@ bool Platform::add_rom(const void* p, std::size_t n) noexcept {
   if (cycled_ || roms_ >= kMaxRegions || p == nullptr || n == 0U) {
     return false;
   }
-  rom_[roms_] = Rom{static_cast<const volatile unsigned char*>(p), n, 0U};
-  if (started_) {  // a host's region after the start-up self-test: its reference now, twice
-    rom_[roms_].reference = rom_reference(roms_);
-    self_test_ok_ = self_test_ok_ && (rom_reference(roms_) == rom_[roms_].reference);
-  }
+  // A host's region added after the start-up self-test (safestate run's own code, 3 MiB) takes
+  // its reference in the first background pass, not now: the time between a fieldbus entering
+  // OP and the first cycle stays short (its process-data watchdogs run from OP on).
+  rom_[roms_] = Rom{static_cast<const volatile unsigned char*>(p), n, 0U, started_};
   ++roms_;
   set_period(period_);  // the slices cover the new region within the same period
   return true;
@@ -137,7 +136,13 @@ void Platform::cycle() noexcept {
     rom_crc_ = crc32(rom_crc_, r.p + rom_offset_, n);
     rom_offset_ += n;
     if (rom_offset_ >= r.n) {
-      integrity_ok_ = integrity_ok_ && (rom_crc_ == r.reference);
+      Rom& done = rom_[rom_region_];
+      if (done.reference_pending) {
+        done.reference = rom_crc_;
+        done.reference_pending = false;
+      } else {
+        integrity_ok_ = integrity_ok_ && (rom_crc_ == done.reference);
+      }
       rom_crc_ = 0U;
       rom_offset_ = 0U;
       if (++rom_region_ >= roms_) {

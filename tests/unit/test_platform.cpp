@@ -71,6 +71,26 @@ TEST(Platform, AChangedConstantIsFoundWithinOnePass) {
   EXPECT_FALSE(p.integrity_ok()) << "latched: memory that changed once is not trusted again";
 }
 
+TEST(Platform, ARegionAddedAfterTheStartTakesItsReferenceInTheFirstPass) {
+  // safestate run adds its own code after the start-up self-test: no 3 MiB CRC between the
+  // bus entering OP and the first cycle; the first pass is the reference, the next ones check.
+  std::array<unsigned char, 400> code{};
+  code[7] = 0x5A;
+  Platform p;
+  p.start();
+  ASSERT_TRUE(p.add_rom(code.data(), code.size()));
+  p.set_period(10);  // 40 bytes a cycle: a pass every 10 cycles
+  for (int k = 0; k < 10; ++k) {
+    p.cycle();
+  }
+  EXPECT_TRUE(p.integrity_ok()) << "the first pass took the reference";
+  code[200] ^= 0x01U;
+  for (int k = 0; k < 10; ++k) {
+    p.cycle();
+  }
+  EXPECT_FALSE(p.integrity_ok()) << "the second pass found the change";
+}
+
 namespace {
 // Bit 3 of the word at `g_stuck` reads 0 whatever is written: a RAM fault as the pattern test
 // sees it (software cannot make one; this stands in for it).

@@ -41,7 +41,8 @@ class Platform {
   static constexpr std::size_t kMaxRegions = 8;
 
   // At start-up, before the first cycle(): false when the table is full, the region empty or
-  // misaligned (RAM: 4-byte words). A ROM region added after start() gets its reference then.
+  // misaligned (RAM: 4-byte words). A ROM region added after start() gets its reference in
+  // the first background pass over it (checked from the second pass on).
   bool add_rom(const void* p, std::size_t n) noexcept;
   bool add_ram(void* p, std::size_t n) noexcept;
   // After a copy of the object holding the RAM regions: regions inside [from, from + n) move
@@ -71,6 +72,7 @@ class Platform {
     const volatile unsigned char* p = nullptr;
     std::size_t n = 0;
     std::uint32_t reference = 0;
+    bool reference_pending = false;  // added after start(): the first pass takes the reference
   };
   struct Ram {
     volatile std::uint32_t* p = nullptr;
