@@ -1437,6 +1437,32 @@ TEST(EcatPacing, SeveralFramesBeforeOnePulseAreOneStepAfterAnExtrapolatedPulseAn
   EXPECT_EQ(rig.cell.max_point_speed_multi_step_mm_s(), 0.0F);
 }
 
+// Issue 40 (ecat_run, a T1 jog: 479 mm/s recorded at a "one-step" pulse): a late frame taken
+// alone after an extrapolated pulse leaves the axis where the extrapolation put it (a zero
+// step); the next pulse without a frame extrapolates that zero step; the pulse after it that
+// takes two frames moves the axis two steps. The credit of an extrapolated pulse (it made up
+// for one set-point) holds only when the extrapolation moved the axis.
+TEST(EcatPacing, AnExtrapolationThatDidNotMoveMakesUpForNoSetPoint) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
+  rig.cell.reset_steps();
+  for (std::int32_t n = 1; n <= 3; ++n) {
+    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
+  }
+  const float steady = rig.cell.max_point_speed_mm_s();
+  rig.cycle({}, false);                                  // frame 4 late: its pulse extrapolates to 4
+  rig.send(PacingRig::outputs(0x0F, 4 * kStep), 100000);  // it arrives after that pulse
+  rig.cycle({}, false);                                  // the next pulse takes 4 alone: no step
+  rig.cycle({}, false);                                  // nothing new: a zero step extrapolated
+  rig.send(PacingRig::outputs(0x0F, 5 * kStep), 100000);
+  rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));        // 5 and 6 before one pulse: from 4 to 6
+  const std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 7 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 6 * kStep, 1) << "from 4 to 6 in one pulse";
+  EXPECT_EQ(rig.cell.steps().multi_step, 1U) << "two set-points at once: the axis took two steps";
+  EXPECT_NEAR(rig.cell.max_point_speed_multi_step_mm_s(), 2.0F * steady, steady * 0.05F);
+  EXPECT_NEAR(rig.cell.max_point_speed_one_step_mm_s(), steady, steady * 0.01F) << "never faster at a one-step pulse";
+}
+
 TEST(EcatPacing, WithoutTheMasterThePulsesStepThePlantAndTheWatchdogDropIsTimedAtTheTerminal) {
   PacingRig rig(EmulatedCell::Pacing::paced);
   rig.enable();

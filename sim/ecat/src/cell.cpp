@@ -304,7 +304,9 @@ void EmulatedCell::sync0_setpoints() noexcept {
   // More than one set-point applied at once: after a held pulse (the set-points went on while
   // the axis stood: frames late or lost), or more frames since the last pulse than the pulses
   // they were meant for, the one extrapolated pulse before making up for one of them.
-  const std::uint32_t credit = (missed_ == 1U) ? 1U : 0U;
+  // An extrapolated pulse made up for one set-point only when it moved the axis: one that
+  // repeated a zero step (after a late frame taken alone) made up for none (issue 40).
+  const std::uint32_t credit = (missed_ == 1U && extrapolation_moved_) ? 1U : 0U;
   multi_step_ = fresh_ > 0U && (missed_ > 1U || fresh_ - credit > 1U);
   steps_.multi_step += multi_step_ ? 1U : 0U;
   if (fresh_ > 0U) {
@@ -312,6 +314,7 @@ void EmulatedCell::sync0_setpoints() noexcept {
   } else if (missed_ < 0xFFU) {
     ++missed_;
   }
+  bool moved = false;
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     if (segment_.esc(kPosFirstDrive + a).state() != AlState::op) {
       step_rad_[a] = 0.0F;
@@ -319,6 +322,7 @@ void EmulatedCell::sync0_setpoints() noexcept {
     }
     if (missed_ == 1U) {
       out_.drive[a].target_position_rad = before.drive[a].target_position_rad + step_rad_[a];
+      moved = moved || (step_rad_[a] != 0.0F);
     } else if (missed_ > 1U) {
       out_.drive[a].target_position_rad = before.drive[a].target_position_rad;
       step_rad_[a] = 0.0F;
@@ -326,6 +330,7 @@ void EmulatedCell::sync0_setpoints() noexcept {
       step_rad_[a] = out_.drive[a].target_position_rad - before.drive[a].target_position_rad;
     }
   }
+  extrapolation_moved_ = moved;
   steps_.extrapolated += (missed_ == 1U) ? 1U : 0U;
   steps_.held += (missed_ > 1U) ? 1U : 0U;
   fresh_ = 0;

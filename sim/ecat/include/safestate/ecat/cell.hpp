@@ -238,6 +238,7 @@ class EmulatedCell {
   std::size_t pacer_ = kNoPacer;       // the drive whose SYNC0 stepped the plant at the last look
   std::uint32_t fresh_ = 0;            // exchanges (set-points) since the last SYNC0 step
   std::uint8_t missed_ = 0;            // SYNC0 steps in a row without one
+  bool extrapolation_moved_ = false;   // the last extrapolated pulse moved an axis
   bool multi_step_ = false;            // the SYNC0 step running applied more than one set-point
   std::array<float, hal::kAxes> step_rad_{};  // each drive's last set-point step (extrapolation)
   std::uint64_t last_step_ns_ = 0;
