@@ -39,15 +39,36 @@ namespace SafeState.ConsoleApp
                 Console.Error.WriteLine(Usage);
                 return 2;
             }
+            int code;
             try
             {
-                return new Session(o).RunAsync(Console.In).GetAwaiter().GetResult();
+                code = new Session(o).RunAsync(Console.In).GetAwaiter().GetResult();
             }
             catch (ConnectException e)
             {
                 Console.Error.WriteLine("SafeState.Console: " + e.Message);
-                return 2;
+                code = 2;
             }
+            return Exit(code);
+        }
+
+        // Mono 6.8 aborts the threads still in managed code when a process ends, and can fail
+        // doing it ("Assertion at exception.c:109 ... ThreadAbortException", SIGABRT, exit 134:
+        // mono/mono#20181): the thread-pool thread that completed the session is often one of
+        // them. Everything is answered, printed and closed by now: under Mono the console ends
+        // the process itself, with its exit code, once its output is flushed.
+        [System.Runtime.InteropServices.DllImport("libc", EntryPoint = "_exit")]
+        private static extern void NativeExit(int code);
+
+        private static int Exit(int code)
+        {
+            Console.Out.Flush();
+            Console.Error.Flush();
+            if (Type.GetType("Mono.Runtime") != null && Environment.OSVersion.Platform == PlatformID.Unix)
+            {
+                NativeExit(code);
+            }
+            return code;
         }
     }
 
