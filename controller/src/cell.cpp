@@ -63,6 +63,11 @@ void Cell::step() noexcept {
   ++now_;
 }
 
+std::uint8_t output_bits(const core::SupervisorOut& o) noexcept {
+  return static_cast<std::uint8_t>((o.contactor ? 1U : 0U) | (o.drives_enable ? 2U : 0U) | (o.brakes_release ? 4U : 0U) |
+                                   (o.reset_lamp ? 8U : 0U));
+}
+
 void Cell::update_view() noexcept {
   const motion::MotionController& m = controller_.motion();
   const core::Feedback& fb = controller_.feedback();

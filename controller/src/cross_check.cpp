@@ -2,6 +2,7 @@
 
 #include <cstddef>
 
+#include "safestate/controller/cell.hpp"
 #include "safestate/controller/platform.hpp"
 
 namespace safestate::controller {
@@ -56,8 +57,7 @@ Digest make_digest(std::uint32_t seq, std::uint64_t cycle, const core::Superviso
   d.state = static_cast<std::uint8_t>(out.state);
   d.sub = static_cast<std::uint8_t>(out.sub);
   d.stop = static_cast<std::uint8_t>(out.stop);
-  d.outputs = static_cast<std::uint8_t>((out.contactor ? 1U : 0U) | (out.drives_enable ? 2U : 0U) |
-                                        (out.brakes_release ? 4U : 0U) | (out.reset_lamp ? 8U : 0U));
+  d.outputs = output_bits(out);
   d.brake_test_axis = out.brake_test_axis;
   d.reply_count = out.reply_count;
   d.replies = replies_crc(out);

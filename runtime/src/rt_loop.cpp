@@ -67,10 +67,8 @@ bridge::SimResult apply_person(const bridge::PersonRecord& p, vocab::World& worl
   static_assert(bridge::kPersonPoints == vocab::kPersonMaxWaypoints);
   constexpr unsigned kAll = bridge::kPersonFields | bridge::kPersonAt | bridge::kPersonWalk | bridge::kPersonStand |
                            bridge::kPersonLeave;
-  if ((static_cast<unsigned>(p.what) & ~kAll) != 0U ||
-      ((p.what & (bridge::kPersonStand | bridge::kPersonLeave)) != 0U && p.what != bridge::kPersonStand &&
-       p.what != bridge::kPersonLeave)) {
-    return bridge::SimResult::person_invalid;  // an unknown bit, or stand/leave with more
+  if ((static_cast<unsigned>(p.what) & ~kAll) != 0U) {
+    return bridge::SimResult::person_invalid;  // an unknown bit (the world judges the combinations)
   }
   vocab::PersonCommand c{};
   c.fields = (p.what & bridge::kPersonFields) != 0U;
@@ -85,8 +83,8 @@ bridge::SimResult apply_person(const bridge::PersonRecord& p, vocab::World& worl
   for (std::size_t i = 0; i < c.path.size(); ++i) {
     c.path[i] = vocab::PersonWaypoint{p.path[i].x_mm, p.path[i].y_mm, p.path[i].speed_mm_s, p.path[i].stand_ms};
   }
-  c.stand = p.what == bridge::kPersonStand;
-  c.leave = p.what == bridge::kPersonLeave;
+  c.stand = (p.what & bridge::kPersonStand) != 0U;
+  c.leave = (p.what & bridge::kPersonLeave) != 0U;
   switch (world.person(c)) {
     case vocab::PersonResult::ok: return bridge::SimResult::ok;
     case vocab::PersonResult::absent: return bridge::SimResult::person_absent;
@@ -246,8 +244,7 @@ void Publisher::publish() noexcept {
   }
   b.fieldbus_ok = v.fieldbus_ok ? 1U : 0U;
   b.leaf = static_cast<std::uint8_t>(cell_.leaf());
-  b.outputs = static_cast<std::uint8_t>((o.contactor ? 1U : 0U) | (o.drives_enable ? 2U : 0U) |
-                                        (o.brakes_release ? 4U : 0U) | (o.reset_lamp ? 8U : 0U));
+  b.outputs = controller::output_bits(o);
   seg_.blackbox()[t % bridge::kBlackBoxCycles].write(b);
   seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
 }

@@ -102,6 +102,10 @@ class Cell {
   CellView view_{};
 };
 
+// SPEC §3's output bits of one cycle, as the black box records them and the cross-channel
+// digest compares them: bit 0 contactor, 1 drives enable, 2 brakes release, 3 reset lamp.
+[[nodiscard]] std::uint8_t output_bits(const core::SupervisorOut& o) noexcept;
+
 // The demo program: one pick-and-place round over three stations (ABB IRB 120 joints).
 const motion::Waypoint* demo_program(std::uint8_t& count) noexcept;
 

@@ -24,7 +24,7 @@ struct Digest {
   std::uint8_t state = 0;
   std::uint8_t sub = 0;
   std::uint8_t stop = 0;
-  std::uint8_t outputs = 0;  // bit 0 contactor, 1 drives enable, 2 brakes release, 3 reset lamp
+  std::uint8_t outputs = 0;  // controller::output_bits
   std::uint8_t brake_test_axis = 0;
   std::uint8_t reply_count = 0;
   std::uint8_t pad1[2]{};
