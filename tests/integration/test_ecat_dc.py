@@ -83,14 +83,26 @@ def test_our_master_runs_sync0_on_every_drive_and_the_clocks_converge():
         # the I/O terminals and the distance sensor (last) run free
         assert dc["sync0_active"] == [False, False] + [True] * 6 + [False], dc
         assert dc["sync0_cycle_ns"][2:8] == [CYCLE_NS] * 6
-        # The sync error converges: from the `dc reset` on, 2 s of figures, every drive within 1 us.
+        # The sync error converges: every drive within 1 us of the reference clock within 3 s of
+        # the start (a drive whose offset came out of a start-up measurement taken across a host
+        # stall slews the rest out at 200 ppm: 0.2 us per ms), and stays there: from the `dc
+        # reset` on, 2 s of figures, every drive within 1 us. (Twice in 6 suite runs the worst
+        # of the 2 s was 80-87 us on one drive; max_age_ms and max_input_gap_us below say when
+        # it came and how long after that clock's last drift-control input, if it comes again.)
+        deadline = time.monotonic() + 3.0
+        while True:
+            err = cell.wire()["dc"]["sync_error_ns"]
+            if all(abs(err[i]) < 1000 for i in DRIVES) or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        assert all(abs(err[i]) < 1000 for i in DRIVES), err
         assert cell.control_line("dc reset") == "OK"
         time.sleep(2.0)
         dc = cell.wire()["dc"]
         for i in DRIVES:
             st = dc["stats"][i]
             assert st["samples"] >= 1000, st  # one per process-data frame
-            assert st["max_ns"] < 1000, (i, st)
+            assert st["max_ns"] < 1000, (i, dc["stats"], cell.log("run")[-1500:], cell.log("sim")[-1500:])
             assert abs(dc["sync_error_ns"][i]) < 1000, dc["sync_error_ns"]
             # the frames reach the drives before the SYNC0 that applies their set-points
             assert st["latched"] >= 0.9 * st["samples"], st

@@ -311,6 +311,8 @@ nlohmann::json dc_status(EmulatedCell& cell) {
     stats.push_back({{"samples", s.samples},
                      {"p99_ns", s.percentile_ns(0.99)},
                      {"max_ns", s.max_abs_ns},
+                     {"max_age_ms", now > s.max_at_ns ? static_cast<double>(now - s.max_at_ns) * 1e-6 : 0.0},
+                     {"max_input_gap_us", static_cast<double>(s.max_input_gap_ns) * 1e-3},
                      {"latched", s.latched},
                      {"overwritten", s.overwritten},
                      {"missed", s.missed},

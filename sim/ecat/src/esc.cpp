@@ -501,11 +501,15 @@ void Esc::put64(std::uint16_t a, std::uint64_t v) noexcept {
   }
 }
 
-void DcStats::record(std::int64_t err_ns) noexcept {
+void DcStats::record(std::int64_t err_ns, std::uint64_t at_ns, std::uint64_t input_gap_ns) noexcept {
   const std::uint64_t a = static_cast<std::uint64_t>(err_ns < 0 ? -err_ns : err_ns);
   ++samples;
   last_ns = err_ns;
-  max_abs_ns = std::max(max_abs_ns, a);
+  if (a > max_abs_ns || samples == 1U) {
+    max_abs_ns = a;
+    max_at_ns = at_ns;
+    max_input_gap_ns = input_gap_ns;
+  }
   ++hist[std::min<std::uint64_t>(a / 10U, kBuckets - 1U)];
 }
 

@@ -254,7 +254,7 @@ std::int64_t Segment::sync_error_ns(std::size_t i, std::uint64_t now_ns) noexcep
 void Segment::sample_sync_errors(std::uint64_t now_ns) noexcept {
   for (std::size_t p = 0; p < connected(); ++p) {
     if (escs_[p].desc().dc_sync0_required && escs_[p].sync0_running(now_ns)) {
-      escs_[p].dc_stats().record(sync_error_ns(p, now_ns));
+      escs_[p].dc_stats().record(sync_error_ns(p, now_ns), now_ns, escs_[p].dc_input_gap_ns(now_ns));
     }
   }
 }

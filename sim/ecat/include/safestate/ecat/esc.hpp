@@ -139,7 +139,11 @@ struct DcStats {
   std::uint64_t missed = 0;       // SYNC0 events that found no new set-point (a late or lost frame)
   std::int64_t last_lead_ns = 0;  // how long before the SYNC0 that takes it the last set-point arrived
   std::int64_t min_lead_ns = 0;
-  void record(std::int64_t err_ns) noexcept;
+  // Where the worst sample came from (a diagnosis, not a figure): the host time it was taken
+  // at, and how long before it the clock's last drift-control input came.
+  std::uint64_t max_at_ns = 0;
+  std::uint64_t max_input_gap_ns = 0;
+  void record(std::int64_t err_ns, std::uint64_t at_ns = 0, std::uint64_t input_gap_ns = 0) noexcept;
   [[nodiscard]] std::uint64_t percentile_ns(double p) const noexcept;  // its 10-ns bucket's top (at most the max)
 };
 
@@ -211,6 +215,10 @@ class Esc {
   // The drift-control loop's rate correction (its integral part), ppm.
   [[nodiscard]] double rate_correction_ppm() const noexcept { return rate_i_ * 1e6; }
   DcStats& dc_stats() noexcept { return dc_stats_; }
+  // host time since the last drift-control input (0: none yet)
+  [[nodiscard]] std::uint64_t dc_input_gap_ns(std::uint64_t now_ns) const noexcept {
+    return (last_ctl_ns_ == 0U || now_ns <= last_ctl_ns_) ? 0U : now_ns - last_ctl_ns_;
+  }
   [[nodiscard]] const DcStats& dc_stats() const noexcept { return dc_stats_; }
 
   [[nodiscard]] AlState state() const noexcept;
