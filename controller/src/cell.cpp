@@ -6,16 +6,12 @@
 
 namespace safestate::controller {
 
-namespace {
-constexpr std::uint32_t kIntegrityPeriodMs = 1000;
-}  // namespace
-
 Cell::Cell(const core::Config& cfg, const motion::RobotModel& model, hal::Backend& io) noexcept
     : cfg_(cfg), io_(&io), controller_(cfg, model) {
   register_platform();
   platform_.start();
-  // SPEC §14 `integrity_period_ms` (1000 ms until the safety configuration carries it).
-  platform_.set_period(kIntegrityPeriodMs * 1000U / cfg.cycle_us);
+  // SPEC §14 `integrity_period_ms`: the whole image's CRC within it.
+  platform_.set_period(static_cast<std::uint32_t>(core::to_timing(cfg).integrity_period));
 }
 
 Cell::Cell(const Cell& other, hal::Backend& io) noexcept
@@ -29,7 +25,13 @@ Cell::Cell(const Cell& other, hal::Backend& io) noexcept
       batch_(other.batch_),
       taken_(other.taken_),
       now_(other.now_),
-      view_(other.view_) {
+      view_(other.view_),
+      link_(nullptr),  // a fork is not paired: its partner would not be forked with it
+      self_(other.self_),
+      cross_(other.cross_),
+      seq_(other.seq_),
+      digest_(other.digest_),
+      check_(other.check_) {
   // The copy's own controller is its RAM under test (the references and progress are kept:
   // a fork of the checker does not repeat the start-up self-test).
   platform_.relocate(&other.controller_, &controller_, sizeof controller_);
@@ -50,14 +52,39 @@ core::Result Cell::submit(const core::Command& c) noexcept {
   return queue_.push(c);
 }
 
+// @req CH-MISMATCH CH-LOST
+void Cell::pair(core::Channel self, Link& link) noexcept {
+  link_ = &link;
+  self_ = self;
+  cross_ = CrossCheck(cfg_.cross_check_cycles);
+  check_ = core::ChannelCheck{};
+  check_.partner = (self == core::Channel::a) ? core::Channel::b : core::Channel::a;
+  controller_.set_cross_check(check_);
+}
+
 void Cell::step() noexcept {
   io_->read(in_);
   platform_.cycle();
   in_.integrity_ok = in_.integrity_ok && platform_.integrity_ok();
   in_.self_test_ok = in_.self_test_ok && platform_.self_test_ok();
   const std::size_t n = queue_.peek(batch_.data(), batch_.size());
+  controller_.set_cross_check(check_);  // the verdict after the last cycle
   taken_ = controller_.step(in_, batch_.data(), n, out_);
   queue_.pop(taken_);
+  if (link_ != nullptr) {
+    // SPEC §14: this cycle's digest to the other channel, theirs compared with ours; the
+    // channel that decides opens its own contactor (and the brakes) in this very cycle.
+    digest_ = make_digest(seq_, now_, controller_.status());
+    ++seq_;
+    const CrossVerdict& v = cross_.step(digest_, *link_);
+    check_.mismatch = v.mismatch;
+    check_.field = v.field;
+    check_.lost = v.lost;
+    if (v.mismatch || v.lost) {
+      out_.contactor = false;
+      out_.brakes_release = false;
+    }
+  }
   io_->write(out_);
   update_view();
   ++now_;
@@ -87,6 +114,7 @@ void Cell::update_view() noexcept {
     view_.brake_released[i] = in_.brake_released[i];
   }
   view_.contactor_closed = in_.contactor_closed;
+  view_.k2_closed = in_.k2_closed;
   view_.fieldbus_ok = in_.fieldbus_ok;
   view_.inputs_stale = in_.stale;
   view_.program_index = m.program().index();

@@ -44,6 +44,9 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
                              hal::ProcessImageOut& out) noexcept {
   feedback_.drive = in.drive;
   feedback_.contactor_closed = in.contactor_closed;
+  feedback_.two_contactors = in.two_contactors;
+  feedback_.k2_closed = in.k2_closed;
+  feedback_.load_encoders = in.load_encoders;
   feedback_.brake_released = in.brake_released;
   feedback_.fieldbus_ok = in.fieldbus_ok;
   feedback_.fieldbus_subdevice = in.fieldbus_subdevice;

@@ -34,21 +34,6 @@ std::uint32_t replies_crc(const core::SupervisorOut& out) noexcept {
 
 }  // namespace
 
-const char* to_string(DigestField f) noexcept {
-  switch (f) {
-    case DigestField::none: return "none";
-    case DigestField::cycle: return "cycle";
-    case DigestField::state: return "state";
-    case DigestField::sub: return "sub";
-    case DigestField::stop: return "stop";
-    case DigestField::alarms: return "alarms";
-    case DigestField::outputs: return "outputs";
-    case DigestField::brake_test_axis: return "brake_test_axis";
-    case DigestField::replies: return "replies";
-  }
-  return "?";
-}
-
 Digest make_digest(std::uint32_t seq, std::uint64_t cycle, const core::SupervisorOut& out) noexcept {
   Digest d{};
   d.seq = seq;

@@ -124,7 +124,13 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::MODE_CHANGED: t.s("Mode changed to ").s(to_string(static_cast<Mode>(d.code & 0x3U))); break;
     case AlarmId::ENABLING_PANIC: t.s("Enabling device squeezed to panic"); break;
     case AlarmId::JOG_LINK_LOST: t.s("Jog keep-alive lost"); break;
-    case AlarmId::CONTACTOR_WELDED: t.s("Main contactor feedback still closed after open was commanded"); break;
+    case AlarmId::CONTACTOR_WELDED:
+      if (d.channel == Channel::a || d.channel == Channel::b) {
+        t.s("Contactor ").s((d.channel == Channel::a) ? "K1" : "K2").s(" feedback still closed after open was commanded");
+      } else {
+        t.s("Main contactor feedback still closed after open was commanded");
+      }
+      break;
     case AlarmId::BRAKE_NOT_ENGAGED: t.s("Brake ").u(axis).s(" still released after engage was commanded"); break;
     case AlarmId::JOINT_LIMIT: t.s("Axis ").u(axis).s(" outside its safe range"); break;
     case AlarmId::ZONE_VIOLATION: t.s("Zone ").u(d.code + 1U).s(" violated"); break;  // the gateway adds its name
@@ -147,6 +153,11 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::PERSON_IN_FIELD: t.s("Person in the inner protective field"); break;
     case AlarmId::COLLISION: t.s("Force at the TCP ").u(d.code).s(" N, over the body region's F_qs"); break;
     case AlarmId::BRAKE_TEST_DUE: t.s("Brake test due"); break;
+    case AlarmId::CHANNEL_MISMATCH:
+      t.s("Safety channels disagree on ").s(to_string(static_cast<CrossField>(d.code)));
+      break;
+    case AlarmId::CHANNEL_LOST: t.s("Safety channel ").s((d.channel == Channel::b) ? "B" : "A").s(" lost"); break;
+    case AlarmId::ENCODER_DISCREPANCY: t.s("Axis ").u(axis).s(" encoders disagree"); break;
     case AlarmId::BRAKE_TEST_FAILED: {
       // code: the drift in millidegrees (SPEC §12 names the axis and its drift).
       const unsigned frac = d.code % 1000U;
@@ -209,6 +220,10 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     t.s(to_string(d.signal)).s(".").u(d.axis);
   } else if (d.signal == Signal::zone) {
     t.s("zone.").u(d.code + 1U);  // limit_detail_name() gives the zone's own name
+  } else if ((d.signal == Signal::channel) && (d.channel == Channel::none)) {
+    t.s("channel");
+  } else if (d.signal == Signal::channel) {
+    t.s((d.channel == Channel::b) ? "B" : "A");  // SPEC §14: the channels are named A and B
   } else {
     t.s(to_string(d.signal));
   }
@@ -219,6 +234,20 @@ const char* detail_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
   if (d.has_step && (buf != nullptr) && (n != 0U)) {
     Text t(buf, n);
     t.s(to_string(d.step));
+    return t.c_str();
+  }
+  // SPEC §14: CONTACTOR_WELDED names the contactor (k1: channel A's, k2: channel B's) when
+  // there are two; CHANNEL_MISMATCH the first field of the digest that differed.
+  if ((d.signal == Signal::contactor) && ((d.channel == Channel::a) || (d.channel == Channel::b)) &&
+      (buf != nullptr) && (n != 0U)) {
+    Text t(buf, n);
+    t.s((d.channel == Channel::a) ? "k1" : "k2");
+    return t.c_str();
+  }
+  if ((d.signal == Signal::channel) && (d.channel == Channel::none) && (d.code != 0U) && (buf != nullptr) &&
+      (n != 0U)) {
+    Text t(buf, n);
+    t.s(to_string(static_cast<CrossField>(d.code)));
     return t.c_str();
   }
   return signal_name(d, buf, n);

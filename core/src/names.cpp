@@ -49,11 +49,13 @@ constexpr std::array<const char*, kCommandCount> kCommandNames{
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
     "validate_config", "brake_test"};
 constexpr std::array<const char*, kSourceCount> kSourceNames{"pendant", "remote", "observer", "reset_button"};
-constexpr std::array<const char*, 19> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
+constexpr std::array<const char*, 20> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
                                                    "drive",     "contactor", "brake", "fieldbus", "command", "internal",
                                                    "axis",      "tcp",       "zone",  "reduced",
-                                                   "field.outer", "field.inner", "separation"};
+                                                   "field.outer", "field.inner", "separation", "channel"};
 constexpr std::array<const char*, 5> kChannelNames{"none", "a", "b", "both", "panic"};
+constexpr std::array<const char*, 9> kCrossFieldNames{"none",    "cycle",   "state",           "sub",    "stop",
+                                                      "alarms",  "outputs", "brake_test_axis", "replies"};
 constexpr std::array<const char*, 3> kStepNames{"CONTACTOR", "DRIVES", "BRAKES"};
 constexpr std::array<const char*, 18> kLeafNames{
     "BOOT",         "ERROR_LOCKOUT", "ESTOP_ACTIVE",   "ESTOP_RESET_NEEDED", "IDLE",          "ARMING",
@@ -116,6 +118,7 @@ const char* to_string(Source s) noexcept { return name_in(kSourceNames, s); }
 const char* to_string(Signal s) noexcept { return name_in(kSignalNames, s); }
 const char* to_string(Channel c) noexcept { return name_in(kChannelNames, c); }
 const char* to_string(ArmingStep s) noexcept { return name_in(kStepNames, s); }
+const char* to_string(CrossField f) noexcept { return name_in(kCrossFieldNames, f); }
 const char* to_string(Leaf l) noexcept { return name_in(kLeafNames, l); }
 const char* to_string(Trigger t) noexcept { return name_in(kTriggerNames, t); }
 const char* to_string(Effect e) noexcept { return name_in(kEffectNames, e); }

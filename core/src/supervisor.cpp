@@ -144,6 +144,8 @@ void SystemStateManager::run_monitors(CycleCtx& c) noexcept {
   t1_speed_.check(v, r);
   stop_time_.check(v, r);
   jog_link_.check(v, r);
+  channel_.check(v, r);
+  encoders_.check(v, r);
 }
 
 // @req TR-PRIORITY TR-EVERY-ALARM

@@ -58,6 +58,7 @@
 #include "safestate/scenario/scenario.hpp"
 #include "parse_util.hpp"
 #include "brake_keys.hpp"
+#include "channel_keys.hpp"
 #include "person_keys.hpp"
 #include "safety_keys.hpp"
 
@@ -92,7 +93,7 @@ struct ConfigField {
   float core::Config::*real_field;
 };
 
-constexpr std::array<ConfigField, 11> kConfigFields{{
+constexpr std::array<ConfigField, 15> kConfigFields{{
     {"cycle_us", "cycle_us", &core::Config::cycle_us, nullptr},
     {"discrepancy_ms", "discrepancy_ms", &core::Config::discrepancy_ms, nullptr},
     {"jog_timeout_ms", "jog_timeout_ms", &core::Config::jog_timeout_ms, nullptr},
@@ -104,6 +105,10 @@ constexpr std::array<ConfigField, 11> kConfigFields{{
     {"fault_reset_cycles", "fault_reset_reply_cycles", &core::Config::fault_reset_reply_cycles, nullptr},
     {"queue_size", "queue_size", &core::Config::queue_size, nullptr},
     {"t1_speed_mm_s", "t1_speed_limit_mm_s", nullptr, &core::Config::t1_speed_limit_mm_s},
+    {"cross_check_cycles", "cross_check_cycles", &core::Config::cross_check_cycles, nullptr},
+    {"encoder_tolerance_deg", "encoder_tolerance_deg", nullptr, &core::Config::encoder_tolerance_deg},
+    {"encoder_discrepancy_ms", "encoder_discrepancy_ms", &core::Config::encoder_discrepancy_ms, nullptr},
+    {"integrity_period_ms", "integrity_period_ms", &core::Config::integrity_period_ms, nullptr},
 }};
 
 constexpr std::size_t kMaxStopField = 3;  // max_stop_ms: the safety file's stop.max_time_ms unless set here
@@ -432,7 +437,7 @@ bool parse_alarm_key(std::string_view key, std::string_view value, Expectation& 
   } else if (what == "detail") {
     e.key = ExpectKey::alarm_detail;
     ok = known_signal(value) || value == "CONTACTOR" || value == "DRIVES" || value == "BRAKES" ||
-         safety_keys::known_detail(value);
+         safety_keys::known_detail(value) || channel_keys::known_detail(value);
     if (!ok && !value.empty()) {
       ok = true;  // a zone's name: checked once the safety configuration is loaded
       e.number = safety_keys::kZoneDetail;
@@ -504,7 +509,8 @@ bool parse_more_key(std::string_view key, std::string_view value, Expectation& e
 Problem parse_expectation(std::string_view tok, Expectation& e) {
   e.text = std::string(tok);
   Problem speed;
-  if (safety_keys::parse_expect(tok, e, speed) || brake_keys::parse_expect(tok, e, speed) || parse_speed(tok, e, speed)) {
+  if (safety_keys::parse_expect(tok, e, speed) || brake_keys::parse_expect(tok, e, speed) ||
+      channel_keys::parse_expect(tok, e, speed) || parse_speed(tok, e, speed)) {
     return speed;
   }
   std::string_view key;
@@ -652,6 +658,7 @@ class Parser {
         fail(number, "config: expected NAME=VALUE, found " + quoted(tokens[i]));
       } else if (safety_keys::set_config(key, value, number, safety_lines_, safety) ||
                  brake_keys::set_config(key, value, result_.scenario, safety) ||
+                 channel_keys::set_config(key, value, result_.scenario, safety) ||
                  person_keys::set_config(key, value, result_.scenario, safety)) {
         if (!safety.empty()) {
           fail(number, std::move(safety));

@@ -20,6 +20,7 @@
 #include "safestate/motion/motion_controller.hpp"
 #include "safestate/scenario/scenario.hpp"
 #include "brake_keys.hpp"
+#include "channel_keys.hpp"
 #include "person_keys.hpp"
 #include "safety_keys.hpp"
 #include "trace.hpp"
@@ -115,6 +116,9 @@ bool holds_more(const Expectation& e, const Observed& o) noexcept {
       if (brake_keys::is_brake_key(e.key)) {
         return brake_keys::holds(e, out);
       }
+      if (channel_keys::is_channel_key(e.key)) {
+        return channel_keys::holds(e, o.cell);
+      }
       break;  // replies: counted by the runner over the window
   }
   return false;
@@ -127,7 +131,7 @@ bool holds(const Expectation& e, const Observed& o) noexcept {
     case ExpectKey::sub: return is(out.sub, e.value);
     case ExpectKey::mode: return is(out.mode, e.value);
     case ExpectKey::stop: return is(out.stop, e.value);
-    case ExpectKey::contactor: return out.contactor == (e.value != 0U);
+    case ExpectKey::contactor: return channel_keys::contactor_is(o.cell, e.value != 0U);  // both (SPEC §14)
     case ExpectKey::drives: return out.drives_enable == (e.value != 0U);
     case ExpectKey::brakes: return out.brakes_release == (e.value != 0U);
     case ExpectKey::reset_lamp: return out.reset_lamp == (e.value != 0U);
@@ -236,6 +240,9 @@ std::string found_more(const Expectation& e, const Observed& o) {
       if (brake_keys::is_brake_key(e.key)) {
         return brake_keys::found(e, out);
       }
+      if (channel_keys::is_channel_key(e.key)) {
+        return channel_keys::found(e, o.cell);
+      }
       break;
   }
   return "?";
@@ -249,7 +256,7 @@ std::string found(const Expectation& e, const Observed& o) {
     case ExpectKey::sub: return std::string("sub=") + core::to_string(out.sub);
     case ExpectKey::mode: return std::string("mode=") + core::to_string(out.mode);
     case ExpectKey::stop: return std::string("stop=") + core::to_string(out.stop);
-    case ExpectKey::contactor: return choice("contactor", out.contactor, "closed", "open");
+    case ExpectKey::contactor: return channel_keys::contactor_found(o.cell);
     case ExpectKey::drives: return choice("drives", out.drives_enable, "enabled", "disabled");
     case ExpectKey::brakes: return choice("brakes", out.brakes_release, "released", "engaged");
     case ExpectKey::reset_lamp: return choice("reset_lamp", out.reset_lamp, "on", "off");
@@ -283,7 +290,7 @@ std::size_t count_ranges(const Scenario& s) noexcept {
 class Runner {
  public:
   Runner(const Scenario& s, const RunOptions& o)
-      : s_(s), opts_(o), cell_(s.config, o.bus), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
+      : s_(s), opts_(o), cell_(s.config, o.bus, s.channels), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     cell_.configure_limits(safety_limits(s), s.safety_validated);
     cell_.configure_brake_test(s.brake_test);
     person_ok_ = cell_.configure_person_sensors(s.person_sensors);

@@ -1,33 +1,149 @@
 #include "safestate/sim/cell.hpp"
 
+#include <optional>
+
 #include "safestate/robot/description.hpp"
 #include "safestate/sim/plant.hpp"
+#include "safestate/vocab/inputs.hpp"
 
 namespace safestate::sim {
+
+// SPEC §14: the in-memory link between the channels of one world: a ring per direction,
+// and the digest faults of the sending channel (`channel X digest corrupt|drop|repeat`).
+enum class DigestFault : std::uint8_t { none, corrupt, drop, repeat };
+
+struct DigestRing {
+  static constexpr std::size_t kSize = 16;  // a stalled receiver: the oldest are lost
+  std::array<controller::Digest, kSize> d{};
+  std::size_t head = 0;
+  std::size_t count = 0;
+  void push(const controller::Digest& x) noexcept {
+    if (count == kSize) {
+      head = (head + 1U) % kSize;
+      --count;
+    }
+    d[(head + count) % kSize] = x;
+    ++count;
+  }
+  bool pop(controller::Digest& x) noexcept {
+    if (count == 0U) {
+      return false;
+    }
+    x = d[head];
+    head = (head + 1U) % kSize;
+    --count;
+    return true;
+  }
+};
+
+struct ChannelLink final : controller::Link {
+  ChannelLink(DigestRing& o, DigestRing& i, const DigestFault& f) noexcept : out(&o), in(&i), fault(&f) {}
+  void send(const controller::Digest& d) noexcept override {
+    switch (*fault) {
+      case DigestFault::none: out->push(d); break;
+      case DigestFault::drop: break;
+      case DigestFault::corrupt: {
+        controller::Digest bad = d;
+        bad.state = static_cast<std::uint8_t>(bad.state ^ 0x01U);  // the CRC no longer matches
+        out->push(bad);
+        break;
+      }
+      case DigestFault::repeat: out->push(have_last ? last : d); break;
+    }
+    if (!have_last || *fault != DigestFault::repeat) {
+      last = d;
+      have_last = true;
+    }
+  }
+  bool receive(controller::Digest& d) noexcept override { return in->pop(d); }
+  DigestRing* out;
+  DigestRing* in;
+  const DigestFault* fault;
+  controller::Digest last{};
+  bool have_last = false;
+};
+
+// A channel's own view of the world (SPEC §14 `channel X input NAME=V`): contacts it alone
+// reads stuck.
+struct StuckInputs {
+  std::array<bool, vocab::kContacts> stuck{};
+  std::array<bool, vocab::kContacts> value{};
+  void apply(core::RawInputs& raw) const noexcept {
+    for (std::size_t c = 0; c < vocab::kContacts; ++c) {
+      if (stuck[c]) {
+        vocab::apply(vocab::ContactWrite{static_cast<vocab::Contact>(c), value[c]}, raw);
+      }
+    }
+  }
+};
 
 // The simulated world as the controller's backend: the plant (or, with `bus`, a real
 // fieldbus, the plant then only injecting the platform faults) and the person, who walks
 // one cycle and is seen against the arm as the motion layer computed it last cycle (from
-// measured joints, tool included).
+// measured joints, tool included). Channel A reads the world (one world cycle per read);
+// channel B (PortB) reads the image A's read took. With one channel A's write advances the
+// world; with two the cell combines both channels' writes first (Cell::step).
 struct Cell::Impl final : hal::Backend {
-  Impl(const core::Config& c, hal::Backend* b)
+  struct PortB final : hal::Backend {
+    explicit PortB(Impl& i) noexcept : s(&i) {}
+    void read(hal::ProcessImageIn& in) noexcept override {
+      in = s->image;
+      s->stuck[1].apply(in.safety);
+    }
+    void write(const hal::ProcessImageOut& out) noexcept override { s->out_b = out; }
+    Impl* s;
+  };
+
+  Impl(const core::Config& c, hal::Backend* b, std::uint8_t ch)
       : cfg(c),
         bus(b),
+        channels((ch == 2U) ? 2U : 1U),
         plant(robot::active().model, static_cast<float>(c.cycle_us) * 1.0e-6F, plant_timing(c.cycle_us), home_pose()),
-        core(c, robot::active().model, *this) {
+        core(c, robot::active().model, *this),
+        port_b(*this) {
+    plant.set_two_contactors(channels == 2U);
+    if (channels == 2U) {
+      core_b.emplace(c, robot::active().model, port_b);
+      core.pair(core::Channel::a, link_a);
+      core_b->pair(core::Channel::b, link_b);
+    }
     load_demo();
   }
   Impl(const Impl& o)
       : hal::Backend(),
         cfg(o.cfg),
         bus(o.bus),
+        channels(o.channels),
         plant(o.plant),
         jog_link_up(o.jog_link_up),
         view(o.view),
         person(o.person),
         person_sensors(o.person_sensors),
         person_discard(o.person_discard),
-        core(o.core, *this) {}
+        image(o.image),
+        out_a(o.out_a),
+        out_b(o.out_b),
+        stuck(o.stuck),
+        stalled(o.stalled),
+        crashed(o.crashed),
+        digest_fault(o.digest_fault),
+        ring_ab(o.ring_ab),
+        ring_ba(o.ring_ba),
+        together(o.together),
+        together_alarms(o.together_alarms),
+        cycles(o.cycles),
+        core(o.core, *this),
+        port_b(*this) {
+    link_a.last = o.link_a.last;
+    link_a.have_last = o.link_a.have_last;
+    link_b.last = o.link_b.last;
+    link_b.have_last = o.link_b.have_last;
+    if (o.core_b) {
+      core_b.emplace(*o.core_b, port_b);
+      core.relink(link_a);  // the copy's own rings, its cross-checks as they were
+      core_b->relink(link_b);
+    }
+  }
   Impl& operator=(const Impl&) = delete;
   ~Impl() override = default;
 
@@ -35,10 +151,14 @@ struct Cell::Impl final : hal::Backend {
     std::uint8_t n = 0;
     const motion::Waypoint* p = demo_program(n);
     core.load_program(p, n);
+    if (core_b) {
+      core_b->load_program(p, n);
+    }
   }
 
+  // One cycle of the world's inputs: the field I/O and the person.
   // @req COL-SIM-PERSON
-  void read(hal::ProcessImageIn& in) noexcept override {
+  void read_world(hal::ProcessImageIn& in) noexcept {
     if (bus != nullptr) {
       bus->read(in);
       plant.read_platform(in);
@@ -49,26 +169,90 @@ struct Cell::Impl final : hal::Backend {
     person.sense(person_sensors, core.controller().motion().frames(), (bus == nullptr) ? in.safety : person_discard,
                  view.person);
   }
-  void write(const hal::ProcessImageOut& out) noexcept override {
+  void write_world(const hal::ProcessImageOut& out) noexcept {
     if (bus != nullptr) {
       bus->write(out);
     } else {
       plant.write(out);
     }
   }
+  // Channel A's backend.
+  void read(hal::ProcessImageIn& in) noexcept override {
+    read_world(image);
+    in = image;
+    stuck[0].apply(in.safety);
+  }
+  void write(const hal::ProcessImageOut& out) noexcept override {
+    out_a = out;
+    if (channels == 1U) {
+      write_world(out);
+    }
+  }
+
+  // SPEC §14: what the world gets from two channels: the drives (set-points, controlwords)
+  // from A, K1 from A, K2 from B, the brakes released only while both release them.
+  [[nodiscard]] hal::ProcessImageOut combined() const noexcept {
+    hal::ProcessImageOut o = out_a;
+    o.contactor = out_a.contactor;
+    o.contactor_k2 = out_b.contactor;
+    o.brakes_release = out_a.brakes_release && out_b.brakes_release;
+    o.reduced_active = out_a.reduced_active || out_b.reduced_active;
+    return o;
+  }
+  void update_together() noexcept;
 
   core::Config cfg;
   hal::Backend* bus;  // null: the simulated plant
+  std::uint8_t channels;
   SimPlant plant;
   bool jog_link_up = true;
   CellView view{};
   Person person;
   PersonSensors person_sensors{};
   core::RawInputs person_discard{};  // with a bus: the person's devices write here, unread
-  controller::Cell core;             // last: it reads the world above through *this
+  hal::ProcessImageIn image{};       // the world's inputs of this cycle (before a channel's own faults)
+  hal::ProcessImageOut out_a{};      // two channels: each channel's last written outputs
+  hal::ProcessImageOut out_b{};
+  std::array<StuckInputs, 2> stuck{};
+  std::array<bool, 2> stalled{};
+  std::array<bool, 2> crashed{};
+  std::array<DigestFault, 2> digest_fault{};
+  DigestRing ring_ab{};
+  DigestRing ring_ba{};
+  ChannelLink link_a{ring_ab, ring_ba, digest_fault[0]};
+  ChannelLink link_b{ring_ba, ring_ab, digest_fault[1]};
+  core::SupervisorOut together{};
+  core::AlarmSet together_alarms{};
+  core::Cycle cycles = 0;
+  controller::Cell core;  // channel A; after the world above: it reads it through *this
+  PortB port_b;
+  std::optional<controller::Cell> core_b;  // channel B, with two channels
 };
 
-Cell::Cell(const core::Config& cfg, hal::Backend* bus) : impl_(std::make_unique<Impl>(cfg, bus)) {}
+// The channels together (spec/scenario-format.md "Two channels"): led by the one locked out,
+// else the one whose contactor is open, else A; the alarms of either (A's detail first).
+void Cell::Impl::update_together() noexcept {
+  const core::SupervisorOut& a = core.out();
+  const core::SupervisorOut& b = core_b->out();
+  const bool a_locked = core.leaf() == core::Leaf::ERROR_LOCKOUT;
+  const bool b_locked = core_b->leaf() == core::Leaf::ERROR_LOCKOUT;
+  const bool lead_b = (b_locked && !a_locked) || (!b_locked && !a_locked && !b.contactor && a.contactor);
+  together = lead_b ? b : a;
+  together.alarms = a.alarms | b.alarms;
+  together.contactor = a.contactor && b.contactor;  // both closed (`contactor=` reads both: runner)
+  together.brakes_release = a.brakes_release && b.brakes_release;
+  together_alarms = lead_b ? core_b->alarms() : core.alarms();
+  const core::AlarmSet& other = lead_b ? core.alarms() : core_b->alarms();
+  for (std::size_t i = 0; i < core::kAlarmCount; ++i) {
+    const auto id = static_cast<core::AlarmId>(i);
+    if (other.active(id) && !together_alarms.active(id)) {
+      together_alarms.raise(id, other.detail(id), other.since(id));
+    }
+  }
+}
+
+Cell::Cell(const core::Config& cfg, hal::Backend* bus, std::uint8_t channels)
+    : impl_(std::make_unique<Impl>(cfg, bus, channels)) {}
 Cell::~Cell() = default;
 Cell::Cell(const Cell& other) : vocab::World(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
 
@@ -76,8 +260,30 @@ core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
 void Cell::inject(const Fault& f) noexcept {
   Impl& s = *impl_;
   s.plant.inject(f);
+  const std::size_t ch = (f.axis == 2U) ? 1U : 0U;
+  switch (f.kind) {  // SPEC §14: a channel's own faults (with one channel, those of A)
+    case FaultKind::channel_stall: s.stalled[ch] = true; break;
+    case FaultKind::channel_crash: s.crashed[ch] = true; break;
+    case FaultKind::channel_input: {
+      const std::size_t c = static_cast<std::size_t>(f.value >> 1U) % vocab::kContacts;
+      s.stuck[ch].stuck[c] = true;
+      s.stuck[ch].value[c] = (f.value & 1U) != 0U;
+      break;
+    }
+    case FaultKind::digest_corrupt: s.digest_fault[ch] = DigestFault::corrupt; break;
+    case FaultKind::digest_drop: s.digest_fault[ch] = DigestFault::drop; break;
+    case FaultKind::digest_repeat: s.digest_fault[ch] = DigestFault::repeat; break;
+    case FaultKind::clear_all:  // the channels' input faults and the link's go; a stalled or
+      s.stuck = {};             // crashed channel stays so (a process does not come back)
+      s.digest_fault = {};
+      break;
+    default: break;
+  }
   if (f.kind == FaultKind::program_unload) {
     s.core.load_program(nullptr, 0);
+    if (s.core_b) {
+      s.core_b->load_program(nullptr, 0);
+    }
   } else if (f.kind == FaultKind::jog_link_drop) {
     s.jog_link_up = false;
   } else if (f.kind == FaultKind::clear_all) {
@@ -88,20 +294,64 @@ void Cell::inject(const Fault& f) noexcept {
   }
 }
 
-core::Result Cell::submit(const core::Command& c) noexcept { return impl_->core.submit(c); }
+// SPEC §14: every command to both channels (each takes it in the same cycle: lock-step); the
+// answer the sender sees is A's (a result that differs is CHANNEL_MISMATCH). A crashed or
+// stalled channel takes none.
+// @req CH-PAIR
+core::Result Cell::submit(const core::Command& c) noexcept {
+  Impl& s = *impl_;
+  if (s.core_b && !s.stalled[1] && !s.crashed[1]) {
+    static_cast<void>(s.core_b->submit(c));
+  }
+  return s.core.submit(c);
+}
 
 bool Cell::jog_link_up() const noexcept { return impl_->jog_link_up; }
 std::uint64_t Cell::injected() const noexcept { return impl_->plant.injected(); }
 
 void Cell::step() noexcept {
   Impl& s = *impl_;
-  s.core.step();
+  ++s.cycles;
+  if (s.channels == 1U) {
+    if (!s.stalled[0] && !s.crashed[0]) {
+      s.core.step();
+    } else {
+      s.read_world(s.image);  // the world goes on without its controller
+      if (s.crashed[0]) {
+        s.out_a = hal::ProcessImageOut{};  // a process gone: its outputs drop
+      }
+      s.write_world(s.out_a);  // stalled: they stay as last written
+    }
+  } else {
+    // SPEC §14 lock-step: A reads the world and runs, B reads the same image and runs, the
+    // world takes both channels' outputs. A stalled channel's outputs stay as last written,
+    // a crashed one's drop (de-energised); the world's cycle goes on without them.
+    if (!s.stalled[0] && !s.crashed[0]) {
+      s.core.step();
+    } else {
+      s.read_world(s.image);
+    }
+    if (!s.stalled[1] && !s.crashed[1]) {
+      s.core_b->step();
+    }
+    for (std::size_t i = 0; i < 2U; ++i) {
+      if (s.crashed[i]) {
+        (i == 0U ? s.out_a : s.out_b) = hal::ProcessImageOut{};
+      }
+    }
+    s.write_world(s.combined());
+    s.update_together();
+  }
   static_cast<controller::CellView&>(s.view) = s.core.view();
+  s.view.k2_closed = s.plant.k2_closed();
   s.view.injected = s.plant.injected();
 }
 
 void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
   impl_->core.configure_limits(limits, validated);
+  if (impl_->core_b) {
+    impl_->core_b->configure_limits(limits, validated);
+  }
   impl_->plant.set_tool(limits.payload_kg, limits.tcp_mm);  // the simulated arm carries the declared tool
 }
 
@@ -109,6 +359,9 @@ void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payl
 
 void Cell::load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
   impl_->core.load_program(points, count);
+  if (impl_->core_b) {
+    impl_->core_b->load_program(points, count);
+  }
 }
 
 // @req COL-SIM-PERSON
@@ -166,17 +419,42 @@ const Person& Cell::person() const noexcept { return impl_->person; }
 
 void Cell::configure_brake_test(const core::BrakeTestHistory& history) noexcept {
   impl_->core.configure_brake_test(history);
+  if (impl_->core_b) {
+    impl_->core_b->configure_brake_test(history);
+  }
 }
 
-const core::SupervisorOut& Cell::out() const noexcept { return impl_->core.out(); }
+const core::SupervisorOut& Cell::out() const noexcept {
+  return (impl_->channels == 2U) ? impl_->together : impl_->core.out();
+}
 const CellView& Cell::view() const noexcept { return impl_->view; }
 const core::RawInputs& Cell::raw_inputs_of_last_cycle() const noexcept { return impl_->core.raw_inputs_of_last_cycle(); }
 const core::SafetyInputs& Cell::safety_inputs() const noexcept { return impl_->core.safety_inputs(); }
 const core::Feedback& Cell::feedback() const noexcept { return impl_->core.feedback(); }
 const core::Command* Cell::commands_taken(std::size_t& n) const noexcept { return impl_->core.commands_taken(n); }
-core::Leaf Cell::leaf() const noexcept { return impl_->core.leaf(); }
-const core::AlarmSet& Cell::alarms() const noexcept { return impl_->core.alarms(); }
-core::Cycle Cell::now() const noexcept { return impl_->core.now(); }
+core::Leaf Cell::leaf() const noexcept {
+  const Impl& s = *impl_;
+  if (s.core_b && s.core_b->leaf() == core::Leaf::ERROR_LOCKOUT) {
+    return core::Leaf::ERROR_LOCKOUT;
+  }
+  return s.core.leaf();
+}
+const core::AlarmSet& Cell::alarms() const noexcept {
+  return (impl_->channels == 2U) ? impl_->together_alarms : impl_->core.alarms();
+}
+core::Cycle Cell::now() const noexcept { return impl_->cycles; }
+std::uint8_t Cell::channels() const noexcept { return impl_->channels; }
+const controller::Cell& Cell::channel(std::size_t i) const noexcept {
+  return (i == 1U && impl_->core_b) ? *impl_->core_b : impl_->core;
+}
+bool Cell::channel_running(std::size_t i) const noexcept {
+  const std::size_t c = (i == 1U) ? 1U : 0U;
+  return !impl_->stalled[c] && !impl_->crashed[c];
+}
+bool Cell::k2_closed() const noexcept { return impl_->plant.k2_closed(); }
+bool Cell::contactor_command(std::size_t i) const noexcept {
+  return (i == 1U && impl_->channels == 2U) ? impl_->out_b.contactor : impl_->out_a.contactor;
+}
 const core::Config& Cell::config() const noexcept { return impl_->cfg; }
 controller::Cell& Cell::controller() noexcept { return impl_->core; }
 const controller::Cell& Cell::controller() const noexcept { return impl_->core; }

@@ -48,7 +48,7 @@ void SimPlant::inject(const Fault& f) noexcept {
     case FaultKind::drive_runaway: axis_[i].runaway = true; break;
     case FaultKind::drive_nostop: axis_[i].nostop = true; break;
     case FaultKind::fieldbus_lost: fieldbus_ok_ = false; break;
-    case FaultKind::contactor_stuck_open: contactor_stuck_open_ = true; break;
+    case FaultKind::contactor_stuck_open: k_[(f.axis == 2U) ? 1U : 0U].stuck_open = true; break;
     case FaultKind::brake_stuck: axis_[i].brake_stuck = true; break;
     case FaultKind::brake_weak: axis_[i].brake_weak = true; break;
     // @req COL-SIM-CONTACT
@@ -71,8 +71,16 @@ void SimPlant::inject(const Fault& f) noexcept {
         a.sw_override = false;
         a.slow_cycles = 0;
       }
-      contactor_stuck_open_ = false;
-      contactor_welded_ = false;
+      for (Contactor& k : k_) {
+        k.stuck_open = false;
+        k.welded = false;
+      }
+      for (Axis& a : axis_) {
+        a.enc_stuck = false;
+        a.enc_offset_rad = 0.0F;
+        a.enc_drift_rad_s = 0.0F;
+        a.enc_drift_acc_rad = 0.0F;
+      }
       fieldbus_ok_ = true;
       integrity_ok_ = true;
       self_test_ok_ = true;
@@ -87,9 +95,22 @@ void SimPlant::inject(const Fault& f) noexcept {
       axis_[i].slow_cycles = cycles_of_ms(f.value);
       axis_[i].slow_timer = 0;
       break;
-    case FaultKind::contactor_welded:
-      contactor_welded_ = true;
-      contactor_closed_ = true;  // welded shut: closed from now on, whatever the command
+    case FaultKind::contactor_welded: {
+      Contactor& k = k_[(f.axis == 2U) ? 1U : 0U];
+      k.welded = true;
+      k.closed = true;  // welded shut: closed from now on, whatever the command
+      break;
+    }
+    // SPEC §14 the load-side encoder of axis N.
+    case FaultKind::encoder_stuck:
+      axis_[i].enc_stuck_rad = load_position(i);
+      axis_[i].enc_stuck = true;
+      break;
+    case FaultKind::encoder_offset:
+      axis_[i].enc_offset_rad = static_cast<float>(static_cast<std::int16_t>(f.value)) * 0.01F * (3.14159265F / 180.0F);
+      break;
+    case FaultKind::encoder_drift:
+      axis_[i].enc_drift_rad_s = static_cast<float>(static_cast<std::int16_t>(f.value)) * 0.01F * (3.14159265F / 180.0F);
       break;
     case FaultKind::brake_stuck_released:
       axis_[i].brake_stuck_released = true;
@@ -97,6 +118,12 @@ void SimPlant::inject(const Fault& f) noexcept {
       break;
     case FaultKind::program_unload:
     case FaultKind::jog_link_drop:
+    case FaultKind::channel_stall:
+    case FaultKind::channel_crash:
+    case FaultKind::channel_input:
+    case FaultKind::digest_corrupt:
+    case FaultKind::digest_drop:
+    case FaultKind::digest_repeat:
       break;  // not the plant's: the cell handles them
   }
 }
@@ -116,11 +143,42 @@ void SimPlant::read(hal::ProcessImageIn& in) noexcept {
     in.drive[i].online = true;
     in.drive[i].torque_permille = a.torque;
     in.brake_released[i] = a.brake_released;
+    in.drive[i].load_position_rad = load_position(i);
   }
-  in.contactor_closed = contactor_closed_;
+  in.load_encoders = true;
+  in.contactor_closed = k_[0].closed;
+  in.two_contactors = two_contactors_;
+  in.k2_closed = two_contactors_ && k_[1].closed;
   in.fieldbus_ok = fieldbus_ok_;
   in.integrity_ok = integrity_ok_;
   in.self_test_ok = self_test_ok_;
+}
+
+// SPEC §14: the load-side encoder: the joint behind the gearbox's compliance under the
+// drive's torque, with its injected faults.
+float SimPlant::load_position(std::size_t i) const noexcept {
+  const Axis& a = axis_[i];
+  if (a.enc_stuck) {
+    return a.enc_stuck_rad;
+  }
+  return a.q - (kGearComplianceRadPerPermille * static_cast<float>(a.torque)) + a.enc_offset_rad + a.enc_drift_acc_rad;
+}
+
+void SimPlant::switch_contactor(Contactor& k, bool cmd) const noexcept {
+  if (cmd != k.cmd) {
+    k.cmd = cmd;
+    k.timer = 0;
+  }
+  ++k.timer;
+  if (k.timer >= timing_.contactor_cycles) {
+    k.closed = k.cmd && !k.stuck_open;
+  }
+  if (k.stuck_open) {
+    k.closed = false;
+  }
+  if (k.welded) {
+    k.closed = true;
+  }
 }
 
 void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
@@ -156,7 +214,7 @@ void SimPlant::drive_state(Axis& a, std::uint16_t cw, bool power) noexcept {
 // axis the drive holds with its brake released gets the arm's dynamics instead (dynamics()).
 std::int16_t SimPlant::drive_torque(const Axis& a, const hal::DriveOut& d, float accel, float amax,
                                     float target) const noexcept {
-  if (a.ds != c402::DriveState::OperationEnabled || !contactor_closed_) {
+  if (a.ds != c402::DriveState::OperationEnabled || !power()) {
     return 0;
   }
   const float limit = std::fmin(static_cast<float>(d.max_torque_permille), 32767.0F);
@@ -172,13 +230,13 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
   const float v_before = a.v;
   const float vmax = model_.qd_max_rad_s[i];
   const float amax = model_.qdd_max_rad_s2[i] * payload_decel_scale(payload_);
-  const bool torque = (a.ds == c402::DriveState::OperationEnabled) && contactor_closed_;
+  const bool torque = (a.ds == c402::DriveState::OperationEnabled) && power();
   if (torque && a.runaway) {
     const float dir = (a.v < 0.0F) ? -1.0F : 1.0F;  // accelerates at its limit, ignoring set-points
     a.v = clampf(a.v + (dir * amax * dt_), -vmax, vmax);
-  } else if (a.ds == c402::DriveState::QuickStopActive && contactor_closed_ && !a.nostop) {
+  } else if (a.ds == c402::DriveState::QuickStopActive && power() && !a.nostop) {
     a.v = toward_zero(a.v, amax * dt_);  // the drive's own quick-stop ramp (0x6085)
-  } else if (a.ds == c402::DriveState::QuickStopActive && contactor_closed_) {
+  } else if (a.ds == c402::DriveState::QuickStopActive && power()) {
     // nostop: ignores its own quick-stop ramp too
   } else if (torque && a.brake_released) {
     const float v0 = a.v;
@@ -217,19 +275,10 @@ void SimPlant::physics(Axis& a, std::size_t i, const hal::DriveOut& d) noexcept 
 
 void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
   ++age_;
-  if (out.contactor != contactor_cmd_) {
-    contactor_cmd_ = out.contactor;
-    contactor_timer_ = 0;
-  }
-  ++contactor_timer_;
-  if (contactor_timer_ >= timing_.contactor_cycles) {
-    contactor_closed_ = contactor_cmd_ && !contactor_stuck_open_;
-  }
-  if (contactor_stuck_open_) {
-    contactor_closed_ = false;
-  }
-  if (contactor_welded_) {
-    contactor_closed_ = true;
+  switch_contactor(k_[0], out.contactor);
+  switch_contactor(k_[1], two_contactors_ && out.contactor_k2);
+  for (Axis& a : axis_) {
+    a.enc_drift_acc_rad += a.enc_drift_rad_s * dt_;
   }
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     Axis& a = axis_[i];
@@ -248,7 +297,7 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
     if (a.brake_stuck_released) {
       a.brake_released = true;
     }
-    drive_state(a, out.drive[i].controlword, contactor_closed_);
+    drive_state(a, out.drive[i].controlword, power());
     physics(a, i, out.drive[i]);
   }
   dynamics();

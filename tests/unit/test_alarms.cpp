@@ -64,6 +64,10 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"BRAKE_TEST_FAILED", Severity::fault, Latch::reset},
       // SPEC §7/§11: COLLISION latched fault (rule 8).
       {"COLLISION", Severity::fault, Latch::reset},
+      // SPEC §14: lockouts until power cycle.
+      {"CHANNEL_MISMATCH", Severity::lockout, Latch::power_cycle},
+      {"CHANNEL_LOST", Severity::lockout, Latch::power_cycle},
+      {"ENCODER_DISCREPANCY", Severity::lockout, Latch::power_cycle},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

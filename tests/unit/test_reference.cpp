@@ -333,6 +333,38 @@ struct Harness {
     }
     for (std::size_t i = 0; i < kAxes; ++i) fb.drive[i].position_rad = held[i];
   }
+  // SPEC §14: the cross-check's verdict on the partner channel and each axis' load-side
+  // encoder, in the histories that ask for them, from a stream of their own: K2 welded now
+  // and then, a mismatch or a lost partner (rare), an encoder off by a little (within the
+  // tolerance) or a lot, or stuck.
+  bool two_channels = false;
+  std::mt19937 channel_rng{2718281U};
+  std::array<float, kAxes> enc_offset{};
+  std::array<bool, kAxes> enc_stuck{};
+  std::array<float, kAxes> enc_stuck_at{};
+  bool k2_welded = false;
+  void perturb_channels(Cycle t) {
+    const auto c = [this](int per_100k) { return static_cast<int>(channel_rng() % 100000U) < per_100k; };
+    fb.cross.partner = Channel::b;
+    fb.load_encoders = true;
+    fb.two_contactors = true;
+    if (c(3)) { fb.cross.mismatch = true; fb.cross.field = static_cast<CrossField>(1U + channel_rng() % 8U); log << t << ":mismatch\n"; }
+    if (c(3)) { fb.cross.lost = true; log << t << ":lost\n"; }
+    if (c(20)) {
+      const auto i = channel_rng() % 6U;
+      const float offsets[] = {0.0F, 0.004F, -0.006F, 0.02F, -0.5F};
+      enc_offset[i] = offsets[channel_rng() % 5U];
+      log << t << ":encoder " << i << " offset " << enc_offset[i] << "\n";
+    }
+    if (c(5)) { const auto i = channel_rng() % 6U; enc_stuck[i] = !enc_stuck[i]; enc_stuck_at[i] = fb.drive[i].position_rad; log << t << ":encoder " << i << " stuck " << enc_stuck[i] << "\n"; }
+    if (c(3)) { k2_welded = !k2_welded; log << t << ":k2 welded " << k2_welded << "\n"; }
+  }
+  void load_encoders() {
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      fb.drive[i].load_position_rad = enc_stuck[i] ? enc_stuck_at[i] : fb.drive[i].position_rad + enc_offset[i];
+    }
+    fb.k2_closed = k2_welded || fb.contactor_closed;  // follows K1's command (same timing), or welded
+  }
   bool collab = false;  // SPEC §11 configured and perturbed
   std::mt19937 collab_rng{12345U};
   std::mt19937 brake_rng{4242U};
@@ -447,6 +479,9 @@ struct Harness {
     raw = RawInputs{};
     fb = Feedback{};
     out = SupervisorOut{};
+    enc_offset = {};
+    enc_stuck = {};
+    k2_welded = false;
     fieldbus_down_until = 0;
     button_held_until = 0;
     within_limits = true;
@@ -480,6 +515,9 @@ struct Harness {
         }
       }
       perturb(t);
+      if (two_channels) {
+        perturb_channels(t);
+      }
       signals.update(raw, local, timing);
       plant.fill(fb);
       ref::Geometry geo{};
@@ -501,6 +539,9 @@ struct Harness {
       JointArray q{};
       for (std::size_t i = 0; i < kAxes; ++i) q[i] = (safety ? kPose[pose][i] : 0.0F) + slip[i] + (i == 0U ? creep : 0.0F);
       sample(q);
+      if (two_channels) {
+        load_encoders();
+      }
       if (safety) {
         fb.program_within_limits = within_limits;
         geo = geometry_of(lim, fb);
@@ -624,6 +665,8 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
       h.bus_boot_failed_at = static_cast<Cycle>(seed);  // the bus is not as configured: BOOT_FAILED at once
     }
     h.feedback_faults = seed % 5 == 3;
+    h.two_channels = seed % 6 == 5;  // SPEC §14 (its own stream: the other histories unchanged)
+    h.channel_rng.seed(static_cast<std::uint32_t>(seed) * 2654435761U);
     const std::string diff = h.run(kCycles);
     ASSERT_TRUE(diff.empty()) << "seed " << seed << ": " << diff << "\nlast events:\n" << tail(h.log.str(), 25);
     for (std::size_t i = 0; i < states.size(); ++i) states[i] += h.state_cycles[i];

@@ -36,6 +36,16 @@ std::vector<Fault> every_fault() {
       case FaultKind::drive_slow_enable: f.axis = 2; f.value = 250; break;
       case FaultKind::contact: f.value = 1255; break;  // 125.5 N
       case FaultKind::drive_torque_bias: f.axis = 6; f.value = static_cast<std::uint16_t>(std::int16_t{-125}); break;
+      // SPEC §14: the channel (1 A, 2 B), the axis of an encoder, hundredths of a degree.
+      case FaultKind::channel_stall:
+      case FaultKind::digest_corrupt: f.axis = 1; break;
+      case FaultKind::channel_crash:
+      case FaultKind::digest_drop:
+      case FaultKind::digest_repeat: f.axis = 2; break;
+      case FaultKind::channel_input: f.axis = 2; f.value = static_cast<std::uint16_t>((5U << 1U) | 1U); break;
+      case FaultKind::encoder_stuck: f.axis = 3; break;
+      case FaultKind::encoder_offset: f.axis = 5; f.value = 75; break;  // 0.75 deg
+      case FaultKind::encoder_drift: f.axis = 1; f.value = static_cast<std::uint16_t>(std::int16_t{-1250}); break;
       default: break;
     }
     all.push_back(f);
@@ -56,6 +66,38 @@ TEST(Vocab, EveryFaultPrintsToWordsThatParseBackToIt) {
   }
   EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::drive_torque_bias)]), "drive 6 torque_bias -12.5");
   EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::drive_statusword)]), "drive 4 statusword 0x021F");
+  EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::channel_input)]), "channel B input enable.b=1");
+  EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::encoder_drift)]), "encoder 1 drift -12.5");
+  EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::encoder_offset)]), "encoder 5 offset 0.75");
+}
+
+TEST(Vocab, TwoChannelFaultsNameWhatIsWrong) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"channel C stall", "bad channel \"C\""},
+      {"channel A wobble", "expected channel A|B stall|crash"},
+      {"channel B digest mangle", "bad digest fault \"mangle\""},
+      {"channel A input estop=pressed", "bad input \"estop=pressed\""},  // a shorthand: not one contact
+      {"channel A input estop.a=2", "bad input"},
+      {"encoder 7 stuck", "bad encoder \"7\""},
+      {"encoder 2 offset 400", "bad offset \"400\""},
+      {"encoder 2 drift x", "bad drift \"x\""},
+      {"contactor k3 welded", "bad fault"},
+  };
+  for (const auto& [line, want] : bad) {
+    Fault f{FaultKind::clear_all, 7, 7};
+    const Problem p = parse_line(line, f);
+    EXPECT_NE(p.find(want), std::string::npos) << line << ": " << p;
+    EXPECT_EQ(f.axis, 7) << "a refused line changes nothing: " << line;
+  }
+  Fault f{};
+  ASSERT_EQ(parse_line("contactor k2 welded", f), "");
+  EXPECT_EQ(f.kind, FaultKind::contactor_welded);
+  EXPECT_EQ(f.axis, 2);
+  ASSERT_EQ(parse_line("contactor welded", f), "");
+  EXPECT_EQ(f.axis, 0);  // K1's, as before two contactors
+  // Channel and digest faults are not a person's to inject over the network.
+  EXPECT_NE(parse_line("channel A stall", f, FaultSource::network).find("cannot be injected over the network"),
+            std::string::npos);
 }
 
 TEST(Vocab, TheNetworkInjectsOnlyWhatAPersonCouldDoToThePlant) {

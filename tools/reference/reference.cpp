@@ -1,7 +1,9 @@
 // Reference supervisor: SPEC.md §3-§5 as one switch per concern, read top to bottom.
 #include "reference.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "safestate/core/cia402.hpp"
 #include "safestate/core/monitors.hpp"  // the recovery tolerances kWorse* (vocabulary), nothing else
@@ -311,6 +313,9 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   if (!fb.integrity_ok) { raise(AlarmId::INTEGRITY_FAULT); r1 = true; }
   if (boot_pending_ && (now_ > t_.boot_timeout || !fb.self_test_ok || fb.fieldbus_boot_failed)) { raise(AlarmId::BOOT_FAILED); r1 = true; }
   if (contactor_welded_) { raise(AlarmId::CONTACTOR_WELDED); r1 = true; }
+  if (channel_mismatch_) { raise(AlarmId::CHANNEL_MISMATCH); r1 = true; }
+  if (channel_lost_) { raise(AlarmId::CHANNEL_LOST); r1 = true; }
+  if (encoder_bad_) { raise(AlarmId::ENCODER_DISCREPANCY); r1 = true; }
   if (r1) {
     done = true;
     cat0_to(St::LOCKOUT);
@@ -425,7 +430,7 @@ void Supervisor::events(const core::SafetyInputs& in, const core::Feedback& fb) 
       bool done = true;
       core::Cycle limit = t_.contactor_timeout;
       if (arming_step_ == 0) {
-        done = fb.contactor_closed;
+        done = fb.contactor_closed && (!fb.two_contactors || fb.k2_closed);
       } else if (arming_step_ == 1) {
         limit = t_.drives_timeout;
         for (const core::DriveFeedback& d : fb.drive) done = done && c402::decode(d.statusword) == c402::DriveState::OperationEnabled;
@@ -715,7 +720,27 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
   // Contactor commanded open with its feedback closed, brakes commanded engaged with a
   // feedback released: more than 100 / 300 cycles in a row is a fault (SPEC §7).
   welded_for_ = (!last_contactor_ && fb.contactor_closed) ? welded_for_ + 1U : 0U;
-  contactor_welded_ = welded_for_ > t_.contactor_timeout;
+  k2_welded_for_ = (fb.two_contactors && !last_contactor_ && fb.k2_closed) ? k2_welded_for_ + 1U : 0U;
+  contactor_welded_ = welded_for_ > t_.contactor_timeout || k2_welded_for_ > t_.contactor_timeout;
+  // SPEC §14: the partner channel as the cross-check judged it; each axis' two encoders: a
+  // difference over the tolerance for more than encoder_discrepancy cycles, or the load-side
+  // one unchanged since the motor one moved the tolerance away from where it was then.
+  channel_mismatch_ = fb.cross.partner != core::Channel::none && fb.cross.mismatch;
+  channel_lost_ = fb.cross.partner != core::Channel::none && fb.cross.lost;
+  encoder_bad_ = false;
+  for (std::size_t i = 0; i < core::kAxes && fb.load_encoders; ++i) {
+    const float m = fb.drive[i].position_rad;
+    const float l = fb.drive[i].load_position_rad;
+    const float tol = t_.encoder_tolerance_rad;
+    const bool apart = !(std::fabs(m - l) <= tol);
+    enc_apart_[i] = apart ? std::min<core::Cycle>(enc_apart_[i] + 1U, t_.encoder_discrepancy + 1U) : 0U;
+    if (!enc_seen_ || std::memcmp(&l, &enc_load_[i], sizeof l) != 0) {  // the load side moved (bitwise)
+      enc_load_[i] = l;
+      enc_motor_[i] = m;
+    }
+    encoder_bad_ = encoder_bad_ || enc_apart_[i] > t_.encoder_discrepancy || !(std::fabs(m - enc_motor_[i]) <= tol);
+  }
+  enc_seen_ = fb.load_encoders;
   // A brake: "commanded engaged whose feedback still says released 300 ms later" (SPEC §7),
   // the 300 ms counted from the command, i.e. from the first released reading after it. A
   // brake is engaged only once its feedback has said so for brake_confirm cycles in a row

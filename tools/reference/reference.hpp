@@ -236,6 +236,15 @@ class Supervisor {
   std::array<core::Cycle, core::kAxes> engaged_run_{};
   bool brake_not_engaged_ = false;
   bool contactor_welded_ = false;
+  // SPEC §14.
+  core::Cycle k2_welded_for_ = 0;
+  bool channel_mismatch_ = false;
+  bool channel_lost_ = false;
+  bool encoder_bad_ = false;
+  std::array<core::Cycle, core::kAxes> enc_apart_{};
+  std::array<float, core::kAxes> enc_load_{};
+  std::array<float, core::kAxes> enc_motor_{};
+  bool enc_seen_ = false;
 };
 
 }  // namespace safestate::reference

@@ -6,12 +6,20 @@
 
 namespace safestate::core {
 
-// @req AL-FEEDBACK
+// @req AL-FEEDBACK CH-CONTACTORS
 void ContactorMonitor::check(const CycleView& v, Reporter& r) noexcept {
+  const bool two = v.fb.two_contactors;
   const bool welded_now = !v.last.contactor && v.fb.contactor_closed;
   welded_ = welded_now ? welded_ + 1U : 0U;
+  // SPEC §14: each channel reads both auxiliary contacts; both contactors follow the same
+  // command (either channel's, compared every cycle), so each checks both against its own.
+  const bool k2_welded_now = two && !v.last.contactor && v.fb.k2_closed;
+  welded_k2_ = k2_welded_now ? welded_k2_ + 1U : 0U;
   if (welded_ > v.timing.contactor_timeout) {
-    r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor));
+    r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor, two ? Channel::a : Channel::none));
+  }
+  if (welded_k2_ > v.timing.contactor_timeout) {
+    r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor, Channel::b));
   }
 }
 

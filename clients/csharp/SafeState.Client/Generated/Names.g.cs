@@ -198,6 +198,9 @@ namespace SafeState.Client
         BRAKE_TEST_DUE = 320,
         BRAKE_TEST_FAILED = 220,
         COLLISION = 212,
+        CHANNEL_MISMATCH = 109,
+        CHANNEL_LOST = 110,
+        ENCODER_DISCREPANCY = 111,
     }
 
     public static partial class Alarms
@@ -298,6 +301,15 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.COLLISION, 212, Severity.fault, AlarmLatch.Reset,
                 "The force at the TCP estimated from the drives' torques exceeded the body region's quasi-static limit F_qs (power and force limiting): the robot stopped (Cat 2), backed off 10 mm along its path and holds.",
                 "Free the person or the obstacle and check the path and the payload in the safety configuration; then resume (AUTO) or jog on (T1/T2). The alarm stays until a reset with the servos off."),
+            new AlarmInfo(AlarmName.CHANNEL_MISMATCH, 109, Severity.lockout, AlarmLatch.PowerCycle,
+                "The two safety channels computed different results (the named field of their cross-check digest) for longer than cross_check_cycles, or gave a command different answers: one of them is faulty. Each opened its contactor.",
+                "Record the event history of both channels, power-cycle, and report it: the controller must be inspected."),
+            new AlarmInfo(AlarmName.CHANNEL_LOST, 110, Severity.lockout, AlarmLatch.PowerCycle,
+                "The named safety channel's cross-check digest did not arrive intact and in sequence for cross_check_cycles (the channel stopped, crashed or its link failed). The other channel opened its contactor.",
+                "Check the named channel's process or processor and the cross-channel link, then power-cycle."),
+            new AlarmInfo(AlarmName.ENCODER_DISCREPANCY, 111, Severity.lockout, AlarmLatch.PowerCycle,
+                "The named axis' load-side encoder disagreed with its motor encoder by more than encoder_tolerance_deg for longer than encoder_discrepancy_ms, or stood still while the motor encoder moved: position-based limits cannot be trusted.",
+                "Check both encoders of the named axis, its gearbox and its coupling, then power-cycle."),
         };
     }
 
@@ -469,6 +481,9 @@ namespace SafeState.Client
             "BRAKE_TEST_DUE",
             "BRAKE_TEST_FAILED",
             "COLLISION",
+            "CHANNEL_MISMATCH",
+            "CHANNEL_LOST",
+            "ENCODER_DISCREPANCY",
         };
     }
 }

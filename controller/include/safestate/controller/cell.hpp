@@ -13,6 +13,7 @@
 #include <cstdint>
 
 #include "safestate/controller/controller.hpp"
+#include "safestate/controller/cross_check.hpp"
 #include "safestate/controller/platform.hpp"
 #include "safestate/core/command_queue.hpp"
 #include "safestate/hal/process_image.hpp"
@@ -32,7 +33,8 @@ struct CellView {
   std::array<std::uint16_t, 6> statusword{};
   std::array<std::uint16_t, 6> controlword{};
   std::array<float, 6> target_rad{};        // CSP set-points written this cycle
-  bool contactor_closed = false;            // feedback
+  bool contactor_closed = false;            // feedback (K1's auxiliary contact)
+  bool k2_closed = false;                   // SPEC §14: K2's, with two contactors
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
   bool inputs_stale = false;  // this cycle's frame was late or lost: inputs held
@@ -61,6 +63,19 @@ class Cell {
   void load_program(const motion::Waypoint* points, std::uint8_t count) noexcept {
     controller_.load_program(points, count);
   }
+  // SPEC §14: this cell is channel `self` (a or b) of a pair; `link` (which must outlive the
+  // cell) carries its digest to the other channel every cycle and theirs back. Before the
+  // first step. After each step the cell compares (CrossCheck, cross_check_cycles of its
+  // configuration); on a mismatch or a lost partner it opens its own contactor and the
+  // brakes in that same cycle, and its supervisor names the alarm the next cycle (lockout).
+  void pair(core::Channel self, Link& link) noexcept;
+  // A copy of a paired cell (the copy constructor leaves it unpaired) onto its own link,
+  // its cross-check as it was.
+  void relink(Link& link) noexcept { link_ = &link; }
+  [[nodiscard]] bool paired() const noexcept { return link_ != nullptr; }
+  [[nodiscard]] core::Channel channel() const noexcept { return self_; }
+  [[nodiscard]] const CrossCheck& cross_check() const noexcept { return cross_; }
+  [[nodiscard]] const Digest& last_digest() const noexcept { return digest_; }
   // Queues a command for the next cycle: OK, or QUEUE_FULL (that is its only answer).
   core::Result submit(const core::Command& c) noexcept;
   // One scan cycle.
@@ -100,6 +115,13 @@ class Cell {
   std::size_t taken_ = 0;
   core::Cycle now_ = 0;
   CellView view_{};
+  // SPEC §14 (pair()).
+  Link* link_ = nullptr;
+  core::Channel self_ = core::Channel::none;
+  CrossCheck cross_{};
+  std::uint32_t seq_ = 0;
+  Digest digest_{};
+  core::ChannelCheck check_{};
 };
 
 // SPEC §3's output bits of one cycle, as the black box records them and the cross-channel

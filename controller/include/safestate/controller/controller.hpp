@@ -40,6 +40,8 @@ class Controller {
 
   [[nodiscard]] const core::SupervisorOut& status() const noexcept { return status_; }
   [[nodiscard]] const core::Feedback& feedback() const noexcept { return feedback_; }
+  // SPEC §14: the cross-check's verdict on the other channel, for the next step.
+  void set_cross_check(const core::ChannelCheck& c) noexcept { feedback_.cross = c; }
   [[nodiscard]] const core::Supervisor& supervisor() const noexcept { return supervisor_; }
   [[nodiscard]] const motion::MotionController& motion() const noexcept { return motion_; }
 

@@ -1,8 +1,8 @@
 // SPEC §14 cross-comparison between two channels: the digest each channel sends the other
 // every cycle, the link that carries it (an interface a UART, SPI or shared-memory ring can
 // implement), and the check that turns what arrived into CHANNEL_MISMATCH / CHANNEL_LOST.
-// No heap, no OS, no clock: timing in the channel's own cycles. Not wired into a running
-// pair yet (issue 36): this is the part both channels share, tested on its own.
+// No heap, no OS, no clock: timing in the channel's own cycles. controller::Cell runs it
+// after every step when it has a partner (Cell::pair).
 #pragma once
 
 #include <array>
@@ -32,9 +32,9 @@ struct Digest {
   std::uint32_t crc = 0;      // over every byte above
 };
 
-// The fields a mismatch can name, in the order they are compared (the first that differs).
-enum class DigestField : std::uint8_t { none, cycle, state, sub, stop, alarms, outputs, brake_test_axis, replies };
-[[nodiscard]] const char* to_string(DigestField f) noexcept;
+// The fields a mismatch can name, in the order they are compared (the first that differs):
+// the core's, since CHANNEL_MISMATCH names it (core::to_string(CrossField)).
+using DigestField = core::CrossField;
 
 // This cycle's digest of `out` (the cycle just run), sealed with its CRC.
 [[nodiscard]] Digest make_digest(std::uint32_t seq, std::uint64_t cycle, const core::SupervisorOut& out) noexcept;

@@ -48,8 +48,12 @@ enum class AlarmId : std::uint8_t {
   BRAKE_TEST_FAILED,
   // SPEC §11 collision detection (rule 8), appended likewise.
   COLLISION,
+  // SPEC §14 two channels, appended likewise (the mask is 64 bits wide from here).
+  CHANNEL_MISMATCH,
+  CHANNEL_LOST,
+  ENCODER_DISCREPANCY,
 };
-inline constexpr std::size_t kAlarmCount = 31;
+inline constexpr std::size_t kAlarmCount = 34;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -174,6 +178,19 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
    "(power and force limiting): the robot stopped (Cat 2), backed off 10 mm along its path and holds.",
    "Free the person or the obstacle and check the path and the payload in the safety configuration; then resume "
    "(AUTO) or jog on (T1/T2). The alarm stays until a reset with the servos off."},
+  {AlarmId::CHANNEL_MISMATCH, "CHANNEL_MISMATCH", 109, Severity::lockout, Latch::power_cycle,
+   "The two safety channels computed different results (the named field of their cross-check digest) for longer "
+   "than cross_check_cycles, or gave a command different answers: one of them is faulty. Each opened its contactor.",
+   "Record the event history of both channels, power-cycle, and report it: the controller must be inspected."},
+  {AlarmId::CHANNEL_LOST, "CHANNEL_LOST", 110, Severity::lockout, Latch::power_cycle,
+   "The named safety channel's cross-check digest did not arrive intact and in sequence for cross_check_cycles "
+   "(the channel stopped, crashed or its link failed). The other channel opened its contactor.",
+   "Check the named channel's process or processor and the cross-channel link, then power-cycle."},
+  {AlarmId::ENCODER_DISCREPANCY, "ENCODER_DISCREPANCY", 111, Severity::lockout, Latch::power_cycle,
+   "The named axis' load-side encoder disagreed with its motor encoder by more than encoder_tolerance_deg for "
+   "longer than encoder_discrepancy_ms, or stood still while the motor encoder moved: position-based limits "
+   "cannot be trusted.",
+   "Check both encoders of the named axis, its gearbox and its coupling, then power-cycle."},
 }};
 // clang-format on
 
@@ -184,7 +201,8 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
 [[nodiscard]] const char* to_string(Severity s) noexcept;
 bool parse_alarm(const char* name, AlarmId& out) noexcept;
 
-using AlarmMask = std::uint32_t;
+using AlarmMask = std::uint64_t;
+static_assert(kAlarmCount <= 64U, "AlarmMask holds a bit per alarm");
 [[nodiscard]] constexpr AlarmMask bit(AlarmId id) noexcept {
   return AlarmMask{1U} << static_cast<unsigned>(id);
 }

@@ -24,6 +24,11 @@ struct Config {
   std::uint32_t reset_hold_max_ms = 5000;    // reset button held longer is not a reset
   std::uint32_t fault_reset_reply_cycles = 50;  // SPEC §5: drives answer a fault reset within
   std::uint32_t queue_size = 64;                // SPEC §9: commands waiting for a cycle
+  // SPEC §14 two channels.
+  std::uint32_t cross_check_cycles = 2;      // a digest difference or absence tolerated this long
+  float encoder_tolerance_deg = 0.5F;        // motor vs load-side encoder, per axis
+  std::uint32_t encoder_discrepancy_ms = 10;  // ... for longer than this
+  std::uint32_t integrity_period_ms = 1000;  // the whole image's CRC within this
 };
 
 // The same constants in cycles. A timer "fires" when its count of elapsed cycles is
@@ -48,6 +53,11 @@ struct Timing {
   // A brake counts as engaged once its feedback has said so this long without a break
   // (kBrakeConfirmMs): a chattering contact is never an engaged brake (SPEC §7).
   Cycle brake_confirm = 10;
+  // SPEC §14.
+  Cycle cross_check = 2;
+  float encoder_tolerance_rad = 0.0087266F;
+  Cycle encoder_discrepancy = 10;
+  Cycle integrity_period = 1000;
 };
 
 // Feedback monitoring (SPEC §7): how long a brake's feedback must say engaged without a

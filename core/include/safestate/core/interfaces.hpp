@@ -20,11 +20,30 @@ struct DriveFeedback {
   float velocity_rad_s = 0.0F;   // measured joint velocity
   bool online = true;            // the drive answers on the fieldbus
   std::int16_t torque_permille = 0;  // CiA 402 0x6077 torque actual
+  // SPEC §14: the load-side encoder (CiA 402 0x60E4, additional position actual value), as a
+  // joint position; read only while Feedback::load_encoders.
+  float load_position_rad = 0.0F;
+};
+
+// SPEC §14: this channel's cross-check against the other channel, as the controller's
+// CrossCheck found it after the previous cycle. partner none: a one-channel cell.
+struct ChannelCheck {
+  Channel partner = Channel::none;
+  bool mismatch = false;
+  CrossField field = CrossField::none;  // the first that differed
+  bool lost = false;
 };
 
 struct Feedback {
   std::array<DriveFeedback, kAxes> drive{};
-  bool contactor_closed = false;                 // main contactor auxiliary contact
+  bool contactor_closed = false;                 // main contactor (K1) auxiliary contact
+  // SPEC §14: a second contactor K2 in series (channel B's), with its own auxiliary contact.
+  // Either one open removes power; both must be closed for power. One-contactor cell: false.
+  bool two_contactors = false;
+  bool k2_closed = false;
+  // SPEC §14: a second (load-side) encoder per axis, DriveFeedback::load_position_rad.
+  bool load_encoders = false;
+  ChannelCheck cross{};
   std::array<bool, kAxes> brake_released{};      // brake feedback: true = released
   bool fieldbus_ok = true;                       // cyclic data valid this cycle
   // Bus position (1-based) of the first fieldbus subdevice at fault, 0 = the bus as a

@@ -142,13 +142,15 @@ class JogLinkMonitor {
 // ---- External device monitoring (SPEC §7, ISO 13849-1) -------------------------------------
 
 // The contactor's auxiliary contact follows the last command: CONTACTOR_WELDED (rule 1)
-// when it stays closed contactor_timeout after an open command.
+// when it stays closed contactor_timeout after an open command. With two contactors (SPEC
+// §14) each channel watches both (K1, K2) against its own command, naming the one.
 class ContactorMonitor {
  public:
   void check(const CycleView& v, Reporter& r) noexcept;
 
  private:
   Cycle welded_ = 0;
+  Cycle welded_k2_ = 0;
 };
 
 // Every brake's feedback follows the last command: BRAKE_NOT_ENGAGED (rule 3, raised in
@@ -162,6 +164,31 @@ class BrakeFeedbackMonitor {
   // (0 once engaged), and how long its feedback has said engaged without a break.
   std::array<Cycle, kAxes> cycles_{};
   std::array<Cycle, kAxes> engaged_run_{};
+};
+
+// ---- SPEC §14 two channels -----------------------------------------------------------------
+
+// The cross-check with the other channel (Feedback::cross, from the controller):
+// CHANNEL_MISMATCH naming the first field that differed, CHANNEL_LOST naming the partner
+// (rule 1, lockout). Nothing in a one-channel cell.
+class ChannelMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
+// Two encoders per axis (Feedback::load_encoders): ENCODER_DISCREPANCY naming the axis
+// (rule 1, lockout) when the motor and load-side positions differ by more than
+// encoder_tolerance for longer than encoder_discrepancy, or the load-side one stood still
+// while the motor one moved by more than the tolerance.
+class EncoderMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+
+ private:
+  std::array<Cycle, kAxes> over_{};          // cycles in a row over the tolerance
+  std::array<float, kAxes> load_last_{};     // the load-side position when it last changed
+  std::array<float, kAxes> motor_at_last_{};  // the motor position at that moment
+  bool have_last_ = false;
 };
 
 // ---- SPEC §10 safe limits -------------------------------------------------------------------

@@ -189,6 +189,8 @@ class SystemStateManager {
   T1SpeedMonitor t1_speed_;
   StopTimeMonitor stop_time_;
   JogLinkMonitor jog_link_;
+  ChannelMonitor channel_;
+  EncoderMonitor encoders_;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.

@@ -23,7 +23,7 @@ namespace safestate::core {
 
 enum class Trigger : std::uint8_t {
   // Conditions, checked every cycle in this priority (SPEC §4 rules 1..10).
-  lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded
+  lockout_condition,   // 1: discrepancy, fieldbus lost, integrity or boot failure, contactor welded, channels, encoders
   estop_pressed,       // 2
   stop_fault,          // 3: drive fault, T1 speed, stop time, brake not engaged, a safe limit (§10), SSM (§11)
   gate_open_in_auto,   // 4, 4b
@@ -211,7 +211,8 @@ inline constexpr auto kTransitions = [] {
   using enum Effect;
   constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
                                bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED) |
-                               bit(FIELD_DISCREPANCY);
+                               bit(FIELD_DISCREPANCY) | bit(CHANNEL_MISMATCH) | bit(CHANNEL_LOST) |
+                               bit(ENCODER_DISCREPANCY);
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
                                bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
                                bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT) | bit(SEPARATION_VIOLATED);

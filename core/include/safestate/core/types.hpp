@@ -146,8 +146,13 @@ enum class Signal : std::uint8_t {
   none, estop, gate, enable, mode, reset_button, drive, contactor, brake, fieldbus, command, internal,
   axis, tcp, zone, reduced,
   field_outer, field_inner, separation,
+  channel,  // SPEC §14: a safety channel (CHANNEL_LOST: which; CHANNEL_MISMATCH: code = the CrossField)
 };
 enum class Channel : std::uint8_t { none, a, b, both, panic };
+
+// SPEC §14: the fields of the cross-channel digest a mismatch names, in the order compared.
+enum class CrossField : std::uint8_t { none, cycle, state, sub, stop, alarms, outputs, brake_test_axis, replies };
+const char* to_string(CrossField f) noexcept;
 
 // ARMING steps (SPEC §4): contactor, then drives, then brakes.
 enum class ArmingStep : std::uint8_t { CONTACTOR, DRIVES, BRAKES };

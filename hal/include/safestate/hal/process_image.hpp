@@ -15,7 +15,12 @@ inline constexpr std::size_t kAxes = core::kAxes;
 struct ProcessImageIn {
   core::RawInputs safety{};                          // both channels of every safety input
   std::array<core::DriveFeedback, kAxes> drive{};    // statusword, position, velocity, online
-  bool contactor_closed = false;                     // main contactor auxiliary contact
+  bool contactor_closed = false;                     // main contactor (K1) auxiliary contact
+  // SPEC §14: K2 in series with K1 (channel B's), its auxiliary contact; load-side encoders
+  // (DriveFeedback::load_position_rad). A backend without them leaves these false.
+  bool two_contactors = false;
+  bool k2_closed = false;
+  bool load_encoders = false;
   std::array<bool, kAxes> brake_released{};          // brake feedback contacts
   bool fieldbus_ok = true;                           // cyclic data valid this cycle
   bool stale = false;                                // no fresh sample this cycle: the inputs are the last ones held
@@ -44,7 +49,11 @@ struct DriveOut {
 };
 
 struct ProcessImageOut {
-  bool contactor = false;        // close the main contactor
+  bool contactor = false;        // close the main contactor (K1: channel A's)
+  // SPEC §14: close K2 (channel B's, in series with K1). A world with two channels combines
+  // the channels' outputs into one image: K1 from A, K2 from B, the brakes released only
+  // while both release them. One channel: unused.
+  bool contactor_k2 = false;
   bool brakes_release = false;   // release the holding brakes
   // SPEC §12 brake test: 1..6, that axis' brake stays engaged although brakes_release is
   // set (the drives hold the others); 0 = none.

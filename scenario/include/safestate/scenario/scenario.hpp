@@ -87,6 +87,10 @@ enum class ExpectKey : std::uint8_t {
   joint,             // axis, cmp, limit (degrees, measured position)
   v_allowed,         // cmp, limit (mm/s, SPEC §11 SSM; fails while SSM does not act)
   brake_test,        // value: core::BrakeTestResult, the latest result since start (SPEC §12)
+  // "Two channels" (SPEC §14).
+  contactor_k1,      // value 1 = closed (channel A's command)
+  contactor_k2,      // value 1 = closed (channel B's command)
+  channel_state,     // axis: 0 A, 1 B; value: State
 };
 
 enum class Compare : std::uint8_t { lt, le, gt, ge };
@@ -157,6 +161,8 @@ struct Scenario {
   core::BrakeTestHistory brake_test{};
   // SPEC §11, the simulated person's scanner fields (`config person_fields=OUTER,INNER`).
   sim::PersonSensors person_sensors{};
+  // SPEC §14: 2 channels (the default) or 1 (`config channels=1`, for comparison).
+  std::uint8_t channels = 2;
 };
 
 struct ParseError {

@@ -1,8 +1,16 @@
 // The simulated cell: the controller on a backend (controller/cell.hpp: signal layer,
 // supervisor, motion layer, the platform's checks) driving a simulated plant (six CiA 402
 // drives, contactor, brakes, I/O, arm physics) and a simulated person, one scan cycle at a
-// time: the plant and the person are the backend, the controller does not know it. Deterministic: no clock, no randomness. This facade is what
-// `safestate replay`, the tests and the runtime use.
+// time: the plant and the person are the backend, the controller does not know it.
+// Deterministic: no clock, no randomness. This facade is what `safestate replay`, the tests
+// and the runtime use.
+//
+// Two channels (SPEC §14, `channels` 2): two controllers, A and B, on the same world in
+// lock-step: each reads the world's input image (a copy each: a channel's own input fault
+// changes its copy only) and its own commands, exchanges its digest with the other over an
+// in-memory link, and writes its own output image; the world takes the drives from A, K1 from
+// A, K2 from B, and releases the brakes only while both do. Both come from one compiler here
+// (docs/two-channels.md: the diversity of compilers is `safestate run`'s, two processes).
 #pragma once
 
 #include <array>
@@ -40,7 +48,8 @@ class Cell final : public vocab::World {
   // `cfg` must have passed core::validate(). With `bus`, the controller runs on that HAL
   // backend (a real fieldbus) instead of the simulated plant; inputs() and inject() then
   // act on the unused plant only. `bus` must outlive the cell.
-  explicit Cell(const core::Config& cfg, hal::Backend* bus = nullptr);
+  // `channels`: 1 (one controller, one contactor) or 2 (SPEC §14: A and B, K1 and K2).
+  explicit Cell(const core::Config& cfg, hal::Backend* bus = nullptr, std::uint8_t channels = 1);
   ~Cell() override;
   // A deep copy: the exhaustive checker forks the whole cell to explore alternatives.
   Cell(const Cell& other);
@@ -90,9 +99,22 @@ class Cell final : public vocab::World {
   // One scan cycle: read inputs and feedback, supervise, move, write, advance physics.
   void step() noexcept;
 
-  [[nodiscard]] const core::SupervisorOut& out() const noexcept;  // of the last cycle
-  [[nodiscard]] const CellView& view() const noexcept;            // of the last cycle
-  [[nodiscard]] const core::AlarmSet& alarms() const noexcept;    // with since-when and detail
+  // Of the last cycle. With two channels, the channels together (spec/scenario-format.md
+  // "Two channels"): the state, sub-state and stop of the channel that leads towards safety
+  // (the one locked out, else the one whose contactor is open, else A), the alarms of either.
+  [[nodiscard]] const core::SupervisorOut& out() const noexcept;
+  [[nodiscard]] const CellView& view() const noexcept;            // of the last cycle (A's controller)
+  [[nodiscard]] const core::AlarmSet& alarms() const noexcept;    // with since-when and detail (together)
+  // SPEC §14: 1 or 2; channel 0 is A, 1 is B (with one channel, both are A).
+  [[nodiscard]] std::uint8_t channels() const noexcept;
+  [[nodiscard]] const controller::Cell& channel(std::size_t i) const noexcept;
+  // Whether channel i runs (not stalled, not crashed by a fault).
+  [[nodiscard]] bool channel_running(std::size_t i) const noexcept;
+  [[nodiscard]] bool k2_closed() const noexcept;  // K2's auxiliary contact (two channels)
+  // The contactor command the world got from channel i in the last cycle (K1: A, K2: B): the
+  // channel's output image as written (a cross-check that decided opens it there the same
+  // cycle, before its supervisor's state follows), nothing from a crashed channel.
+  [[nodiscard]] bool contactor_command(std::size_t i) const noexcept;
   [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
   [[nodiscard]] core::Leaf leaf() const noexcept;
   // What the supervisor saw in the last cycle (for a differential oracle).

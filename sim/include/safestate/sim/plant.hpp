@@ -45,6 +45,12 @@ inline constexpr float kBrakeStopDecelFactor = 2.0F;
 // 1 / (1 + kPayloadInertiaRatio x fraction). Fraction 0 (the default) is the unloaded arm and
 // leaves the plant exactly as without this model.
 inline constexpr float kPayloadInertiaRatio = 0.5F;
+
+// SPEC §14 the load-side encoder (0x60E4) behind the gearbox: the gear's torsional
+// compliance makes it lag the motor encoder by this much per rated torque (0.05 deg at
+// 1000 per mille, 0.15 deg at the drives' peak: an assumption, well inside the default
+// encoder_tolerance_deg of 0.5).
+inline constexpr float kGearComplianceRadPerPermille = 0.05F * 3.14159265F / 180.0F / 1000.0F;
 [[nodiscard]] constexpr float payload_decel_scale(float fraction) noexcept {
   return 1.0F / (1.0F + (kPayloadInertiaRatio * fraction));
 }
@@ -91,12 +97,18 @@ class SimPlant final : public hal::Backend {
   }
   // Applies the outputs and advances the physics by one cycle.
   void write(const hal::ProcessImageOut& out) noexcept override;
+  // SPEC §14: K2 in series with K1 (ProcessImageOut::contactor_k2), each with its auxiliary
+  // contact; power flows only while both are closed. Off: one contactor (K1). Start-up only.
+  void set_two_contactors(bool on) noexcept { two_contactors_ = on; }
+  [[nodiscard]] bool two_contactors() const noexcept { return two_contactors_; }
+  [[nodiscard]] bool k2_closed() const noexcept { return k_[1].closed; }
 
   [[nodiscard]] std::uint16_t controlword(std::size_t i) const noexcept { return axis_[i].last_cw; }
   // Injected causes as bits: per axis i, bit 4i fault, 4i+1 runaway, 4i+2 nostop,
-  // 4i+3 brake stuck; bit 24 fieldbus lost, 25 contactor stuck open, 26 contactor welded,
-  // 27 integrity failed, 28 self-test failed; per axis i, bit 32+4i brake stuck released,
-  // 33+4i raw statusword, 34+4i slow enable, 35+4i brake weak.
+  // 4i+3 brake stuck; bit 24 fieldbus lost, 25 contactor (K1) stuck open, 26 K1 welded,
+  // 27 integrity failed, 28 self-test failed, 29 K2 stuck open, 30 K2 welded; per axis i,
+  // bit 32+4i brake stuck released, 33+4i raw statusword, 34+4i slow enable, 35+4i brake
+  // weak, 56+i an encoder fault.
   [[nodiscard]] std::uint64_t injected() const noexcept {
     std::uint64_t m = 0;
     const auto b = [](bool v, std::size_t at) { return static_cast<std::uint64_t>(v ? 1U : 0U) << at; };
@@ -107,8 +119,12 @@ class SimPlant final : public hal::Backend {
       m |= b(a.brake_stuck_released, 32U + 4U * i) | b(a.sw_override, 33U + 4U * i) |
            b(a.slow_cycles != 0U, 34U + 4U * i) | b(a.brake_weak, 35U + 4U * i);
     }
-    m |= b(!fieldbus_ok_, 24U) | b(contactor_stuck_open_, 25U) | b(contactor_welded_, 26U) |
-         b(!integrity_ok_, 27U) | b(!self_test_ok_, 28U);
+    m |= b(!fieldbus_ok_, 24U) | b(k_[0].stuck_open, 25U) | b(k_[0].welded, 26U) | b(!integrity_ok_, 27U) |
+         b(!self_test_ok_, 28U) | b(k_[1].stuck_open, 29U) | b(k_[1].welded, 30U);
+    for (std::size_t i = 0; i < hal::kAxes; ++i) {  // SPEC §14: an encoder fault of axis i
+      const Axis& a = axis_[i];
+      m |= b(a.enc_stuck || a.enc_offset_rad != 0.0F || a.enc_drift_rad_s != 0.0F, 56U + i);
+    }
     return m;
   }
 
@@ -116,7 +132,18 @@ class SimPlant final : public hal::Backend {
   // The plant's side of the HAL integrity and self-test inputs.
   bool integrity_ok_ = true;
   bool self_test_ok_ = true;
-  bool contactor_welded_ = false;
+
+  // A contactor with its auxiliary contact (feedback kContactorFeedbackMs after the command).
+  struct Contactor {
+    bool cmd = false;
+    std::uint32_t timer = 0;
+    bool closed = false;
+    bool stuck_open = false;
+    bool welded = false;
+  };
+  void switch_contactor(Contactor& k, bool cmd) const noexcept;
+  [[nodiscard]] bool power() const noexcept { return k_[0].closed && (!two_contactors_ || k_[1].closed); }
+  [[nodiscard]] float load_position(std::size_t i) const noexcept;
 
   struct Axis {
     core::cia402::DriveState ds = core::cia402::DriveState::NotReadyToSwitchOn;
@@ -140,6 +167,13 @@ class SimPlant final : public hal::Backend {
     std::int16_t bias = 0;    // drive_torque_bias: reported on top of the torque, per mille
     float acc = 0.0F;         // this cycle's acceleration, rad/s^2
     bool held_by_drive = false;  // powered with its brake released: torque from the dynamics
+    // SPEC §14 the load-side encoder's faults: stuck at enc_stuck_rad, an offset, a drift
+    // (enc_drift_acc_rad so far).
+    bool enc_stuck = false;
+    float enc_stuck_rad = 0.0F;
+    float enc_offset_rad = 0.0F;
+    float enc_drift_rad_s = 0.0F;
+    float enc_drift_acc_rad = 0.0F;
   };
   void dynamics() noexcept;
   void contact(const JointVec& q) noexcept;
@@ -154,10 +188,8 @@ class SimPlant final : public hal::Backend {
   PlantTiming timing_;
   core::RawInputs safety_{};
   std::array<Axis, hal::kAxes> axis_{};
-  bool contactor_cmd_ = false;
-  std::uint32_t contactor_timer_ = 0;
-  bool contactor_closed_ = false;
-  bool contactor_stuck_open_ = false;
+  std::array<Contactor, 2> k_{};  // K1, K2 (SPEC §14)
+  bool two_contactors_ = false;
   bool fieldbus_ok_ = true;
   std::uint32_t age_ = 0;
   float payload_ = 0.0F;  // fraction of the rated payload

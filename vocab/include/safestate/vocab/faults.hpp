@@ -33,8 +33,21 @@ enum class FaultKind : std::uint8_t {
   // SPEC §11 collision detection (appended likewise).
   contact,               // a force of `value` / 10 N pushes against the TCP's motion (0: none)
   drive_torque_bias,     // drive N reports `value` (int16, per mille of rated) more torque than it applies
+  // SPEC §14 two channels (appended likewise). `axis` is the channel (1: A, 2: B) for the
+  // channel_* and digest_* kinds, the axis for the encoder_* kinds. contactor_welded and
+  // contactor_stuck_open take `axis` 0 or 1 for K1 (`contactor welded` is K1's), 2 for K2.
+  channel_stall,   // the channel stops cycling (its outputs stay as last written)
+  channel_crash,   // the channel's process is gone (its outputs drop, de-energised)
+  channel_input,   // the channel alone reads contact `value >> 1` (vocab::Contact) stuck at `value & 1`
+  digest_corrupt,  // from now on the channel's digests arrive with a wrong CRC
+  digest_drop,     // ... do not arrive
+  digest_repeat,   // ... arrive as the last one again
+  encoder_stuck,   // axis N's load-side encoder stands still from now on
+  encoder_offset,  // ... reads `value` (int16, hundredths of a degree) more
+  encoder_drift,   // ... drifts by `value` (int16, hundredths of a degree) per second
 };
-inline constexpr std::uint8_t kFaultKinds = static_cast<std::uint8_t>(FaultKind::drive_torque_bias) + 1U;
+inline constexpr std::uint8_t kFaultKinds = static_cast<std::uint8_t>(FaultKind::encoder_drift) + 1U;
+inline constexpr double kMaxEncoderFaultDeg = 300.0;  // `encoder N offset|drift`, stored in hundredths
 
 struct Fault {
   FaultKind kind = FaultKind::clear_all;
