@@ -10,7 +10,7 @@ ArmingOutcome arming_step(StArming& a, const Feedback& fb, const Timing& t, Alar
   std::uint8_t laggard = 0;  // the first axis not there yet: the timeout names it
   switch (a.step) {
     case ArmingStep::CONTACTOR:
-      done = fb.contactor_closed && (!fb.two_contactors || fb.k2_closed);  // SPEC §14: K1 and K2
+      done = fb.contactor_closed && (!fb.two_contactors || fb.k2_closed);  // SPEC §14: K1 and K2 in series
       break;
     case ArmingStep::DRIVES:
       limit = t.drives_timeout;

@@ -125,11 +125,9 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
     case AlarmId::ENABLING_PANIC: t.s("Enabling device squeezed to panic"); break;
     case AlarmId::JOG_LINK_LOST: t.s("Jog keep-alive lost"); break;
     case AlarmId::CONTACTOR_WELDED:
-      if (d.channel == Channel::a || d.channel == Channel::b) {
-        t.s("Contactor ").s((d.channel == Channel::a) ? "K1" : "K2").s(" feedback still closed after open was commanded");
-      } else {
-        t.s("Main contactor feedback still closed after open was commanded");
-      }
+      // SPEC §14: K1 (channel a) or K2 (channel b) of two; the one main contactor otherwise.
+      t.s((d.channel == Channel::a) ? "Contactor K1" : ((d.channel == Channel::b) ? "Contactor K2" : "Main contactor"));
+      t.s(" feedback still closed after open was commanded");
       break;
     case AlarmId::BRAKE_NOT_ENGAGED: t.s("Brake ").u(axis).s(" still released after engage was commanded"); break;
     case AlarmId::JOINT_LIMIT: t.s("Axis ").u(axis).s(" outside its safe range"); break;
@@ -220,10 +218,9 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     t.s(to_string(d.signal)).s(".").u(d.axis);
   } else if (d.signal == Signal::zone) {
     t.s("zone.").u(d.code + 1U);  // limit_detail_name() gives the zone's own name
-  } else if ((d.signal == Signal::channel) && (d.channel == Channel::none)) {
-    t.s("channel");
   } else if (d.signal == Signal::channel) {
-    t.s((d.channel == Channel::b) ? "B" : "A");  // SPEC §14: the channels are named A and B
+    // SPEC §14: the channels are named A and B (CHANNEL_LOST); none: the pair (a mismatch)
+    t.s((d.channel == Channel::none) ? "channel" : ((d.channel == Channel::b) ? "B" : "A"));
   } else {
     t.s(to_string(d.signal));
   }
@@ -231,26 +228,23 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
 }
 
 const char* detail_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept {
-  if (d.has_step && (buf != nullptr) && (n != 0U)) {
-    Text t(buf, n);
-    t.s(to_string(d.step));
-    return t.c_str();
+  if ((buf == nullptr) || (n == 0U)) {
+    return "";
   }
+  Text t(buf, n);
   // SPEC §14: CONTACTOR_WELDED names the contactor (k1: channel A's, k2: channel B's) when
-  // there are two; CHANNEL_MISMATCH the first field of the digest that differed.
-  if ((d.signal == Signal::contactor) && ((d.channel == Channel::a) || (d.channel == Channel::b)) &&
-      (buf != nullptr) && (n != 0U)) {
-    Text t(buf, n);
+  // there are two; CHANNEL_MISMATCH the first field of the digest that differed (its code).
+  const bool one_of_two = (d.channel == Channel::a) || (d.channel == Channel::b);
+  if (d.has_step) {
+    t.s(to_string(d.step));
+  } else if ((d.signal == Signal::contactor) && one_of_two) {
     t.s((d.channel == Channel::a) ? "k1" : "k2");
-    return t.c_str();
-  }
-  if ((d.signal == Signal::channel) && (d.channel == Channel::none) && (d.code != 0U) && (buf != nullptr) &&
-      (n != 0U)) {
-    Text t(buf, n);
+  } else if ((d.signal == Signal::channel) && (d.code != 0U)) {
     t.s(to_string(static_cast<CrossField>(d.code)));
-    return t.c_str();
+  } else {
+    return signal_name(d, buf, n);
   }
-  return signal_name(d, buf, n);
+  return t.c_str();
 }
 
 }  // namespace safestate::core

@@ -12,6 +12,7 @@
 #include "safestate/controller/cell.hpp"
 #include "safestate/core/describe.hpp"
 #include "safestate/core/monitor.hpp"
+#include "safestate/core/sequences.hpp"
 #include "safestate/robot/description.hpp"
 #include "safestate/sim/cell.hpp"
 
@@ -204,4 +205,29 @@ TEST(ChannelPair, ACopyOfAPairedCellRunsOnItsOwnLink) {
     EXPECT_EQ(c->channel(0).last_digest().crc, c->channel(1).last_digest().crc);
   }
   EXPECT_EQ(cell.channel(0).last_digest().crc, copy.channel(0).last_digest().crc) << "the same history";
+}
+
+TEST(Arming, WithTwoContactorsBothAuxiliaryContactsMustSayClosed) {
+  const core::Timing t = core::to_timing(core::Config{});
+  core::AlarmDetail d{};
+  core::Feedback fb{};
+  fb.contactor_closed = true;  // K1
+  fb.two_contactors = true;
+  core::StArming a{};
+  static_cast<void>(core::arming_step(a, fb, t, d));
+  EXPECT_EQ(a.step, core::ArmingStep::CONTACTOR) << "K2 still open";
+  fb.k2_closed = true;
+  static_cast<void>(core::arming_step(a, fb, t, d));
+  EXPECT_EQ(a.step, core::ArmingStep::DRIVES);
+  core::StArming one{};
+  fb.two_contactors = false;
+  fb.k2_closed = false;  // one contactor: K2's contact is not read
+  static_cast<void>(core::arming_step(one, fb, t, d));
+  EXPECT_EQ(one.step, core::ArmingStep::DRIVES);
+  core::StArming none{};
+  fb.contactor_closed = false;
+  fb.two_contactors = true;
+  fb.k2_closed = true;  // K2 alone is not power
+  static_cast<void>(core::arming_step(none, fb, t, d));
+  EXPECT_EQ(none.step, core::ArmingStep::CONTACTOR);
 }

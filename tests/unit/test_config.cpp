@@ -51,6 +51,18 @@ TEST(Config, EachBadFieldIsNamed) {
       {"t1_speed_limit_mm_s", [](Config& c) { c.t1_speed_limit_mm_s = 251.0F; }},
       {"t1_speed_limit_mm_s", [](Config& c) { c.t1_speed_limit_mm_s = 0.0F; }},
       {"standstill_rad_s", [](Config& c) { c.standstill_rad_s = 10.0F; }},
+      // SPEC §14.
+      {"cross_check_cycles", [](Config& c) { c.cross_check_cycles = 0; }},
+      {"cross_check_cycles", [](Config& c) { c.cross_check_cycles = 101; }},
+      {"encoder_tolerance_deg", [](Config& c) { c.encoder_tolerance_deg = 0.0F; }},
+      {"encoder_tolerance_deg", [](Config& c) { c.encoder_tolerance_deg = 10.5F; }},
+      {"encoder_tolerance_deg", [](Config& c) { c.encoder_tolerance_deg = std::nanf(""); }},
+      {"encoder_discrepancy_ms", [](Config& c) { c.encoder_discrepancy_ms = 0; }},
+      {"integrity_period_ms", [](Config& c) { c.integrity_period_ms = 5; }},
+      {"cycle_us", [](Config& c) {
+         c.cycle_us = 4000;
+         c.encoder_discrepancy_ms = 3;
+       }},
       {"cycle_us", [](Config& c) {
          c.cycle_us = 4000;
          c.discrepancy_ms = 3;

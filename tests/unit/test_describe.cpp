@@ -25,6 +25,49 @@ TEST(Describe, EstopNamesTheChannel) {
   EXPECT_EQ(words(AlarmId::ESTOP_PRESSED, Signal::estop, Channel::both), "E-stop pressed");
 }
 
+// SPEC §14: the contactor of two, the channel lost, the field that differed, the axis whose
+// encoders disagree; the details as the scenario keys name them.
+TEST(Describe, TwoChannelAlarmsNameTheirPart) {
+  EXPECT_EQ(words(AlarmId::CONTACTOR_WELDED, Signal::contactor, Channel::a),
+            "Contactor K1 feedback still closed after open was commanded");
+  EXPECT_EQ(words(AlarmId::CONTACTOR_WELDED, Signal::contactor, Channel::b),
+            "Contactor K2 feedback still closed after open was commanded");
+  EXPECT_EQ(words(AlarmId::CONTACTOR_WELDED, Signal::contactor),
+            "Main contactor feedback still closed after open was commanded");
+  EXPECT_EQ(words(AlarmId::CHANNEL_LOST, Signal::channel, Channel::b), "Safety channel B lost");
+  EXPECT_EQ(words(AlarmId::CHANNEL_LOST, Signal::channel, Channel::a), "Safety channel A lost");
+  EXPECT_EQ(words(AlarmId::CHANNEL_MISMATCH, Signal::channel, Channel::none, 0,
+                  static_cast<std::uint16_t>(CrossField::alarms)),
+            "Safety channels disagree on alarms");
+  EXPECT_EQ(words(AlarmId::ENCODER_DISCREPANCY, Signal::axis, Channel::none, 5), "Axis 5 encoders disagree");
+  char buf[32];
+  AlarmDetail d{};
+  d.signal = Signal::contactor;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "contactor");
+  d.channel = Channel::a;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "k1");
+  d.channel = Channel::b;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "k2");
+  EXPECT_STREQ(signal_name(d, buf, sizeof buf), "contactor") << "cause.signal stays the contactor";
+  d.channel = Channel::both;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "contactor");
+  d = AlarmDetail{};
+  d.signal = Signal::channel;
+  d.code = static_cast<std::uint16_t>(CrossField::state);
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "state");
+  EXPECT_STREQ(signal_name(d, buf, sizeof buf), "channel");
+  d.code = 0;
+  d.channel = Channel::b;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "B");
+  d.channel = Channel::none;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "channel");
+  d.has_step = true;
+  d.step = ArmingStep::CONTACTOR;
+  EXPECT_STREQ(detail_name(d, buf, sizeof buf), "CONTACTOR");
+  EXPECT_STREQ(detail_name(d, nullptr, 8), "");
+  EXPECT_STREQ(detail_name(d, buf, 0), "");
+}
+
 TEST(Describe, GuardInAuto) {
   EXPECT_EQ(words(AlarmId::PROTECTIVE_STOP, Signal::gate, Channel::b), "Guard opened in AUTO channel B");
 }
