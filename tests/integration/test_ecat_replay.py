@@ -41,6 +41,15 @@ TIMING = {
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
 }
 
+# SPEC §14 parts the emulated segment does not carry yet (issue 36, docs/two-channels.md
+# "What is left"): the second contactor and the drives' load-side encoders live in the
+# simulated plant only. Every other two-channel scenario (the channels' own faults) runs here.
+NOT_ON_THE_SEGMENT = {
+    "ch-k2-welded.scn": "K2 is not on the emulated DO terminal yet",
+    "ch-encoder-offset.scn": "the emulated drives carry no load-side encoder (0x60E4) yet",
+    "ch-encoder-stuck.scn": "the emulated drives carry no load-side encoder (0x60E4) yet",
+}
+
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")
 
 
@@ -93,7 +102,7 @@ def replay(ns, scn, tmp_path, bus_for_cycle=True, sim_extra=(), replay_extra=())
         sim.wait(timeout=10)
 
 
-REPLAYED = [s for s in SCENARIOS if s.name not in TIMING]
+REPLAYED = [s for s in SCENARIOS if s.name not in TIMING and s.name not in NOT_ON_THE_SEGMENT]
 # Two segments side by side, each in a namespace of its own: a replay is not paced in real
 # time (it waits for each exchange), and ~150 of them one after the other kept one of CI's
 # two cores idle for four minutes.

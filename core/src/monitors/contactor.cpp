@@ -15,8 +15,11 @@ void ContactorMonitor::check(const CycleView& v, Reporter& r) noexcept {
   // command (either channel's, compared every cycle), so each checks both against its own.
   const bool k2_welded_now = two && !v.last.contactor && v.fb.k2_closed;
   welded_k2_ = k2_welded_now ? welded_k2_ + 1U : 0U;
+  // With two channels K1 is channel A's contactor, named so even where the field has only it
+  // (a segment whose DO terminal carries no K2).
+  const bool paired = two || (v.fb.cross.partner != Channel::none);
   if (welded_ > v.timing.contactor_timeout) {
-    r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor, two ? Channel::a : Channel::none));
+    r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor, paired ? Channel::a : Channel::none));
   }
   if (welded_k2_ > v.timing.contactor_timeout) {
     r.trip(AlarmId::CONTACTOR_WELDED, detail_of(Signal::contactor, Channel::b));
