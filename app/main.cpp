@@ -27,6 +27,8 @@ int replay_ethercat_main(const std::string& file, bool trace, const std::string&
 int safety_check_main(const std::string& file, bool builtin);
 int safety_canonical_main(const std::string& file, bool with_checksum);
 CLI::App* add_rta_command(CLI::App& app);
+CLI::App* add_faults_command(CLI::App& app);
+int run_faults_command();
 std::string rta_safety_file();
 int robot_fk_main(const std::string& q_deg, const std::string& qd_deg_s, const std::string& tcp_mm);
 int run_rta_command();
@@ -235,9 +237,10 @@ int main(int argc, char** argv) {
   safety_canonical->add_option("FILE", safety_file, "JSON file")->required();
   safety_canonical->add_flag("--checksum", canonical_checksum, "also print its SHA-256 and checksum");
   auto* rta = safestate::app::add_rta_command(app);
+  auto* faults = safestate::app::add_faults_command(app);
   auto* ecat_config = safestate::app::add_ecat_config_command(app);
   RobotOptions robot_opt;
-  for (CLI::App* c : {replay, demo, run, gateway, ecat_sim, check, safety_check, rta}) {
+  for (CLI::App* c : {replay, demo, run, gateway, ecat_sim, check, safety_check, rta, faults}) {
     add_robot_options(c, robot_opt);
   }
   CLI::App* robot_cmd = app.add_subcommand("robot", "the arm's description (URDF): forward kinematics");
@@ -274,6 +277,9 @@ int main(int argc, char** argv) {
   }
   if (rta->parsed()) {
     return safestate::app::run_rta_command();
+  }
+  if (faults->parsed()) {
+    return safestate::app::run_faults_command();
   }
   if (ecat_config->parsed()) {
     return safestate::app::run_ecat_config_command();

@@ -773,6 +773,9 @@ def main():
     if sys.argv[1:] == ["--opcua"]:  # only the OPC UA E-stop notification (issue 14)
         opcua()
         return
+    if sys.argv[1:] == ["--faults"]:  # only the fault-injection campaign (issue 36 item 7)
+        faults()
+        return
     if sys.argv[1:] == ["--ros2"]:  # only the ROS 2 adapter's latency (issue 39)
         ros2()
         return
@@ -796,6 +799,8 @@ def main():
             opcua("--render")
         if os.path.exists(os.path.join(OUT, "ros2.json")):
             ros2("--render")
+        if os.path.exists(os.path.join(OUT, "faults.json")):
+            faults("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -828,6 +833,7 @@ def main():
     admission()  # the same
     opcua()  # likewise: its goal row and section
     ros2()  # likewise
+    faults()  # likewise
 
 
 def response_time():
@@ -859,6 +865,12 @@ def opcua(*args):
     row and section of docs/performance.md (bench/opcua_estop.py, about 4 minutes; asyncua, so the
     test venv's Python, VENV_PY)."""
     subprocess.run([PY, os.path.join(ROOT, "bench", "opcua_estop.py"), *args], check=True, cwd=ROOT)
+
+
+def faults(*args):
+    """Issue 36 item 7: the section "Fault injection (SPEC §14): two channels against one" of
+    docs/performance.md (bench/faults.py, about a minute)."""
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "faults.py"), *args], check=True, cwd=ROOT)
 
 
 def ros2(*args):

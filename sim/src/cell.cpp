@@ -452,6 +452,21 @@ bool Cell::channel_running(std::size_t i) const noexcept {
   return !impl_->stalled[c] && !impl_->crashed[c];
 }
 bool Cell::k2_closed() const noexcept { return impl_->plant.k2_closed(); }
+bool Cell::power_on() const noexcept { return impl_->plant.powered(); }
+std::size_t Cell::supervisor_bytes() noexcept { return sizeof(core::Supervisor); }
+
+bool Cell::flip_supervisor_bit(std::size_t channel, std::size_t byte, unsigned bit) noexcept {
+  if (byte >= sizeof(core::Supervisor) || bit > 7U) {
+    return false;
+  }
+  // The supervisor is the (non-const) controller's member in this cell's own Impl: the const
+  // accessor is the only way in, on purpose.
+  const core::Supervisor& s = this->channel(channel).controller().supervisor();
+  auto* p = const_cast<unsigned char*>(reinterpret_cast<const unsigned char*>(&s));
+  p[byte] = static_cast<unsigned char>(p[byte] ^ (1U << bit));
+  return true;
+}
+
 bool Cell::contactor_command(std::size_t i) const noexcept {
   return (i == 1U && impl_->channels == 2U) ? impl_->out_b.contactor : impl_->out_a.contactor;
 }

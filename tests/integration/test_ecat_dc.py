@@ -95,7 +95,7 @@ def test_our_master_runs_sync0_on_every_drive_and_the_clocks_converge():
             if all(abs(err[i]) < 1000 for i in DRIVES) or time.monotonic() > deadline:
                 break
             time.sleep(0.05)
-        assert all(abs(err[i]) < 1000 for i in DRIVES), err
+        assert all(abs(err[i]) < 1000 for i in DRIVES), (err, cell.wire()["dc"]["stats"], cell.log("run")[-1500:])
         assert cell.control_line("dc reset") == "OK"
         time.sleep(2.0)
         dc = cell.wire()["dc"]

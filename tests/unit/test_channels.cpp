@@ -152,6 +152,13 @@ TEST(ContactorMonitor, EachAuxiliaryContactIsWatchedAndNamed) {
     static_cast<void>(c.run(one, fb));
   }
   EXPECT_STREQ(core::detail_name(c.r.detail(AlarmId::CONTACTOR_WELDED), buf, sizeof buf), "contactor");
+  core::ContactorMonitor field_k1_only;  // two channels on a field with K1 only: still K1
+  fb.cross.partner = core::Channel::b;
+  for (core::Cycle k = 0; k <= c.timing.contactor_timeout; ++k) {
+    static_cast<void>(c.run(field_k1_only, fb));
+  }
+  EXPECT_STREQ(core::detail_name(c.r.detail(AlarmId::CONTACTOR_WELDED), buf, sizeof buf), "k1");
+  fb.cross.partner = core::Channel::none;
   c.last.contactor = true;  // commanded closed: closed contacts are right
   fb.two_contactors = true;
   core::ContactorMonitor closed;

@@ -111,10 +111,18 @@ class Cell final : public vocab::World {
   // Whether channel i runs (not stalled, not crashed by a fault).
   [[nodiscard]] bool channel_running(std::size_t i) const noexcept;
   [[nodiscard]] bool k2_closed() const noexcept;  // K2's auxiliary contact (two channels)
+  // The simulated power path as it is (not as commanded): K1 closed, and K2 with two channels.
+  [[nodiscard]] bool power_on() const noexcept;
   // The contactor command the world got from channel i in the last cycle (K1: A, K2: B): the
   // channel's output image as written (a cross-check that decided opens it there the same
   // cycle, before its supervisor's state follows), nothing from a crashed channel.
   [[nodiscard]] bool contactor_command(std::size_t i) const noexcept;
+  // SPEC §14's campaign (faults/): the size of a channel's supervisor (signal layer, state
+  // machine, timers, every monitor's memory), and one bit of channel i's flipped, as a
+  // particle hit or a stray write would. The simulated world's only: nothing of the kind
+  // reaches a controller on a real backend. False (nothing changed) for a byte or bit outside.
+  [[nodiscard]] static std::size_t supervisor_bytes() noexcept;
+  bool flip_supervisor_bit(std::size_t channel, std::size_t byte, unsigned bit) noexcept;
   [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
   [[nodiscard]] core::Leaf leaf() const noexcept;
   // What the supervisor saw in the last cycle (for a differential oracle).

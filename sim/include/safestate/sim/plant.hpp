@@ -102,6 +102,9 @@ class SimPlant final : public hal::Backend {
   void set_two_contactors(bool on) noexcept { two_contactors_ = on; }
   [[nodiscard]] bool two_contactors() const noexcept { return two_contactors_; }
   [[nodiscard]] bool k2_closed() const noexcept { return k_[1].closed; }
+  [[nodiscard]] bool k1_closed() const noexcept { return k_[0].closed; }
+  // Power reaches the drives (K1 closed, and K2 with two contactors).
+  [[nodiscard]] bool powered() const noexcept { return power(); }
 
   [[nodiscard]] std::uint16_t controlword(std::size_t i) const noexcept { return axis_[i].last_cw; }
   // Injected causes as bits: per axis i, bit 4i fault, 4i+1 runaway, 4i+2 nostop,

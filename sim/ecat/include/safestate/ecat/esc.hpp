@@ -214,6 +214,16 @@ class Esc {
   [[nodiscard]] std::uint64_t ns_to_next_sync0(std::uint64_t now_ns) noexcept;
   // The drift-control loop's rate correction (its integral part), ppm.
   [[nodiscard]] double rate_correction_ppm() const noexcept { return rate_i_ * 1e6; }
+  // The drift-control loop as it stands (a diagnosis): the delay (0x0928) and the last
+  // difference (0x092C, signed: own system time minus the received one) the master's inputs
+  // left, the slew still to take out, ns.
+  [[nodiscard]] std::uint32_t dc_delay_ns() const noexcept { return u32(reg::dc_delay); }
+  [[nodiscard]] std::int64_t dc_last_diff_ns() const noexcept {
+    const std::uint32_t d = u32(reg::dc_diff);
+    const auto mag = static_cast<std::int64_t>(d & 0x7FFFFFFFU);
+    return (d & 0x80000000U) != 0U ? -mag : mag;
+  }
+  [[nodiscard]] double dc_slew_left_ns() const noexcept { return slew_left_ns_; }
   DcStats& dc_stats() noexcept { return dc_stats_; }
   // host time since the last drift-control input (0: none yet)
   [[nodiscard]] std::uint64_t dc_input_gap_ns(std::uint64_t now_ns) const noexcept {

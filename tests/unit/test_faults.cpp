@@ -1,0 +1,76 @@
+// SPEC §14 measured: the short campaign of `make test` (the bench runs 10,000 injections,
+// docs/performance.md). With two channels every (fault, demand) pair stays safe and every
+// dangerous fault is named; with one, the stalled channel and the welded contactor are
+// dangerous (what the second channel buys). The campaign is reproducible.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "safestate/faults/campaign.hpp"
+
+using namespace safestate;
+
+namespace {
+const faults::Report& two() {
+  static const faults::Report r = faults::run(faults::Options{1, 400, 2, 2, 0});
+  return r;
+}
+}  // namespace
+
+// @req CH-PAIR CH-LOST CH-MISMATCH
+TEST(FaultCampaign, WithTwoChannelsEveryDemandStaysSafeAndEveryDangerousFaultIsNamed) {
+  const faults::Report& r = two();
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.injected, 400U);
+  EXPECT_EQ(r.pairs, 3U * 400U);
+  EXPECT_EQ(r.pairs_safe, r.pairs) << faults::table(r);
+  EXPECT_EQ(r.dangerous_count, 0U) << faults::table(r);
+  EXPECT_GE(r.dc, 0.99);
+  std::set<std::string> classes;
+  for (const faults::ClassStats& c : r.classes) {
+    classes.insert(c.name);
+    EXPECT_EQ(c.injected, c.detected + c.masked + c.failsafe + c.dangerous + c.crashed) << c.name;
+  }
+  for (const char* c : {"channel stall", "channel crash", "channel input", "digest", "contactor welded", "encoder",
+                        "supervisor bit flip"}) {
+    EXPECT_TRUE(classes.count(c) == 1U) << "no " << c << " among 400 injections";
+  }
+  for (const faults::ClassStats& c : r.classes) {
+    if (c.name == "channel stall" || c.name == "channel crash" || c.name == "digest") {
+      EXPECT_EQ(c.detected, c.injected) << c.name << ": the other channel names every one";
+      EXPECT_EQ(c.named_before_demand, c.injected) << c.name << ": before the demand";
+    }
+  }
+  ASSERT_FALSE(r.to_lockout.empty());
+}
+
+TEST(FaultCampaign, WithOneChannelAStalledChannelIsDangerous) {
+  const faults::Report r = faults::run(faults::Options{1, 400, 1, 2, 0});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_GT(r.dangerous_count, 0U);
+  EXPECT_LT(r.pairs_safe, r.pairs);
+  EXPECT_LT(r.dc, two().dc);
+  bool stall = false;
+  for (const faults::Injection& i : r.dangerous) {
+    stall = stall || i.cls == "channel stall";
+  }
+  EXPECT_TRUE(stall) << faults::table(r);
+}
+
+TEST(FaultCampaign, AnInjectionIsTheSameFaultEveryTime) {
+  const faults::Report a = faults::run(faults::Options{7, 3, 2, 1, 20});
+  const faults::Report b = faults::run(faults::Options{7, 3, 2, 1, 20});
+  ASSERT_TRUE(a.error.empty() && b.error.empty());
+  EXPECT_EQ(faults::json(a), faults::json(b));
+  const auto classes = [](const faults::Report& r) {
+    std::string s;
+    for (const faults::ClassStats& c : r.classes) s += c.name + ":" + std::to_string(c.injected) + " ";
+    return s;
+  };
+  int differ = 0;
+  for (std::uint32_t seed = 8; seed < 12; ++seed) {
+    differ += classes(faults::run(faults::Options{seed, 3, 2, 1, 20})) != classes(a) ? 1 : 0;
+  }
+  EXPECT_GT(differ, 0) << "other seeds, other faults";
+}
