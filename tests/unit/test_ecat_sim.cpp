@@ -1584,3 +1584,39 @@ TEST(EcatDc, GapsBetweenTheInputsDoNotWindTheLoopsUp) {
                            << seg.esc(worst_p).rate_correction_ppm() << " ppm), start-up gap " << startup_gap_ms << " ms";
   }
 }
+
+// One bad drift-control input after a pause (a write of 0x0910 3 us behind the clock's own
+// time, 10 ms after the last input) must not pin a clock's rate correction at its limit: the
+// clock that runs slow (subdevice 5: 49 ppm against this segment's reference, 12 ppm against
+// the emulated bus's) gets back within 1 us of the reference. Before, that one input set the
+// rate to -200 ppm, the slew (+200 ppm at most) could not undo it, the integral did not learn
+// from differences that large, and the clock fell behind at its own drift for ever: -123 us
+// after 2.5 s here; ecat_dc's drive at -122 us 3 s after the start (issue 40).
+TEST(EcatDc, OneBadInputAfterAPauseDoesNotPinTheRateCorrection) {
+  Segment seg(default_segment());
+  address_all(seg);
+  std::uint64_t t = 100000000;
+  dc_init(seg, t, 800000000000000000ULL);
+  for (int k = 0; k < 3000; ++k) {
+    t += 1000000;
+    frmw(seg, t);
+  }
+  ASSERT_LT(std::abs(seg.sync_error_ns(5, t)), 100);
+  const double needed = seg.esc(5).rate_correction_ppm();
+  ASSERT_GT(needed, 5.0) << "subdevice 5 runs slow: its correction is positive";
+  t += 10000000;  // a pause
+  const std::uint64_t own = seg.esc(5).system_time(t + 5U * kHopNs);  // as the write passes it
+  ASSERT_EQ(exchange(seg, {{Cmd::FPWR, 0x1006, reg::dc_system_time, le_n(own - 3000U - seg.esc(5).dc_delay_ns(), 8)}}, t)[0].wkc, 1);
+  for (int k = 0; k < 3000; ++k) {
+    t += 1000000;
+    frmw(seg, t);
+  }
+  std::int64_t worst = 0;
+  for (int k = 0; k < 1000; ++k) {
+    t += 1000000;
+    frmw(seg, t);
+    worst = std::max(worst, std::abs(seg.sync_error_ns(5, t)));
+  }
+  EXPECT_LT(worst, 1000) << "ns; rate correction " << seg.esc(5).rate_correction_ppm() << " ppm (needed " << needed << ")";
+  EXPECT_NEAR(seg.esc(5).rate_correction_ppm(), needed, 6.0);
+}

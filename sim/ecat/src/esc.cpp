@@ -102,6 +102,7 @@ constexpr Range kWritable[] = {
 constexpr double kLoopP = 0.5;
 constexpr double kLoopI = 2e-14;  // per ns of difference per ns of time
 constexpr double kMaxRate = 200e-6;
+constexpr double kMaxRateStep = 5e-6;  // one input moves the rate correction by at most this
 constexpr double kSlewRate = 200e-6;
 constexpr std::uint64_t kTickNs = 10;  // a 100 MHz local clock
 
@@ -657,10 +658,19 @@ void Esc::dc_control(std::span<const std::uint8_t> written, std::size_t first, s
   const std::uint64_t h = (last_ctl_ns_ == 0U || now_ns <= last_ctl_ns_) ? 0U : now_ns - last_ctl_ns_;
   last_ctl_ns_ = now_ns;
   const double dt = static_cast<double>(std::min<std::uint64_t>(h, 10000000U));  // a pause is not a long input
-  // Anti-windup: the integral learns only while the slew can take out its part before the
-  // next input (a large difference is an offset being removed, not a drift to learn).
-  if (std::abs(kLoopP * static_cast<double>(delta)) <= dt * kSlewRate) {
-    rate_i_ = std::clamp(rate_i_ + kLoopI * static_cast<double>(delta) * dt, -kMaxRate, kMaxRate);
+  // Anti-windup (conditional integration): the integral learns while the slew can take out its
+  // part before the next input (a large difference is an offset being removed, not a drift to
+  // learn), and always while it unwinds (a rate correction of the other sign than the difference
+  // asks for). One input moves it by at most kMaxRateStep. Without the second rule one input
+  // after a pause could pin the rate at the wrong limit (-200 ppm for a clock that needs +12),
+  // the slew (200 ppm) then just short of undoing it: a clock falling behind at its own drift
+  // for ever, its differences too large to learn from (issue 40: ecat_dc's drive at -122 us).
+  const double d = static_cast<double>(delta);
+  const bool within_slew = std::abs(kLoopP * d) <= dt * kSlewRate;
+  const bool unwinds = (d > 0.0 && rate_i_ < 0.0) || (d < 0.0 && rate_i_ > 0.0);
+  if (within_slew || unwinds) {
+    const double step = std::clamp(kLoopI * d * dt, -kMaxRateStep, kMaxRateStep);
+    rate_i_ = std::clamp(rate_i_ + step, -kMaxRate, kMaxRate);
   }
   slew_left_ns_ = kLoopP * static_cast<double>(delta);
   const std::uint64_t mag = std::min<std::uint64_t>(static_cast<std::uint64_t>(delta < 0 ? -delta : delta), 0x7FFFFFFFU);
