@@ -19,7 +19,7 @@ import re
 import sys
 import time
 
-from common import BIN, OUT, ROOT, machine, run  # bench/common.py
+from common import BIN, OUT, ROOT, machine, put_section, run  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 SVG_DIR = os.path.join(ROOT, "docs", "collaborative")
@@ -212,13 +212,7 @@ def write(d):
             f.write(svg(tr, d))
     sec = section(d)
     text = open(DOC).read() if os.path.exists(DOC) else ""
-    pat = re.compile("^" + re.escape(TITLE) + r"\n.*?(?=^## )", re.M | re.S)
-    if pat.search(text):
-        text = pat.sub(lambda m: sec, text)
-    elif "## Footprint\n" in text:
-        text = text.replace("## Footprint\n", sec + "## Footprint\n", 1)
-    else:
-        text += "\n" + sec
+    text = put_section(text, TITLE, sec)
     with open(DOC, "w") as f:
         f.write(text)
     print(f"bench: collaborative section of {os.path.relpath(DOC, ROOT)} and {os.path.relpath(SVG, ROOT)} written")

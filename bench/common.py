@@ -60,3 +60,16 @@ def namespace_bench(doc, prog, prefix, script, count, default, top, inside):
         raise SystemExit(f"{prog}: needs root (network namespace, raw sockets)")
     args = ["--bin", a.bin, f"--{count}", str(n)] + (["--json", os.path.abspath(a.json)] if a.json else [])
     return in_namespace(prefix, script, args)
+
+
+def put_section(text, title, sec):
+    """`text` (a Markdown document) with its section `title` replaced by `sec`, or `sec` added
+    before "## Footprint" (at the end when there is none). One rule for every bench that
+    writes its own section of docs/performance.md."""
+    start = text.find(title + "\n")
+    if start >= 0:
+        end = text.find("\n## ", start + len(title))
+        return text[:start] + sec + (text[end + 1:] if end >= 0 else "")
+    if "## Footprint\n" in text:
+        return text.replace("## Footprint\n", sec + "## Footprint\n", 1)
+    return text + "\n" + sec

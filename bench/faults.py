@@ -16,7 +16,7 @@ import os
 import sys
 import time
 
-from common import BIN, OUT, ROOT, machine, run  # bench/common.py
+from common import BIN, OUT, ROOT, machine, put_section, run  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 TITLE = "## Fault injection (SPEC §14): two channels against one"
@@ -85,14 +85,7 @@ def write_doc(d):
     sec = section(d)
     with open(DOC) as f:
         text = f.read()
-    start = text.find(TITLE + "\n")
-    if start >= 0:
-        end = text.find("\n## ", start + len(TITLE))
-        text = text[:start] + sec + (text[end + 1:] if end >= 0 else "")
-    elif "## Footprint\n" in text:
-        text = text.replace("## Footprint\n", sec + "## Footprint\n", 1)
-    else:
-        text += "\n" + sec
+    text = put_section(text, TITLE, sec)
     with open(DOC, "w") as f:
         f.write(text)
     print(f"bench: fault-injection section of {os.path.relpath(DOC, ROOT)} written")

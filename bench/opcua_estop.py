@@ -35,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import OUT, ROOT, machine  # bench/common.py (it puts tests/integration on the path)
+from common import OUT, ROOT, machine, put_section  # bench/common.py (it puts tests/integration on the path)
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 JSON = os.path.join(OUT, "opcua.json")
@@ -171,13 +171,7 @@ def patch(o):
     else:
         text = re.sub(r"^(\| Command round trip .*)$", lambda m: m.group(1) + "\n" + row, text, count=1, flags=re.M)
     sec = "\n".join(section(o)) + "\n"
-    pat = re.compile("^" + re.escape(TITLE) + r"\n.*?(?=^## )", re.M | re.S)
-    if pat.search(text):
-        text = pat.sub(lambda _m: sec, text)
-    elif "## Footprint\n" in text:
-        text = text.replace("## Footprint\n", sec + "## Footprint\n", 1)
-    else:
-        text += "\n" + sec
+    text = put_section(text, TITLE, sec)
     with open(DOC, "w") as f:
         f.write(text)
     for name in ("idle", "loaded"):

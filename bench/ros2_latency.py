@@ -32,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "integration"))
 sys.path.insert(0, str(ROOT / "bench"))
-from common import machine  # noqa: E402
+from common import machine, put_section  # noqa: E402
 from ros2_user import RosUser, dds_domain, diag_status, level, user_environment  # noqa: E402
 from test_gateway import Client, SafeState, get_json, try_status, wait_until  # noqa: E402
 
@@ -214,15 +214,7 @@ def section(d):
 def write(d):
     text = DOC.read_text() if DOC.exists() else ""
     sec = section(d)
-    start = text.find(TITLE + "\n")
-    if start >= 0:
-        end = text.find("\n## ", start + len(TITLE))
-        text = text[:start] + sec + (text[end + 1:] if end >= 0 else "")
-    elif "## Footprint\n" in text:
-        text = text.replace("## Footprint\n", sec + "## Footprint\n", 1)
-    else:
-        text += "\n" + sec
-    DOC.write_text(text)
+    DOC.write_text(put_section(text, TITLE, sec))
     print(f"bench: ROS 2 section of {DOC.relative_to(ROOT)} written")
 
 
