@@ -15,7 +15,6 @@ two cores); `--smoke` runs one direction, one speed, one round and writes nothin
 import datetime
 import json
 import os
-import re
 import sys
 import time
 
