@@ -233,20 +233,33 @@ std::unique_ptr<sim::Cell> warm_cell(std::uint8_t channels, std::string& error) 
   return cell;
 }
 
+// Injection `index` of the seed: its jitter (cycles past the warm point) and its fault. The one
+// place that draws them, so that a crashed child's fault can be named by drawing it again.
+struct Drawn {
+  std::uint32_t jitter = 0;
+  Fault fault{};
+};
+Drawn drawn(const Options& o, std::uint32_t index) {
+  std::seed_seq seq{o.seed, index, 14U};
+  std::mt19937 rng(seq);
+  Drawn d{};
+  d.jitter = static_cast<std::uint32_t>(rng() % kMaxJitter);
+  d.fault = draw(rng, o.channels);
+  return d;
+}
+
 // One injection, from a copy of the warm cell: its jitter, its twin, the fault, the window
 // before the demands, then each demand on a copy of the faulty cell and of the twin.
 Injection one(const sim::Cell& warm, const Options& o, std::uint32_t index) {
-  std::seed_seq seq{o.seed, index, 14U};
-  std::mt19937 rng(seq);
   Injection r{};
   r.index = index;
+  const Drawn dr = drawn(o, index);
   sim::Cell faulty(warm);
-  const auto jitter = static_cast<std::uint32_t>(rng() % kMaxJitter);
-  for (std::uint32_t k = 0; k < jitter; ++k) {
+  for (std::uint32_t k = 0; k < dr.jitter; ++k) {
     faulty.step();
   }
   sim::Cell twin(faulty);
-  const Fault x = draw(rng, o.channels);
+  const Fault& x = dr.fault;
   r.fault = words(x);
   r.cls = kClasses[x.cls];
   apply(faulty, x);
@@ -476,10 +489,7 @@ Report run(const Options& o) {
     if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0 && parse_record(line, r))) {
       // The child died: a flipped bit made the channel's program fail. The fault it had is
       // drawn again here (the same seed and index) to name it.
-      std::seed_seq seq{o.seed, it->index, 14U};
-      std::mt19937 rng(seq);
-      static_cast<void>(rng() % kMaxJitter);
-      const Fault x = draw(rng, o.channels);
+      const Fault x = drawn(o, it->index).fault;
       r.fault = words(x);
       r.cls = kClasses[x.cls];
       r.outcome = Outcome::crashed;
