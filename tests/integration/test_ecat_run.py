@@ -200,18 +200,36 @@ def bus_config(tmp, **settings):
     return str(path)
 
 
+def emulator_answer_delay(c):
+    """The emulator's own record of how late it answered (ecat-sim status `answers`, s): the
+    largest time from a frame reaching its interface to the answer going out. A real ESC
+    answers as the frame passes; 2 ms or more here is the host not running the emulator."""
+    try:
+        return (c.wire().get("answers") or {}).get("max_delay_us", 0.0) * 1e-6
+    except (OSError, ValueError):
+        return 0.0
+
+
 def host_stalled(c):
     """A lockout that the host caused: FIELDBUS_LOST because no frame came back, with the
     loop's own wake-up 2 cycles late or more (the host did not run the loop's CPU, this VM's
     vCPU stalls, docs/ethercat.md "Host stalls": the emulator pinned to it could not answer
-    either). Returns (whether it did, the loop's largest wake-up lateness in s)."""
+    either), or the emulator's own record showing an answer it gave 2 ms or more after the
+    frame reached it (the host did not run the emulator: the master's loop was on time and the
+    stand-in for the segment was not; a real ESC answers as the frame passes). Returns
+    (whether it did, the larger of the two figures in s)."""
     s = c.status() or {}
     late = c.metric("safestate_cycle_lateness_max_seconds") or 0.0
+    answered = emulator_answer_delay(c)
     log = c.log("run")
     # A stall past the subdevices' 10-cycle watchdog takes them out of OP instead: "left OP",
     # excused only when the loop itself was held that long.
-    stalled = ("no frame came back" in log and late >= 0.002) or ("subdevice left OP" in log and late >= 0.009)
-    return "FIELDBUS_LOST" in s.get("alarms", []) and stalled, late
+    stalled = ("no frame came back" in log and max(late, answered) >= 0.002) or \
+              ("subdevice left OP" in log and late >= 0.009)
+    if "FIELDBUS_LOST" in s.get("alarms", []) and not stalled:
+        print(f"FIELDBUS_LOST without a host stall on record: loop {late * 1e3:.2f} ms late at most, "
+              f"emulator answered {answered * 1e3:.2f} ms late at most", flush=True)
+    return "FIELDBUS_LOST" in s.get("alarms", []) and stalled, max(late, answered)
 
 
 def stalled_at_start(c):
@@ -226,7 +244,7 @@ def stalled_at_start(c):
         if s.get("state") == "ERROR_LOCKOUT":
             stalled, late = host_stalled(c)
             if stalled:
-                print(f"start-up: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+                print(f"start-up: FIELDBUS_LOST with the loop or the emulator {late * 1e3:.1f} ms late (a host stall); "
                       "the cell is started again, once", flush=True)
             return stalled
         time.sleep(0.05)
@@ -286,7 +304,7 @@ def host_stall_retry(test):
             stalled, late = host_stalled(cell)
             if not stalled:
                 raise
-            print(f"{test.__name__}: FIELDBUS_LOST with the loop woken {late * 1e3:.1f} ms late (a host stall); "
+            print(f"{test.__name__}: FIELDBUS_LOST with the loop or the emulator {late * 1e3:.1f} ms late (a host stall); "
                   "run once more on a fresh cell", flush=True)
             cell.close()
             again = fresh_cell()
@@ -524,13 +542,16 @@ def test_late_frames_do_not_end_the_bus():
         assert s["state"] == "ESTOP_RESET_NEEDED" and s["alarms"] == [], (s, c.log("run"))
         assert c.wire()["frames"] > before + 500, "the master stopped exchanging frames"
         assert c.metric("safestate_fieldbus_stale_cycles_total") >= 5 * 30, "the stalls left no stale cycles"
+        # The emulator's own record shows the stalls (what host_stalled reads to excuse a
+        # lockout the host caused): answers given 40 ms after their frame reached it.
+        answers = c.wire()["answers"]
+        assert answers["max_delay_us"] >= 30000 and answers["late_1ms"] >= 5, answers
     finally:
         c.close()
 
 
-@host_stall_retry
 # Not about the master finding the bus lost: a host stall that locked the cell out before the
-# kill (once under a loaded ctest -j2, issue 40) is retried with its evidence, as the others.
+# kill (once under a loaded ctest -j2, issue 40) is retried once with its evidence, as the others.
 @host_stall_retry
 def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(shipped_cell):
     """Issue 22 item 3: the master writes every subdevice's process-data watchdog (10

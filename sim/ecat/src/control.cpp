@@ -354,6 +354,14 @@ std::string status(EmulatedCell& cell) {
                 {"max_point_speed_one_step_mm_s", tenth(cell.max_point_speed_one_step_mm_s())}};
   j["frames"] = cell.segment().frames();
   j["lost_replies"] = cell.segment().lost_replies();
+  // How late this process answered (Segment::Answers): a host stall shows here, not a fault.
+  const Segment::Answers& an = cell.segment().answers();
+  j["answers"] = {{"count", an.count},
+                  {"max_delay_us", static_cast<double>(an.max_delay_ns / 100U) * 0.1},
+                  {"max_age_ms", an.max_at_ns != 0U && cell.now() > an.max_at_ns
+                                     ? static_cast<double>((cell.now() - an.max_at_ns) / 100000U) * 0.1
+                                     : 0.0},
+                  {"late_1ms", an.late_1ms}};
   j["connected"] = cell.segment().connected();
   nlohmann::json al = nlohmann::json::array();
   for (std::size_t i = 0; i < cell.segment().size(); ++i) {

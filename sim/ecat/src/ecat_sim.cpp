@@ -166,11 +166,17 @@ void serve_frames(EmulatedCell& cell, int raw) {
       continue;  // our own replies
     }
     // In order, never back; a frame sent during a `freeze` reaches the segment when it ends.
-    const std::uint64_t t = std::max({arrival_ns(msg, now_ns()), cell.now(), cell.segment().frozen_until()});
+    const std::uint64_t arrived = arrival_ns(msg, now_ns());
+    const std::uint64_t held_until = cell.segment().frozen_until();
+    const std::uint64_t t = std::max({arrived, cell.now(), held_until});
     cell.sync0_until(t);  // the pulses before it first: they took the set-points the last frame left
     cell.set_time(t);
     if (cell.segment().process(std::span<std::uint8_t>(frame, static_cast<std::size_t>(n)), t)) {
       send(raw, frame, static_cast<std::size_t>(n), 0);
+      const std::uint64_t sent = now_ns();
+      if (arrived >= held_until && sent > arrived) {
+        cell.segment().note_answer(sent - arrived, sent);
+      }
     }
     if (cell.segment().frozen_until() > t) {
       return;  // this frame started a freeze (`freeze MS at-op`): the next ones wait for its end

@@ -96,6 +96,29 @@ class Segment {
   [[nodiscard]] const Esc& esc(std::size_t i) const noexcept { return escs_[i]; }
   [[nodiscard]] std::uint64_t frames() const noexcept { return frames_; }
 
+  // How late the emulating process answered (ecat_sim.cpp): the time from a frame reaching
+  // the interface to its answer going out. A real ESC answers as the frame passes; a figure of
+  // a millisecond or more says the host did not run this process (a host stall, not a fault of
+  // the segment or the master), and a test tells the two apart by it. Frames held back by a
+  // `freeze` are not counted: that delay is the fault asked for.
+  struct Answers {
+    std::uint64_t count = 0;
+    std::uint64_t max_delay_ns = 0;
+    std::uint64_t max_at_ns = 0;  // host time of the slowest answer
+    std::uint64_t late_1ms = 0;   // answers that took 1 ms or longer
+  };
+  void note_answer(std::uint64_t delay_ns, std::uint64_t now_ns) noexcept {
+    ++answers_.count;
+    if (delay_ns >= 1000000U) {
+      ++answers_.late_1ms;
+    }
+    if (delay_ns > answers_.max_delay_ns) {
+      answers_.max_delay_ns = delay_ns;
+      answers_.max_at_ns = now_ns;
+    }
+  }
+  [[nodiscard]] const Answers& answers() const noexcept { return answers_; }
+
  private:
   bool datagram(std::span<std::uint8_t> dg, std::uint64_t now_ns, bool& pd_written) noexcept;
   void physical(Cmd c, std::uint16_t adp, std::uint16_t ado, std::span<std::uint8_t> data, std::uint16_t& wkc,
@@ -118,6 +141,7 @@ class Segment {
   std::uint64_t freeze_at_op_ns_ = 0;
   std::uint32_t freezes_ = 0;
   std::uint64_t frames_ = 0;
+  Answers answers_;
   std::vector<std::uint8_t> scratch_;
   std::function<void()> on_pd_;
 };
