@@ -114,6 +114,21 @@ int main(int argc, char** argv) {
   run->add_option("--priority", run_opt.rt.priority, "SCHED_FIFO priority of the loop, 0 for none")
       ->check(CLI::Range(0, 99));
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
+  run->add_option("--channels", run_opt.channels,
+                  "SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (default on the simulated "
+                  "cell), 1 = one channel in this process")
+      ->check(CLI::Range(1, 2));
+  run->add_option("--cross-check-cycles", run_opt.core.cross_check_cycles,
+                  "SPEC §14: cycles a channel's digest may be missing or differ (default 2); a wider window rides out "
+                  "a host that stalls one channel's CPU (docs/two-channels.md)")
+      ->check(CLI::Range(1, 100));
+  run->add_option("--channel-a", run_opt.channel_a_exe, "channel A's program (default: safestate-channel beside this one)");
+  run->add_option("--channel-b", run_opt.channel_b_exe,
+                  "channel B's program (default: safestate-channel-clang beside this one)");
+  run->add_option("--channel-cpu-a", run_opt.channel_cpu_a, "pin channel A to this CPU (-1: not; default CPU 0)")
+      ->check(CLI::Range(-1, 1023));
+  run->add_option("--channel-cpu-b", run_opt.channel_cpu_b, "pin channel B to this CPU (-1: not; default CPU 1)")
+      ->check(CLI::Range(-1, 1023));
   run->add_option("--static", run_opt.static_dir, "folder of the HMI files served at /");
   run->add_option("--shm", run_opt.shm, "shared-memory segment name (default /safestate-PORT)");
   run->add_flag("!--no-opcua", run_opt.opcua, "do not start the OPC UA (OPC 40010-1) adapter");

@@ -75,6 +75,7 @@ void CrossCheck::take(const Digest& theirs) noexcept {
   if (pending_count_ < pending_.size()) {
     pending_[pending_count_++] = theirs;
     arrived_ = true;
+    newest_ = (theirs.cycle > newest_) ? theirs.cycle : newest_;
   }  // else: a partner more than kHistory cycles ahead of this one: not compared, not arrived
 }
 
@@ -110,7 +111,10 @@ CrossVerdict CrossCheck::step(const Digest& mine, Link& link) noexcept {
   for (std::size_t k = 0; k < 2U * kHistory && link.receive(theirs); ++k) {
     take(theirs);
   }
-  verdict_.missing = arrived_ ? 0U : verdict_.missing + 1U;
+  // Missing: none arrived in this cycle, and none of this cycle or later arrived before (a
+  // channel catching up after its process was not run reads the partner's digests of several
+  // cycles at once; the cycles it then runs are covered by them, not missing).
+  verdict_.missing = (arrived_ || newest_ >= my_cycle_) ? 0U : verdict_.missing + 1U;
   if (verdict_.missing >= limit_) {
     verdict_.lost = true;
   }

@@ -486,7 +486,43 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   j["shutting_down"] = x.shutting_down;
   j["gateway_restarts"] = x.gateway_restarts;
   j["sim"] = status_sim_json(s);
+  j["channels"] = status_channels_json(s);
+  Json k;
+  k["k1"] = s.k1_closed ? "closed" : "open";
+  k["k2"] = s.two_contactors ? Json(s.k2_closed ? "closed" : "open") : Json(nullptr);
+  j["contactors"] = std::move(k);
   return j;
+}
+
+// @req CH-PAIR
+// SPEC §14: each channel's state, cycle, last digest and whether it agrees with the other
+// (docs/two-channels.md "Two processes"). One entry with one channel.
+Json status_channels_json(const bridge::Status& s) {
+  Json a = Json::array();
+  for (std::size_t i = 0; i < s.channels.size(); ++i) {
+    const bridge::ChannelRecord& c = s.channels[i];
+    if (c.present == 0U) {
+      continue;
+    }
+    Json j;
+    j["name"] = i == 0U ? "A" : "B";
+    j["compiler"] = c.compiler == 1U ? Json("gcc") : c.compiler == 2U ? Json("clang") : Json(nullptr);
+    j["pid"] = c.pid != 0U ? Json(c.pid) : Json(nullptr);
+    j["running"] = c.running != 0U;
+    j["answered"] = c.answered != 0U;
+    j["state"] = core::to_string(c.state);
+    j["cycle"] = c.cycle;
+    j["digest"] = hex8(c.digest_crc);
+    j["agree"] = c.agree != 0U;
+    j["differs_in"] = c.field == core::CrossField::none ? Json(nullptr) : Json(core::to_string(c.field));
+    j["missing"] = c.missing;
+    j["late"] = c.late;
+    j["skipped"] = c.skipped;
+    j["wake_max_us"] = c.wake_max_us;
+    j["exec_max_us"] = c.exec_max_us;
+    a.push_back(std::move(j));
+  }
+  return a;
 }
 
 // @req COL-SIM-PERSON

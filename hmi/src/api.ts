@@ -56,6 +56,28 @@ export interface Status {
   safety?: SafetyStatus;
   // SPEC §11, the simulated person (gateway/src/views.cpp): null off the in-process simulated cell.
   sim?: SimStatus | null;
+  // SPEC §14 (gateway/src/views.cpp): the channels, and the two contactors' auxiliary contacts.
+  channels?: ChannelStatus[];
+  contactors?: { k1: 'open' | 'closed'; k2: 'open' | 'closed' | null };
+}
+
+/** One channel of SPEC §14 as the status shows it (docs/two-channels.md). */
+export interface ChannelStatus {
+  name: 'A' | 'B';
+  compiler: 'gcc' | 'clang' | null;
+  pid: number | null;
+  running: boolean;
+  answered: boolean;
+  state: State;
+  cycle: number;
+  digest: string;
+  agree: boolean;
+  differs_in: string | null;
+  missing: number;
+  late: number;
+  skipped: number;
+  wake_max_us: number;
+  exec_max_us: number;
 }
 
 /** The simulated person as the simulated scanner and distance sensor see it. */

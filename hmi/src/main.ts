@@ -2,7 +2,7 @@
 // the 3D view, alarms, history, the simulated cell and the real-time figures.
 import './style.css';
 import { AlarmList } from './alarms';
-import { type Alarm, fetchMetricsText, fetchRobot, fetchSafety, fetchStatus, type HmiEvent, type Robot, type SafetyInfo, type Status } from './api';
+import { type Alarm, type ChannelStatus, fetchMetricsText, fetchRobot, fetchSafety, fetchStatus, type HmiEvent, type Robot, type SafetyInfo, type Status } from './api';
 import { createArmView, type ArmDrawing } from './arm-view';
 import { Link, type LinkState, type Outcome, type Role } from './connection';
 import { $, deg, h, setAttr, setText, toggleClass } from './dom';
@@ -305,8 +305,26 @@ const io = {
   drives: h('span', { class: 'pill', id: 'io-drives' }),
   brakes: h('span', { class: 'pill', id: 'io-brakes' }),
   owner: h('span', { class: 'pill', id: 'io-owner' }),
+  chA: h('span', { class: 'pill', id: 'io-channel-a', hidden: '' }),
+  chB: h('span', { class: 'pill', id: 'io-channel-b', hidden: '' }),
 };
-$('b-io').append(io.contactor, io.drives, io.brakes, io.owner);
+$('b-io').append(io.contactor, io.drives, io.brakes, io.chA, io.chB, io.owner);
+
+// SPEC §14: a channel's pill: whether it runs, answers and agrees with the other; the
+// details (compiler, process, state, cycle, last digest) in its title.
+function channelPill(el: HTMLElement, c: ChannelStatus | undefined): void {
+  if (!c) {
+    el.hidden = true;
+    return;
+  }
+  el.hidden = false;
+  const word = !c.running ? 'gone' : !c.answered ? 'silent' : !c.agree ? (c.differs_in ? `differs: ${c.differs_in}` : 'other lost') : 'agrees';
+  pill(el, `Channel ${c.name} ${word}`, c.running && c.answered && c.agree,
+    `Channel ${c.name} (${c.compiler ?? '?'}${c.pid ? `, pid ${c.pid}` : ''}): ${c.state}, cycle ${c.cycle}, ` +
+    `digest ${c.digest}${c.agree ? ', agrees with the other channel' : ''}` +
+    (c.late ? `, ${c.late} cycles late` : '') + (c.skipped ? `, ${c.skipped} skipped` : ''));
+  setAttr(el, 'data-agree', c.running && c.answered && c.agree ? 'yes' : 'no');
+}
 
 function pill(el: HTMLElement, text: string, on: boolean, title: string): void {
   setText(el, text);
@@ -338,7 +356,9 @@ function scheduleRender(): void {
 
 function discrete(s: Status): string {
   return [s.state, s.sub, s.mode, s.mode_requested, s.stop, s.cause, s.target, s.arming_step, s.alarms.join(','),
-    s.reset_lamp, s.contactor, s.drives, s.brakes, s.owner, s.t2_confirmed, s.simulated, s.shutting_down].join('|');
+    s.reset_lamp, s.contactor, s.drives, s.brakes, s.owner, s.t2_confirmed, s.simulated, s.shutting_down,
+    JSON.stringify(s.contactors ?? null),
+    (s.channels ?? []).map((c) => `${c.running}${c.answered}${c.agree}${c.state}`).join(',')].join('|');
 }
 
 function onStatus(s: Status): void {
@@ -431,7 +451,16 @@ function render(): void {
   if (s.shutting_down) next = 'The controller is shutting down (Cat 1 stop).';
   setText($('b-next'), next);
 
-  pill(io.contactor, `Contactor ${s.contactor}`, s.contactor === 'closed', 'Main contactor');
+  const k = s.contactors;
+  if (k && k.k2 !== null) {
+    pill(io.contactor, `K1 ${k.k1} · K2 ${k.k2}`, k.k1 === 'closed' && k.k2 === 'closed',
+      'Power path: K1 (channel A) and K2 (channel B) in series, as their auxiliary contacts read');
+  } else {
+    pill(io.contactor, `Contactor ${s.contactor}`, s.contactor === 'closed', 'Main contactor');
+  }
+  const two = (s.channels ?? []).length === 2;
+  channelPill(io.chA, two ? s.channels![0] : undefined);
+  channelPill(io.chB, two ? s.channels![1] : undefined);
   pill(io.drives, `Drives ${s.drives}`, s.drives === 'enabled', 'Drive power stage (safe torque off when disabled)');
   pill(io.brakes, `Brakes ${s.brakes}`, s.brakes === 'released', 'Holding brakes');
   pill(io.owner, `Control: ${s.owner ?? 'nobody'}`, s.owner === 'pendant' && role === 'pendant', 'Single point of control (ISO 10218-1)');

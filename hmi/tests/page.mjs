@@ -10,7 +10,11 @@ export const ROOT = path.resolve(HMI, '..');
 export const BIN = process.env.SAFESTATE_BIN || path.join(ROOT, 'build', 'bin', 'safestate');
 export const DIST = path.join(HMI, 'dist');
 export const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-export const RUN_ARGS = (process.env.SAFESTATE_RUN_ARGS ?? '--watchdog-ms 1000').split(/\s+/).filter(Boolean);
+// Default: the fieldbus watchdog at 1 s and SPEC §14's cross-check window at 50 cycles: these
+// tests check the HMI, and a headless browser rendering WebGL in software on a 2-core machine
+// must not lock the cell out through the watchdog or by keeping one channel's process from
+// running for a few cycles (tests/integration/test_gateway.py STALL_TOLERANT_PAIR).
+export const RUN_ARGS = (process.env.SAFESTATE_RUN_ARGS ?? '--watchdog-ms 1000 --cross-check-cycles 50').split(/\s+/).filter(Boolean);
 export const ARTIFACTS = process.env.SAFESTATE_HMI_ARTIFACTS || path.join(ROOT, 'build', 'hmi-artifacts');
 
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));

@@ -229,6 +229,34 @@ void Publisher::publish() noexcept {
     s.person_inner_mm = pv.sensors.inner_mm;
   }
   s.brake_test = o.brake_test;
+  // @req CH-PAIR
+  s.channel_count = cell_.count();
+  for (std::size_t i = 0; i < s.channels.size(); ++i) {
+    controller::ChannelStatus c{};
+    if (!cell_.channel_status(i, c)) {
+      continue;
+    }
+    bridge::ChannelRecord& r = s.channels[i];
+    r.present = 1U;
+    r.running = c.running ? 1U : 0U;
+    r.answered = c.answered ? 1U : 0U;
+    r.agree = c.agree ? 1U : 0U;
+    r.compiler = c.compiler;
+    r.state = c.state;
+    r.leaf = c.leaf;
+    r.field = c.field;
+    r.pid = c.pid;
+    r.digest_crc = c.digest_crc;
+    r.missing = c.missing;
+    r.wake_max_us = c.wake_max_us;
+    r.exec_max_us = c.exec_max_us;
+    r.cycle = c.cycle;
+    r.late = c.late;
+    r.skipped = c.skipped;
+  }
+  s.two_contactors = cell_.count() == 2U;
+  s.k1_closed = v.contactor_closed;
+  s.k2_closed = v.k2_closed;
   seg_.status().write(s);
 
   bridge::BlackBoxRecord b{};
@@ -249,7 +277,7 @@ void Publisher::publish() noexcept {
   seg_.header().core_heartbeat.store(t + 1U, std::memory_order_release);
 }
 
-void take_record(const bridge::CommandRecord& rec, controller::Cell& cell, vocab::World* world, Publisher& pub,
+void take_record(const bridge::CommandRecord& rec, controller::Channels& cell, vocab::World* world, Publisher& pub,
                  std::uint64_t t, SimForward* forward) noexcept {
   bridge::ReplyRecord r{};
   r.seq = rec.seq;
@@ -301,7 +329,7 @@ void take_record(const bridge::CommandRecord& rec, controller::Cell& cell, vocab
 }
 
 // ------------------------------------------------------------------ RtLoop
-RtLoop::RtLoop(bridge::Segment& seg, controller::Cell& cell, vocab::World* world, const RtOptions& opt) noexcept
+RtLoop::RtLoop(bridge::Segment& seg, controller::Channels& cell, vocab::World* world, const RtOptions& opt) noexcept
     : seg_(seg), cell_(cell), world_(world), opt_(opt), pub_(seg, cell, world, opt.simulated) {}
 
 RtLoop::~RtLoop() {

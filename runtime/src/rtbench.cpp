@@ -64,12 +64,15 @@ int rtbench_main(const RtBenchOptions& opt) {
     std::fprintf(stderr, "safestate rtbench: %s\n", error.c_str());
     return 1;
   }
-  std::unique_ptr<backends::Host> host = backends::make_host(cfg, backends::Choice{}, error);  // the simulated cell
+  backends::Choice choice;
+  choice.channels = 1;  // the one-channel loop in this process (the pair's own costs: docs/two-channels.md)
+  std::unique_ptr<backends::Host> host = backends::make_host(cfg, choice, error);  // the simulated cell
   if (!host) {
     std::fprintf(stderr, "safestate rtbench: %s\n", error.c_str());
     return 1;
   }
-  RtLoop loop(*seg, host->cell(), host->world(), opt.rt);
+  controller::OneChannel one(host->cell());  // the one-channel loop (docs/performance.md)
+  RtLoop loop(*seg, one, host->world(), opt.rt);
   const std::size_t cycles = static_cast<std::size_t>(opt.seconds) * 1000000U / opt.rt.cycle_us;
   std::vector<std::uint32_t> log(cycles + 10000U, 0U);  // allocated (and touched) before the loop starts
   loop.log_lateness(log);

@@ -23,6 +23,8 @@
 #include "safestate/gateway/event_log.hpp"
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/backends/factory.hpp"
+#include "safestate/pair/host.hpp"
+#include "safestate/pair/os.hpp"
 #include "safestate/runtime/runtime.hpp"
 #include "safestate/safety/safety_config.hpp"
 
@@ -361,28 +363,32 @@ void publish_bus(const hal::ethercat::Backend& bus, const hal::ethercat::BusConf
   info.count = static_cast<std::uint32_t>(n);
 }
 
-// This program's code (its executable PT_LOAD segment, read-only and executable) for the
-// platform's check of invariable memory: found once at start-up with dl_iterate_phdr.
-struct CodeRegion {
-  const void* p = nullptr;
-  std::size_t n = 0;
-};
-CodeRegion own_code() {
-  CodeRegion r;
-  dl_iterate_phdr(
-      [](dl_phdr_info* info, std::size_t, void* data) -> int {
-        auto* out = static_cast<CodeRegion*>(data);
-        for (int i = 0; i < info->dlpi_phnum; ++i) {
-          const ElfW(Phdr)& ph = info->dlpi_phdr[i];
-          if (ph.p_type == PT_LOAD && (ph.p_flags & PF_X) != 0U && (ph.p_flags & PF_W) == 0U && ph.p_memsz > out->n) {
-            out->p = reinterpret_cast<const void*>(info->dlpi_addr + ph.p_vaddr);
-            out->n = ph.p_memsz;
-          }
-        }
-        return 1;  // the first object is the program itself
-      },
-      &r);
-  return r;
+// This program's code for the platform's check of invariable memory (pair/os.hpp).
+using pair::CodeRegion;
+using pair::own_code;
+
+// SPEC §14: a channel program beside this one (the build puts both there), unless given.
+std::string beside_me(const std::string& given, const char* name) {
+  if (!given.empty()) {
+    return given;
+  }
+  char self[4096];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1U);
+  if (n <= 0) {
+    return name;
+  }
+  self[n] = '\0';
+  std::string dir(self);
+  const std::size_t slash = dir.rfind('/');
+  return (slash == std::string::npos ? std::string(".") : dir.substr(0, slash)) + "/" + name;
+}
+
+// The channels' CPUs: as given, or A on CPU 0 and B on CPU 1 when there are two or more.
+int channel_cpu(int given, int which) {
+  if (given != -2) {
+    return given;
+  }
+  return (sysconf(_SC_NPROCESSORS_ONLN) >= 2) ? which : -1;
 }
 
 // SPEC §10 at start-up: the configuration (a file, or the built-in one), and whether the
@@ -560,6 +566,7 @@ int run_main(const RunOptions& opt) {
   choice.ifname = opt.ifname;
   choice.bus_config = opt.bus_config;
   choice.watchdog_ms = opt.rt.watchdog_ms;
+  choice.channels = opt.channels;
   std::unique_ptr<backends::Host> host = backends::make_host(cfg, choice, error);
   if (!host) {
     std::fprintf(stderr, "safestate run: %s\n", error.c_str());
@@ -586,21 +593,55 @@ int run_main(const RunOptions& opt) {
     publish_bus(*bus, bc, seg->header().bus);
     rt.simulated = !opt.ecat_sim_control.empty();
   }
+  // SPEC §14: the channels. Two (the default on the simulated cell): A and B in processes of
+  // their own on the backend alone (pair/host.hpp); one: the controller in this process.
+  const unsigned channels = host->channels();
   controller::Cell& cell = host->cell();
-  // The platform's checks (controller/platform.hpp) cover this program's code too: a CRC of
-  // its text beside the core's tables, all within the integrity period (SPEC §14), after a
-  // reference taken now.
-  const CodeRegion code = own_code();
-  if (code.p == nullptr || !cell.platform().add_rom(code.p, code.n)) {
-    std::fprintf(stderr, "safestate run: warning: this program's code is not under the platform's CRC check\n");
+  controller::OneChannel one(cell);
+  std::unique_ptr<pair::ChannelPair> two;
+  controller::Channels* chans = &one;
+  if (channels == 2U) {
+    host->configure_limits(safety.config.limits, safety.validated);  // the world's tool
+    two = std::make_unique<pair::ChannelPair>(cfg, *host->pair_backend());
+    pair::PairOptions po;
+    po.exe_a = beside_me(opt.channel_a_exe, "safestate-channel");
+    po.exe_b = beside_me(opt.channel_b_exe, "safestate-channel-clang");
+    po.shm_base = "/safestate-ch-" + std::to_string(getpid());
+    po.cpu_a = channel_cpu(opt.channel_cpu_a, 0);
+    po.cpu_b = channel_cpu(opt.channel_cpu_b, 1);
+    po.priority = opt.rt.priority > 0 ? std::min(opt.rt.priority + 1, 99) : 0;  // above the loop that waits for them
+    if (!two->start(po, robot::active().model, safety.config.limits, safety.validated, brake_test_history(opt),
+                    error)) {
+      std::fprintf(stderr, "safestate run: %s\n", error.c_str());
+      return 1;
+    }
+    std::fprintf(stderr,
+                 "safestate run: two channels (SPEC §14): A (GCC, %s, pid %u, CPU %d) and B (Clang, %s, pid %u, CPU %d), "
+                 "each its own process; the cross-check after every cycle, CHANNEL_LOST after %u cycles without the "
+                 "other's digest; K1 from A, K2 from B\n",
+                 po.exe_a.c_str(), two->info(0).pid, po.cpu_a, po.exe_b.c_str(), two->info(1).pid, po.cpu_b,
+                 cfg.cross_check_cycles);
+    chans = two.get();
   }
-  std::fprintf(stderr,
-               "safestate run: platform checks every %.1f s: CRC-32 of %zu KiB (the core's tables, this program's "
-               "code; %zu bytes a cycle), pattern test of %zu words of the controller's state (%zu a cycle), start-up "
-               "self-test %s\n",
-               static_cast<double>(cell.platform().period()) * opt.rt.cycle_us * 1e-6, cell.platform().rom_bytes() / 1024U,
-               cell.platform().rom_slice(), cell.platform().ram_words(), cell.platform().ram_slice(),
-               cell.platform().self_test_ok() ? "passed" : "FAILED (BOOT_FAILED follows)");
+  if (channels == 1U) {
+    // The platform's checks (controller/platform.hpp) cover this program's code too: a CRC of
+    // its text beside the core's tables, all within the integrity period (SPEC §14), after a
+    // reference taken now.
+    const CodeRegion code = own_code();
+    if (code.p == nullptr || !cell.platform().add_rom(code.p, code.n)) {
+      std::fprintf(stderr, "safestate run: warning: this program's code is not under the platform's CRC check\n");
+    }
+    std::fprintf(stderr,
+                 "safestate run: platform checks every %.1f s: CRC-32 of %zu KiB (the core's tables, this program's "
+                 "code; %zu bytes a cycle), pattern test of %zu words of the controller's state (%zu a cycle), start-up "
+                 "self-test %s\n",
+                 static_cast<double>(cell.platform().period()) * opt.rt.cycle_us * 1e-6, cell.platform().rom_bytes() / 1024U,
+                 cell.platform().rom_slice(), cell.platform().ram_words(), cell.platform().ram_slice(),
+                 cell.platform().self_test_ok() ? "passed" : "FAILED (BOOT_FAILED follows)");
+  } else {
+    std::fprintf(stderr, "safestate run: platform checks: each channel its own (its code, its constant tables, its state; "
+                         "their lines above)\n");
+  }
   // Before the first cycle, on the simulated cell and on EtherCAT alike.
   host->configure_limits(safety.config.limits, safety.validated);
   cell.configure_brake_test(brake_test_history(opt));
@@ -613,7 +654,7 @@ int run_main(const RunOptions& opt) {
     rt.sim_forward = &forward;
     forwarder = std::thread([&] { forward_sim(forward, opt.ecat_sim_control, forwarding); });
   }
-  RtLoop loop(*seg, cell, host->world(), rt);
+  RtLoop loop(*seg, *chans, host->world(), rt);
   std::atomic<bool> stop{false};
   std::atomic<bool> ready{false};
   std::thread rt_thread([&] {
@@ -692,9 +733,12 @@ int run_main(const RunOptions& opt) {
     forwarder.join();
   }
   stop_gateway(gateway);
+  if (two) {
+    two->stop();
+  }
   const bridge::Metrics& m = seg->metrics();
   std::printf("safestate run: stopped in state %s after %llu cycles; overruns %llu, max lateness %.3f ms, max cycle %.3f ms\n",
-              core::to_string(cell.out().state), static_cast<unsigned long long>(m.cycles.load()),
+              core::to_string(chans->out().state), static_cast<unsigned long long>(m.cycles.load()),
               static_cast<unsigned long long>(m.overruns.load()), ms(m.lateness_max_ns.load()), ms(m.exec_max_ns.load()));
   if (bus) {
     std::printf("safestate run: EtherCAT: %llu exchanges, %llu late or stray frames dropped\n",

@@ -1,7 +1,10 @@
 #include "safestate/sim/cell.hpp"
 
+#include "safestate/controller/channels.hpp"
+
 #include <optional>
 
+#include "safestate/motion/kinematics.hpp"
 #include "safestate/robot/description.hpp"
 #include "safestate/sim/plant.hpp"
 #include "safestate/vocab/inputs.hpp"
@@ -84,6 +87,27 @@ struct StuckInputs {
 // channel B (PortB) reads the image A's read took. With one channel A's write advances the
 // world; with two the cell combines both channels' writes first (Cell::step).
 struct Cell::Impl final : hal::Backend {
+  // The world alone, its channels elsewhere (Cell::world_port).
+  struct WorldPort final : hal::Backend {
+    explicit WorldPort(Impl& i) noexcept : s(&i) {}
+    void read(hal::ProcessImageIn& in) noexcept override {
+      motion::Joints q{};
+      for (std::size_t a = 0; a < hal::kAxes; ++a) {
+        q[a] = s->image.drive[a].position_rad;  // last cycle's, as the controller's frames are
+      }
+      motion::forward(s->arm_model, q, s->arm_frames);
+      s->read_world(s->image, s->arm_frames);
+      in = s->image;
+    }
+    void write(const hal::ProcessImageOut& out) noexcept override {
+      s->out_a = out;
+      s->write_world(out);
+      ++s->cycles;
+      s->view.k2_closed = s->plant.k2_closed();
+      s->view.injected = s->plant.injected();
+    }
+    Impl* s;
+  };
   struct PortB final : hal::Backend {
     explicit PortB(Impl& i) noexcept : s(&i) {}
     void read(hal::ProcessImageIn& in) noexcept override {
@@ -131,9 +155,12 @@ struct Cell::Impl final : hal::Backend {
         ring_ba(o.ring_ba),
         together(o.together),
         together_alarms(o.together_alarms),
+        together_leaf(o.together_leaf),
         cycles(o.cycles),
         core(o.core, *this),
-        port_b(*this) {
+        port_b(*this),
+        arm_model(o.arm_model),
+        arm_frames(o.arm_frames) {
     link_a.last = o.link_a.last;
     link_a.have_last = o.link_a.have_last;
     link_b.last = o.link_b.last;
@@ -156,9 +183,10 @@ struct Cell::Impl final : hal::Backend {
     }
   }
 
-  // One cycle of the world's inputs: the field I/O and the person.
+  // One cycle of the world's inputs: the field I/O and the person (seen against the arm at
+  // `arm`: as channel A's motion layer computed it last cycle, or from the plant's joints).
   // @req COL-SIM-PERSON
-  void read_world(hal::ProcessImageIn& in) noexcept {
+  void read_world(hal::ProcessImageIn& in, const motion::Frames& arm) noexcept {
     if (bus != nullptr) {
       bus->read(in);
       plant.read_platform(in);
@@ -166,9 +194,9 @@ struct Cell::Impl final : hal::Backend {
       plant.read(in);
     }
     person.advance(static_cast<float>(cfg.cycle_us) * 1.0e-6F);
-    person.sense(person_sensors, core.controller().motion().frames(), (bus == nullptr) ? in.safety : person_discard,
-                 view.person);
+    person.sense(person_sensors, arm, (bus == nullptr) ? in.safety : person_discard, view.person);
   }
+  void read_world(hal::ProcessImageIn& in) noexcept { read_world(in, core.controller().motion().frames()); }
   void write_world(const hal::ProcessImageOut& out) noexcept {
     if (bus != nullptr) {
       bus->write(out);
@@ -191,14 +219,7 @@ struct Cell::Impl final : hal::Backend {
 
   // SPEC §14: what the world gets from two channels: the drives (set-points, controlwords)
   // from A, K1 from A, K2 from B, the brakes released only while both release them.
-  [[nodiscard]] hal::ProcessImageOut combined() const noexcept {
-    hal::ProcessImageOut o = out_a;
-    o.contactor = out_a.contactor;
-    o.contactor_k2 = out_b.contactor;
-    o.brakes_release = out_a.brakes_release && out_b.brakes_release;
-    o.reduced_active = out_a.reduced_active || out_b.reduced_active;
-    return o;
-  }
+  [[nodiscard]] hal::ProcessImageOut combined() const noexcept { return controller::combine_outputs(out_a, out_b); }
   void update_together() noexcept;
 
   core::Config cfg;
@@ -223,32 +244,21 @@ struct Cell::Impl final : hal::Backend {
   ChannelLink link_b{ring_ba, ring_ab, digest_fault[1]};
   core::SupervisorOut together{};
   core::AlarmSet together_alarms{};
+  core::Leaf together_leaf = core::Leaf::BOOT;
   core::Cycle cycles = 0;
   controller::Cell core;  // channel A; after the world above: it reads it through *this
   PortB port_b;
+  WorldPort world_port{*this};
+  motion::RobotModel arm_model = robot::active().model;  // with the declared tool (configure_limits)
+  motion::Frames arm_frames{};
   std::optional<controller::Cell> core_b;  // channel B, with two channels
 };
 
-// The channels together (spec/scenario-format.md "Two channels"): led by the one locked out,
-// else the one whose contactor is open, else A; the alarms of either (A's detail first).
+// The channels together (controller::together: spec/scenario-format.md "Two channels").
 void Cell::Impl::update_together() noexcept {
-  const core::SupervisorOut& a = core.out();
-  const core::SupervisorOut& b = core_b->out();
-  const bool a_locked = core.leaf() == core::Leaf::ERROR_LOCKOUT;
-  const bool b_locked = core_b->leaf() == core::Leaf::ERROR_LOCKOUT;
-  const bool lead_b = (b_locked && !a_locked) || (!b_locked && !a_locked && !b.contactor && a.contactor);
-  together = lead_b ? b : a;
-  together.alarms = a.alarms | b.alarms;
-  together.contactor = a.contactor && b.contactor;  // both closed (`contactor=` reads both: runner)
-  together.brakes_release = a.brakes_release && b.brakes_release;
-  together_alarms = lead_b ? core_b->alarms() : core.alarms();
-  const core::AlarmSet& other = lead_b ? core.alarms() : core_b->alarms();
-  for (std::size_t i = 0; i < core::kAlarmCount; ++i) {
-    const auto id = static_cast<core::AlarmId>(i);
-    if (other.active(id) && !together_alarms.active(id)) {
-      together_alarms.raise(id, other.detail(id), other.since(id));
-    }
-  }
+  static_cast<void>(controller::together({&core.out(), &core.alarms(), core.leaf()},
+                                         {&core_b->out(), &core_b->alarms(), core_b->leaf()}, together,
+                                         together_alarms, together_leaf));
 }
 
 Cell::Cell(const core::Config& cfg, hal::Backend* bus, std::uint8_t channels)
@@ -353,6 +363,7 @@ void Cell::configure_limits(const core::SafetyLimits& limits, bool validated) no
     impl_->core_b->configure_limits(limits, validated);
   }
   impl_->plant.set_tool(limits.payload_kg, limits.tcp_mm);  // the simulated arm carries the declared tool
+  impl_->arm_model.tcp_offset_mm = limits.tcp_mm;
 }
 
 void Cell::set_payload_fraction(float fraction) noexcept { impl_->plant.set_payload_fraction(fraction); }
@@ -433,11 +444,7 @@ const core::SafetyInputs& Cell::safety_inputs() const noexcept { return impl_->c
 const core::Feedback& Cell::feedback() const noexcept { return impl_->core.feedback(); }
 const core::Command* Cell::commands_taken(std::size_t& n) const noexcept { return impl_->core.commands_taken(n); }
 core::Leaf Cell::leaf() const noexcept {
-  const Impl& s = *impl_;
-  if (s.core_b && s.core_b->leaf() == core::Leaf::ERROR_LOCKOUT) {
-    return core::Leaf::ERROR_LOCKOUT;
-  }
-  return s.core.leaf();
+  return (impl_->channels == 2U) ? impl_->together_leaf : impl_->core.leaf();
 }
 const core::AlarmSet& Cell::alarms() const noexcept {
   return (impl_->channels == 2U) ? impl_->together_alarms : impl_->core.alarms();
@@ -472,6 +479,7 @@ bool Cell::contactor_command(std::size_t i) const noexcept {
 }
 const core::Config& Cell::config() const noexcept { return impl_->cfg; }
 controller::Cell& Cell::controller() noexcept { return impl_->core; }
+hal::Backend& Cell::world_port() noexcept { return impl_->world_port; }
 const controller::Cell& Cell::controller() const noexcept { return impl_->core; }
 
 }  // namespace safestate::sim

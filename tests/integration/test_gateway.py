@@ -35,7 +35,15 @@ ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
 # Extra options for `safestate run`, e.g. a longer fieldbus watchdog for a sanitizer
 # build, which runs several times slower than the real thing.
-RUN_ARGS = os.environ.get("SAFESTATE_RUN_ARGS", "").split()
+# Extra options for every cell of these tests (SAFESTATE_RUN_ARGS). By default the two
+# channels' cross-check window is widened from SPEC §14's 2 cycles to 50 (STALL_TOLERANT_PAIR):
+# these tests check the protocol, the HMI and the adapters, and on CI's 2-CPU VM a channel
+# process is now and then kept from running for a few milliseconds (a non-preemptible kernel
+# section or a vCPU stall: the channel's own record, `wake_max_us`, shows it), which at 2
+# cycles is CHANNEL_LOST, correctly. The pair as shipped is tested by test_channels_run.py
+# (pair_as_shipped) and tests/unit/test_pair.cpp; docs/two-channels.md "On a shared host".
+STALL_TOLERANT_PAIR = ["--cross-check-cycles", "50"]
+RUN_ARGS = os.environ["SAFESTATE_RUN_ARGS"].split() if "SAFESTATE_RUN_ARGS" in os.environ else STALL_TOLERANT_PAIR
 
 STARTUP_TIMEOUT = 20.0
 STATE_TIMEOUT = 10.0
@@ -101,8 +109,9 @@ def opcua_args(args):
 class SafeState:
     """One `safestate run` on the simulated cell, with its gateway."""
 
-    def __init__(self, tmp_path, db=None, args=(), env=None, nofile=None):
-        """nofile: RLIMIT_NOFILE (soft and hard) of `safestate run` and so of its gateway."""
+    def __init__(self, tmp_path, db=None, args=(), env=None, nofile=None, pair_as_shipped=False):
+        """nofile: RLIMIT_NOFILE (soft and hard) of `safestate run` and so of its gateway.
+        pair_as_shipped: without RUN_ARGS (the cross-check window of SPEC §14 as shipped)."""
         self.port = free_port()
         self.db = str(db or (tmp_path / "events.db"))
         self.log_path = tmp_path / f"run-{self.port}.log"
@@ -110,7 +119,8 @@ class SafeState:
         if not os.access(BIN, os.X_OK):
             pytest.fail(f"{BIN} not found or not executable (set SAFESTATE_BIN)")
         self.proc = subprocess.Popen(
-            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000", *RUN_ARGS,
+            [BIN, "run", "--port", str(self.port), "--db", self.db, "--cycle-us", "1000",
+             *([] if pair_as_shipped else RUN_ARGS),
              *opcua_args(args), *args],
             stdout=self.log, stderr=subprocess.STDOUT, cwd=str(ROOT),
             env={**os.environ, **(env or {})},

@@ -14,6 +14,7 @@
 #include "safestate/bridge/segment.hpp"
 #include "safestate/core/monitors.hpp"
 #include "safestate/sim/cell.hpp"  // the simulated world the runtime is tested on
+#include "safestate/controller/channels.hpp"
 #include "safestate/runtime/runtime.hpp"
 
 using namespace safestate;
@@ -223,7 +224,8 @@ TEST(RuntimeBridge, CommandsFlowToTheCoreAndRepliesEchoTheSeq) {
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), &cell);
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, &cell);
   for (int i = 0; i < 100; ++i) {
     cell.step();
     pub.publish();
@@ -232,7 +234,7 @@ TEST(RuntimeBridge, CommandsFlowToTheCoreAndRepliesEchoTheSeq) {
   rec.seq = 1234;
   rec.kind = RecordKind::command;
   rec.command.id = static_cast<std::uint8_t>(core::CommandId::reset);
-  runtime::take_record(rec, cell.controller(), &cell, pub, cell.now());
+  runtime::take_record(rec, one, &cell, pub, cell.now());
   cell.step();
   pub.publish();
   ReplyRecord r{};
@@ -265,13 +267,14 @@ TEST(RuntimeBridge, SimRecordsSetContactsAndInjectFaults) {
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), &cell);
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, &cell);
   CommandRecord rec{};
   rec.seq = 5;
   rec.kind = RecordKind::sim_set;
   rec.set_mask = (1U << static_cast<unsigned>(Contact::estop_a)) | (1U << static_cast<unsigned>(Contact::mode_t1));
   rec.set_values = (1U << static_cast<unsigned>(Contact::mode_t1));  // estop.a=0, mode.t1=1
-  runtime::take_record(rec, cell.controller(), &cell, pub, 0);
+  runtime::take_record(rec, one, &cell, pub, 0);
   EXPECT_FALSE(cell.inputs().estop_a);
   EXPECT_TRUE(cell.inputs().mode_t1);
   EXPECT_TRUE(cell.inputs().estop_b) << "contacts outside the mask are untouched";
@@ -284,7 +287,7 @@ TEST(RuntimeBridge, SimRecordsSetContactsAndInjectFaults) {
   rec.seq = 6;
   rec.kind = RecordKind::sim_fault;
   rec.fault_kind = static_cast<std::uint8_t>(sim::FaultKind::fieldbus_lost);
-  runtime::take_record(rec, cell.controller(), &cell, pub, 0);
+  runtime::take_record(rec, one, &cell, pub, 0);
   cell.step();
   EXPECT_FALSE(cell.view().fieldbus_ok);
 }
@@ -297,14 +300,15 @@ TEST(RuntimeBridge, SimRecordsReachTheReducedInput) {
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), &cell);
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, &cell);
   ASSERT_TRUE(cell.inputs().reduced_a && cell.inputs().reduced_b) << "NC: 1 = normal speed at start";
   CommandRecord rec{};
   rec.seq = 7;
   rec.kind = RecordKind::sim_set;
   rec.set_mask = (1U << static_cast<unsigned>(Contact::reduced_a)) | (1U << static_cast<unsigned>(Contact::reduced_b));
   rec.set_values = (1U << static_cast<unsigned>(Contact::reduced_b));  // reduced.a=0, reduced.b=1
-  runtime::take_record(rec, cell.controller(), &cell, pub, 0);
+  runtime::take_record(rec, one, &cell, pub, 0);
   EXPECT_FALSE(cell.inputs().reduced_a);
   EXPECT_TRUE(cell.inputs().reduced_b);
   EXPECT_TRUE(cell.inputs().estop_a) << "contacts outside the mask are untouched";
@@ -335,7 +339,8 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), &cell);
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, &cell);
   cell.configure_limits(ssm_limits_for_test(), true);
   ASSERT_TRUE(cell.inputs().field_outer_a && cell.inputs().field_inner_b) << "NC: 1 = clear at start";
   ASSERT_FALSE(cell.inputs().separation_valid) << "no sensor reading yet: invalid";
@@ -345,7 +350,7 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   rec.set_mask = (1U << static_cast<unsigned>(Contact::field_inner_a)) | (1U << static_cast<unsigned>(Contact::field_inner_b));
   rec.separation_mm = 800;
   rec.separation_set = kSetSeparation;
-  runtime::take_record(rec, cell.controller(), &cell, pub, 0);
+  runtime::take_record(rec, one, &cell, pub, 0);
   EXPECT_FALSE(cell.inputs().field_inner_a);
   EXPECT_FALSE(cell.inputs().field_inner_b);
   EXPECT_TRUE(cell.inputs().field_outer_a) << "contacts outside the mask are untouched";
@@ -369,7 +374,7 @@ TEST(RuntimeBridge, SimRecordsReachTheFieldsAndTheSeparationAndStatusShowsSsm) {
   EXPECT_FLOAT_EQ(st.safety.separation_mm, 800.0F);
   rec.set_mask = 0;
   rec.separation_set = kSetValid;  // separation_valid=0
-  runtime::take_record(rec, cell.controller(), &cell, pub, 400);
+  runtime::take_record(rec, one, &cell, pub, 400);
   EXPECT_FALSE(cell.inputs().separation_valid);
   EXPECT_EQ(runtime::sim_line(rec), "in separation_valid=0");
   cell.step();
@@ -429,14 +434,15 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), &cell);
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, &cell);
   cell.configure_limits(ssm_limits_for_test(), true);
   // The HMI's manual distance sensor: with nobody placed, the person's devices write nothing.
   CommandRecord set{};
   set.kind = RecordKind::sim_set;
   set.separation_mm = 4321;
   set.separation_set = kSetSeparation;
-  runtime::take_record(set, cell.controller(), &cell, pub, 0);
+  runtime::take_record(set, one, &cell, pub, 0);
   ReplyRecord r{};
   ASSERT_TRUE(seg->replies().pop(r));
   cell.step();
@@ -455,7 +461,7 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   walk.person.path[0] = PersonPoint{800.0F, 0.0F, 1600.0F, 0};
   for (const std::uint8_t what : {kPersonWalk, kPersonStand, kPersonLeave}) {
     walk.person.what = what;
-    runtime::take_record(walk, cell.controller(), &cell, pub, 1);
+    runtime::take_record(walk, one, &cell, pub, 1);
     EXPECT_EQ(answer(*seg), SimResult::person_absent) << int{what};
   }
   EXPECT_FALSE(cell.person().present());
@@ -467,7 +473,7 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   in.person.radius_mm = 250.0F;
   in.person.points = 1;
   in.person.path[0] = PersonPoint{800.0F, 0.0F, 2500.0F, 0};  // over 2000 mm/s
-  runtime::take_record(in, cell.controller(), &cell, pub, 1);
+  runtime::take_record(in, one, &cell, pub, 1);
   EXPECT_EQ(answer(*seg), SimResult::person_invalid);
   EXPECT_FALSE(cell.person().present());
   EXPECT_FLOAT_EQ(cell.person_sensors().outer_mm, 2000.0F);
@@ -476,19 +482,19 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
     CommandRecord odd = in;
     odd.person.what = what;
     odd.person.path[0].speed_mm_s = 1600.0F;
-    runtime::take_record(odd, cell.controller(), &cell, pub, 1);
+    runtime::take_record(odd, one, &cell, pub, 1);
     EXPECT_EQ(answer(*seg), SimResult::person_invalid) << int{what};
   }
   EXPECT_FALSE(cell.person().present());
   in.person.fields_inner_mm = 1600.0F;  // not inner < outer
   in.person.path[0].speed_mm_s = 1600.0F;
-  runtime::take_record(in, cell.controller(), &cell, pub, 1);
+  runtime::take_record(in, one, &cell, pub, 1);
   EXPECT_EQ(answer(*seg), SimResult::person_invalid);
   EXPECT_FALSE(cell.person().present());
 
   // Fields 1500 / 700, in at 3 m on the x axis, walking to 0.8 m at 1.6 m/s.
   in.person.fields_inner_mm = 700.0F;
-  runtime::take_record(in, cell.controller(), &cell, pub, 1);
+  runtime::take_record(in, one, &cell, pub, 1);
   EXPECT_EQ(answer(*seg), SimResult::ok);
   ASSERT_TRUE(cell.person().present());
   EXPECT_FLOAT_EQ(cell.person_sensors().outer_mm, 1500.0F);
@@ -529,9 +535,9 @@ TEST(RuntimeBridge, PersonRecordsWalkThePersonAndTheFieldsAndTheSeparationFollow
   EXPECT_TRUE(st.safety.field_inner_interrupted);
   EXPECT_LT(st.person_separation_mm, 550.0F) << "the arm is nearer than the base axis";
   // Stand while standing is fine; leave: the manual inputs again (fields clear, 4321 mm).
-  runtime::take_record(person_record(22, kPersonStand), cell.controller(), &cell, pub, 2);
+  runtime::take_record(person_record(22, kPersonStand), one, &cell, pub, 2);
   EXPECT_EQ(answer(*seg), SimResult::ok);
-  runtime::take_record(person_record(23, kPersonLeave), cell.controller(), &cell, pub, 2);
+  runtime::take_record(person_record(23, kPersonLeave), one, &cell, pub, 2);
   EXPECT_EQ(answer(*seg), SimResult::ok);
   run(1);
   EXPECT_FALSE(st.person_present);
@@ -548,12 +554,13 @@ TEST(RuntimeBridge, APersonRecordIsRefusedWhereTheWorldIsAnEmulatedSegment) {
   auto seg = Segment::create(name, err);
   ASSERT_TRUE(seg);
   sim::Cell cell{core::Config{}};
-  runtime::Publisher pub(*seg, cell.controller(), nullptr, true);  // an emulated segment: no world here
+  controller::OneChannel one(cell.controller());
+  runtime::Publisher pub(*seg, one, nullptr, true);  // an emulated segment: no world here
   runtime::SimForward forward;
   CommandRecord rec = person_record(30, kPersonAt);
   rec.person.x_mm = 2000.0F;
   rec.person.radius_mm = 250.0F;
-  runtime::take_record(rec, cell.controller(), nullptr, pub, 0, &forward);
+  runtime::take_record(rec, one, nullptr, pub, 0, &forward);
   EXPECT_EQ(answer(*seg), SimResult::person_not_on_bus);
   CommandRecord none{};
   EXPECT_FALSE(forward.pop(none)) << "not forwarded to the emulator";

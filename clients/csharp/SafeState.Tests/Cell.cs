@@ -36,7 +36,9 @@ namespace SafeState.Tests
             var psi = new ProcessStartInfo(Bin)
             {
                 Arguments = "run --port " + Port + " --db " + Path.Combine(dir, "events.db") + " --cycle-us 1000 " +
-                            (Environment.GetEnvironmentVariable("SAFESTATE_RUN_ARGS") ?? "") + " " + args,
+                            // default: SPEC §14's cross-check window widened (tests/integration/test_gateway.py
+                            // STALL_TOLERANT_PAIR: these tests check the client, not the pair's timing)
+                            (Environment.GetEnvironmentVariable("SAFESTATE_RUN_ARGS") ?? "--cross-check-cycles 50") + " " + args,
                 UseShellExecute = false,
                 RedirectStandardOutput = true,
                 RedirectStandardError = true,

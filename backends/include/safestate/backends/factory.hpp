@@ -24,6 +24,10 @@ struct Choice {
   std::string ifname;            // ethercat: the segment's interface
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
   std::uint32_t watchdog_ms = 100;  // ethercat: a longer stall of the host = the bus lost
+  // SPEC §14: 1 = the controller in this process on the backend; 2 = the backend alone for two
+  // channels in processes of their own (pair_backend()); 0 = the backend's default (sim 2;
+  // ethercat 1: two are not offered there until K2 and the load-side encoders are on the segment).
+  unsigned channels = 0;
 };
 
 class Host {
@@ -41,6 +45,11 @@ class Host {
   virtual void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept {
     cell().configure_limits(limits, validated);
   }
+  // SPEC §14: the channels this host was made for (Choice::channels, resolved), and with two
+  // the backend they run on in processes of their own (pair/host.hpp), without this host's
+  // in-process controller (the simulated world alone); null with one.
+  [[nodiscard]] virtual unsigned channels() const noexcept { return 1U; }
+  virtual hal::Backend* pair_backend() noexcept { return nullptr; }
   // The EtherCAT backend and its configuration, or null: for the host's reports (names of the
   // subdevices, boot error, loss, DC).
   virtual hal::ethercat::Backend* ethercat() noexcept { return nullptr; }

@@ -30,7 +30,7 @@
 namespace safestate::bridge {
 
 inline constexpr std::uint32_t kMagic = 0x53534252U;  // "SSBR"
-inline constexpr std::uint32_t kLayoutVersion = 8U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles; 7: fault value, pfl and contact force; 8: the simulated person (record and status)
+inline constexpr std::uint32_t kLayoutVersion = 9U;  // 2: instance, gateway_restarts; 3: bus; 4: safety, reduced; 5: fields, SSM, brake test; 6: stale cycles; 7: fault value, pfl and contact force; 8: the simulated person (record and status); 9: the channels (SPEC §14)
 
 // ------------------------------------------------------------------ records
 enum class RecordKind : std::uint8_t { command, sim_set, sim_fault, sim_person };
@@ -131,6 +131,27 @@ struct EventRecord {
   std::array<float, 6> brake_drift_deg{};
 };
 
+// SPEC §14: one channel as the status shows it (controller::ChannelStatus).
+struct ChannelRecord {
+  std::uint8_t present = 0;
+  std::uint8_t running = 0;   // its process is there
+  std::uint8_t answered = 0;  // its result of the last cycle came in time
+  std::uint8_t agree = 1;     // its cross-check: no mismatch, partner not lost
+  std::uint8_t compiler = 0;  // 1 GCC, 2 Clang
+  core::State state = core::State::BOOT;
+  core::Leaf leaf = core::Leaf::BOOT;
+  core::CrossField field = core::CrossField::none;
+  std::uint32_t pid = 0;
+  std::uint32_t digest_crc = 0;
+  std::uint32_t missing = 0;
+  std::uint32_t wake_max_us = 0;
+  std::uint32_t exec_max_us = 0;
+  std::uint32_t pad = 0;
+  std::uint64_t cycle = 0;
+  std::uint64_t late = 0;
+  std::uint64_t skipped = 0;
+};
+
 // Everything the gateway shows, rewritten every cycle.
 struct Status {
   std::uint64_t t = 0;
@@ -182,6 +203,12 @@ struct Status {
   float person_inner_mm = 0.0F;
   // SPEC §12, as the core reports it, the same struct.
   core::BrakeTestStatus brake_test{};
+  // SPEC §14: the channels (1, or A and B) and the power path as its auxiliary contacts read.
+  std::uint8_t channel_count = 1;
+  std::array<ChannelRecord, 2> channels{};
+  bool two_contactors = false;
+  bool k1_closed = false;
+  bool k2_closed = false;
 };
 
 // One cycle of the black box: what the cycle read and what it wrote.

@@ -65,7 +65,8 @@ struct CrossVerdict {
 
 // SPEC §14: a difference that lasts longer than `cross_check_cycles` compared cycles is a
 // mismatch; a partner whose valid digest has not arrived for `cross_check_cycles` of this
-// channel's cycles is lost; a digest with a wrong CRC, or a sequence number that is not the
+// channel's cycles is lost (a cycle whose digest, or a later one, came earlier is not
+// missing: two processes are not in lock-step); a digest with a wrong CRC, or a sequence number that is not the
 // next one (repeated, skipped), counts as not arrived. A partner's digest is compared with
 // this channel's digest of the same cycle (kept for kHistory cycles); one of a cycle this
 // channel has not run yet waits until it has.
@@ -91,6 +92,7 @@ class CrossCheck {
   std::uint32_t next_seq_ = 0;
   bool have_seq_ = false;
   bool arrived_ = false;
+  std::uint64_t newest_ = 0;  // the cycle of the partner's newest valid digest
   std::uint64_t last_agreed_ = 0;
   CrossVerdict verdict_{};
 };

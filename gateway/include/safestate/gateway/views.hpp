@@ -53,6 +53,8 @@ std::string alarm_subject(const core::AlarmDetail& d);
 // The status `sim` object (SPEC §11, the simulated person and the scanner's field radii);
 // null unless the status comes from the in-process simulated cell.
 Json status_sim_json(const bridge::Status& s);
+// SPEC §14: the channels (one, or A and B) as the status shows them.
+Json status_channels_json(const bridge::Status& s);
 // The `status` message (with_type) or GET /api/status (without).
 Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type);
 // Who may command (protocol.md "Roles"): the pendant in T1/T2; in AUTO a connected

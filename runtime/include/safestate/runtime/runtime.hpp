@@ -14,6 +14,7 @@
 
 #include "safestate/bridge/segment.hpp"
 #include "safestate/controller/cell.hpp"
+#include "safestate/controller/channels.hpp"
 #include "safestate/core/config.hpp"
 #include "safestate/vocab/world.hpp"
 
@@ -56,7 +57,7 @@ class Publisher {
  public:
   // `world`: the in-process simulated world, or null (a segment). The status shows the
   // simulated person when there is a world and the cell is `simulated`.
-  Publisher(bridge::Segment& seg, const controller::Cell& cell, const vocab::World* world, bool simulated = true) noexcept
+  Publisher(bridge::Segment& seg, const controller::Channels& cell, const vocab::World* world, bool simulated = true) noexcept
       : seg_(seg), cell_(cell), world_(world), simulated_(simulated), person_(simulated && world != nullptr) {}
   void publish() noexcept;                         // after cell.step()
   void reply(const bridge::ReplyRecord& r) noexcept;  // answers the runtime gives itself
@@ -64,7 +65,7 @@ class Publisher {
  private:
   void event(const bridge::EventRecord& e) noexcept;
   bridge::Segment& seg_;
-  const controller::Cell& cell_;
+  const controller::Channels& cell_;
   const vocab::World* world_;
   bool simulated_;
   bool person_;
@@ -75,14 +76,15 @@ class Publisher {
 // socket; answers sim records and refused commands at once (commands are otherwise answered
 // by the core). A person record is applied all or nothing; with `forward` it is refused
 // (person_not_on_bus); with neither world nor forward every sim record is NOT_SIMULATED.
-void take_record(const bridge::CommandRecord& rec, controller::Cell& cell, vocab::World* world, Publisher& pub,
+void take_record(const bridge::CommandRecord& rec, controller::Channels& cell, vocab::World* world, Publisher& pub,
                  std::uint64_t t, SimForward* forward = nullptr) noexcept;
 
 class RtLoop {
  public:
   // The controller on its backend and, for the in-process simulated cell, its world (null on
   // a segment): both from the backend factory (backends/factory.hpp).
-  RtLoop(bridge::Segment& seg, controller::Cell& cell, vocab::World* world, const RtOptions& opt) noexcept;
+  // `cell`: one channel in this process (controller::OneChannel) or a pair (pair/host.hpp).
+  RtLoop(bridge::Segment& seg, controller::Channels& cell, vocab::World* world, const RtOptions& opt) noexcept;
   ~RtLoop();
   RtLoop(const RtLoop&) = delete;
   RtLoop& operator=(const RtLoop&) = delete;
@@ -99,7 +101,7 @@ class RtLoop {
  private:
   void one_cycle() noexcept;
   bridge::Segment& seg_;
-  controller::Cell& cell_;
+  controller::Channels& cell_;
   vocab::World* world_;
   RtOptions opt_;
   Publisher pub_;
@@ -144,6 +146,14 @@ struct RunOptions {
   std::string ifname;            // ethercat: the interface of the segment
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
   std::string ecat_sim_control;  // ethercat on ecat-sim: its control socket, for the HMI's sim panel
+  // SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (pair/host.hpp),
+  // 1 = the one-channel controller in this process (for comparison); 0 = the backend's
+  // default (2 on the simulated cell; 1 on EtherCAT until K2 is on the segment).
+  unsigned channels = 0;
+  std::string channel_a_exe;  // default: safestate-channel beside this program
+  std::string channel_b_exe;  // default: safestate-channel-clang beside this program
+  int channel_cpu_a = -2;     // -2: CPU 0 with two CPUs or more, else not pinned; -1: not pinned
+  int channel_cpu_b = -2;     // -2: CPU 1 with two CPUs or more
 };
 
 // `safestate run`: the core on the simulated cell in a real-time thread, plus the

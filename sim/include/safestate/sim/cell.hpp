@@ -131,6 +131,11 @@ class Cell final : public vocab::World {
   [[nodiscard]] const core::Command* commands_taken(std::size_t& n) const noexcept;
   [[nodiscard]] core::Cycle now() const noexcept;                 // cycles run so far
   [[nodiscard]] const core::Config& config() const noexcept;
+  // SPEC §14 with the channels in processes of their own (pair/host.hpp): the world alone as
+  // their backend. read() is one world cycle (the plant, and the person seen against the arm
+  // as the plant's joints place it); write() takes the outputs the power path combined. The
+  // controllers of this cell are then not stepped (step() is not called).
+  [[nodiscard]] hal::Backend& world_port() noexcept;
   // The controller on this world (for a host that runs it: the runtime's loop, its platform).
   [[nodiscard]] controller::Cell& controller() noexcept;
   [[nodiscard]] const controller::Cell& controller() const noexcept;
