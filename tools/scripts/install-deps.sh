@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs, once, only the Debian packages that are missing. Usage: install-deps.sh GROUP...
-# Groups: build (compilers, CMake, GoogleTest; Orocos KDL for the simulated arm's dynamics; pugixml for ESI files),
+# Groups: build (compilers: g++ and clang-19, which builds channel B of SPEC §14; CMake, GoogleTest; Orocos KDL for the simulated arm's dynamics; pugixml for ESI files),
 # embedded (Cortex-M4 toolchain), lint (clang-tidy, cppcheck), bench (Google Benchmark, callgrind, cyclictest),
 # browser (Debian's Chromium for the HMI's browser tests; Node.js >= 20.19 is expected on
 # the machine: Debian 12's nodejs is too old for Vite),
@@ -11,7 +11,7 @@
 set -euo pipefail
 
 declare -A GROUPS_PKGS=(
-  [build]="g++ cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev libboost-dev libsqlite3-dev libssl-dev liborocos-kdl-dev liburdfdom-dev libpugixml-dev valgrind python3"
+  [build]="g++ clang-19 cmake ninja-build make libgtest-dev libgmock-dev libcli11-dev nlohmann-json3-dev libboost-dev libsqlite3-dev libssl-dev liborocos-kdl-dev liburdfdom-dev libpugixml-dev valgrind python3"
   [fuzz]="clang-19 llvm-19 libclang-rt-19-dev"
   [python]="python3 python3-venv python3-pip"
   [embedded]="gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi binutils-arm-none-eabi"
