@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
                   "SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (default on the simulated "
                   "cell), 1 = one channel in this process")
       ->check(CLI::Range(1, 2));
-  run->add_option("--cross-check-cycles", run_opt.core.cross_check_cycles,
+  run->add_option("--cross-check-cycles", run_opt.cross_check_cycles,
                   "SPEC §14: cycles a channel's digest may be missing or differ (default 2); a wider window rides out "
                   "a host that stalls one channel's CPU (docs/two-channels.md)")
       ->check(CLI::Range(1, 100));

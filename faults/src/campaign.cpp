@@ -71,7 +71,8 @@ Fault draw(std::mt19937& rng, std::uint8_t channels) {
     case 1: x.f = vocab::Fault{FaultKind::channel_crash, ch, 0}; break;
     case 2: {
       const auto c = static_cast<std::uint16_t>(rng() % vocab::kContacts);
-      x.f = vocab::Fault{FaultKind::channel_input, ch, static_cast<std::uint16_t>((c << 1U) | (rng() % 2U))};
+      const auto level = static_cast<unsigned>(rng() % 2U);
+      x.f = vocab::Fault{FaultKind::channel_input, ch, static_cast<std::uint16_t>((static_cast<unsigned>(c) << 1U) | level)};
       break;
     }
     case 3: {

@@ -494,7 +494,7 @@ Json status_json(const bridge::Status& s, const StatusExtras& x, bool with_type)
   return j;
 }
 
-// @req CH-PAIR
+// @req CH-PAIR CH-PROCESSES
 // SPEC §14: each channel's state, cycle, last digest and whether it agrees with the other
 // (docs/two-channels.md "Two processes"). One entry with one channel.
 Json status_channels_json(const bridge::Status& s) {

@@ -206,7 +206,7 @@ core::Result ChannelPair::submit(const core::Command& c) noexcept {
   return core::Result::OK;
 }
 
-// @req CH-PAIR
+// @req CH-PAIR CH-PROCESSES
 void ChannelPair::step() noexcept {
   ++cycle_;
   io_->read(frame_.in);

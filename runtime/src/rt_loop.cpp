@@ -229,7 +229,7 @@ void Publisher::publish() noexcept {
     s.person_inner_mm = pv.sensors.inner_mm;
   }
   s.brake_test = o.brake_test;
-  // @req CH-PAIR
+  // @req CH-PAIR CH-PROCESSES
   s.channel_count = cell_.count();
   for (std::size_t i = 0; i < s.channels.size(); ++i) {
     controller::ChannelStatus c{};

@@ -528,6 +528,22 @@ int run_main(const RunOptions& opt) {
     return 2;
   }
   cfg.max_stop_ms = safety.config.limits.max_stop_ms;  // SPEC §10: the file's stop.max_time_ms wins
+  // @req CH-CONFIG
+  // SPEC §14: the channels' window and the encoders' comparison from the safety configuration
+  // (validated, under its checksum); a command line that says otherwise is refused.
+  const safety::Channels& ch = safety.config.channels;
+  if (safety.config.channels_configured && opt.cross_check_cycles != 0U &&
+      opt.cross_check_cycles != ch.cross_check_cycles) {
+    std::fprintf(stderr,
+                 "safestate run: --cross-check-cycles %u: the safety configuration sets channels.cross_check_cycles = %u "
+                 "(under its checksum); not started\n",
+                 opt.cross_check_cycles, ch.cross_check_cycles);
+    return 2;
+  }
+  cfg.cross_check_cycles = safety.config.channels_configured ? ch.cross_check_cycles
+                           : (opt.cross_check_cycles != 0U ? opt.cross_check_cycles : ch.cross_check_cycles);
+  cfg.encoder_tolerance_deg = static_cast<float>(ch.encoder_tolerance_deg);
+  cfg.encoder_discrepancy_ms = ch.encoder_discrepancy_ms;
   if (const core::ConfigError e = core::validate(cfg); !e.ok()) {
     std::fprintf(stderr, "safestate run: invalid setting %s: %s\n", e.field, e.reason);
     return 2;
@@ -615,11 +631,19 @@ int run_main(const RunOptions& opt) {
       std::fprintf(stderr, "safestate run: %s\n", error.c_str());
       return 1;
     }
+#if defined(__clang__)
+    constexpr const char* kCompilerA = "Clang";
     std::fprintf(stderr,
-                 "safestate run: two channels (SPEC §14): A (GCC, %s, pid %u, CPU %d) and B (Clang, %s, pid %u, CPU %d), "
+                 "safestate run: warning: this is a Clang build (a sanitizer or coverage tree): channel A is Clang's "
+                 "too; the two compilers of SPEC §14 are the default build's\n");
+#else
+    constexpr const char* kCompilerA = "GCC";
+#endif
+    std::fprintf(stderr,
+                 "safestate run: two channels (SPEC §14): A (%s, %s, pid %u, CPU %d) and B (Clang, %s, pid %u, CPU %d), "
                  "each its own process; the cross-check after every cycle, CHANNEL_LOST after %u cycles without the "
                  "other's digest; K1 from A, K2 from B\n",
-                 po.exe_a.c_str(), two->info(0).pid, po.cpu_a, po.exe_b.c_str(), two->info(1).pid, po.cpu_b,
+                 kCompilerA, po.exe_a.c_str(), two->info(0).pid, po.cpu_a, po.exe_b.c_str(), two->info(1).pid, po.cpu_b,
                  cfg.cross_check_cycles);
     chans = two.get();
   }

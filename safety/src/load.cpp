@@ -210,6 +210,10 @@ std::string summary(const Loaded& c) {
   o << "brake test: " << (c.brake_test_configured ? "" : "(defaults) ") << "every " << n(b.interval_h) << " h + "
     << n(b.grace_h) << " h grace, " << n(b.test_torque_pct) << " % torque for " << b.hold_ms << " ms, drift <= "
     << n(b.max_drift_deg) << " deg\n";
+  const Channels& ch = c.channels;
+  o << "channels: " << (c.channels_configured ? "" : "(defaults) ") << "cross-check " << ch.cross_check_cycles
+    << " cycles, encoders within " << n(ch.encoder_tolerance_deg) << " deg for at most " << ch.encoder_discrepancy_ms
+    << " ms\n";
   return o.str();
 }
 

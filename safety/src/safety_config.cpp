@@ -55,7 +55,7 @@ const std::vector<KeySpec> kTop = {{"format", true},        {"name", true},   {"
                                    {"robot", false},        {"joints", false},       {"tcp_max_speed_mm_s", true},
                                    {"reduced", true},       {"orientation", false},
                                    {"zones", false},        {"stop", true},   {"collaborative", false},
-                                   {"brake_test", false}};
+                                   {"brake_test", false},   {"channels", false}};
 // `urdf` or `parameters` (the checksummed form the gateway reads back may hold only the latter).
 const std::vector<KeySpec> kRobotKey = {{"urdf", false}, {"base", false}, {"flange", false}, {"parameters", false}};
 const std::vector<KeySpec> kTool = {{"tcp_mm", true}, {"radius_mm", true}, {"payload_kg", true}};
@@ -70,6 +70,8 @@ const std::vector<KeySpec> kCollaborative = {{"enabled", true},           {"resu
 const std::vector<KeySpec> kSsm = {{"enabled", true},      {"human_speed_mm_s", false}, {"decel_mm_s2", true},
                                    {"reaction_ms", true},  {"intrusion_mm", true},      {"uncertainty_mm", true}};
 const std::vector<KeySpec> kPfl = {{"enabled", true}, {"body_region", true}, {"robot_mass_kg", true}};
+const std::vector<KeySpec> kChannels = {{"cross_check_cycles", false}, {"encoder_tolerance_deg", false},
+                                        {"encoder_discrepancy_ms", false}};
 const std::vector<KeySpec> kBrakeTest = {{"interval_h", false},    {"grace_h", false}, {"test_torque_pct", false},
                                          {"hold_ms", false},       {"max_drift_deg", false}};
 
@@ -87,6 +89,7 @@ const std::vector<ObjectSpec>& object_specs() {
       {"collaborative.ssm", kSsm},
       {"collaborative.pfl", kPfl},
       {"brake_test", kBrakeTest},
+      {"channels", kChannels},
   };
   return specs;
 }
@@ -453,6 +456,17 @@ void check_brake_test(const json& b, Checker& ck, BrakeTest& out) {
   if (auto v = ck.number(b, p, "max_drift_deg", 0.0, true, 10.0)) out.max_drift_deg = *v;
 }
 
+// @req CH-CONFIG
+// SPEC §14's settings (core::validate's ranges): the cross-check window in cycles, the encoder
+// tolerance in degrees and its time in milliseconds.
+void check_channels(const json& c, Checker& ck, Channels& out) {
+  const std::string p = "channels";
+  if (!ck.object(c, p, kChannels)) return;
+  if (auto v = ck.whole(c, p, "cross_check_cycles", 1.0, 100.0)) out.cross_check_cycles = *v;
+  if (auto v = ck.number(c, p, "encoder_tolerance_deg", 0.0, true, 10.0)) out.encoder_tolerance_deg = *v;
+  if (auto v = ck.whole(c, p, "encoder_discrepancy_ms", 1.0, 1000.0)) out.encoder_discrepancy_ms = *v;
+}
+
 }  // namespace
 
 const char* to_string(BodyRegion r) noexcept { return core::body_region(r).name; }
@@ -718,6 +732,10 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   if (doc.contains("brake_test")) {
     cfg.brake_test_configured = true;
     check_brake_test(doc.at("brake_test"), ck, cfg.brake_test);
+  }
+  if (doc.contains("channels")) {
+    cfg.channels_configured = true;
+    check_channels(doc.at("channels"), ck, cfg.channels);
   }
 
   if (!ck.errors.empty()) {

@@ -125,6 +125,13 @@ Problem finish_config(const ConfigLines& lines, bool max_stop_set, Scenario& s, 
     if (!max_stop_set) {
       s.config.max_stop_ms = r.config->limits.max_stop_ms;  // SPEC §10: the file's value wins
     }
+    // SPEC §14: the file's `channels` settings, as `safestate run` takes them (the scenario's own
+    // `config cross_check_cycles=` and encoder keys still apply to a file without the key).
+    if (r.config->channels_configured) {
+      s.config.cross_check_cycles = r.config->channels.cross_check_cycles;
+      s.config.encoder_tolerance_deg = static_cast<float>(r.config->channels.encoder_tolerance_deg);
+      s.config.encoder_discrepancy_ms = r.config->channels.encoder_discrepancy_ms;
+    }
   }
   // Without a file: the built-in configuration, which counts as validated.
   s.safety_validated = lines.file.empty() || (lines.validated && (*lines.validated == checksum));

@@ -33,7 +33,7 @@ def proc_state(pid):
         return None
 
 
-# @req CH-PAIR
+# @req CH-PAIR CH-PROCESSES
 def test_both_channels_run_and_agree_in_the_status(tmp_path):
     s = SafeState(tmp_path, pair_as_shipped=True)
     try:
@@ -137,3 +137,23 @@ def test_a_channel_stopped_from_outside_stops_the_robot(tmp_path, victim, sig):
             if pid is not None and sig == signal.SIGSTOP:
                 os.kill(pid, signal.SIGCONT)
             stop(s)
+
+
+# @req CH-CONFIG
+def test_the_safety_configuration_sets_the_window_and_a_command_line_cannot_change_it(tmp_path):
+    import json
+    import subprocess
+    from test_gateway import BIN, ROOT  # noqa: PLC0415
+    cfg = json.loads((ROOT / "examples" / "safety" / "cell.json").read_text())
+    cfg["channels"] = {"cross_check_cycles": 3, "encoder_tolerance_deg": 0.8, "encoder_discrepancy_ms": 20}
+    path = tmp_path / "cell-channels.json"
+    path.write_text(json.dumps(cfg))
+    r = subprocess.run([BIN, "run", "--port", "1", "--db", str(tmp_path / "x.db"), "--safety", str(path),
+                        "--cross-check-cycles", "50"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "--cross-check-cycles 50: the safety configuration sets channels.cross_check_cycles = 3" in r.stderr, r.stderr
+    s = SafeState(tmp_path, args=["--safety", str(path)], pair_as_shipped=True)
+    try:
+        assert "CHANNEL_LOST after 3 cycles without the other's digest" in s.output(), s.output()
+    finally:
+        stop(s)

@@ -430,6 +430,49 @@ TEST(SafetyParse, CollaborativeAndBrakeTest) {
   expect_one_error(d, "brake_test.interval_h", "must be > 0");
 }
 
+// @req CH-CONFIG
+// SPEC §14's settings in the safety configuration: the defaults without the key, the file's
+// values with it, each range-checked and named, and each under the checksum.
+TEST(SafetyConfig, ChannelsKeySetsTheCrossCheckAndTheEncoderComparison) {
+  json d = default_json();
+  Result r = parse_safety(d.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_FALSE(r.config->channels_configured);
+  EXPECT_EQ(r.config->channels.cross_check_cycles, 2U);
+  EXPECT_EQ(r.config->channels.encoder_tolerance_deg, 0.5);
+  EXPECT_EQ(r.config->channels.encoder_discrepancy_ms, 10U);
+  const std::string plain = r.config->checksum;
+  d["channels"] = {{"cross_check_cycles", 3}, {"encoder_tolerance_deg", 0.8}, {"encoder_discrepancy_ms", 20}};
+  r = parse_safety(d.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r.config->channels_configured);
+  EXPECT_EQ(r.config->channels.cross_check_cycles, 3U);
+  EXPECT_EQ(r.config->channels.encoder_tolerance_deg, 0.8);
+  EXPECT_EQ(r.config->channels.encoder_discrepancy_ms, 20U);
+  EXPECT_NE(r.config->checksum, plain) << "under the checksum";
+  const std::string three = r.config->checksum;
+  d["channels"]["encoder_tolerance_deg"] = 0.9;
+  r = parse_safety(d.dump());
+  ASSERT_TRUE(r.ok());
+  EXPECT_NE(r.config->checksum, three) << "every value is";
+  EXPECT_NE(summary(*r.config).find("channels: cross-check 3 cycles, encoders within 0.9 deg for at most 20 ms"),
+            std::string::npos)
+      << summary(*r.config);
+  d["channels"]["cross_check_cycles"] = 0;
+  expect_one_error(d, "channels.cross_check_cycles", "");
+  d["channels"]["cross_check_cycles"] = 2.5;
+  expect_one_error(d, "channels.cross_check_cycles", "");
+  d["channels"]["cross_check_cycles"] = 2;
+  d["channels"]["encoder_tolerance_deg"] = 11;
+  expect_one_error(d, "channels.encoder_tolerance_deg", "");
+  d["channels"]["encoder_tolerance_deg"] = 0.5;
+  d["channels"]["encoder_discrepancy_ms"] = 0;
+  expect_one_error(d, "channels.encoder_discrepancy_ms", "");
+  d["channels"]["encoder_discrepancy_ms"] = 10;
+  d["channels"]["cross_checks"] = 2;
+  expect_one_error(d, "channels.cross_checks", "");
+}
+
 TEST(SafetyChecksum, WhitespaceOrderAndSpellingDoNotChangeItAnyValueDoes) {
   const std::string text = read(kSource + "/examples/safety/cell.json");
   const Result a = parse_safety(text);

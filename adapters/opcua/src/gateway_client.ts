@@ -23,6 +23,23 @@ export interface Status {
   program_index?: number;
   program_length?: number;
   safety?: SafetyStatus;
+  // SPEC §14 (absent from a gateway that predates it): the channels and the two contactors.
+  channels?: ChannelStatus[];
+  contactors?: { k1: string; k2: string | null };
+}
+
+// One channel of SPEC §14 as the status shows it (gateway/src/views.cpp).
+export interface ChannelStatus {
+  name: string;
+  compiler: string | null;
+  pid: number | null;
+  running: boolean;
+  answered: boolean;
+  state: string;
+  cycle: number;
+  digest: string;
+  agree: boolean;
+  differs_in: string | null;
 }
 
 // The status message's `safety` object (protocol.md; SPEC §10).

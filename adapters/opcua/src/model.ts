@@ -408,6 +408,29 @@ export class Model {
     str("contactor", "main contactor (open, closed)", (s) => s.contactor);
     str("drives", "drives (enabled, disabled)", (s) => s.drives);
     str("brakes", "brakes (engaged, released)", (s) => s.brakes);
+    // SPEC §14: the two contactors' auxiliary contacts and each channel (docs/two-channels.md).
+    str("contactor_k1", "K1, channel A's contactor (open, closed)", (s) => s.contactors?.k1 ?? s.contactor);
+    str("contactor_k2", "K2, channel B's contactor (open, closed); empty with one channel", (s) => s.contactors?.k2 ?? null);
+    for (const [i, name] of ["A", "B"].entries()) {
+      const ch = (s: Status) => (s.channels ?? [])[i];
+      str(`channel_${name}_state`, `channel ${name}'s state (SPEC §14); empty when there is no channel ${name}`,
+        (s) => ch(s)?.state ?? null);
+      str(`channel_${name}_digest`, `channel ${name}'s last digest (CRC-32, hex)`, (s) => ch(s)?.digest ?? null);
+      const agrees = this.ns.addVariable({
+        browseName: `channel_${name}_agrees`,
+        componentOf: this.safeState,
+        dataType: DataType.Boolean,
+        description: `channel ${name} runs, answered its last cycle and agrees with the other channel`,
+      });
+      this.bind(agrees, (s) => [DataType.Boolean, !!ch(s) && ch(s)!.running && ch(s)!.answered && ch(s)!.agree]);
+      const cycle = this.ns.addVariable({
+        browseName: `channel_${name}_cycle`,
+        componentOf: this.safeState,
+        dataType: DataType.Double,
+        description: `the last cycle channel ${name} ran`,
+      });
+      this.bind(cycle, (s) => [DataType.Double, ch(s)?.cycle ?? 0]);
+    }
     const tcp = this.ns.addVariable({
       browseName: "tcp_speed",
       componentOf: this.safeState,

@@ -150,6 +150,10 @@ struct RunOptions {
   // 1 = the one-channel controller in this process (for comparison); 0 = the backend's
   // default (2 on the simulated cell; 1 on EtherCAT until K2 is on the segment).
   unsigned channels = 0;
+  // SPEC §14's window (`--cross-check-cycles`; 0: not given): the safety configuration's
+  // `channels.cross_check_cycles` when it has one (then a different value here is refused),
+  // else this, else SPEC's 2.
+  std::uint32_t cross_check_cycles = 0;
   std::string channel_a_exe;  // default: safestate-channel beside this program
   std::string channel_b_exe;  // default: safestate-channel-clang beside this program
   int channel_cpu_a = -2;     // -2: CPU 0 with two CPUs or more, else not pinned; -1: not pinned

@@ -72,6 +72,14 @@ struct BrakeTest {
   double max_drift_deg = 0.5;
 };
 
+// SPEC §14 with its defaults (used also when the file has no `channels` key): the two
+// channels' cross-check window and the comparison of each axis' two encoders.
+struct Channels {
+  std::uint32_t cross_check_cycles = 2;
+  double encoder_tolerance_deg = 0.5;
+  std::uint32_t encoder_discrepancy_ms = 10;
+};
+
 // The robot a configuration was checked against (issue 38): the one its `robot` key names
 // (its `urdf`, relative to the configuration's folder, with `base` and `flange`), else the
 // program's active robot (`--robot`, else the built-in IRB 120).
@@ -94,6 +102,8 @@ struct Loaded {
   std::optional<Collaborative> collaborative;  // absent when the file has no such key
   bool brake_test_configured = false;          // false: the file has no `brake_test` key
   BrakeTest brake_test{};                      // the file's values, or the SPEC §12 defaults
+  bool channels_configured = false;            // false: the file has no `channels` key
+  Channels channels{};                         // the file's values, or the SPEC §14 defaults
 };
 
 struct Result {
