@@ -706,6 +706,7 @@ int run_main(const RunOptions& opt) {
   std::fflush(stdout);
 
   bool bus_loss_reported = false;
+  bool channel_loss_reported = false;
   Restarts restarts{0.5, 30.0, 60.0};
   restarts.started(mono_s());
   for (;;) {
@@ -730,6 +731,33 @@ int run_main(const RunOptions& opt) {
                      bus->lost_after_cycles(), static_cast<double>(bus->lost_after_ns()) * 1e-6);
       }
       bus_loss_reported = true;
+    }
+    // SPEC §14: the channels say CHANNEL_LOST; this says whether the host kept the lost one
+    // from running (its wake-up after a frame, measured by the channel itself), read off the
+    // RT path from the status the loop published.
+    if (two && !channel_loss_reported) {
+      bridge::Status st{};
+      if (seg->status().read(st) && (st.alarms & core::bit(core::AlarmId::CHANNEL_LOST)) != 0U) {
+        channel_loss_reported = true;
+        for (std::size_t i = 0; i < 2U; ++i) {
+          const bridge::ChannelRecord& c = st.channels[i];
+          const bool gone = c.running == 0U;
+          std::fprintf(stderr,
+                       "safestate run: CHANNEL_LOST: channel %c %s; the longest it was kept from starting on a frame: "
+                       "%.1f ms (the window: %u cycles of %u us)\n",
+                       i == 0U ? 'A' : 'B', gone ? "has ended" : (c.answered != 0U ? "answers" : "does not answer"),
+                       static_cast<double>(c.wake_max_us) * 1e-3, cfg.cross_check_cycles, cfg.cycle_us);
+        }
+        const std::uint32_t worst = std::max(st.channels[0].wake_max_us, st.channels[1].wake_max_us);
+        if (st.channels[0].running != 0U && st.channels[1].running != 0U &&
+            worst >= cfg.cross_check_cycles * cfg.cycle_us) {
+          std::fprintf(stderr,
+                       "safestate run: a channel process was kept from running longer than the cross-check window by "
+                       "this host's scheduler (no dedicated CPU, a kernel that does not preempt): correct for SPEC "
+                       "§14, a lockout. On a development host: --cross-check-cycles N (make run CROSS_CHECK_CYCLES=N); "
+                       "docs/two-channels.md \"On a shared host\"\n");
+        }
+      }
     }
     int status = 0;
     if (gateway > 0 && waitpid(gateway, &status, WNOHANG) == gateway) {
