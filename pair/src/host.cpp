@@ -288,7 +288,8 @@ void ChannelPair::step() noexcept {
   // The drives' set-points come from A. When A's of this cycle did not come in time (its
   // process was woken late: a fraction of a cycle on this kind of host), the host does what a
   // CSP drive's interpolation does with a set-point that did not arrive: it goes on along the
-  // last step, for at most kExtrapolateCycles, then holds (ecat-sim's drives do the same,
+  // last step for as long as the pair tolerates A's silence (cross_check_cycles + 1 cycles:
+  // later, B has found A lost and opened K2), then holds (ecat-sim's drives extrapolate too,
   // docs/ethercat.md). Holding at once would make the arm stop dead for a cycle and jump the
   // next: a jerk the collision monitor rightly reads as a contact (docs/two-channels.md).
   // Motion set-points only: the safety outputs (contactors, brakes, enable) are the
@@ -305,7 +306,7 @@ void ChannelPair::step() noexcept {
     }
     last_target_cycle_ = reports_[0].cycle;
     extrapolated_ = 0;
-  } else if (info_[0].running && extrapolated_ < kExtrapolateCycles) {
+  } else if (info_[0].running && extrapolated_ < cfg_.cross_check_cycles + 1U) {
     ++extrapolated_;
     ++info_[0].extrapolated;
     for (std::size_t k = 0; k < hal::kAxes; ++k) {

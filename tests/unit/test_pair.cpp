@@ -294,7 +294,7 @@ TEST(PairProcesses, AChannelProgramRefusesASetupOfAnotherBuild) {
 namespace {
 
 // A's set-points late (its process not run): the world's drives go on along the last step for
-// kExtrapolateCycles (4), then hold, as a CSP drive's interpolation does; holding at once made
+// cross_check_cycles + 1 cycles (3), then hold, as a CSP drive's interpolation does; holding at once made
 // the arm stop dead and jump (a COLLISION under PFL, docs/two-channels.md).
 TEST(PairProcesses, LateSetPointsGoOnAlongTheLastStepThenHold) {
   Pair p;
@@ -336,11 +336,11 @@ TEST(PairProcesses, LateSetPointsGoOnAlongTheLastStepThenHold) {
   }
   for (int n = 1; n <= 6; ++n) {
     p.pair.step();
-    const float expect = last.drive[axis].target_position_rad + (step * static_cast<float>(n <= 4 ? n : 4));
+    const float expect = last.drive[axis].target_position_rad + (step * static_cast<float>(n <= 3 ? n : 3));
     EXPECT_NEAR(p.pair.combined().drive[axis].target_position_rad, expect, 1e-5F)
         << "cycle " << n << " of A's silence, axis " << axis + 1U;
   }
-  EXPECT_EQ(p.pair.info(0).extrapolated, 4U);
+  EXPECT_EQ(p.pair.info(0).extrapolated, 3U);
   kill(pid, SIGCONT);
 }
 

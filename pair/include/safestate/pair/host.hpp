@@ -108,7 +108,6 @@ class ChannelPair final : public controller::Channels {
   std::array<ChannelInfo, 2> info_{};
   hal::ProcessImageOut combined_{};
   // A's set-points when they are late (step()): the last, its step, cycles gone on.
-  static constexpr std::uint32_t kExtrapolateCycles = 4;
   std::array<float, hal::kAxes> last_target_rad_{};
   std::array<float, hal::kAxes> step_rad_{};
   std::uint32_t extrapolated_ = 0;
