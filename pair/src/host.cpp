@@ -306,13 +306,11 @@ void ChannelPair::step() noexcept {
     }
     last_target_cycle_ = reports_[0].cycle;
     extrapolated_ = 0;
-  } else if (info_[0].running && extrapolated_ < cfg_.cross_check_cycles + 1U) {
-    ++extrapolated_;
-    ++info_[0].extrapolated;
-    for (std::size_t k = 0; k < hal::kAxes; ++k) {
-      a.drive[k].target_position_rad = last_target_rad_[k] + (step_rad_[k] * static_cast<float>(extrapolated_));
-    }
   } else if (info_[0].running) {
+    if (extrapolated_ < cfg_.cross_check_cycles + 1U) {
+      ++extrapolated_;
+      ++info_[0].extrapolated;
+    }  // beyond: held where the extrapolation ended
     for (std::size_t k = 0; k < hal::kAxes; ++k) {
       a.drive[k].target_position_rad = last_target_rad_[k] + (step_rad_[k] * static_cast<float>(extrapolated_));
     }
