@@ -546,6 +546,14 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
                                      SupervisorOut& out) noexcept {
   out.reply_count = 0;
   out.transition_count = 0;
+  // @req CH-FLIP
+  // A state outside its range (a memory fault: SPEC §14 self-test) is a contradiction like
+  // the outputs' below: INTEGRITY_FAULT, lockout. Its index is made valid before any table
+  // (kLeafPolicy, kLeafOutputs, the transitions) reads it.
+  const bool leaf_corrupt = static_cast<std::size_t>(leaf_) >= kLeafCount;
+  if (leaf_corrupt) {
+    leaf_ = Leaf::ERROR_LOCKOUT;
+  }
   rep_.begin(alarms_, now_);
   CycleCtx c{in, fb, out, rep_, leaf_};
 
@@ -582,7 +590,7 @@ std::size_t SystemStateManager::step(const SafetyInputs& in, const Feedback& fb,
   }
 
   write_outputs(c);
-  if (!outputs_consistent(out, leaf_, state_, in.estop_pressed)) {
+  if (leaf_corrupt || !outputs_consistent(out, leaf_, state_, in.estop_pressed)) {
     integrity_fault_ = true;
     alarms_.raise(AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), now_);
     set_cause(alarm_cause(1U, AlarmId::INTEGRITY_FAULT, detail_of(Signal::internal), in.mode));

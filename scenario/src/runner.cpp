@@ -366,14 +366,15 @@ class Runner {
     }
   }
 
-  // SPEC §14: a channel's faults (stall, crash, its own input, its digests) are the
+  // SPEC §14: a channel's faults (stall, crash, its own input, its digests, a flipped bit) are the
   // controllers', wherever the field is.
   static bool controller_side(sim::FaultKind k) noexcept {
     return k == sim::FaultKind::integrity || k == sim::FaultKind::selftest_fail ||
            k == sim::FaultKind::program_unload || k == sim::FaultKind::jog_link_drop ||
            k == sim::FaultKind::channel_stall || k == sim::FaultKind::channel_crash ||
            k == sim::FaultKind::channel_input || k == sim::FaultKind::digest_corrupt ||
-           k == sim::FaultKind::digest_drop || k == sim::FaultKind::digest_repeat;
+           k == sim::FaultKind::digest_drop || k == sim::FaultKind::digest_repeat ||
+           k == sim::FaultKind::channel_flip;
   }
 
   void send(const CommandStep& c) {

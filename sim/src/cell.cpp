@@ -283,6 +283,7 @@ void Cell::inject(const Fault& f) noexcept {
     case FaultKind::digest_corrupt: s.digest_fault[ch] = DigestFault::corrupt; break;
     case FaultKind::digest_drop: s.digest_fault[ch] = DigestFault::drop; break;
     case FaultKind::digest_repeat: s.digest_fault[ch] = DigestFault::repeat; break;
+    case FaultKind::channel_flip: static_cast<void>(flip_field(ch, f.value)); break;
     case FaultKind::clear_all:  // the channels' input faults and the link's go; a stalled or
       s.stuck = {};             // crashed channel stays so (a process does not come back)
       s.digest_fault = {};

@@ -124,6 +124,7 @@ void SimPlant::inject(const Fault& f) noexcept {
     case FaultKind::digest_corrupt:
     case FaultKind::digest_drop:
     case FaultKind::digest_repeat:
+    case FaultKind::channel_flip:
       break;  // not the plant's: the cell handles them
   }
 }

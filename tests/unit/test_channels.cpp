@@ -238,3 +238,74 @@ TEST(Arming, WithTwoContactorsBothAuxiliaryContactsMustSayClosed) {
   static_cast<void>(core::arming_step(none, fb, t, d));
   EXPECT_EQ(none.step, core::ArmingStep::CONTACTOR);
 }
+
+namespace {
+
+// A two-channel cell powered: reset, servo on, OPERATIONAL by cycle 1000.
+void powered_pair(sim::Cell& cell) {
+  core::Command c{};
+  c.id = static_cast<std::uint8_t>(core::CommandId::reset);
+  c.seq = 1;
+  for (int t = 0; t < 1000; ++t) {
+    if (t == 150) {
+      ASSERT_EQ(cell.submit(c), core::Result::OK);
+    }
+    if (t == 160) {
+      c.id = static_cast<std::uint8_t>(core::CommandId::servo_on);
+      c.seq = 2;
+      ASSERT_EQ(cell.submit(c), core::Result::OK);
+    }
+    cell.step();
+  }
+  ASSERT_EQ(cell.out().state, core::State::OPERATIONAL);
+}
+
+}  // namespace
+
+// SPEC §14 `channel X flip FIELD`: every named field of vocab::kFlipFields is reachable in
+// either channel (a bit inside its width flips, one past it is refused), and a state flipped
+// outside the state machine is caught by that channel in the very cycle it runs with it:
+// INTEGRITY_FAULT, ERROR_LOCKOUT, its contactor open (before any table is indexed with it).
+// @req CH-FLIP
+TEST(ChannelFlip, EveryFieldIsReachableAndAStateOutOfRangeLocksOutAtOnce) {
+  core::Config cfg{};
+  sim::Cell cell(cfg, nullptr, 2);
+  powered_pair(cell);
+  for (std::size_t f = 0; f < vocab::kFlipFields.size(); ++f) {
+    const unsigned bits = vocab::kFlipFields[f].bits;
+    sim::Cell copy(cell);
+    for (std::size_t ch = 0; ch < 2; ++ch) {
+      EXPECT_TRUE(copy.flip_field(ch, static_cast<std::uint16_t>((f << 8U) | (bits - 1U)))) << vocab::kFlipFields[f].name;
+      EXPECT_TRUE(copy.flip_field(ch, static_cast<std::uint16_t>((f << 8U) | (bits - 1U)))) << "and back";
+      EXPECT_FALSE(copy.flip_field(ch, static_cast<std::uint16_t>((f << 8U) | bits))) << vocab::kFlipFields[f].name;
+    }
+  }
+  EXPECT_FALSE(cell.flip_field(0, static_cast<std::uint16_t>(vocab::kFlipFields.size() << 8U))) << "no such field";
+
+  // Bit 4 of A's state: OPERATIONAL's leaf (MANUAL_IDLE or AUTO_IDLE) + 16 is past the last.
+  const std::size_t state = static_cast<std::size_t>(vocab::FlipField::state);
+  ASSERT_TRUE(cell.flip_field(0, static_cast<std::uint16_t>((state << 8U) | 4U)));
+  cell.step();
+  EXPECT_EQ(cell.channel(0).leaf(), Leaf::ERROR_LOCKOUT);
+  EXPECT_TRUE(cell.channel(0).alarms().active(AlarmId::INTEGRITY_FAULT));
+  EXPECT_FALSE(cell.contactor_command(0)) << "K1 open in that cycle";
+  EXPECT_TRUE(cell.contactor_command(1)) << "B has not decided yet";
+  for (int t = 0; t < 5; ++t) cell.step();
+  EXPECT_EQ(cell.channel(1).leaf(), Leaf::ERROR_LOCKOUT);
+  EXPECT_TRUE(cell.channel(1).alarms().active(AlarmId::CHANNEL_MISMATCH)) << "B sees A's digest differ";
+  EXPECT_FALSE(cell.contactor_command(1));
+}
+
+// Bit 0 of B's state: a valid neighbour whose state data contradicts it (AUTO_IDLE <-> the
+// variant of AUTO_RUNNING, or MANUAL_IDLE/AUTO_PAUSED): the output check of every cycle.
+TEST(ChannelFlip, AStateThatContradictsItsDataIsAnIntegrityFault) {
+  core::Config cfg{};
+  sim::Cell cell(cfg, nullptr, 2);
+  powered_pair(cell);
+  const std::size_t state = static_cast<std::size_t>(vocab::FlipField::state);
+  ASSERT_TRUE(cell.flip_field(1, static_cast<std::uint16_t>(state << 8U)));
+  cell.step();
+  EXPECT_EQ(cell.channel(1).leaf(), Leaf::ERROR_LOCKOUT);
+  EXPECT_TRUE(cell.channel(1).alarms().active(AlarmId::INTEGRITY_FAULT));
+  EXPECT_FALSE(cell.contactor_command(1));
+}

@@ -46,6 +46,7 @@ std::vector<Fault> every_fault() {
       case FaultKind::encoder_stuck: f.axis = 3; break;
       case FaultKind::encoder_offset: f.axis = 5; f.value = 75; break;  // 0.75 deg
       case FaultKind::encoder_drift: f.axis = 1; f.value = static_cast<std::uint16_t>(std::int16_t{-1250}); break;
+      case FaultKind::channel_flip: f.axis = 2; f.value = static_cast<std::uint16_t>((2U << 8U) | 17U); break;  // alarms bit 17
       default: break;
     }
     all.push_back(f);
@@ -69,6 +70,38 @@ TEST(Vocab, EveryFaultPrintsToWordsThatParseBackToIt) {
   EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::channel_input)]), "channel B input enable.b=1");
   EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::encoder_drift)]), "encoder 1 drift -12.5");
   EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::encoder_offset)]), "encoder 5 offset 0.75");
+  EXPECT_EQ(format_fault(every_fault()[static_cast<std::size_t>(FaultKind::channel_flip)]), "channel B flip alarms bit 17");
+}
+
+// SPEC §14 `channel A|B flip FIELD [bit N]`: every named field, its bits from 0 to its width,
+// bit 0 by default; nothing else.
+TEST(Vocab, FlipNamesAFieldAndABitWithinIt) {
+  for (std::size_t i = 0; i < kFlipFields.size(); ++i) {
+    const std::string name(kFlipFields[i].name);
+    Fault f{};
+    ASSERT_EQ(parse_line("channel A flip " + name, f), "") << name;
+    EXPECT_EQ(f.kind, FaultKind::channel_flip);
+    EXPECT_EQ(f.axis, 1U);
+    EXPECT_EQ(f.value, i << 8U) << name;
+    const unsigned top = kFlipFields[i].bits - 1U;
+    ASSERT_EQ(parse_line("channel B flip " + name + " bit " + std::to_string(top), f), "") << name;
+    EXPECT_EQ(f.axis, 2U);
+    EXPECT_EQ(f.value, (i << 8U) | top) << name;
+    const Fault before = f;
+    const Problem p = parse_line("channel B flip " + name + " bit " + std::to_string(top + 1U), f);
+    EXPECT_NE(p.find("bad bit \"bit " + std::to_string(top + 1U) + "\""), std::string::npos) << p;
+    EXPECT_NE(p.find("expected bit 0.." + std::to_string(top) + " of " + name), std::string::npos) << p;
+    EXPECT_EQ(f.value, before.value) << "a refused line changes nothing";
+  }
+  Fault f{};
+  const Problem p = parse_line("channel A flip leaf", f);
+  EXPECT_NE(p.find("bad field \"leaf\""), std::string::npos) << p;
+  EXPECT_NE(p.find("expected state, cycle, alarms"), std::string::npos) << p;
+  EXPECT_NE(parse_line("channel A flip state bits 1", f), "");
+  EXPECT_NE(parse_line("channel A flip state bit", f), "");
+  EXPECT_NE(parse_line("channel A flip", f), "");
+  EXPECT_NE(parse_line("channel A flip state bit -1", f), "");
+  EXPECT_FALSE(injectable(FaultKind::channel_flip, FaultSource::network)) << "a channel's memory is not the network's";
 }
 
 TEST(Vocab, TwoChannelFaultsNameWhatIsWrong) {

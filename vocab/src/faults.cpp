@@ -138,8 +138,31 @@ Problem parse_two_channel_fault(const Tokens& a, Fault& f) {
                 static_cast<std::uint16_t>((static_cast<unsigned>(w.contact) << 1U) | (w.closed ? 1U : 0U))};
       return {};
     }
+    if ((a.size() == 4 || a.size() == 6) && a[2] == "flip") {
+      std::size_t field = kFlipFields.size();
+      for (std::size_t i = 0; i < kFlipFields.size(); ++i) {
+        if (a[3] == kFlipFields[i].name) {
+          field = i;
+        }
+      }
+      if (field == kFlipFields.size()) {
+        std::string names;
+        for (const FlipFieldInfo& x : kFlipFields) {
+          names += (names.empty() ? "" : ", ") + std::string(x.name);
+        }
+        return "bad field \"" + std::string(a[3]) + "\" in fault \"" + line_of(a) + "\" (expected " + names + ")";
+      }
+      std::uint16_t bit = 0;
+      if (a.size() == 6 && (a[4] != "bit" || !to_number(a[5], bit) || bit >= kFlipFields[field].bits)) {
+        return "bad bit \"" + std::string(a[4]) + " " + std::string(a[5]) + "\" in fault \"" + line_of(a) +
+               "\" (expected bit 0.." + std::to_string(kFlipFields[field].bits - 1U) + " of " +
+               std::string(kFlipFields[field].name) + ")";
+      }
+      f = Fault{FaultKind::channel_flip, ch, static_cast<std::uint16_t>((field << 8U) | bit)};
+      return {};
+    }
     return "bad fault \"" + line_of(a) + "\" (expected channel A|B stall|crash, channel A|B input NAME=V, channel A|B "
-           "digest corrupt|drop|repeat)";
+           "digest corrupt|drop|repeat, channel A|B flip FIELD [bit N])";
   }
   if (a.size() == 3 && a[0] == "contactor" && (a[1] == "k1" || a[1] == "k2") &&
       (a[2] == "welded" || a[2] == "stuck_open")) {
@@ -238,7 +261,7 @@ Problem parse_fault(const Tokens& words, Fault& out, FaultSource from) {
            (net ? "" : "drive N statusword 0xHHHH, drive N slow_enable MS, ") + "drive N torque_bias X, fieldbus lost, " +
            (net ? "contactor stuck_open, brake N stuck|weak, " : "contactor stuck_open|welded, brake N stuck|stuck_released|weak, integrity, selftest fail, program unload, jog_link drop, ") +
            "contact F, encoder N stuck|offset DEG|drift DEG_S, " +
-           (net ? "" : "channel A|B stall|crash|input NAME=V|digest corrupt|drop|repeat, contactor k1|k2 welded|stuck_open, ") +
+           (net ? "" : "channel A|B stall|crash|input NAME=V|digest corrupt|drop|repeat|flip FIELD [bit N], contactor k1|k2 welded|stuck_open, ") +
            "clear all; N 1..6" + (net ? "" : ", MS 1..60000") +
            ", F 0..5000 newtons, X -300..300 percent of rated torque)";
   }
@@ -323,6 +346,12 @@ std::string format_fault(const Fault& f) {
       return "encoder " + n + " offset " + hundredths(static_cast<std::int16_t>(f.value));
     case FaultKind::encoder_drift:
       return "encoder " + n + " drift " + hundredths(static_cast<std::int16_t>(f.value));
+    case FaultKind::channel_flip: {
+      const std::size_t field = static_cast<std::size_t>(f.value >> 8U) % kFlipFields.size();
+      const unsigned bit = f.value & 0xFFU;
+      return std::string("channel ") + (f.axis == 2U ? "B" : "A") + " flip " + std::string(kFlipFields[field].name) +
+             (bit == 0U ? "" : " bit " + std::to_string(bit));
+    }
   }
   return "?";
 }

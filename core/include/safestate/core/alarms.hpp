@@ -233,6 +233,9 @@ struct AlarmDetail {
 
 // The set of active alarms with since-when and cause detail. Fixed size, no heap.
 class AlarmSet {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   void begin_cycle() noexcept {
     raised_ = 0;

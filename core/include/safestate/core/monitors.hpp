@@ -95,6 +95,9 @@ class IntegrityMonitor {
 
 // Standstill: every axis below standstill_rad_s for standstill_cycles in a row (facts).
 class StandstillMonitor {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   void check(const CycleView& v, Reporter& r) noexcept;
 

@@ -14,6 +14,9 @@ namespace safestate::core {
 // `a`/`b` are the raw contacts, true = the non-safe value (E-stop circuit closed,
 // guard closed, enabling centre contact made).
 class DualChannel {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   // `limit`: discrepancy time in cycles; a disagreement lasting more than `limit`
   // cycles is a discrepancy fault, which latches until power cycle.
@@ -188,6 +191,9 @@ struct SafetyInputs {
 
 // All inputs of §2 together; owns the per-input validators.
 class SignalLayer {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   void update(const RawInputs& raw, Cycle now, const Timing& t) noexcept;
   [[nodiscard]] const SafetyInputs& inputs() const noexcept { return out_; }

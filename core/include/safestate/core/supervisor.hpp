@@ -87,6 +87,9 @@ void safety_status(const CycleFacts& f, const SafeLimitMonitors& limits, bool va
                                       bool estop_pressed) noexcept;
 
 class SystemStateManager {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   explicit SystemStateManager(const Timing& timing) noexcept;
 
@@ -195,6 +198,9 @@ class SystemStateManager {
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.
 class Supervisor {
+  // SPEC §14 `channel X flip FIELD`: the simulator's probe of named variables (sim/src/flip.cpp).
+  friend struct FieldProbe;
+
  public:
   explicit Supervisor(const Timing& t) noexcept : timing_(t), ssm_(t) {}
   std::size_t step(const RawInputs& raw, const Feedback& fb, const Command* cmds, std::size_t n,

@@ -123,6 +123,10 @@ class Cell final : public vocab::World {
   // reaches a controller on a real backend. False (nothing changed) for a byte or bit outside.
   [[nodiscard]] static std::size_t supervisor_bytes() noexcept;
   bool flip_supervisor_bit(std::size_t channel, std::size_t byte, unsigned bit) noexcept;
+  // SPEC §14 `channel A|B flip FIELD [bit N]` (sim/src/flip.cpp): bit N of a named variable
+  // of channel i's supervisor (`value` as vocab::Fault's: FlipField << 8 | bit). False (nothing
+  // changed) for a field or bit outside vocab::kFlipFields.
+  bool flip_field(std::size_t channel, std::uint16_t value) noexcept;
   [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
   [[nodiscard]] core::Leaf leaf() const noexcept;
   // What the supervisor saw in the last cycle (for a differential oracle).

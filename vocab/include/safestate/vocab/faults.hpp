@@ -2,8 +2,10 @@
 // gateway's `sim` message, the emulator's control socket): one enumeration, one parser.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "safestate/vocab/tokens.hpp"
 
@@ -45,8 +47,40 @@ enum class FaultKind : std::uint8_t {
   encoder_stuck,   // axis N's load-side encoder stands still from now on
   encoder_offset,  // ... reads `value` (int16, hundredths of a degree) more
   encoder_drift,   // ... drifts by `value` (int16, hundredths of a degree) per second
+  channel_flip,    // one bit of the channel's own state or timer: `value` = FlipField << 8 | bit
 };
-inline constexpr std::uint8_t kFaultKinds = static_cast<std::uint8_t>(FaultKind::encoder_drift) + 1U;
+inline constexpr std::uint8_t kFaultKinds = static_cast<std::uint8_t>(FaultKind::channel_flip) + 1U;
+
+// SPEC §14 `channel A|B flip FIELD [bit N]`: the named variables of one channel's supervisor
+// a scenario may flip one bit of (the fault campaign flips any byte of it, by offset). Each
+// is kept from cycle to cycle by the channel alone; `bits`: the variable's width (bit N of
+// its value, 0 = least significant; a flag has one).
+enum class FlipField : std::uint8_t {
+  state,             // the state machine's leaf (state and sub-state)
+  cycle,             // the channel's cycle counter
+  alarms,            // the active alarms (bit N: alarm code N, SPEC §8's order)
+  mode,              // the mode in which servo_on was accepted
+  reset_pending,     // a reset taken, waiting for its conditions
+  boot_pending,      // the boot checks not yet passed
+  estop,             // the E-stop signal after its dual-channel filter (the signal layer)
+  gate,              // the guard's, likewise
+  timer_reset,       // the cycle the pending reset was taken
+  timer_jog,         // the cycle of the last jog command (the jog link's deadman)
+  timer_standstill,  // cycles at standstill
+  timer_estop,       // cycles the E-stop's two contacts have disagreed (discrepancy filter)
+  timer_gate,        // the guard's, likewise
+};
+struct FlipFieldInfo {
+  std::string_view name;
+  std::uint8_t bits;
+};
+inline constexpr std::array<FlipFieldInfo, 13> kFlipFields{{
+    {"state", 8},         {"cycle", 64},      {"alarms", 64},          {"mode", 8},
+    {"reset_pending", 1}, {"boot_pending", 1}, {"estop", 1},           {"gate", 1},
+    {"timer.reset", 64},  {"timer.jog", 64},  {"timer.standstill", 64}, {"timer.estop", 64},
+    {"timer.gate", 64},
+}};
+static_assert(static_cast<std::size_t>(FlipField::timer_gate) + 1U == kFlipFields.size(), "one name per field");
 inline constexpr double kMaxEncoderFaultDeg = 300.0;  // `encoder N offset|drift`, stored in hundredths
 
 struct Fault {
