@@ -199,6 +199,11 @@ ECAT_CPU ?= $(shell echo $$(( $$(nproc) - 1 )))
 # from ESI files, docs/ethercat.md "ESI"); without it, the built-in one.
 BUS ?=
 BUS_ARG = $(if $(BUS),--bus-config $(BUS))
+# CHANNELS=2: SPEC §14's two channels in processes of their own over the segment (K1 from A,
+# K2 from B, both contacts and the drives' 0x60E4 on the wire; docs/two-channels.md); one is
+# the default over EtherCAT.
+CHANNELS ?=
+CHANNELS_ARG = $(if $(CHANNELS),--channels $(CHANNELS))
 .PHONY: run-ethercat
 run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	@[ "$$(id -u)" = 0 ] || { echo "run-ethercat: needs root (a network namespace, a veth pair and raw sockets): sudo make run-ethercat" >&2; exit 1; }
@@ -215,4 +220,4 @@ run-ethercat: build hmi/dist/index.html adapters/opcua/dist/main.js
 	  for i in $$(seq 100); do [ -S $(ECAT_CONTROL) ] && break; kill -0 $$SIM 2>/dev/null || exit 1; sleep 0.05; done; \
 	  [ -S $(ECAT_CONTROL) ] || { echo "run-ethercat: ecat-sim did not open $(ECAT_CONTROL)" >&2; exit 1; }; \
 	  $(BIN)/safestate run --fieldbus ethercat --ifname ss-ecm --cpu $(ECAT_CPU) --ecat-sim-control $(ECAT_CONTROL) --bind 127.0.0.1 \
-	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(BUS_ARG) $(ROBOT_ARG)
+	    --port $(ECAT_PORT) --db safestate-events.db --static hmi/dist $(SAFETY_ARG) $(BUS_ARG) $(ROBOT_ARG) $(CHANNELS_ARG) $(CROSS_CHECK_ARG)

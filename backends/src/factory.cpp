@@ -28,10 +28,12 @@ class SimHost final : public Host {
 };
 
 // A segment: the controller directly on the EtherCAT backend; no simulator in this process.
+// `channels` 2: the backend alone for the two channels' processes (pair_backend).
 class EthercatHost final : public Host {
  public:
-  EthercatHost(const core::Config& cfg, hal::ethercat::BusConfig bc, std::unique_ptr<hal::ethercat::Backend> bus)
-      : bc_(std::move(bc)), bus_(std::move(bus)), cell_(cfg, robot::active().model, *bus_) {
+  EthercatHost(const core::Config& cfg, hal::ethercat::BusConfig bc, std::unique_ptr<hal::ethercat::Backend> bus,
+               unsigned channels)
+      : bc_(std::move(bc)), bus_(std::move(bus)), cell_(cfg, robot::active().model, *bus_), channels_(channels) {
     std::uint8_t n = 0;
     const motion::Waypoint* p = controller::demo_program(n);
     cell_.load_program(p, n);
@@ -40,12 +42,32 @@ class EthercatHost final : public Host {
   vocab::World* world() noexcept override { return nullptr; }
   hal::ethercat::Backend* ethercat() noexcept override { return bus_.get(); }
   const hal::ethercat::BusConfig* bus_config() const noexcept override { return &bc_; }
+  unsigned channels() const noexcept override { return channels_; }
+  hal::Backend* pair_backend() noexcept override { return channels_ == 2U ? bus_.get() : nullptr; }
 
  private:
   hal::ethercat::BusConfig bc_;
   std::unique_ptr<hal::ethercat::Backend> bus_;
   controller::Cell cell_;  // after bus_: it runs on it
+  unsigned channels_;
 };
+
+// SPEC §14 on a segment: what two channels need of the bus configuration (empty: all there).
+std::string pair_missing(const hal::ethercat::BusConfig& bc) {
+  using hal::ethercat::kNoBit;
+  using hal::ethercat::kNoOffset;
+  using hal::ethercat::Role;
+  std::string missing;
+  for (const hal::ethercat::Subdevice& d : bc.subdevices) {
+    if (d.role == Role::safety_outputs && d.out_bit[hal::ethercat::kOutputBits - 1U] == kNoBit) {
+      missing += "K2 (\"contactor_k2\" on the safety outputs, \"contactor_fb.k2\" on the inputs)";
+    }
+    if (d.role == Role::drive && d.axis == 1U && d.load_position == kNoOffset) {
+      missing += std::string(missing.empty() ? "" : " and ") + "the load-side encoders (each drive's pdo.load_position, 0x60E4:01)";
+    }
+  }
+  return missing;
+}
 
 }  // namespace
 
@@ -61,11 +83,6 @@ std::unique_ptr<Host> make_host(const core::Config& cfg, const Choice& choice, s
     error = "--fieldbus must be sim or ethercat, not \"" + choice.fieldbus + "\"";
     return nullptr;
   }
-  if (choice.channels == 2U) {
-    error = "--channels 2 is not offered on EtherCAT yet: K2 and the load-side encoders are not on the segment "
-            "(docs/two-channels.md); use --channels 1";
-    return nullptr;
-  }
   hal::ethercat::BusConfig bc;
   const bool ok = choice.bus_config.empty()
                       ? hal::ethercat::parse_bus_config(hal::ethercat::default_bus_config(), bc, error)
@@ -74,12 +91,18 @@ std::unique_ptr<Host> make_host(const core::Config& cfg, const Choice& choice, s
     error = "bus configuration: " + error;
     return nullptr;
   }
+  // SPEC §14: two channels need K2 (channel B's power path) and the load-side encoders.
+  const std::string missing = pair_missing(bc);
+  if (choice.channels == 2U && !missing.empty()) {
+    error = "--channels 2: the bus configuration has no " + missing + " (SPEC §14; docs/two-channels.md)";
+    return nullptr;
+  }
   // One exchange never holds the loop past its cycle: a frame not back 150 us before the
   // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
   const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(cfg.cycle_us);
   auto bus = std::make_unique<hal::ethercat::Backend>(bc, choice.ifname, cfg.cycle_us, budget_us,
                                                       std::uint64_t{choice.watchdog_ms} * 1000000ULL);
-  return std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus));
+  return std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus), choice.channels == 2U ? 2U : 1U);
 }
 
 }  // namespace safestate::backends

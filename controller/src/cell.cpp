@@ -82,6 +82,7 @@ void Cell::step() noexcept {
     check_.lost = v.lost;
     if (v.mismatch || v.lost) {
       out_.contactor = false;
+      out_.contactor_k2 = false;
       out_.brakes_release = false;
     }
   }
@@ -115,6 +116,7 @@ void Cell::update_view() noexcept {
   }
   view_.contactor_closed = in_.contactor_closed;
   view_.k2_closed = in_.k2_closed;
+  view_.two_contactors = in_.two_contactors;
   view_.fieldbus_ok = in_.fieldbus_ok;
   view_.inputs_stale = in_.stale;
   view_.program_index = m.program().index();

@@ -61,6 +61,9 @@ std::size_t Controller::step(const hal::ProcessImageIn& in, const core::Command*
   const std::size_t taken = supervisor_.step(in.safety, feedback_, cmds, n, status_);
   motion_.step(status_, in.drive, out.drive);
   out.contactor = status_.contactor;
+  // SPEC §14: a channel alone on a cell with K2 drives both contactors (in a pair,
+  // combine_outputs gives K2 to channel B).
+  out.contactor_k2 = status_.contactor;
   out.brakes_release = status_.brakes_release;
   out.brake_test_axis = status_.brake_test_axis;
   out.reset_lamp = status_.reset_lamp;

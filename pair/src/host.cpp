@@ -324,6 +324,7 @@ void ChannelPair::step() noexcept {
   // The arm as channel A measured it (B measures the same image); the power path as wired.
   view_ = reports_[0].view;
   view_.k2_closed = frame_.in.k2_closed;
+  view_.two_contactors = frame_.in.two_contactors;
   raw_ = reports_[b_leads_ ? 1U : 0U].raw;
 }
 

@@ -254,7 +254,9 @@ void Publisher::publish() noexcept {
     r.late = c.late;
     r.skipped = c.skipped;
   }
-  s.two_contactors = cell_.count() == 2U;
+  // K2 where the backend has it: with two channels, or one channel on a segment with K2
+  // (which that one channel drives with K1).
+  s.two_contactors = cell_.count() == 2U || v.two_contactors;
   s.k1_closed = v.contactor_closed;
   s.k2_closed = v.k2_closed;
   seg_.status().write(s);

@@ -28,7 +28,7 @@ from probe import control  # noqa: E402  (one line to the emulator's control soc
 VENDOR = 0x5AFE
 PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6 + [0xD15001]  # the distance sensor last (SPEC §11)
 REVISION = 0x10000
-IN_BYTES = [4, 0] + [12] * 6 + [5]  # drives: 0x6041, 0x6064, 0x606C, 0x6077; sensor: mm (i32), valid
+IN_BYTES = [4, 0] + [16] * 6 + [5]  # drives: 0x6041, 0x6064, 0x606C, 0x6077, 0x60E4:01; sensor: mm (i32), valid
 OUT_BYTES = [0, 2] + [8] * 6 + [0]  # drives: 0x6040, 0x607A, 0x6072
 
 
@@ -145,6 +145,8 @@ def test_estop_on_one_channel_shows_on_the_wire(segment):
 def test_contactor_output_and_cia402_walk_through_pdos(segment):
     r = segment.probe("soem", "power")
     assert r["contactor_fb"] is True  # DO bit out, emulated contactor, DI feedback back
+    assert r["k2_fb_with_k1_alone"] is False  # SPEC §14: K2 has its own output and its own contact
+    assert r["contactor_fb_k2"] is True
     assert r["sequence"] == [True, True, True]  # Ready to switch on, Switched on, Operation enabled
     assert r["statusword"] & 0x6F == 0x27
 

@@ -41,14 +41,10 @@ TIMING = {
     "res-check-order.scn": "bus loss detected after the fieldbus watchdog",
 }
 
-# SPEC §14 parts the emulated segment does not carry yet (issue 36, docs/two-channels.md
-# "What is left"): the second contactor and the drives' load-side encoders live in the
-# simulated plant only. Every other two-channel scenario (the channels' own faults) runs here.
-NOT_ON_THE_SEGMENT = {
-    "ch-k2-welded.scn": "K2 is not on the emulated DO terminal yet",
-    "ch-encoder-offset.scn": "the emulated drives carry no load-side encoder (0x60E4) yet",
-    "ch-encoder-stuck.scn": "the emulated drives carry no load-side encoder (0x60E4) yet",
-}
+# SPEC §14 parts the emulated segment would not carry (none since issue 36 item 2: K2 and its
+# auxiliary contact are on the DO and DI terminals, the load-side encoders in the drives'
+# TxPDOs as 0x60E4:01, so ch-k2-welded and ch-encoder-* run here like every other scenario).
+NOT_ON_THE_SEGMENT: dict = {}
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="needs root: network namespaces and raw sockets")
 

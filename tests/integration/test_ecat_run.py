@@ -375,6 +375,56 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
+# SPEC §14 on the segment (issue 36 item 2): `--channels 2` runs channel A and channel B as
+# processes of their own on the EtherCAT backend; the DO terminal carries K1 (A's) and K2
+# (B's), the DI terminal both auxiliary contacts, the drives 0x60E4. A channel stopped from
+# outside: the other opens its own contactor on the wire and names CHANNEL_LOST. The window is
+# the harness's stall-tolerant 50 cycles (docs/two-channels.md "On a shared host"); the time in
+# cycles is test_pair's.
+# @req CH-PROCESSES CH-CONTACTORS
+@pytest.mark.parametrize("victim", ["A", "B"])
+def test_two_channels_on_the_segment_each_opens_its_own_contactor_on_the_wire(victim):
+    c = Cell(bus=STALL_TOLERANT_BUS, run_args=("--channels", "2", "--cross-check-cycles", "50"))
+    pid = None
+    try:
+        c.wait_state("ESTOP_RESET_NEEDED")
+        assert "two channels (SPEC §14)" in c.log("run"), c.log("run")
+        s = c.pendant("reset,servo_on", "OPERATIONAL")
+        assert s["state"] == "OPERATIONAL", (s, c.log("run"))
+        c.wait(lambda: c.wire()["contactor_closed"] and c.wire()["k2_closed"], "K1 and K2 closed on the segment", 5)
+        w = c.wire()
+        assert w["contactor"] is True and w["contactor_k2"] is True, w
+        st = c.status()
+        assert st["contactors"] == {"k1": "closed", "k2": "closed"}, st["contactors"]
+        ch = {x["name"]: x for x in st["channels"]}
+        assert ch["A"]["running"] and ch["B"]["running"] and ch["A"]["agree"] and ch["B"]["agree"], ch
+        pid = ch[victim]["pid"]
+        os.kill(pid, signal.SIGSTOP)
+        other_bit = "contactor" if victim == "B" else "contactor_k2"  # the bit of the channel that runs on
+        c.wait(lambda: c.wire()[other_bit] is False, f"{other_bit} cleared on the wire by the other channel", 5)
+        st = c.wait_state("ERROR_LOCKOUT")
+        assert "CHANNEL_LOST" in st["alarms"], st
+        assert (c.alarm("CHANNEL_LOST") or {}).get("detail") == f"Safety channel {victim} lost", c.alarm("CHANNEL_LOST")
+        c.wait(lambda: not (c.wire()["contactor_closed"] and c.wire()["k2_closed"]), "the power path open", 5)
+    finally:
+        if pid is not None:
+            os.kill(pid, signal.SIGCONT)
+        c.close()
+
+
+def test_two_channels_need_k2_and_the_load_side_encoders_in_the_bus_configuration(tmp_path):
+    cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    del cfg["subdevices"][0]["bits"]["contactor_fb.k2"]
+    del cfg["subdevices"][1]["bits"]["contactor_k2"]
+    path = tmp_path / "bus.json"
+    path.write_text(json.dumps(cfg))
+    r = subprocess.run([BIN, "run", "--fieldbus", "ethercat", "--ifname", "lo", "--bus-config", str(path),
+                        "--channels", "2", "--port", "18999", "--db", str(tmp_path / "ev.db")],
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode != 0, r
+    assert "--channels 2: the bus configuration has no K2" in r.stderr, r.stderr
+
+
 def test_guard_cat1_is_timed_on_the_wire_by_the_emulator(cell):
     """Issue 21 item 4: the guard opened while the demo program runs, timed by the emulator
     per exchange (`time cat1 from=input`, sim/ecat/src/wire_timing.cpp): the reaction is the

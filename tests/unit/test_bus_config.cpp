@@ -100,7 +100,7 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   EXPECT_NE(refused(j).find("appears twice"), std::string::npos);
 
   j = default_json();
-  j["subdevices"][4]["pdo"]["velocity_actual"] = 10;  // 4 bytes at 10 of a 12-byte image
+  j["subdevices"][4]["pdo"]["velocity_actual"] = 14;  // 4 bytes at 14 of a 16-byte image
   EXPECT_NE(refused(j).find("subdevices[4].pdo.velocity_actual"), std::string::npos);
 
   // The brake test's objects (SPEC §12) are part of every drive's layout: 0x6072 max torque
@@ -109,7 +109,7 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j["subdevices"][4]["pdo"].erase("max_torque");
   EXPECT_NE(refused(j).find("subdevices[4].pdo.max_torque"), std::string::npos);
   j = default_json();
-  j["subdevices"][4]["pdo"]["torque_actual"] = 11;  // 2 bytes at 11 of a 12-byte image
+  j["subdevices"][4]["pdo"]["torque_actual"] = 15;  // 2 bytes at 15 of a 16-byte image
   EXPECT_NE(refused(j).find("subdevices[4].pdo.torque_actual"), std::string::npos);
   j = default_json();
   j["subdevices"][1]["bits"].erase("brake_hold.4");
@@ -371,5 +371,54 @@ TEST(BusConfig, DistanceSensorAndReducedActive) {
   j["subdevices"][1]["bits"]["reduced_active"] = 16;  // past the terminal's 2 bytes
   EXPECT_NE(refused(j).find("subdevices[1].bits.reduced_active"), std::string::npos);
   j["subdevices"][1]["bits"]["reduced_active"] = 0;  // the contactor's bit
+  EXPECT_NE(refused(j).find("used twice"), std::string::npos);
+}
+
+// SPEC §14 on a segment: K2 (DO `contactor_k2`) with its auxiliary contact (DI
+// `contactor_fb.k2`), and each drive's load-side encoder (0x60E4:01, `pdo.load_position`), in
+// the shipped default where the emulated segment has them; optional, but K2 never without its
+// contact (nor the contact without K2), and the encoders on every drive or on none.
+// @req CH-CONTACTORS CH-ENCODERS
+TEST(BusConfig, K2AndTheLoadSideEncoders) {
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  EXPECT_EQ(c.subdevices[0].in_bit[kInputBits - 1U], static_cast<std::uint16_t>(safestate::ecat::DiBit::contactor_fb_k2));
+  EXPECT_EQ(c.subdevices[1].out_bit[kOutputBits - 1U], static_cast<std::uint16_t>(safestate::ecat::DoBit::contactor_k2));
+  for (std::size_t a = 0; a < 6; ++a) {
+    EXPECT_EQ(c.subdevices[safestate::ecat::kPosFirstDrive + a].load_position, 12U) << "axis " << a + 1;
+  }
+  // A one-contactor segment with motor encoders only: still a bus (one channel's).
+  Json j = default_json();
+  j["subdevices"][0]["bits"].erase("contactor_fb.k2");
+  j["subdevices"][1]["bits"].erase("contactor_k2");
+  for (std::size_t a = 0; a < 6; ++a) {
+    j["subdevices"][safestate::ecat::kPosFirstDrive + a]["pdo"].erase("load_position");
+  }
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.subdevices[0].in_bit[kInputBits - 1U], kNoBit);
+  EXPECT_EQ(c.subdevices[1].out_bit[kOutputBits - 1U], kNoBit);
+  EXPECT_EQ(c.subdevices[2].load_position, kNoOffset);
+
+  j = default_json();
+  j["subdevices"][0]["bits"].erase("contactor_fb.k2");
+  EXPECT_NE(refused(j).find("\"contactor_k2\" is mapped on the safety outputs but K2's auxiliary contact"),
+            std::string::npos);
+  j = default_json();
+  j["subdevices"][1]["bits"].erase("contactor_k2");
+  EXPECT_NE(refused(j).find("\"contactor_fb.k2\" is mapped on the safety inputs but \"contactor_k2\" is not"),
+            std::string::npos);
+  j = default_json();
+  j["subdevices"][safestate::ecat::kPosFirstDrive + 3]["pdo"].erase("load_position");
+  EXPECT_NE(refused(j).find("drive axis 4 (drive axis 4) has no pdo.load_position while 5 drive(s) have one"),
+            std::string::npos);
+  j = default_json();
+  j["subdevices"][safestate::ecat::kPosFirstDrive]["pdo"]["load_position"] = 13;  // 4 bytes past the 16
+  EXPECT_NE(refused(j).find("subdevices[2].pdo.load_position"), std::string::npos);
+  j = default_json();
+  j["subdevices"][safestate::ecat::kPosFirstDrive]["pdo"]["load_positon"] = 12;  // a typo is not ignored
+  EXPECT_NE(refused(j).find("subdevices[2].pdo.load_positon: unknown object"), std::string::npos);
+  j = default_json();
+  j["subdevices"][1]["bits"]["contactor_k2"] = 0;  // K1's bit
   EXPECT_NE(refused(j).find("used twice"), std::string::npos);
 }

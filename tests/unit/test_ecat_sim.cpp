@@ -426,10 +426,12 @@ TEST(EcatProcessData, ProtectiveFieldChannelsAreBits20To23) {
   EXPECT_EQ(di() & 0x0C, 0x0C);  // reduced.a/b untouched
 }
 
-// One exchange writing the outputs with the contactor bit as given, at time t (ns).
+// One exchange writing the outputs with the contactor bits (K1 and K2, SPEC §14) as given, at
+// time t (ns).
 void exchange_contactor(EmulatedCell& cell, bool contactor, std::uint64_t t) {
   std::vector<std::uint8_t> out(kOutBytes, 0);
   out[0] = contactor ? 0x01 : 0x00;
+  out[1] = contactor ? static_cast<std::uint8_t>(1U << (static_cast<unsigned>(DoBit::contactor_k2) - 8U)) : 0x00;
   cell.set_time(t);
   exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, t);
 }
@@ -495,6 +497,78 @@ TEST(EcatWireTiming, EveryExchangeFeedsTheMeasurementArmedOnTheControlSocket) {
   // The contactor's drop-out (sim kContactorFeedbackMs 10), seen with the next exchange.
   EXPECT_GE(s["cycles"].get<int>(), 10);
   EXPECT_LE(s["cycles"].get<int>(), 13);
+}
+
+// SPEC §14 on the segment: K2 is the DO terminal's bit 10, in series with K1 (bit 0), with its
+// own auxiliary contact (DI bit 24; K1's is bit 11); each drive's TxPDO carries the load-side
+// encoder (0x60E4:01, bytes 12..15) beside the motor encoder (0x6064, bytes 2..5).
+// @req CH-CONTACTORS CH-ENCODERS
+TEST(EcatProcessData, K2AndTheLoadSideEncoderCrossTheWire) {
+  EmulatedCell cell(1000);
+  bring_to_op(cell.segment());
+  const auto write = [&cell](bool k1, bool k2, std::uint64_t t) {
+    std::vector<std::uint8_t> out(kOutBytes, 0);
+    out[0] = k1 ? 0x01 : 0x00;
+    out[1] = k2 ? static_cast<std::uint8_t>(1U << (static_cast<unsigned>(DoBit::contactor_k2) - 8U)) : 0x00;
+    cell.set_time(t);
+    exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, out}}, t);
+  };
+  const auto read = [&cell]() {
+    return exchange(cell.segment(), {{Cmd::LRD, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)}})[0].data;
+  };
+  const auto k1_fb = [](const std::vector<std::uint8_t>& in) { return (in[1] & 0x08U) != 0U; };  // bit 11
+  const auto k2_fb = [](const std::vector<std::uint8_t>& in) { return (in[3] & 0x01U) != 0U; };  // bit 24
+  std::uint64_t t = 0;
+  for (int k = 0; k < 30; ++k) {
+    write(true, false, t += 1'000'000);
+  }
+  EXPECT_TRUE(cell.last_outputs().contactor);
+  EXPECT_FALSE(cell.last_outputs().contactor_k2);
+  auto in = read();
+  EXPECT_TRUE(k1_fb(in)) << "K1 follows its own bit";
+  EXPECT_FALSE(k2_fb(in)) << "K2 has its own output and its own contact";
+  nlohmann::json st = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_EQ(st["contactor_closed"], true);
+  EXPECT_EQ(st["k2_closed"], false);
+  for (int k = 0; k < 30; ++k) {
+    write(true, true, t += 1'000'000);
+  }
+  in = read();
+  EXPECT_TRUE(k1_fb(in));
+  EXPECT_TRUE(k2_fb(in));
+  st = nlohmann::json::parse(control_line(cell, "status"));
+  EXPECT_EQ(st["contactor_k2"], true);
+  EXPECT_EQ(st["k2_closed"], true);
+  for (int k = 0; k < 30; ++k) {
+    write(false, true, t += 1'000'000);  // K1 alone opened: K2 stays closed, its contact says so
+  }
+  in = read();
+  EXPECT_FALSE(k1_fb(in));
+  EXPECT_TRUE(k2_fb(in));
+  // `contactor k2 welded` on the control socket: K2's contact stays closed with its bit cleared.
+  ASSERT_EQ(control_line(cell, "fault contactor k2 welded"), "OK");
+  for (int k = 0; k < 30; ++k) {
+    write(false, false, t += 1'000'000);
+  }
+  EXPECT_TRUE(k2_fb(read()));
+  EXPECT_NE(control_line(cell, "fault channel B stall").find("ERROR fault \"channel B stall\" is a channel's"),
+            std::string::npos);
+
+  // The two encoders of each axis: the same counts at rest (the gear model's difference is
+  // the load's, small), and `encoder 3 offset 2` moves axis 3's load side alone by 2 degrees.
+  const auto counts = [](const std::vector<std::uint8_t>& in, std::size_t axis, std::size_t at) {
+    const std::uint8_t* p = &in[kDiBytes + axis * kDriveTxBytes + at];
+    return static_cast<std::int32_t>(p[0] | (p[1] << 8U) | (p[2] << 16U) | (static_cast<std::uint32_t>(p[3]) << 24U));
+  };
+  in = read();
+  for (std::size_t a = 0; a < 6; ++a) {
+    EXPECT_NEAR(counts(in, a, 12), counts(in, a, 2), 0.05 / 360.0 * 1048576.0) << "axis " << a + 1;
+  }
+  ASSERT_EQ(control_line(cell, "fault encoder 3 offset 2"), "OK");
+  write(false, false, t += 1'000'000);
+  in = read();
+  EXPECT_NEAR(counts(in, 2, 12) - counts(in, 2, 2), 2.0 / 360.0 * 1048576.0, 0.05 / 360.0 * 1048576.0);
+  EXPECT_NEAR(counts(in, 1, 12), counts(in, 1, 2), 0.05 / 360.0 * 1048576.0);
 }
 
 TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
@@ -632,7 +706,8 @@ TEST(EcatWatchdog, TheWatchdogTheMasterWroteDropsContactorAndEnableInItsTime) {
   exchange(cell.segment(), {{Cmd::BWR, 0, 0x0400, le16(2498)}, {Cmd::BWR, 0, 0x0420, le16(100)}});
   EXPECT_EQ(cell.segment().esc(kPosDigitalOut).watchdog_ns(), 10'000'000U);
   std::vector<std::uint8_t> out(kOutBytes, 0);
-  out[0] = 0x01;  // contactor
+  out[0] = 0x01;  // contactor (K1)
+  out[1] = static_cast<std::uint8_t>(1U << (static_cast<unsigned>(DoBit::contactor_k2) - 8U));  // K2 (SPEC §14)
   for (std::size_t a = 0; a < 6; ++a) {
     out[kDoBytes + a * kDriveRxBytes] = 0x0F;  // enable operation
   }
@@ -1298,7 +1373,8 @@ class PacingRig {
   }
   static std::vector<std::uint8_t> outputs(std::uint16_t cw, std::int32_t target_counts) {
     std::vector<std::uint8_t> out(kOutBytes, 0);
-    out[0] = 0x03;  // contactor, brakes_release
+    out[0] = 0x03;  // contactor (K1), brakes_release
+    out[1] = static_cast<std::uint8_t>(1U << (static_cast<unsigned>(DoBit::contactor_k2) - 8U));  // K2 (SPEC §14)
     for (std::size_t a = 0; a < 6; ++a) {
       std::uint8_t* d = &out[kDoBytes + a * kDriveRxBytes];
       d[0] = static_cast<std::uint8_t>(cw);

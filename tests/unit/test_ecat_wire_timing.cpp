@@ -26,8 +26,11 @@ struct Wire {
   hal::ProcessImageIn in{};
   std::uint64_t n = 0;
   Wire() {
-    out.contactor = true;
+    out.contactor = true;  // K1 and K2 (SPEC §14) closed, as the emulated segment has both
+    out.contactor_k2 = true;
     in.contactor_closed = true;
+    in.two_contactors = true;
+    in.k2_closed = true;
   }
   void arm(const std::string& words) {
     WireTiming::Spec s{};
@@ -43,6 +46,29 @@ struct Wire {
 };
 
 }  // namespace
+
+// SPEC §14: K1 and K2 in series: K2's bit cleared alone (channel B deciding first) is the power
+// removed, and its contact open alone is the power path open.
+TEST(EcatWireTiming, K2AloneOpeningIsThePowerRemoved) {
+  Wire w;
+  w.arm("cat0 from=input");
+  w.go();
+  w.t.input_changed();
+  w.go();  // 1 carries the change
+  ASSERT_TRUE(w.t.start().seen);
+  w.in.drive[0].velocity_rad_s = 1.0F;
+  w.out.contactor_k2 = false;  // K1 still commanded closed
+  w.go();  // 2
+  ASSERT_TRUE(w.t.reaction().seen);
+  EXPECT_EQ(w.t.reaction().exchange, 2U);
+  w.in.drive[0].velocity_rad_s = 0.0F;
+  w.go();  // 3: standstill, but both contacts still read closed
+  EXPECT_FALSE(w.t.safe().seen);
+  w.in.k2_closed = false;  // K2's contact open, K1's still closed
+  w.go();  // 4
+  ASSERT_TRUE(w.t.safe().seen);
+  EXPECT_EQ(w.t.safe().exchange, 4U);
+}
 
 TEST(EcatWireTiming, Cat0FromTheInputToTheClearedBitAndStandstillOnTheInputs) {
   Wire w;

@@ -216,9 +216,9 @@ TEST(EsiEmulated, ReadsIdentityProfileMailboxAndDc) {
   EXPECT_FALSE(lib[0].coe);
   EXPECT_EQ(lib[0].assign_activate, 0U);
   const esi::Image im = esi::image(lib[0]);
-  EXPECT_EQ(im.in_bytes, 4U);  // 24 contacts + 8 bits of padding
+  EXPECT_EQ(im.in_bytes, 4U);  // 25 contacts (K2's contact the last, SPEC §14) + 7 bits of padding
   EXPECT_EQ(im.out_bytes, 0U);
-  EXPECT_EQ(im.in.size(), 24U);  // padding is not an entry to place
+  EXPECT_EQ(im.in.size(), 25U);  // padding is not an entry to place
 }
 
 TEST(EsiBad, NotXml) {
@@ -397,6 +397,7 @@ TEST(EsiBad, RolesFromNames) {
     text = with(text, "<Name>brake_hold." + std::to_string(a) + "</Name>", "<Name>Output " + std::to_string(a + 3) + "</Name>");
   }
   text = with(text, "<Name>reduced_active</Name>", "<Name>Output 10</Name>");
+  text = with(text, "<Name>contactor_k2</Name>", "<Name>Output 11</Name>");
   expect_has(generate_error(text), "subdevice 2 \"SS-EMU-DO3\"");
   expect_has(generate_error(text), "no role: neither a CiA 402 drive");
 }

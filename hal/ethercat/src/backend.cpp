@@ -607,13 +607,17 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
     if (s.role == Role::safety_inputs) {
       bool v[kInputBits];
       for (std::size_t b = 0; b < kInputBits; ++b) {
-        v[b] = get_bit(p, s.in_bit[b]);
+        v[b] = (s.in_bit[b] != kNoBit) && get_bit(p, s.in_bit[b]);
       }
       in.safety = core::RawInputs{v[0], v[1], v[2],  v[3],  v[4],  v[5],  v[6],  v[7],  v[8],
                                   v[9], v[10], v[18], v[19], v[20], v[21], v[22], v[23]};
       in.safety.separation_mm = separation;
       in.safety.separation_valid = separation_valid;
       in.contactor_closed = v[11];
+      // SPEC §14: K2 and its auxiliary contact where the segment has them (bus_config checks
+      // that the output and its contact come together).
+      in.two_contactors = s.in_bit[kInputBits - 1U] != kNoBit;
+      in.k2_closed = v[kInputBits - 1U];
       for (std::size_t a = 0; a < kAxes; ++a) {
         in.brake_released[a] = v[12U + a];
       }
@@ -624,6 +628,10 @@ void Backend::decode(ProcessImageIn& in) const noexcept {
       d.velocity_rad_s = static_cast<float>(get32(p + s.velocity_actual) / s.counts_per_rad);
       d.torque_permille = static_cast<std::int16_t>(get16(p + s.torque_actual));
       d.online = online(i + 1U);
+      // SPEC §14: the load-side encoder, on every drive or on none (bus_config).
+      in.load_encoders = s.load_position != kNoOffset;
+      d.load_position_rad =
+          in.load_encoders ? static_cast<float>(get32(p + s.load_position) / s.counts_per_rad) : d.position_rad;
     }
   }
 }
@@ -641,6 +649,9 @@ void Backend::write(const ProcessImageOut& out) noexcept {
       }
       if (s.out_bit[9] != kNoBit) {
         set_bit(p, s.out_bit[9], out.reduced_active);
+      }
+      if (s.out_bit[10] != kNoBit) {
+        set_bit(p, s.out_bit[10], out.contactor_k2);  // SPEC §14: K2
       }
     } else if (s.role == Role::drive) {
       const DriveOut& d = out.drive[s.axis - 1U];

@@ -16,11 +16,12 @@ const char* const kInputBitNames[kInputBits] = {
     "estop.a",      "estop.b",      "gate.a",     "gate.b",     "enable.a",   "enable.b",
     "enable.panic", "mode.auto",    "mode.t1",    "mode.t2",    "reset_button", "contactor_fb",
     "brake_fb.1",   "brake_fb.2",   "brake_fb.3", "brake_fb.4", "brake_fb.5", "brake_fb.6",
-    "reduced.a",    "reduced.b",    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
+    "reduced.a",    "reduced.b",    "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b",
+    "contactor_fb.k2"};
 const char* const kOutputBitNames[kOutputBits] = {"contactor",    "brakes_release", "reset_lamp",
                                                   "brake_hold.1", "brake_hold.2",   "brake_hold.3",
                                                   "brake_hold.4", "brake_hold.5",   "brake_hold.6",
-                                                  "reduced_active"};
+                                                  "reduced_active", "contactor_k2"};
 
 namespace {
 
@@ -172,6 +173,22 @@ bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
     }
     *o.field = static_cast<std::uint16_t>(v);
   }
+  // SPEC §14: the load-side encoder (0x60E4:01, INT32), optional.
+  if (pdo->contains("load_position")) {
+    if (d.in_bytes < 4U || !uint_in(*pdo, "load_position", p, 0, d.in_bytes - 4U, v, c)) {
+      return c.fail(p + ".load_position", "offset outside the PDO image (0x60E4:01, 4 bytes)");
+    }
+    d.load_position = static_cast<std::uint16_t>(v);
+  }
+  for (const auto& [k, x] : pdo->items()) {
+    const bool known = k == "load_position" ||
+                       std::any_of(std::begin(objs), std::end(objs), [&](const auto& o) { return k == o.key; });
+    if (!known) {
+      return c.fail(p + "." + k,
+                    "unknown object (expected controlword, target_position, max_torque, statusword, position_actual, "
+                    "velocity_actual, torque_actual, load_position)");
+    }
+  }
   return true;
 }
 
@@ -313,7 +330,7 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
   }
   switch (d.role) {
     case Role::safety_inputs:
-      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, kInputBits, d.in_bytes, d.in_bit, c)
+      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, kRequiredInputBits, d.in_bytes, d.in_bit, c)
                             : c.fail(where + ".in_bytes", "safety inputs need input bytes");
     case Role::safety_outputs:
       return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, kRequiredOutputBits, d.out_bytes, d.out_bit, c)
@@ -322,6 +339,46 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     case Role::distance_sensor: return distance_sensor(s, where, d, c);
   }
   return false;
+}
+
+}  // namespace
+
+namespace {
+
+// SPEC §14, across subdevices: K2's output and its auxiliary contact come together (external
+// device monitoring needs the contact of the contactor it drives), and the load-side encoder
+// is on every drive or on none (a channel compares all six axes or none).
+bool two_channel_io(const BusConfig& bus, std::string& err) {
+  const Subdevice* in = nullptr;
+  const Subdevice* out = nullptr;
+  std::size_t with_load = 0;
+  std::size_t drives = 0;
+  const Subdevice* without_load = nullptr;
+  for (const Subdevice& d : bus.subdevices) {
+    in = (d.role == Role::safety_inputs) ? &d : in;
+    out = (d.role == Role::safety_outputs) ? &d : out;
+    if (d.role == Role::drive) {
+      ++drives;
+      with_load += (d.load_position != kNoOffset) ? 1U : 0U;
+      without_load = (d.load_position == kNoOffset && without_load == nullptr) ? &d : without_load;
+    }
+  }
+  const bool k2_out = out != nullptr && out->out_bit[kOutputBits - 1U] != kNoBit;
+  const bool k2_in = in != nullptr && in->in_bit[kInputBits - 1U] != kNoBit;
+  if (k2_out != k2_in) {
+    err = k2_out ? "subdevices: \"contactor_k2\" is mapped on the safety outputs but K2's auxiliary contact "
+                   "\"contactor_fb.k2\" is not on the safety inputs (SPEC §14: external device monitoring of K2)"
+                 : "subdevices: \"contactor_fb.k2\" is mapped on the safety inputs but \"contactor_k2\" is not on "
+                   "the safety outputs (a K2 auxiliary contact without its output)";
+    return false;
+  }
+  if (with_load != 0U && with_load != drives) {
+    err = "subdevices: drive axis " + std::to_string(without_load->axis) + " (" + without_load->name +
+          ") has no pdo.load_position while " + std::to_string(with_load) +
+          " drive(s) have one (SPEC §14: the load-side encoder on every axis or on none)";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -389,7 +446,7 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     err = "subdevices: expected exactly one safety_inputs and one safety_outputs subdevice";
     return false;
   }
-  return true;
+  return two_channel_io(out, err);
 }
 
 bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept {

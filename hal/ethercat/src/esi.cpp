@@ -808,13 +808,26 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
         }
         pdo[o.key] = off;
       }
+      // SPEC §14: the load-side encoder, 0x60E4:01 (additional position actual value), where
+      // the drive's default TxPDO carries it.
+      for (const Placed& p : im.in) {
+        if (p.entry->index == 0x60E4U && p.entry->sub == 1U) {
+          if (p.entry->bits != 32U || (p.bit % 8U) != 0U) {
+            err = where + ": " + d.file + ":" + std::to_string(p.entry->line) + ": 0x60E4:01 load_position is " +
+                  std::to_string(p.entry->bits) + " bits at bit " + std::to_string(p.bit) +
+                  "; expected 32 bits on a byte boundary";
+            return false;
+          }
+          pdo["load_position"] = p.bit / 8U;
+        }
+      }
       s["pdo"] = pdo;
     } else {
       OJson in_bits;
       OJson out_bits;
       std::string in_missing;
       std::string out_missing;
-      const int ins = named_bits(im.in, ethercat::kInputBitNames, ethercat::kInputBits, in_bits, in_missing);
+      const int ins = named_bits(im.in, ethercat::kInputBitNames, ethercat::kRequiredInputBits, in_bits, in_missing);
       const int outs =
           named_bits(im.out, ethercat::kOutputBitNames, ethercat::kRequiredOutputBits, out_bits, out_missing);
       const auto sep = std::find_if(im.in.begin(), im.in.end(), [](const Placed& p) { return p.entry->name == "separation_mm"; });

@@ -23,11 +23,12 @@ const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "ga
                                 "enable.b",     "enable.panic", "mode.auto", "mode.t1",     "mode.t2",
                                 "reset_button", "contactor_fb", "brake_fb.1", "brake_fb.2", "brake_fb.3",
                                 "brake_fb.4",   "brake_fb.5", "brake_fb.6", "reduced.a",  "reduced.b",
-                                "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b"};
-static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::field_inner_b) + 1U, "one name per DI bit");
+                                "field.outer.a", "field.outer.b", "field.inner.a", "field.inner.b", "contactor_fb.k2"};
+static_assert(std::size(kDiNames) == static_cast<std::size_t>(DiBit::contactor_fb_k2) + 1U, "one name per DI bit");
 const char* const kDoNames[] = {"contactor",    "brakes_release", "reset_lamp",   "brake_hold.1", "brake_hold.2",
-                                "brake_hold.3", "brake_hold.4",   "brake_hold.5", "brake_hold.6", "reduced_active"};
-static_assert(std::size(kDoNames) == static_cast<std::size_t>(DoBit::reduced_active) + 1U, "one name per DO bit");
+                                "brake_hold.3", "brake_hold.4",   "brake_hold.5", "brake_hold.6", "reduced_active",
+                                "contactor_k2"};
+static_assert(std::size(kDoNames) == static_cast<std::size_t>(DoBit::contactor_k2) + 1U, "one name per DO bit");
 
 SubdeviceDesc digital_in() {
   SubdeviceDesc d{kVendorId, kProductDigitalIn, kRevision, 1, "SafeState emu DI24 safety contacts", {}, {}};
@@ -75,7 +76,8 @@ SubdeviceDesc drive(std::size_t axis) {
   d.tx.entries = {{0x6041, 0, 16, kUint16, "Statusword"},
                   {0x6064, 0, 32, kInt32, "Position actual value"},
                   {0x606C, 0, 32, kInt32, "Velocity actual value"},
-                  {0x6077, 0, 16, kInt16, "Torque actual value"}};
+                  {0x6077, 0, 16, kInt16, "Torque actual value"},
+                  {0x60E4, 1, 32, kInt32, "Additional position actual value"}};  // SPEC §14 load side
   // SM0/SM1 hold the CoE mailbox at 0x1000/0x1080: the process data on SM2 and SM3.
   d.out_address = 0x1100;
   d.in_address = 0x1800;
@@ -144,12 +146,14 @@ void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (
   set_bit(di, bit(DiBit::field_outer_b), s.field_outer_b);
   set_bit(di, bit(DiBit::field_inner_a), s.field_inner_a);
   set_bit(di, bit(DiBit::field_inner_b), s.field_inner_b);
+  set_bit(di, bit(DiBit::contactor_fb_k2), in.k2_closed);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     set_bit(di, bit(DiBit::brake_fb1) + a, in.brake_released[a]);
     put16(&drive_tx[a][0], in.drive[a].statusword);
     put32(&drive_tx[a][2], to_counts(in.drive[a].position_rad));
     put32(&drive_tx[a][6], to_counts(in.drive[a].velocity_rad_s));
     put16(&drive_tx[a][10], static_cast<std::uint16_t>(in.drive[a].torque_permille));
+    put32(&drive_tx[a][12], to_counts(in.drive[a].load_position_rad));
   }
 }
 
@@ -159,6 +163,7 @@ void pack_outputs(const hal::ProcessImageOut& out, std::uint8_t* dout, std::uint
   set_bit(dout, bit(DoBit::brakes_release), out.brakes_release);
   set_bit(dout, bit(DoBit::reset_lamp), out.reset_lamp);
   set_bit(dout, bit(DoBit::reduced_active), out.reduced_active);
+  set_bit(dout, bit(DoBit::contactor_k2), out.contactor_k2);
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     set_bit(dout, bit(DoBit::brake_hold1) + a, out.brake_test_axis == a + 1U);
     put16(&drive_rx[a][0], out.drive[a].controlword);
@@ -173,6 +178,7 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
   out.brakes_release = get_bit(dout, bit(DoBit::brakes_release));
   out.reset_lamp = get_bit(dout, bit(DoBit::reset_lamp));
   out.reduced_active = get_bit(dout, bit(DoBit::reduced_active));
+  out.contactor_k2 = get_bit(dout, bit(DoBit::contactor_k2));
   out.brake_test_axis = 0;
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     if (out.brake_test_axis == 0U && get_bit(dout, bit(DoBit::brake_hold1) + a)) {
@@ -188,6 +194,9 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
     : cycle_us_(cycle_us),
       plant_(safestate::robot::active().model, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
       segment_(with_cycle(devices, cycle_us)) {
+  // SPEC §14: the segment's power path is K1 and K2 in series (the DO terminal's `contactor`
+  // and `contactor_k2`), each with its auxiliary contact on the DI terminal.
+  plant_.set_two_contactors(true);
   segment_.on_process_data([this] { on_exchange(); });
   latch_inputs();
 }
@@ -223,6 +232,9 @@ void EmulatedCell::step() noexcept { plant_cycle(Cause::free); }
 
 namespace {
 
+// SPEC §14: the power path as commanded: K1 and K2 in series, both closed.
+bool powered(const hal::ProcessImageOut& out) noexcept { return out.contactor && out.contactor_k2; }
+
 bool any_enabled(const hal::ProcessImageOut& out) noexcept {
   for (const hal::DriveOut& d : out.drive) {
     if ((d.controlword & 0x0008U) != 0U) {  // CiA 402 enable operation
@@ -246,7 +258,7 @@ void unpack_held(Segment& seg, hal::ProcessImageOut& out) noexcept {
 // A subdevice whose outputs the plant still holds active has put them in the safe state
 // (its process-data watchdog expired: it left OP).
 bool EmulatedCell::outputs_went_safe() const noexcept {
-  if (out_.contactor && segment_.esc(kPosDigitalOut).state() != AlState::op) {
+  if (powered(out_) && segment_.esc(kPosDigitalOut).state() != AlState::op) {
     return true;
   }
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
@@ -261,11 +273,11 @@ bool EmulatedCell::outputs_went_safe() const noexcept {
 // comes, the time from the last exchange to the contactor output opening and the last
 // drive's enable going, as their process-data watchdogs put them in the safe state.
 void EmulatedCell::watch_held_outputs() noexcept {
-  const bool was_closed = held_.contactor;
+  const bool was_closed = powered(held_);
   const bool was_enabled = any_enabled(held_);
   unpack_held(segment_, held_);
   const std::uint64_t since = (now_ns_ > last_exchange_ns_) ? now_ns_ - last_exchange_ns_ : 0U;
-  if (was_closed && !held_.contactor && !drop_.contactor) {
+  if (was_closed && !powered(held_) && !drop_.contactor) {
     drop_.contactor = true;
     drop_.contactor_ns = since;
   }
@@ -277,11 +289,11 @@ void EmulatedCell::watch_held_outputs() noexcept {
 
 void EmulatedCell::on_exchange() noexcept {
   free_running_ = false;
-  const bool was_closed = held_.contactor;
+  const bool was_closed = powered(held_);
   unpack_held(segment_, held_);
   time_reaction(was_closed);
   last_exchange_ns_ = now_ns_;
-  if (held_.contactor) {
+  if (powered(held_)) {
     drop_ = OutputDrop{};  // powered again by the master: a new measurement may start
   }
   fresh_ = (fresh_ < 0xFFFFU) ? fresh_ + 1U : fresh_;
@@ -358,7 +370,7 @@ void EmulatedCell::plant_cycle(Cause cause) noexcept {
 
 void EmulatedCell::mark_input_change() noexcept {
   timing_.input_changed();
-  if (held_.contactor) {
+  if (powered(held_)) {
     reaction_ = Reaction{true, false, false, now_ns_, exchanges_, 0, 0, 0};
   }
 }
@@ -366,7 +378,7 @@ void EmulatedCell::mark_input_change() noexcept {
 // Called in an exchange, with the outputs it brought already unpacked and before the
 // inputs it takes back are latched.
 void EmulatedCell::time_reaction(bool was_closed) noexcept {
-  if (!was_closed && held_.contactor) {
+  if (!was_closed && powered(held_)) {
     reaction_ = Reaction{};  // armed again: a new measurement may start
     return;
   }
@@ -374,7 +386,7 @@ void EmulatedCell::time_reaction(bool was_closed) noexcept {
     reaction_.carried = true;
     reaction_.input_ns = now_ns_;
   }
-  if (reaction_.armed && was_closed && !held_.contactor && !reaction_.cleared) {
+  if (reaction_.armed && was_closed && !powered(held_) && !reaction_.cleared) {
     reaction_.cleared = true;
     reaction_.cleared_cycle = exchanges_;
     reaction_.cleared_ns = now_ns_;

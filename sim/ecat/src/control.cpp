@@ -238,6 +238,16 @@ std::string world_line(EmulatedCell& cell, const std::string& line) {
     if (const std::string p = vocab::parse_fault(args, f); !p.empty()) {
       return "ERROR " + p;
     }
+    // SPEC §14: a channel's own faults are in the controller's processes, not on the segment
+    // (on `safestate run` they come from outside, as signals: docs/two-channels.md).
+    using K = vocab::FaultKind;
+    if (f.kind == K::channel_stall || f.kind == K::channel_crash || f.kind == K::channel_input ||
+        f.kind == K::digest_corrupt || f.kind == K::digest_drop || f.kind == K::digest_repeat ||
+        f.kind == K::channel_flip) {
+      return "ERROR fault \"" + vocab::format_fault(f) +
+             "\" is a channel's, not the emulated segment's (stop or kill a channel's process from outside: "
+             "docs/two-channels.md)";
+    }
     // On a real bus "fieldbus lost" is the wire going silent, not a flag: the master must
     // find out by itself (the drives' own bus watchdogs react as in the plant).
     if (f.kind == vocab::FaultKind::fieldbus_lost) {
@@ -407,6 +417,7 @@ std::string status(EmulatedCell& cell) {
   j["output_drop"] = {{"contactor_us", d.contactor ? nlohmann::json(d.contactor_ns / 1000U) : nlohmann::json(nullptr)},
                       {"enable_us", d.enable ? nlohmann::json(d.enable_ns / 1000U) : nlohmann::json(nullptr)}};
   j["contactor"] = o.contactor;
+  j["contactor_k2"] = o.contactor_k2;
   j["brakes_release"] = o.brakes_release;
   j["reset_lamp"] = o.reset_lamp;
   j["reduced_active"] = o.reduced_active;
@@ -429,6 +440,7 @@ std::string status(EmulatedCell& cell) {
   j["statusword"] = sw;
   j["joints"] = q;
   j["contactor_closed"] = in.contactor_closed;
+  j["k2_closed"] = in.k2_closed;  // SPEC §14: K2's auxiliary contact
   const EmulatedCell::Reaction& r = cell.reaction();
   if (r.cleared) {
     // us: from the exchange that carried the changed contact to the master to the one that

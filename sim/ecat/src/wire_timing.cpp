@@ -221,7 +221,7 @@ bool WireTiming::crossed(const hal::ProcessImageIn& in) noexcept {
 
 bool WireTiming::reacted(const hal::ProcessImageOut& out, double speed_counts, float tcp_mm_s) const noexcept {
   if (spec_.stop == Stop::reduced) return out.reduced_active;  // the safe output, nothing else
-  if (!out.contactor) return true;  // power removed: a Cat 0 (also when a stop escalates to it)
+  if (!(out.contactor && out.contactor_k2)) return true;  // power removed (K1 or K2, SPEC §14): a Cat 0, or a stop escalated to it
   if (spec_.stop == Stop::cat0) return false;
   if (spec_.stop == Stop::reduce && out.reduced_active) return true;  // the DO's reduced_active bit: reduced mode on
   if (speed_counts < peak_speed_counts_ - kFallCounts) return true;
@@ -257,7 +257,7 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
   if (!armed_) return;
 
   if (!start_.seen) {
-    if (had_prev && !out.contactor && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
+    if (had_prev && !(out.contactor && out.contactor_k2) && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
     if (spec_.stop == Stop::reduced && out.reduced_active && !early_.seen) early_ = Mark{true, n, now_ns};
     if (crossed(in)) {
       start_ = Mark{true, n, now_ns};
@@ -273,13 +273,13 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
   if (!reaction_.seen || safe_.seen) return;
   switch (spec_.stop) {
     case Stop::cat0: {
-      bool still = !in.contactor_closed;
+      bool still = !(in.contactor_closed && (!in.two_contactors || in.k2_closed));  // the power path open
       for (const core::DriveFeedback& d : in.drive) still = still && std::fabs(d.velocity_rad_s) < kStandstillRadS;
       if (still) safe_ = Mark{true, n, now_ns};
       break;
     }
     case Stop::cat1:
-      if (!out.contactor) safe_ = Mark{true, n, now_ns};
+      if (!(out.contactor && out.contactor_k2)) safe_ = Mark{true, n, now_ns};
       break;
     case Stop::cat2:
       if (moved) {

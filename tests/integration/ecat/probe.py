@@ -198,18 +198,28 @@ def main():
         out["answer"] = control(args[0], "in estop.b=0")
         run_cycles(m, 2)
         out["after"] = m.inputs()[0].hex()
-    elif action == "power":  # close the contactor, walk drive 1 to Operation enabled
+    elif action == "power":  # close K1 and K2, walk drive 1 to Operation enabled
         out["op"] = m.to_op()
         out["ready"] = wait_statusword(m, 0, 0x4F, 0x40)
-        m.set_output(1, bytes([0x01, 0x00]))  # DO: contactor
-        fb = False
+        m.set_output(1, bytes([0x01, 0x00]))  # DO bit 0: K1 alone
+        fb = fb_k2 = False
         for _ in range(200):
             m.cycle()
-            if m.inputs()[0][1] & 0x08:  # DI bit 11: contactor feedback
-                fb = True
+            fb = bool(m.inputs()[0][1] & 0x08)  # DI bit 11: K1's auxiliary contact
+            if fb:
+                break
+            time.sleep(0.0005)
+        run_cycles(m, 20)
+        out["k2_fb_with_k1_alone"] = bool(m.inputs()[0][3] & 0x01)  # DI bit 24: K2's auxiliary contact
+        m.set_output(1, bytes([0x01, 0x04]))  # DO bits 0 and 10: K1 and K2 (SPEC §14, in series)
+        for _ in range(200):
+            m.cycle()
+            fb_k2 = bool(m.inputs()[0][3] & 0x01)
+            if fb_k2:
                 break
             time.sleep(0.0005)
         out["contactor_fb"] = fb
+        out["contactor_fb_k2"] = fb_k2
         seq = []
         for cw, want in ((CW_SHUTDOWN, 0x21), (CW_SWITCH_ON, 0x23), (CW_ENABLE, 0x27)):
             m.set_output(2, cw.to_bytes(2, "little") + bytes(4))

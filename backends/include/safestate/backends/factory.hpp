@@ -26,7 +26,8 @@ struct Choice {
   std::uint32_t watchdog_ms = 100;  // ethercat: a longer stall of the host = the bus lost
   // SPEC §14: 1 = the controller in this process on the backend; 2 = the backend alone for two
   // channels in processes of their own (pair_backend()); 0 = the backend's default (sim 2;
-  // ethercat 1: two are not offered there until K2 and the load-side encoders are on the segment).
+  // ethercat 1: `--channels 2` there needs K2 and the load-side encoders in the bus
+  // configuration, as the shipped default has them).
   unsigned channels = 0;
 };
 

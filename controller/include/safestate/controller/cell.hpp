@@ -35,6 +35,7 @@ struct CellView {
   std::array<float, 6> target_rad{};        // CSP set-points written this cycle
   bool contactor_closed = false;            // feedback (K1's auxiliary contact)
   bool k2_closed = false;                   // SPEC §14: K2's, with two contactors
+  bool two_contactors = false;              // SPEC §14: the backend has K2 (and its contact)
   std::array<bool, 6> brake_released{};     // feedback
   bool fieldbus_ok = true;
   bool inputs_stale = false;  // this cycle's frame was late or lost: inputs held

@@ -24,17 +24,22 @@ namespace safestate::hal::ethercat {
 enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive, distance_sensor };
 
 // Named bits of the safety I/O terminals, in the order of the names below.
-// SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, then the
-// SPEC §11 protective fields' OSSD pairs.
-inline constexpr std::size_t kInputBits = 24;
+// SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, the SPEC §11
+// protective fields' OSSD pairs (the first kRequiredInputBits, all required), then K2's
+// auxiliary contact (SPEC §14, optional: a segment with K2 maps it and `contactor_k2`).
+inline constexpr std::size_t kInputBits = 25;
+inline constexpr std::size_t kRequiredInputBits = 24;
 // Outputs: contactor, brakes_release, reset_lamp, then brake_hold.1..6 (that axis' brake
 // stays engaged although brakes_release is set: the SPEC §12 brake test), then
 // reduced_active (SPEC §10 reduced mode in force, the core's SafetyStatus::reduced: a safe
-// output for the cell, and what times the reduced-mode reaction on the wire). The first
-// kRequiredOutputBits must be mapped; the others are optional (kNoBit when not mapped).
-inline constexpr std::size_t kOutputBits = 10;
+// output for the cell, and what times the reduced-mode reaction on the wire), then
+// contactor_k2 (SPEC §14: K2 in series with K1, channel B's; with one channel the one
+// channel drives both). The first kRequiredOutputBits must be mapped; the others are
+// optional (kNoBit when not mapped).
+inline constexpr std::size_t kOutputBits = 11;
 inline constexpr std::size_t kRequiredOutputBits = 9;
 inline constexpr std::uint16_t kNoBit = 0xFFFF;
+inline constexpr std::uint16_t kNoOffset = 0xFFFF;
 extern const char* const kInputBitNames[kInputBits];
 extern const char* const kOutputBitNames[kOutputBits];
 
@@ -68,6 +73,10 @@ struct Subdevice {
   std::uint16_t controlword = 0, target_position = 0, max_torque = 0;   // RxPDO byte offsets (0x6040, 0x607A, 0x6072)
   std::uint16_t statusword = 0, position_actual = 0, velocity_actual = 0,
                 torque_actual = 0;  // TxPDO byte offsets (0x6041, 0x6064, 0x606C, 0x6077)
+  // SPEC §14: the TxPDO byte offset of 0x60E4:01 (additional position actual value: the
+  // load-side encoder, INT32, in the same counts per joint revolution), optional: kNoOffset
+  // when the drive has none (every drive has one or none does).
+  std::uint16_t load_position = kNoOffset;
   std::vector<StartupSdo> startup;  // "startup": written by SDO in PRE-OP (needs a CoE mailbox)
   // "dc": {"assign_activate": "0x0300"}: the subdevice is synchronised by distributed
   // clocks; the ESI's AssignActivate word (0x0980/0x0981: 0x0300 = cyclic unit on, SYNC0).

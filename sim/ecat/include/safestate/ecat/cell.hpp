@@ -36,30 +36,34 @@ inline constexpr std::size_t kSubdevices = 9;
 
 // Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
 // Bits 20..23 are the protective-field scanner's four OSSD channels (field.outer.a/b,
-// field.inner.a/b, SPEC §11, NC: 1 = clear); 24..31 are spare. docs/ethercat.md.
+// field.inner.a/b, SPEC §11, NC: 1 = clear); 24 is K2's auxiliary contact (SPEC §14, NO:
+// 1 = closed; `contactor_fb` at 11 is K1's); 25..31 are spare. docs/ethercat.md.
 enum class DiBit : std::uint8_t {
   estop_a, estop_b, gate_a, gate_b, enable_a, enable_b, enable_panic,
   mode_auto, mode_t1, mode_t2, reset_button, contactor_fb,
   brake_fb1, brake_fb2, brake_fb3, brake_fb4, brake_fb5, brake_fb6,
   reduced_a, reduced_b,  // SPEC §10 reduced-speed request, NC (1 = normal)
   field_outer_a, field_outer_b, field_inner_a, field_inner_b,  // SPEC §11, NC (1 = clear)
+  contactor_fb_k2,  // SPEC §14: K2's auxiliary contact
 };
-inline constexpr std::size_t kDiBytes = 4;  // 24 contacts, padded to 32 bits
+inline constexpr std::size_t kDiBytes = 4;  // 25 contacts, padded to 32 bits
 // Bits of the digital output terminal's RxPDO (0x7000:01..). brake_hold_1..6: that axis'
 // brake stays engaged although brakes_release is set (the SPEC §12 brake test's axis).
 // reduced_active: SPEC §10 reduced mode in force (the core's flag, a safe output).
+// contactor_k2: SPEC §14 K2, in series with K1 (`contactor`): power needs both closed.
 enum class DoBit : std::uint8_t {
   contactor, brakes_release, reset_lamp,
   brake_hold1, brake_hold2, brake_hold3, brake_hold4, brake_hold5, brake_hold6,
-  reduced_active,
+  reduced_active, contactor_k2,
 };
 inline constexpr std::size_t kDoBytes = 2;
 // Drive PDOs (CSP): RxPDO 0x1600 = 0x6040 controlword (u16), 0x607A target position
 // (i32), 0x6072 max torque (u16, per mille of rated); TxPDO 0x1A00 = 0x6041 statusword
 // (u16), 0x6064 position actual (i32), 0x606C velocity actual (i32), 0x6077 torque actual
-// (i16, per mille of rated). Little-endian, as on the wire.
+// (i16, per mille of rated), 0x60E4:01 additional position actual value (i32: the load-side
+// encoder of SPEC §14, in the same counts per joint radian). Little-endian, as on the wire.
 inline constexpr std::size_t kDriveRxBytes = 8;
-inline constexpr std::size_t kDriveTxBytes = 12;
+inline constexpr std::size_t kDriveTxBytes = 16;
 // The distance sensor's TxPDO 0x1A00: 0x6000:01 separation in mm (INT32, little-endian),
 // 0x6000:02 valid (BOOL, bit 32), 7 bits padding.
 inline constexpr std::size_t kDistanceBytes = 5;
@@ -196,7 +200,8 @@ class EmulatedCell {
   [[nodiscard]] const Reaction& reaction() const noexcept { return reaction_; }
   // Outputs dropped by the subdevices themselves (issue 22 item 3): while no process data
   // arrives (the master died), the time from the last exchange to the plant seeing the
-  // contactor output open and the last drive's enable (controlword bit 3) gone, as the
+  // power path's output open (K1 or K2, SPEC §14) and the last drive's enable (controlword
+  // bit 3) gone, as the
   // subdevices' process-data watchdogs put their outputs in the safe state. Cleared when
   // an exchange closes the contactor again.
   struct OutputDrop {
