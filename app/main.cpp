@@ -230,6 +230,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   check->add_option("--out", check_opt.out_dir, "folder for a counterexample .scn");
   check->add_flag("-v,--verbose", check_opt.verbose, "print progress per depth");
+  check->add_flag("--pair", check_opt.pair,
+                  "SPEC 14: explore two channels in lock-step and, at every configuration with a contactor closed, "
+                  "freeze each channel in turn before each demand (the other must open its contactor within "
+                  "cross_check_cycles + 1 cycles)");
   check->add_flag("--break-invariant", check_opt.break_invariant,
                   "test the checker: demand a wrong state after an E-stop (must find a counterexample)");
   std::string check_replay;

@@ -326,6 +326,8 @@ class Checker {
   void report(std::size_t trail, const std::string& line, core::Cycle t, const Violation& v, std::size_t config);
   bool limits(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v);
   bool collaborative(Node& n, const core::SupervisorOut& before, bool reset_ok, Violation& v);
+  bool frozen_pair(const Node& n, std::string& lines, Violation& v);
+  [[nodiscard]] std::uint8_t channels() const noexcept { return opt_.pair ? 2U : 1U; }
 
   CheckOptions opt_;
   CheckStats& stats_;
@@ -363,7 +365,7 @@ bool Checker::step(Node& n, const Node* baseline, std::uint32_t cmd_seq, Violati
     v = {"power only in ARMING, OPERATIONAL or STOPPING", to_string(o.state), "contactor=open drives=disabled brakes=engaged", t};
     return false;
   }
-  if (opt_.break_invariant && in.estop_pressed && o.state != State::IDLE) {
+  if (opt_.break_invariant && !opt_.pair && in.estop_pressed && o.state != State::IDLE) {
     v = {"(deliberately wrong, --break-invariant) E-stop pressed => IDLE", to_string(o.state), "state=IDLE", t};
     return false;
   }
@@ -775,7 +777,8 @@ std::string Checker::replay(const scenario::Scenario& s, std::size_t extra, std:
   const Configuration& cfg = configurations()[config];
   reference::Limits rl = ref_limits(cfg, s.config.cycle_us);
   rl.validated = s.safety_validated;
-  Node n{std::make_unique<sim::Cell>(s.config), reference::Supervisor{core::to_timing(s.config), rl}, {}, 0};
+  Node n{std::make_unique<sim::Cell>(s.config, nullptr, s.channels), reference::Supervisor{core::to_timing(s.config), rl},
+         {}, 0};
   n.cell->configure_limits(cfg.loaded.limits, s.safety_validated);
   n.lim.config = config;
   n.lim.validated = s.safety_validated;
@@ -801,6 +804,72 @@ std::string Checker::replay(const scenario::Scenario& s, std::size_t extra, std:
   return {};
 }
 
+// SPEC §14 (issue 36 item 8): one channel frozen at this configuration, each demand after it.
+// A stalled channel's outputs stay as it last wrote them (its contactor too); the other must
+// find it lost and open its own contactor (K1: A, K2: B) within cross_check_cycles + 1
+// cycles, whatever the demand, and be in a safe state. `lines`: the fault and the demand as
+// .scn lines for a counterexample (after the configuration's trail).
+bool Checker::frozen_pair(const Node& n, std::string& lines, Violation& v) {
+  if (!opt_.pair || !(n.cell->contactor_command(0) || n.cell->contactor_command(1))) {
+    return true;  // one channel, or nothing to open
+  }
+  static const std::vector<std::pair<std::string, scenario::Directive>> demands = [] {
+    std::vector<std::pair<std::string, scenario::Directive>> d;
+    for (const char* t : {"", "in estop=pressed", "in gate=open", "in enable=released", "fault drive 2 runaway"}) {
+      const std::string text(t);
+      d.emplace_back(text, text.empty() ? scenario::Directive{scenario::InputStep{}}
+                                        : scenario::parse("@0 " + text + "\n", "check").scenario.steps.at(0).what);
+    }
+    return d;
+  }();
+  const core::Cycle t = n.cell->now();
+  // --break-invariant (testing the checker): one cycle, too few for any cross-check.
+  const core::Cycle bound =
+      opt_.break_invariant ? 1U : static_cast<core::Cycle>(n.cell->config().cross_check_cycles) + 1U;
+  for (std::size_t x = 0; x < 2U; ++x) {
+    const std::size_t other = 1U - x;
+    const char* name = (x == 0U) ? "A" : "B";
+    for (const auto& [text, what] : demands) {
+      sim::Cell c(*n.cell);
+      c.inject(vocab::Fault{vocab::FaultKind::channel_stall, static_cast<std::uint8_t>(x + 1U), 0});
+      if (const auto* in = std::get_if<scenario::InputStep>(&what)) {
+        scenario::apply(*in, c.inputs());
+      } else if (const auto* f = std::get_if<scenario::FaultStep>(&what)) {
+        c.inject(f->fault);
+      }
+      for (core::Cycle i = 0; i < bound; ++i) {
+        c.step();
+        ++stats_.cycles;
+      }
+      ++stats_.frozen;
+      ++stats_.checks;
+      // The deciding channel opens its contactor in the cycle it decides; its supervisor names
+      // the lockout in the next (SPEC §14; controller::Cell::step).
+      const bool open = !c.contactor_command(other);
+      core::Leaf leaf = c.channel(other).leaf();
+      if (open) {
+        c.step();
+        ++stats_.cycles;
+        leaf = c.channel(other).leaf();
+      }
+      const bool safe_state = leaf == core::Leaf::ERROR_LOCKOUT || leaf == core::Leaf::ESTOP_ACTIVE;
+      if (!open || !safe_state) {
+        const char* ch = (other == 0U) ? "a" : "b";
+        lines = std::string("fault channel ") + name + " stall" + (text.empty() ? "" : "\n@" + std::to_string(t) + " " + text);
+        v = {std::string("one channel frozen (channel ") + name + " stall), every demand: the other's contactor open "
+                 "within cross_check_cycles + 1 cycles and the other in ERROR_LOCKOUT or ESTOP_ACTIVE the cycle after",
+             std::string("channel ") + (other == 0U ? "A" : "B") + " in " + core::to_string(leaf) +
+                 (open ? "" : ", its contactor still commanded closed"),
+             open ? std::string("channel.") + ch + "=ERROR_LOCKOUT"
+                  : std::string("contactor.") + (other == 0U ? "k1" : "k2") + "=open",
+             open ? t + bound : t + bound - 1U};  // the fault at t, then cycles t, t + 1, ...
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 int Checker::run() {
   trails_.push_back(Trail{0, "", 0});  // the root
   std::unordered_set<std::string> seen;
@@ -808,7 +877,7 @@ int Checker::run() {
   for (const Seed& sd : seeds()) {
     const Configuration& cfg = configurations()[sd.config];
     const core::Config cc{};
-    Node n{std::make_unique<sim::Cell>(cc),
+    Node n{std::make_unique<sim::Cell>(cc, nullptr, channels()),
            reference::Supervisor{core::to_timing(cc), ref_limits(cfg, cc.cycle_us)}, {}, 0};
     n.cell->configure_limits(cfg.loaded.limits, cfg.validated);
     n.lim.config = sd.config;
@@ -816,6 +885,11 @@ int Checker::run() {
     Violation v;
     if (!run_seed(sd, n, v)) {
       report(n.trail, "", n.cell->now(), v, n.lim.config);
+      return 1;
+    }
+    std::string lines;
+    if (!frozen_pair(n, lines, v)) {
+      report(n.trail, lines, n.cell->now(), v, n.lim.config);
       return 1;
     }
     if (seen.insert(key_of(*n.cell)).second) {
@@ -874,6 +948,12 @@ int Checker::run() {
           trails_.push_back(Trail{n.trail, line, t});
           child.trail = trails_.size() - 1U;
           ++stats_.configurations;
+          std::string frozen_lines;
+          if (!frozen_pair(child, frozen_lines, v)) {
+            report(child.trail, frozen_lines, child.cell->now(), v, n.lim.config);
+            stats_.max_depth = depth + 1;
+            return 1;
+          }
           // Kept only to be explored further: at the last depth a configuration is counted
           // (and its key merges the others), but its cell is not stored (a third of the
           // memory of a run was the last frontier, never used).
@@ -914,6 +994,11 @@ int check_main(const CheckOptions& opt, CheckStats& stats) {
   if (stats.dropped > 0U) {
     std::printf("%zu configurations found beyond --max-configs %zu were not explored further\n", stats.dropped,
                 opt.max_configs);
+  }
+  if (opt.pair) {
+    std::printf("the pair (SPEC 14): %zu runs with one channel frozen before a demand (2 channels x 5 demands at every "
+                "configuration with a contactor closed)%s\n",
+                stats.frozen, rc == 0 ? ": the other opened its contactor in each" : "");
   }
   return rc;
 }

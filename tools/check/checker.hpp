@@ -34,8 +34,18 @@ struct CheckOptions {
   std::string out_dir = ".";          // where a counterexample .scn is written
   bool verbose = false;
   // For testing the checker itself: demand IDLE (instead of ESTOP_ACTIVE) after an
-  // E-stop, so that a violation, its counterexample and its replay can be shown.
+  // E-stop (with `pair`: the frozen channel's partner's contactor open within one cycle),
+  // so that a violation, its counterexample and its replay can be shown.
   bool break_invariant = false;
+  // SPEC §14 (`--pair`): explore the pair (channels A and B in lock-step, K1 from A, K2
+  // from B) and, at every reachable configuration where a contactor is commanded closed,
+  // freeze each channel in turn (`channel X stall`) and apply each demand (none, the E-stop,
+  // the guard, the enabling device released, a runaway): the other channel must command its
+  // contactor open within cross_check_cycles + 1 cycles and be in ERROR_LOCKOUT or
+  // ESTOP_ACTIVE the cycle after (its supervisor names the lockout the cycle after the
+  // cross-check opened the contactor). The reference stays the oracle of each channel (they
+  // agree while healthy).
+  bool pair = false;
 };
 
 struct CheckStats {
@@ -46,6 +56,7 @@ struct CheckStats {
   std::size_t max_depth = 0;
   std::size_t dropped = 0;         // configurations not explored further for --max-configs
   bool complete = false;           // the reachable set was exhausted within the bounds
+  std::size_t frozen = 0;          // --pair: (configuration, channel, demand) runs with one channel frozen
 };
 
 // Returns 0 when every invariant held, 1 on a violation (counterexample written), 2 on
