@@ -538,8 +538,14 @@ def m4cycle_section(k):
             f"| 16 zones (14 keep_out, 1 keep_in, 1 reduced) and an orientation cone | {k['zones16']:,} | +{k['zones16'] - k['baseline']:,} |",
             *([f"| the same, every zone tested every cycle (joint 1 jumps 1 rad per cycle) | {k['zones16_all']:,} | "
                f"+{k['zones16_all'] - k['baseline']:,} |"] if "zones16_all" in k else []),
+            *([f"| built-in configuration and the SPEC §14 cross-check (this channel's digest made and sent, the "
+               f"partner's received and compared field by field) | {k['crosscheck']:,} | +{k['crosscheck'] - k['baseline']:,} "
+               f"(the cross-check alone: +{k['crosscheck'] - k['zones0']:,}) |"] if "crosscheck" in k else []),
             "", f"Per zone (16 zones against none, the orientation cone included): {per_zone:.0f} instructions"
             + (f"; tested every cycle: {(k['zones16_all'] - k['zones0']) / 16.0:.0f}." if "zones16_all" in k else "."), "",
+            *([f"Two channels (SPEC §14, docs/two-channels.md): on two MCUs each runs one channel and the cross-check, "
+               f"{k['crosscheck']:,} instructions per cycle each ({100.0 * (k['crosscheck'] - k['zones0']) / k['zones0']:.1f} % "
+               f"more than one channel alone); both on one MCU, {2 * k['crosscheck']:,}.", ""] if "crosscheck" in k else []),
             "Where the monitors' cost goes (per-function counts of the same QEMU log, mapped with `nm`): the core's",
             "own forward kinematics (`core/src/arm.cpp`: its sine and cosine are a Cody-Waite reduction and Taylor",
             "polynomials, not newlib's `sinf`/`cosf`; identity rotations, shifts along one axis and joint axes",
@@ -776,6 +782,9 @@ def main():
     if sys.argv[1:] == ["--faults"]:  # only the fault-injection campaign (issue 36 item 7)
         faults()
         return
+    if sys.argv[1:] == ["--pair-faults"]:  # only the real-time faults of one channel's process (issue 36 item 7)
+        pair_faults()
+        return
     if sys.argv[1:] == ["--ros2"]:  # only the ROS 2 adapter's latency (issue 39)
         ros2()
         return
@@ -801,6 +810,8 @@ def main():
             ros2("--render")
         if os.path.exists(os.path.join(OUT, "faults.json")):
             faults("--render")
+        if os.path.exists(os.path.join(OUT, "pair_faults.json")):
+            pair_faults("--render")
         return
     r = {"machine": machine()}
     rows = json.loads(run([os.path.join(BIN, "gen_docs"), "--rows-json"]))
@@ -834,6 +845,7 @@ def main():
     opcua()  # likewise: its goal row and section
     ros2()  # likewise
     faults()  # likewise
+    pair_faults()  # likewise
 
 
 def response_time():
@@ -871,6 +883,12 @@ def faults(*args):
     """Issue 36 item 7: the section "Fault injection (SPEC §14): two channels against one" of
     docs/performance.md (bench/faults.py, about a minute)."""
     subprocess.run([sys.executable, os.path.join(ROOT, "bench", "faults.py"), *args], check=True, cwd=ROOT)
+
+
+def pair_faults(*args):
+    """Issue 36 item 7: the section "Real-time faults of one channel (SPEC §14)" of docs/performance.md
+    (bench/pair_faults.py, about four minutes)."""
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "pair_faults.py"), *args], check=True, cwd=ROOT)
 
 
 def ros2(*args):

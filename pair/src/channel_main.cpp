@@ -216,6 +216,7 @@ int main(int argc, char** argv) {
     report.verdict = cell->cross_check().verdict();
     report.integrity_fault = cell->platform().self_test_ok() ? 0U : 1U;
     const std::uint64_t exec = pair::now_ns() - t0;
+    report.exec_ns = exec;
     report.exec_ns_max = exec > report.exec_ns_max ? exec : report.exec_ns_max;
     mine->reports[f.cycle % pair::kFrames].write(report);
     mine->reported.store(f.cycle, std::memory_order_release);

@@ -8,11 +8,15 @@
 //   3  as 2, but joint 1 jumps by 1 rad every cycle: more than the zone monitor's
 //      kMaxStepMm, so no zone is ever skipped as provably far (every zone tested every
 //      cycle: the worst case of the zones that the arm does not reach)
+//   4  as 1, and the SPEC §14 cross-check after every cycle: the channel's digest made and
+//      sent, the partner's received and compared (here its own digest back over a loopback
+//      link: a healthy pair, every field compared); 4 minus 1 is the cross-check's own cost
 // Two runs of different lengths give the cost per cycle without start-up. Exits through
 // ARM semihosting (SYS_EXIT). Bench only: never linked into a product image.
 #include <cstdint>
 
 #include "safestate/controller/controller.hpp"
+#include "safestate/controller/cross_check.hpp"
 
 using namespace safestate;
 
@@ -28,6 +32,46 @@ namespace {
 controller::Controller g_controller{core::Config{}, motion::kRobot};
 hal::ProcessImageIn g_in{};
 hal::ProcessImageOut g_out{};
+
+}  // namespace
+
+// No heap on the target (the image is linked without one): a class with a virtual destructor
+// (controller::Link) has a deleting destructor that names operator delete; nothing here ever
+// deletes one, so these stop the board if they were ever reached.
+void operator delete(void*) noexcept {
+  for (;;) {
+  }
+}
+void operator delete(void*, std::size_t) noexcept {
+  for (;;) {
+  }
+}
+
+namespace {
+
+// Mode 4's link: what is sent comes back (the partner's digest equals this channel's). A UART or
+// SPI link to a second MCU implements the same interface (controller/cross_check.hpp).
+class Loopback final : public controller::Link {
+ public:
+  void send(const controller::Digest& d) noexcept override {
+    d_ = d;
+    full_ = true;
+  }
+  bool receive(controller::Digest& d) noexcept override {
+    if (!full_) {
+      return false;
+    }
+    d = d_;
+    full_ = false;
+    return true;
+  }
+
+ private:
+  controller::Digest d_{};
+  bool full_ = false;
+};
+Loopback g_link;
+controller::CrossCheck g_cross{core::Config{}.cross_check_cycles};
 
 core::Zone box(char tag, core::ZoneKind kind, float x, float y, float z, float half) {
   core::Zone b{};
@@ -72,7 +116,7 @@ core::SafetyLimits limits(int zones) {
 
 void bench() {
   if (BENCH_LIMITS > 0) {
-    g_controller.configure_limits(limits(BENCH_LIMITS >= 2 ? 16 : 0), true);
+    g_controller.configure_limits(limits((BENCH_LIMITS == 2 || BENCH_LIMITS == 3) ? 16 : 0), true);
   }
   for (auto& d : g_in.drive) {
     d.statusword = 0x0040U;  // Switch on disabled
@@ -89,6 +133,9 @@ void bench() {
       g_in.drive[0].position_rad += 1.0F;
     }
     g_controller.step(g_in, nullptr, 0, g_out);
+    if (BENCH_LIMITS == 4) {
+      static_cast<void>(g_cross.step(controller::make_digest(c, c, g_controller.status()), g_link));
+    }
   }
 }
 

@@ -41,7 +41,7 @@
 namespace safestate::pair {
 
 inline constexpr std::uint32_t kMagic = 0x53535043U;  // "SSPC"
-inline constexpr std::uint32_t kVersion = 1U;
+inline constexpr std::uint32_t kVersion = 2U;
 inline constexpr std::size_t kLaneSlots = 16;  // digests kept for a reader that fell behind
 // Frames kept for a channel that fell behind: it runs every one of them, in order (a channel
 // that skipped a frame would run its timers a cycle behind the other's). One that falls
@@ -90,6 +90,7 @@ struct Report {
   controller::CrossVerdict verdict{};
   std::uint32_t integrity_fault = 0;  // the channel's self-test failed (INTEGRITY_FAULT)
   std::uint64_t exec_ns_max = 0;      // the longest step so far (the channel's own clock)
+  std::uint64_t exec_ns = 0;          // this step's (its cross-check included): the cost benches
   // The longest time from a frame's publication to this channel starting on it, and the
   // frame: how long the host's scheduler kept this channel from running (a channel found
   // lost with a figure of cross_check_cycles or more here was not run, docs/two-channels.md).
