@@ -123,6 +123,13 @@ def test_topics_types_qos_and_services_as_documented(ros):
     assert level(diag_status(d, "fieldbus")) == OK
     values = {kv.key: kv.value for kv in diag_status(d, "safety configuration").values}
     assert values["checksum"] == m.config_checksum and values["validated"] == "true", values
+    # SPEC §14: `safestate run` runs two channels; one status each, agreeing, named by compiler
+    # (B is Clang's; A is this tree's compiler: GCC, or Clang in the sanitizer and coverage trees).
+    for name, compilers in (("A", ("gcc", "clang")), ("B", ("clang",))):
+        s = diag_status(d, "channel " + name)
+        assert s is not None, f"no diagnostics for channel {name}: {[x.name for x in d.status]}"
+        kv = {x.key: x.value for x in s.values}
+        assert level(s) == OK and kv["compiler"] in compilers and kv["agree"] == "true" and kv["running"] == "true", kv
 
 
 def sockets(pid):

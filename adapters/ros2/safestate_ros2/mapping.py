@@ -380,12 +380,14 @@ def diagnostics(status, alarm_info=None):
 
 
 def channel_diagnostics(status, active, info):
-    """One status per channel when the status carries `channels` (SPEC §14, issue 36: two
-    channels A and B, each with its state, cycle, last digest and whether they agree); none
-    for a one-channel core. A channel that does not agree, is lost, or is not in the state the
-    status reports is an ERROR; CHANNEL_MISMATCH / CHANNEL_LOST go to every channel."""
+    """One status per channel when the status carries more than one in `channels` (SPEC §14:
+    channels A and B in processes of their own, each with its compiler, pid, whether its process
+    runs and answered this cycle, its state, cycle, last digest, whether it agrees with the
+    other and the first field that differed: GET /api/status); none for a one-channel core. A
+    channel that does not agree or whose process has ended is an ERROR, one not in the state the
+    status reports a WARN; CHANNEL_MISMATCH / CHANNEL_LOST go to every channel."""
     chans = status.get("channels")
-    if not isinstance(chans, list):
+    if not isinstance(chans, list) or len(chans) < 2:
         return []
     out = []
     for i, c in enumerate(chans):
@@ -393,13 +395,17 @@ def channel_diagnostics(status, active, info):
             continue
         name = _str(c.get("name")) or _str(c.get("id")) or ("AB"[i] if i < 2 else str(i + 1))
         level = OK
-        bad = c.get("agree") is False or c.get("lost") is True or c.get("ok") is False
+        bad = c.get("agree") is False or c.get("running") is False
         if bad:
             level = ERROR
         elif isinstance(c.get("state"), str) and c.get("state") != status.get("state"):
             level = WARN
         values = [(k, v) for k, v in c.items() if isinstance(v, (str, int, float, bool)) or v is None]
         msg = ", ".join(f"{k} {_fmt(c[k])}" for k in ("state", "cycle", "digest", "agree") if k in c) or "reported"
+        if c.get("running") is False:
+            msg = "process ended; " + msg
+        if isinstance(c.get("differs_in"), str):
+            msg += f", differs in {c['differs_in']}"
         out.append(_function_status(f"channel {name}", CHANNEL_ALARMS, active, info, level, msg, values))
     return out
 

@@ -161,6 +161,19 @@ def test_one_status_per_channel_when_the_status_has_two():
     d = by_name(mapping.diagnostics(status(channels=[{"state": "OPERATIONAL", "agree": True}, {"state": "IDLE"}])))
     assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.WARN
     assert "channel A" not in by_name(mapping.diagnostics(status()))
+    # GET /api/status's channel fields (SPEC §14 as built): a process that ended is an ERROR,
+    # the first field that differed is in the message; one channel publishes no channel status.
+    a = {"name": "A", "compiler": "gcc", "pid": 11, "running": True, "answered": True, "state": "ERROR_LOCKOUT",
+         "cycle": 5000, "digest": "9F00AA01", "agree": False, "differs_in": "state", "missing": 0, "late": 0}
+    b = dict(a, name="B", compiler="clang", pid=12, running=False, answered=False, differs_in=None)
+    d = by_name(mapping.diagnostics(status(channels=[a, b])))
+    assert d["channel A"]["level"] == mapping.ERROR and d["channel A"]["message"].endswith("differs in state")
+    assert d["channel B"]["level"] == mapping.ERROR and d["channel B"]["message"].startswith("process ended")
+    assert ("compiler", "clang") in d["channel B"]["values"] and ("pid", "12") in d["channel B"]["values"]
+    healthy = [dict(a, agree=True, differs_in=None, state="IDLE"), dict(b, running=True, answered=True, agree=True, state="IDLE")]
+    d = by_name(mapping.diagnostics(status(channels=healthy, state="IDLE")))
+    assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.OK
+    assert "channel A" not in by_name(mapping.diagnostics(status(channels=[dict(a, agree=True)])))
 
 
 # ------------------------------------------------------------------ events
