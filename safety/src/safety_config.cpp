@@ -727,6 +727,15 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   if (doc.contains("collaborative")) {
     Collaborative c;
     check_collaborative(doc.at("collaborative"), tcp_max.value_or(kMaxTcpSpeedMmS), ck, c);
+    // PFL's collision detection compares the drives' torques with the core's model of the arm's
+    // dynamics, which is the IRB 120's (core/include/safestate/core/dynamics.hpp): on another
+    // arm it would judge contact forces from the wrong masses, so it is refused there.
+    if (c.pfl && c.pfl->enabled && !safestate::robot::is_builtin(*cfg.robot.robot)) {
+      ck.add("collaborative.pfl.enabled",
+             "power and force limiting needs the core's collision model, which is the IRB 120's (its link masses and "
+             "inertias); with robot " + cfg.robot.robot->d.name +
+                 " leave it off (docs/robot.md, \"Not yet general\"; SSM and the protective fields work on any arm)");
+    }
     cfg.collaborative = c;
   }
   if (doc.contains("brake_test")) {

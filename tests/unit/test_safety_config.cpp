@@ -602,6 +602,32 @@ TEST(SafetyRobot, TheKeysUrdfIsCheckedAndItsParametersAreInTheChecksum) {
   EXPECT_EQ(other.errors.front().path, "robot.parameters");
 }
 
+// The core's collision model (PFL) is the IRB 120's: on another arm PFL is refused, naming it,
+// while SSM and the fields are not.
+TEST(SafetyRobot, PflIsRefusedOnAnArmThatIsNotTheCollisionModels) {
+  const std::string dir = kSource + "/examples/robots";
+  const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-irb120-other.urdf";
+  std::string text = slurp(dir + "/abb_irb120.urdf");
+  const std::string from = "<origin xyz=\"0 0 0.27\" rpy=\"0 0 0\"/>";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "<origin xyz=\"0 0 0.30\" rpy=\"0 0 0\"/>");
+  std::ofstream(tmp) << text;
+  const auto with_collab = [&](const std::string& urdf, bool pfl) {
+    json d = json::parse(with_robot(R"({"urdf": ")" + urdf + R"("})"));
+    d["collaborative"] = json::parse(std::string(R"({"enabled": true, "reduced_speed_mm_s": 200, "pfl": {"enabled": )") +
+                                     (pfl ? "true" : "false") + R"(, "body_region": "hand", "robot_mass_kg": 25}})");
+    return parse_safety(d.dump(), dir);
+  };
+  const Result other = with_collab(tmp.string(), true);
+  ASSERT_FALSE(other.ok());
+  EXPECT_EQ(other.errors.front().path, "collaborative.pfl.enabled");
+  EXPECT_NE(other.errors.front().message.find("the IRB 120's"), std::string::npos) << other.errors.front().message;
+  EXPECT_TRUE(with_collab(tmp.string(), false).ok()) << "PFL off: the rest of §11 on any arm";
+  const Result irb = with_collab("abb_irb120.urdf", true);
+  EXPECT_TRUE(irb.ok()) << (irb.errors.empty() ? "" : irb.errors.front().text());
+  std::filesystem::remove(tmp);
+}
+
 TEST(SafetyRobot, ABrokenUrdfIsAnErrorOfTheRobotKey) {
   const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-prismatic.urdf";
   std::string text = slurp(kSource + "/examples/robots/abb_irb120.urdf");
