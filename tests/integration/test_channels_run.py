@@ -35,25 +35,37 @@ def proc_state(pid):
 
 # @req CH-PAIR CH-PROCESSES
 def test_both_channels_run_and_agree_in_the_status(tmp_path):
-    s = SafeState(tmp_path, pair_as_shipped=True)
-    try:
-        time.sleep(0.5)
-        st = get_json(s.port, "/api/status")
-        ch = st["channels"]
-        assert [c["name"] for c in ch] == ["A", "B"], ch
-        assert [c["compiler"] for c in ch] == ["gcc", "clang"], ch
-        assert ch[0]["pid"] != ch[1]["pid"] and st["core_pid"] not in (ch[0]["pid"], ch[1]["pid"]), (ch, st["core_pid"])
-        for c in ch:
-            assert c["running"] and c["agree"] and c["state"] == "ESTOP_RESET_NEEDED", c
-            assert c["differs_in"] is None and c["skipped"] == 0, c
-            assert os.path.exists(f"/proc/{c['pid']}"), c
-        assert ch[0]["digest"] == ch[1]["digest"] or abs(ch[0]["cycle"] - ch[1]["cycle"]) <= 2, ch
-        assert st["contactors"] == {"k1": "open", "k2": "open"}, st["contactors"]
-        out = s.output()
-        assert "safestate-channel A: GCC build" in out and "safestate-channel B: Clang build" in out, out
-        assert "two channels (SPEC §14)" in out, out
-    finally:
-        stop(s)
+    for attempt in range(2):
+        where = tmp_path / f"attempt{attempt}"
+        where.mkdir()
+        s = SafeState(where, pair_as_shipped=True)
+        try:
+            time.sleep(0.5)
+            # A start the host stalled past the 2-cycle window is CHANNEL_LOST with the evidence
+            # on record (stalled_before_the_fault): started again, once. Anything else fails.
+            if attempt == 0 and stalled_before_the_fault(s):
+                continue
+            both_agree(s)
+            return
+        finally:
+            stop(s)
+
+
+def both_agree(s):
+    st = get_json(s.port, "/api/status")
+    ch = st["channels"]
+    assert [c["name"] for c in ch] == ["A", "B"], ch
+    assert [c["compiler"] for c in ch] == ["gcc", "clang"], ch
+    assert ch[0]["pid"] != ch[1]["pid"] and st["core_pid"] not in (ch[0]["pid"], ch[1]["pid"]), (ch, st["core_pid"])
+    for c in ch:
+        assert c["running"] and c["agree"] and c["state"] == "ESTOP_RESET_NEEDED", f"{c} (alarms {st['alarms']})"
+        assert c["differs_in"] is None and c["skipped"] == 0, f"{c}"
+        assert os.path.exists(f"/proc/{c['pid']}"), c
+    assert ch[0]["digest"] == ch[1]["digest"] or abs(ch[0]["cycle"] - ch[1]["cycle"]) <= 2, ch
+    assert st["contactors"] == {"k1": "open", "k2": "open"}, st["contactors"]
+    out = s.output()
+    assert "safestate-channel A: GCC build" in out and "safestate-channel B: Clang build" in out, out
+    assert "two channels (SPEC §14)" in out, out
 
 
 def test_one_channel_for_comparison(tmp_path):
