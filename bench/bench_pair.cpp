@@ -74,6 +74,54 @@ struct Pace {
   }
 };
 
+// The two channel programs on the simulated world, as `safestate run` starts them (A on CPU 0,
+// B on CPU 1, SCHED_FIFO above the host), stepped on the 1 ms clock.
+struct Rig {
+  core::Config cfg{};
+  sim::Cell world{cfg, nullptr, 2};
+  pair::ChannelPair pair{cfg, world.world_port()};
+  Pace pace;
+  std::uint32_t seq = 0;
+
+  bool start(const std::string& exe_a, const std::string& exe_b, const std::string& tag) {
+    pair::PairOptions po;
+    po.exe_a = exe_a;
+    po.exe_b = exe_b;
+    po.shm_base = "/safestate-bench-pair-" + std::to_string(getpid()) + "-" + tag;
+    po.cpu_a = 0;
+    po.cpu_b = (std::thread::hardware_concurrency() > 1U) ? 1 : 0;
+    po.priority = kChannelPriority;
+    std::string err;
+    if (!pair.start(po, robot::active().model, safety::default_safety().limits, true, core::BrakeTestHistory{},
+                    err)) {
+      std::fprintf(stderr, "bench_pair: %s\n", err.c_str());
+      return false;
+    }
+    pace = Pace{};
+    cycles(300);  // BOOT
+    return true;
+  }
+  void step() {
+    pace.wait();
+    pair.step();
+  }
+  void cycles(int n) {
+    for (int i = 0; i < n; ++i) step();
+  }
+  void command(core::CommandId id) {
+    core::Command c{};
+    c.source = static_cast<std::uint8_t>(core::Source::pendant);
+    c.seq = ++seq;
+    c.id = static_cast<std::uint8_t>(id);
+    static_cast<void>(pair.submit(c));
+  }
+  // What the pair is in when a run did not get where it should.
+  void say_where(const char* what) {
+    std::fprintf(stderr, "bench_pair: %s (state %s, alarms %llx)\n", what, core::to_string(pair.out().state),
+                 static_cast<unsigned long long>(pair.alarms().mask()));
+  }
+};
+
 // The cross-check alone: this channel's digest made and sent, the partner's (its twin, over a
 // loopback) received and compared, `n` times; nanoseconds per cycle.
 class Loopback final : public controller::Link {
@@ -116,51 +164,23 @@ struct Steady {
 
 // The pair running the demo program in AUTO for `cycles` cycles on the 1 ms clock.
 bool steady(const std::string& exe_a, const std::string& exe_b, int cycles, Steady& s) {
-  core::Config cfg{};
-  sim::Cell world(cfg, nullptr, 2);
-  pair::ChannelPair p(cfg, world.world_port());
-  pair::PairOptions po;
-  po.exe_a = exe_a;
-  po.exe_b = exe_b;
-  po.shm_base = "/safestate-bench-pair-" + std::to_string(getpid()) + "-steady";
-  po.cpu_a = 0;
-  po.cpu_b = (std::thread::hardware_concurrency() > 1U) ? 1 : 0;
-  po.priority = kChannelPriority;
-  std::string err;
-  if (!p.start(po, robot::active().model, safety::default_safety().limits, true, core::BrakeTestHistory{}, err)) {
-    std::fprintf(stderr, "bench_pair: %s\n", err.c_str());
-    return false;
-  }
-  Pace pace;
-  for (int i = 0; i < 300; ++i) {
-    pace.wait();
-    p.step();
-  }
-  core::Command c{};
-  c.source = static_cast<std::uint8_t>(core::Source::pendant);
+  Rig r;
+  if (!r.start(exe_a, exe_b, "steady")) return false;
   for (const core::CommandId id : {core::CommandId::reset, core::CommandId::servo_on, core::CommandId::start}) {
-    c.seq += 1U;
-    c.id = static_cast<std::uint8_t>(id);
-    static_cast<void>(p.submit(c));
-    for (int i = 0; i < 1500; ++i) {
-      pace.wait();
-      p.step();
-    }
+    r.command(id);
+    r.cycles(1500);
   }
-  const bool running = p.out().sub == core::Sub::AUTO_RUNNING;
+  const bool running = r.pair.out().sub == core::Sub::AUTO_RUNNING;
   for (int i = 0; running && i < cycles; ++i) {
-    pace.wait();
+    r.pace.wait();
     const Clock::time_point t0 = Clock::now();
-    p.step();
+    r.pair.step();
     s.host_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
-    s.a_us.push_back(static_cast<double>(p.report(0).exec_ns) * 1e-3);
-    s.b_us.push_back(static_cast<double>(p.report(1).exec_ns) * 1e-3);
+    s.a_us.push_back(static_cast<double>(r.pair.report(0).exec_ns) * 1e-3);
+    s.b_us.push_back(static_cast<double>(r.pair.report(1).exec_ns) * 1e-3);
   }
-  p.stop();
-  if (!running) {
-    std::fprintf(stderr, "bench_pair: the steady run did not reach AUTO_RUNNING (state %s, alarms %llx)\n",
-                 core::to_string(p.out().state), static_cast<unsigned long long>(p.alarms().mask()));
-  }
+  if (!running) r.say_where("the steady run did not reach AUTO_RUNNING");
+  r.pair.stop();
   return running;
 }
 
@@ -171,48 +191,22 @@ void print_dist(const char* name, const std::vector<double>& v) {
 
 Trial run_trial(const Kind& k, const std::string& exe_a, const std::string& exe_b, std::mt19937& rng, int n) {
   Trial t;
-  core::Config cfg{};
-  sim::Cell world(cfg, nullptr, 2);
-  pair::ChannelPair p(cfg, world.world_port());
-  pair::PairOptions po;
-  po.exe_a = exe_a;
-  po.exe_b = exe_b;
-  po.shm_base = "/safestate-bench-pair-" + std::to_string(getpid()) + "-" + std::to_string(n);
-  po.cpu_a = 0;
-  po.cpu_b = (std::thread::hardware_concurrency() > 1U) ? 1 : 0;
-  po.priority = kChannelPriority;
-  std::string err;
-  if (!p.start(po, robot::active().model, safety::default_safety().limits, true, core::BrakeTestHistory{}, err)) {
-    std::fprintf(stderr, "bench_pair: %s\n", err.c_str());
-    return t;
-  }
-  Pace pace;
-  const auto step = [&] {
-    pace.wait();
-    p.step();
-  };
-  for (int i = 0; i < 300; ++i) step();
-  core::Command c{};
-  c.source = static_cast<std::uint8_t>(core::Source::pendant);
-  c.seq = 1;
-  c.id = static_cast<std::uint8_t>(core::CommandId::reset);
-  static_cast<void>(p.submit(c));
-  for (int i = 0; i < 20; ++i) step();
-  c.seq = 2;
-  c.id = static_cast<std::uint8_t>(core::CommandId::servo_on);
-  static_cast<void>(p.submit(c));
-  for (int i = 0; i < 3000 && p.out().state != core::State::OPERATIONAL; ++i) step();
+  Rig r;
+  if (!r.start(exe_a, exe_b, std::to_string(n))) return t;
+  pair::ChannelPair& p = r.pair;
+  r.command(core::CommandId::reset);
+  r.cycles(20);
+  r.command(core::CommandId::servo_on);
+  for (int i = 0; i < 3000 && p.out().state != core::State::OPERATIONAL; ++i) r.step();
   const std::size_t other = 1U - k.victim;
   if (p.out().state != core::State::OPERATIONAL || !p.report(other).out.contactor) {
-    std::fprintf(stderr, "bench_pair: trial %d did not reach OPERATIONAL (state %s, alarms %llx)\n", n,
-                 core::to_string(p.out().state), static_cast<unsigned long long>(p.alarms().mask()));
+    r.say_where(("trial " + std::to_string(n) + " did not reach OPERATIONAL").c_str());
     p.stop();
     return t;
   }
   t.started = true;
   // A random phase within the next cycle.
-  pace.wait();
-  p.step();
+  r.step();
   std::this_thread::sleep_for(std::chrono::microseconds(std::uniform_int_distribution<int>(0, 900)(rng)));
   const auto pid = static_cast<pid_t>(p.info(k.victim).pid);
   const std::uint64_t from = p.now();
@@ -226,7 +220,7 @@ Trial run_trial(const Kind& k, const std::string& exe_a, const std::string& exe_
     });
   }
   for (int i = 0; i < 60; ++i) {
-    step();
+    r.step();
     if (!t.opened && !p.report(other).out.contactor) {
       t.opened = true;
       t.cycles = p.now() - from;
