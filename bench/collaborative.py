@@ -18,7 +18,7 @@ import os
 import sys
 import time
 
-from common import BIN, OUT, ROOT, machine, put_section, run  # bench/common.py
+from common import BIN, OUT, ROOT, machine, run, write_section  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 SVG_DIR = os.path.join(ROOT, "docs", "collaborative")
@@ -209,11 +209,7 @@ def write(d):
     if tr is not None:
         with open(SVG, "w") as f:
             f.write(svg(tr, d))
-    sec = section(d)
-    text = open(DOC).read() if os.path.exists(DOC) else ""
-    text = put_section(text, TITLE, sec)
-    with open(DOC, "w") as f:
-        f.write(text)
+    write_section(DOC, TITLE, section(d))
     print(f"bench: collaborative section of {os.path.relpath(DOC, ROOT)} and {os.path.relpath(SVG, ROOT)} written")
 
 

@@ -62,6 +62,13 @@ def namespace_bench(doc, prog, prefix, script, count, default, top, inside):
     return in_namespace(prefix, script, args)
 
 
+def write_section(doc, title, sec):
+    """Replaces (or adds, as put_section) the section `title` of the document at `doc` by `sec`."""
+    text = open(doc).read() if os.path.exists(doc) else ""
+    with open(doc, "w") as f:
+        f.write(put_section(text, title, sec))
+
+
 def put_section(text, title, sec):
     """`text` (a Markdown document) with its section `title` replaced by `sec`, or `sec` added
     before "## Footprint" (at the end when there is none). One rule for every bench that

@@ -16,7 +16,7 @@ import os
 import sys
 import time
 
-from common import BIN, OUT, ROOT, machine, put_section, run  # bench/common.py
+from common import BIN, OUT, ROOT, machine, run, write_section  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 TITLE = "## Fault injection (SPEC §14): two channels against one"
@@ -82,12 +82,7 @@ def section(d):
 
 
 def write_doc(d):
-    sec = section(d)
-    with open(DOC) as f:
-        text = f.read()
-    text = put_section(text, TITLE, sec)
-    with open(DOC, "w") as f:
-        f.write(text)
+    write_section(DOC, TITLE, section(d))
     print(f"bench: fault-injection section of {os.path.relpath(DOC, ROOT)} written")
 
 

@@ -15,7 +15,7 @@ import json
 import os
 import sys
 
-from common import BIN, OUT, ROOT, machine, put_section, run  # bench/common.py
+from common import BIN, OUT, ROOT, machine, run, write_section  # bench/common.py
 
 DOC = os.path.join(ROOT, "docs", "performance.md")
 TITLE = "## Real-time faults of one channel (SPEC §14)"
@@ -86,11 +86,7 @@ def section(d):
 
 
 def write_doc(d):
-    with open(DOC) as f:
-        text = f.read()
-    text = put_section(text, TITLE, section(d))
-    with open(DOC, "w") as f:
-        f.write(text)
+    write_section(DOC, TITLE, section(d))
     print(f"bench: real-time channel faults section of {os.path.relpath(DOC, ROOT)} written")
 
 
