@@ -7,7 +7,8 @@
 //
 //   bench_cycle times [--cycles N]            JSON with p50/p99/p99.9/max in ns
 //   bench_cycle callgrind WHAT [--cycles N]   run only WHAT (supervisor-typical,
-//       reference-typical, supervisor-worst, reference-worst, full-typical) between
+//       reference-typical, supervisor-worst, reference-worst, full-typical, and with a
+//       safety configuration supervisor-limits, full-limits) between
 //       callgrind's start/stop instrumentation requests, for `valgrind --tool=callgrind
 //       --instr-atstart=no`: instructions per cycle = Ir / N.
 //   bench_cycle allocs [--cycles N]           heap allocations (operator new) during N full
@@ -26,6 +27,7 @@
 #include <vector>
 
 #include "../tools/reference/reference.hpp"
+#include "safestate/controller/controller.hpp"
 #include "safestate/util/percentile.hpp"
 #include "workload.hpp"
 
@@ -65,6 +67,21 @@ struct Core {
   core::Supervisor s{timing()};
   core::SupervisorOut out{};
   Core() { s.configure_arm(bench::workload_arm(), bench::kWorkloadTcp); }  // as the cell's
+  void step(const Sample& x) {
+    s.step(x.raw, x.fb, x.cmds.data(), x.n, out);
+    keep(out);
+  }
+  [[nodiscard]] core::State state() const { return out.state; }
+};
+// The same supervisor with a safety configuration (bench::cost_limits(): joints, speeds, 16
+// zones and a cone), the arm as the cell's controller gives it: every cell's case.
+struct CoreLimits {
+  core::Supervisor s{timing()};
+  core::SupervisorOut out{};
+  CoreLimits() {
+    s.configure_limits(bench::cost_limits(), controller::Controller::arm_geometry(motion::kRobot), core::Config{}.cycle_us,
+                       true);
+  }
   void step(const Sample& x) {
     s.step(x.raw, x.fb, x.cmds.data(), x.n, out);
     keep(out);
@@ -229,7 +246,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: bench_cycle times [--cycles N]\n"
                "       bench_cycle callgrind supervisor-typical|reference-typical|supervisor-worst|reference-worst|"
-               "full-typical [--cycles N]\n");
+               "full-typical|supervisor-limits|full-limits [--cycles N]\n");
   return 2;
 }
 
@@ -282,8 +299,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   // Modes that run the cell itself need no recorded workload.
-  if (mode == "callgrind" && what == "full-typical") {
+  if (mode == "callgrind" && (what == "full-typical" || what == "full-limits")) {
     sim::Cell cell{core::Config{}};
+    if (what == "full-limits") {
+      cell.configure_limits(bench::cost_limits(), true);
+    }
     bench::Driver d(cell);
     CALLGRIND_START_INSTRUMENTATION;
     for (std::size_t k = 0; k < cycles; ++k) {
@@ -291,6 +311,11 @@ int main(int argc, char** argv) {
       cell.step();
     }
     CALLGRIND_STOP_INSTRUMENTATION;
+    // A series that ends in a lockout measures a stopped cell, not a shift: refuse it.
+    if (cell.out().state == core::State::ERROR_LOCKOUT) {
+      std::fprintf(stderr, "bench_cycle: %s ended in ERROR_LOCKOUT\n", what.c_str());
+      return 1;
+    }
     std::printf("%zu\n", cycles);
     return 0;
   }
@@ -319,16 +344,21 @@ int main(int argc, char** argv) {
   }
   // The recorded workloads, only those the mode uses, each checked to replay faithfully.
   const bool all = mode == "times";
+  const bool limits = what == "supervisor-limits";
   const Trace shift = (all || what.ends_with("-typical")) ? bench::shift(300000) : Trace{};
+  const core::SafetyLimits configured = bench::cost_limits();
+  const Trace shift_limits = limits ? bench::shift(300000, &configured) : Trace{};
   const Trace worst = (all || what.ends_with("-worst")) ? bench::worst() : Trace{};
   if (!replays_faithfully<Core>(shift) || !replays_faithfully<Ref>(shift) || !replays_faithfully<Core>(worst) ||
-      !replays_faithfully<Ref>(worst)) {
+      !replays_faithfully<Ref>(worst) || !replays_faithfully<CoreLimits>(shift_limits)) {
     std::fprintf(stderr, "bench_cycle: a replay does not decide as the cell did: the workload is not what it claims\n");
     return 1;
   }
   if (mode == "callgrind") {
     if (what == "supervisor-typical") {
       run_trace<Core>(shift, cycles);
+    } else if (limits) {
+      run_trace<CoreLimits>(shift_limits, cycles);
     } else if (what == "reference-typical") {
       run_trace<Ref>(shift, cycles);
     } else if (what == "supervisor-worst") {

@@ -97,6 +97,47 @@ class Driver {
   std::uint32_t seq_ = 0;
 };
 
+// The safety configuration of the cost series "with limits" (bench_cycle full-limits): the
+// Cortex-M4 bench's (tools/embedded/bench_m4.cpp) with 16 zones and a cone, every point outside
+// every keep-out box, the TCP inside the keep-in box and outside the reduced one, as a cell is
+// configured in practice. Written so that it compiles against older trees as well (the
+// before/after comparison builds this file in both).
+inline core::Zone cost_box(char tag, core::ZoneKind kind, float x, float y, float z, float half) {
+  core::Zone b{};
+  b.name[0] = 'z';
+  b.name[1] = tag;
+  b.kind = kind;
+  b.min_mm = {x - half, y - half, z - half};
+  b.max_mm = {x + half, y + half, z + half};
+  return b;
+}
+
+inline core::SafetyLimits cost_limits() {
+  core::SafetyLimits l{};
+  l.checksum = 0x0B0E0C4AU;
+  l.tcp_mm = {0.0F, 0.0F, 120.0F};
+  l.tool_radius_mm = 40.0F;
+  for (auto& j : l.joints) {
+    j = core::JointLimit{-2.8F, 2.8F, 4.0F};
+  }
+  l.tcp_max_speed_mm_s = 2000.0F;
+  l.reduced_tcp_max_speed_mm_s = 250.0F;
+  l.reduced_ramp_ms = 500;
+  l.orientation_enabled = true;
+  l.orientation_axis = {0.0F, 0.0F, -1.0F};
+  l.orientation_max_deviation_rad = 3.0F;
+  for (int k = 0; k < 14; ++k) {
+    const float s = (k % 2 == 0) ? 1.0F : -1.0F;
+    l.zones[static_cast<std::size_t>(k)] =
+        cost_box(static_cast<char>('a' + k), core::ZoneKind::keep_out, s * (900.0F + 40.0F * static_cast<float>(k)),
+                 s * 300.0F, 100.0F + 20.0F * static_cast<float>(k), 100.0F);
+  }
+  l.zones[14] = cost_box('o', core::ZoneKind::keep_in, 0.0F, 0.0F, 500.0F, 1500.0F);
+  l.zones[15] = cost_box('p', core::ZoneKind::reduced, -700.0F, 700.0F, 300.0F, 150.0F);
+  l.zone_count = 16;
+  return l;
+}
+
 // A production shift, five minutes that repeat: the operator's action before cycle `k`.
 inline void shift_pattern(sim::Cell& cell, Driver& d, std::size_t k) {
   core::RawInputs& in = cell.inputs();
@@ -128,8 +169,13 @@ inline void shift_pattern(sim::Cell& cell, Driver& d, std::size_t k) {
   }
 }
 
-inline Trace shift(std::size_t cycles) {
+// `limits`: the cell configured with them (the motion layer keeps within them, so the
+// recorded positions are those of a configured cell; cost_limits() for the limits series).
+inline Trace shift(std::size_t cycles, const core::SafetyLimits* limits = nullptr) {
   sim::Cell cell{core::Config{}};
+  if (limits != nullptr) {
+    cell.configure_limits(*limits, true);
+  }
   Driver d(cell);
   Trace t;
   t.reserve(cycles);
