@@ -199,9 +199,9 @@ ECAT_CPU ?= $(shell echo $$(( $$(nproc) - 1 )))
 # from ESI files, docs/ethercat.md "ESI"); without it, the built-in one.
 BUS ?=
 BUS_ARG = $(if $(BUS),--bus-config $(BUS))
-# CHANNELS=2: SPEC §14's two channels in processes of their own over the segment (K1 from A,
-# K2 from B, both contacts and the drives' 0x60E4 on the wire; docs/two-channels.md); one is
-# the default over EtherCAT.
+# SPEC §14's two channels in processes of their own over the segment by default (K1 from A,
+# K2 from B, both contacts and the drives' 0x60E4 on the wire; docs/two-channels.md);
+# CHANNELS=1: one channel.
 CHANNELS ?=
 CHANNELS_ARG = $(if $(CHANNELS),--channels $(CHANNELS))
 .PHONY: run-ethercat

@@ -115,8 +115,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 99));
   run->add_option("--cpu", run_opt.rt.cpu, "pin the loop to this CPU");
   run->add_option("--channels", run_opt.channels,
-                  "SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (default on the simulated "
-                  "cell), 1 = one channel in this process")
+                  "SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (the default on the "
+                  "simulated cell and on a segment with K2 and the load-side encoders), 1 = one channel in this process")
       ->check(CLI::Range(1, 2));
   run->add_option("--cross-check-cycles", run_opt.cross_check_cycles,
                   "SPEC §14: cycles a channel's digest may be missing or differ (default 2); a wider window rides out "

@@ -69,7 +69,7 @@ class Cell:
                                     stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
         wait(lambda: os.path.exists(self.ctl_path), "the emulator's control socket", 10)
         self.port = free_port()
-        self.run = subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN, "--ecat-sim-control",
+        self.run = subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--channels", "1", "--ifname", "ecm", "--cpu", PIN, "--ecat-sim-control",
                                      self.ctl_path, "--port", str(self.port), "--no-opcua", "--db",
                                      os.path.join(d, "ev.db")],
                                     stdout=open(self.run_log, "w"), stderr=subprocess.STDOUT, cwd=d,

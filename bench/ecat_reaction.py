@@ -185,7 +185,7 @@ def inside(a):
                 time.sleep(0.05)
             port = free_port()
             run_log = os.path.join(d, "run.log")
-            procs.append(subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN,
+            procs.append(subprocess.Popen([a.bin, "run", "--fieldbus", "ethercat", "--channels", "1", "--ifname", "ecm", "--cpu", PIN,
                                            "--ecat-sim-control", ctl_path, "--port", str(port), "--no-opcua",
                                            "--db", os.path.join(d, "ev.db")],
                                           stdout=open(run_log, "w"), stderr=subprocess.STDOUT, cwd=d))

@@ -161,7 +161,7 @@ class Cell:
 
     def run(self, safety):
         self.port = free_port()
-        log = self.spawn("run", [self.a.bin, "run", "--fieldbus", "ethercat", "--ifname", "ecm", "--cpu", PIN,
+        log = self.spawn("run", [self.a.bin, "run", "--fieldbus", "ethercat", "--channels", "1", "--ifname", "ecm", "--cpu", PIN,
                                  "--ecat-sim-control", self.ctl_path, "--port", str(self.port), "--no-opcua",
                                  "--db", os.path.join(self.d, "ev.db"), "--safety", safety])
         wait_http(self.port, self.procs[-1], log)

@@ -32,8 +32,12 @@ class SimHost final : public Host {
 class EthercatHost final : public Host {
  public:
   EthercatHost(const core::Config& cfg, hal::ethercat::BusConfig bc, std::unique_ptr<hal::ethercat::Backend> bus,
-               unsigned channels)
-      : bc_(std::move(bc)), bus_(std::move(bus)), cell_(cfg, robot::active().model, *bus_), channels_(channels) {
+               unsigned channels, std::string note)
+      : bc_(std::move(bc)),
+        bus_(std::move(bus)),
+        cell_(cfg, robot::active().model, *bus_),
+        channels_(channels),
+        note_(std::move(note)) {
     std::uint8_t n = 0;
     const motion::Waypoint* p = controller::demo_program(n);
     cell_.load_program(p, n);
@@ -44,12 +48,14 @@ class EthercatHost final : public Host {
   const hal::ethercat::BusConfig* bus_config() const noexcept override { return &bc_; }
   unsigned channels() const noexcept override { return channels_; }
   hal::Backend* pair_backend() noexcept override { return channels_ == 2U ? bus_.get() : nullptr; }
+  std::string channels_note() const override { return note_; }
 
  private:
   hal::ethercat::BusConfig bc_;
   std::unique_ptr<hal::ethercat::Backend> bus_;
   controller::Cell cell_;  // after bus_: it runs on it
   unsigned channels_;
+  std::string note_;
 };
 
 // SPEC §14 on a segment: what two channels need of the bus configuration (empty: all there).
@@ -91,18 +97,29 @@ std::unique_ptr<Host> make_host(const core::Config& cfg, const Choice& choice, s
     error = "bus configuration: " + error;
     return nullptr;
   }
-  // SPEC §14: two channels need K2 (channel B's power path) and the load-side encoders.
+  // SPEC §14: two channels need K2 (channel B's power path) and the load-side encoders. The
+  // default is two wherever the segment carries them (the shipped bus does); a segment without
+  // them runs one channel, which drives K1 (and K2 if present), and says why.
   const std::string missing = pair_missing(bc);
   if (choice.channels == 2U && !missing.empty()) {
     error = "--channels 2: the bus configuration has no " + missing + " (SPEC §14; docs/two-channels.md)";
     return nullptr;
+  }
+  unsigned channels = choice.channels;
+  std::string note;
+  if (channels == 0U) {
+    channels = missing.empty() ? 2U : 1U;
+    if (!missing.empty()) {
+      note = "one channel, not SPEC §14's two: the bus configuration has no " + missing +
+             " (give --channels 1 to choose one channel and silence this; docs/two-channels.md)";
+    }
   }
   // One exchange never holds the loop past its cycle: a frame not back 150 us before the
   // cycle ends (3/4 of short cycles) leaves it stale (docs/ethercat.md).
   const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(cfg.cycle_us);
   auto bus = std::make_unique<hal::ethercat::Backend>(bc, choice.ifname, cfg.cycle_us, budget_us,
                                                       std::uint64_t{choice.watchdog_ms} * 1000000ULL);
-  return std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus), choice.channels == 2U ? 2U : 1U);
+  return std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus), channels, std::move(note));
 }
 
 }  // namespace safestate::backends

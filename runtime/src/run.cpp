@@ -588,6 +588,9 @@ int run_main(const RunOptions& opt) {
     std::fprintf(stderr, "safestate run: %s\n", error.c_str());
     return 2;
   }
+  if (const std::string note = host->channels_note(); !note.empty()) {
+    std::fprintf(stderr, "safestate run: %s\n", note.c_str());
+  }
   hal::ethercat::Backend* const bus = host->ethercat();
   if (bus != nullptr) {
     const hal::ethercat::BusConfig& bc = *host->bus_config();

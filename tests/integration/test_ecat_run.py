@@ -42,8 +42,13 @@ def sh(*args, check=True):
 class Cell:
     """ecat-sim on `ecs`, `safestate run --fieldbus ethercat` on `ecm`, both in one namespace."""
 
-    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None, sim_lines=()):
+    def __init__(self, sim_args=(), sim_late_s=0.0, run_args=(), bus=None, sim_lines=(), channels=1):
         self.ns = "ssrun-" + uuid.uuid4().hex[:8]
+        # One channel unless a test says otherwise: these tests time one controller's
+        # reactions on the wire; SPEC §14's pair (the default on the shipped segment) has its
+        # own tests below (channels=None: the default).
+        if channels is not None:
+            run_args = (*run_args, "--channels", str(channels))
         self.tmp = tempfile.TemporaryDirectory(prefix="ssrun-")
         # The event log in memory: on this VM a synchronous disk write stalls the other CPU
         # too (`safestate rtbench` pinned to one CPU, a dsync dd on the other: woken up to 10 ms
@@ -375,16 +380,17 @@ def test_arming_then_estop_on_one_channel_opens_the_contactor_on_the_wire(cell):
     assert "ESTOP_DISCREPANCY" in cell.wait_state("ERROR_LOCKOUT")["alarms"]
 
 
-# SPEC §14 on the segment (issue 36 item 2): `--channels 2` runs channel A and channel B as
-# processes of their own on the EtherCAT backend; the DO terminal carries K1 (A's) and K2
-# (B's), the DI terminal both auxiliary contacts, the drives 0x60E4. A channel stopped from
-# outside: the other opens its own contactor on the wire and names CHANNEL_LOST. The window is
-# the harness's stall-tolerant 50 cycles (docs/two-channels.md "On a shared host"); the time in
-# cycles is test_pair's.
+# SPEC §14 on the segment (issue 36 items 1 and 2): on the shipped segment `safestate run`
+# runs channel A and channel B as processes of their own on the EtherCAT backend by default
+# (no --channels given here); the DO terminal carries K1 (A's) and K2 (B's), the DI terminal
+# both auxiliary contacts, the drives 0x60E4. A channel stopped from outside: the other opens
+# its own contactor on the wire and names CHANNEL_LOST. The window is the harness's
+# stall-tolerant 50 cycles (docs/two-channels.md "On a shared host"); the time in cycles is
+# test_pair's.
 # @req CH-PROCESSES CH-CONTACTORS
 @pytest.mark.parametrize("victim", ["A", "B"])
 def test_two_channels_on_the_segment_each_opens_its_own_contactor_on_the_wire(victim):
-    c = Cell(bus=STALL_TOLERANT_BUS, run_args=("--channels", "2", "--cross-check-cycles", "50"))
+    c = Cell(bus=STALL_TOLERANT_BUS, run_args=("--cross-check-cycles", "50"), channels=None)
     pid = None
     try:
         c.wait_state("ESTOP_RESET_NEEDED")
@@ -412,13 +418,31 @@ def test_two_channels_on_the_segment_each_opens_its_own_contactor_on_the_wire(vi
         c.close()
 
 
-def test_two_channels_need_k2_and_the_load_side_encoders_in_the_bus_configuration(tmp_path):
+def bus_without_k2(tmp):
     cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
     del cfg["subdevices"][0]["bits"]["contactor_fb.k2"]
     del cfg["subdevices"][1]["bits"]["contactor_k2"]
-    path = tmp_path / "bus.json"
+    path = Path(tmp) / "bus-without-k2.json"
     path.write_text(json.dumps(cfg))
-    r = subprocess.run([BIN, "run", "--fieldbus", "ethercat", "--ifname", "lo", "--bus-config", str(path),
+    return str(path)
+
+
+# A segment without K2 cannot carry SPEC §14's pair: by default it runs one channel and says
+# so, naming what is missing (with --channels 2 it is refused: the test after this one).
+def test_a_segment_without_k2_runs_one_channel_by_default_and_says_why(tmp_path):
+    c = Cell(run_args=("--bus-config", bus_without_k2(tmp_path)), channels=None)
+    try:
+        c.wait_state("ESTOP_RESET_NEEDED")
+        log = c.log("run")
+        assert "one channel, not SPEC §14's two: the bus configuration has no K2" in log, log
+        assert "two channels (SPEC §14)" not in log, log
+        assert len(c.status()["channels"]) == 1, c.status()["channels"]  # one entry with one channel
+    finally:
+        c.close()
+
+
+def test_two_channels_need_k2_and_the_load_side_encoders_in_the_bus_configuration(tmp_path):
+    r = subprocess.run([BIN, "run", "--fieldbus", "ethercat", "--ifname", "lo", "--bus-config", bus_without_k2(tmp_path),
                         "--channels", "2", "--port", "18999", "--db", str(tmp_path / "ev.db")],
                        capture_output=True, text=True, timeout=30)
     assert r.returncode != 0, r

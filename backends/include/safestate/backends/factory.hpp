@@ -25,9 +25,10 @@ struct Choice {
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
   std::uint32_t watchdog_ms = 100;  // ethercat: a longer stall of the host = the bus lost
   // SPEC §14: 1 = the controller in this process on the backend; 2 = the backend alone for two
-  // channels in processes of their own (pair_backend()); 0 = the backend's default (sim 2;
-  // ethercat 1: `--channels 2` there needs K2 and the load-side encoders in the bus
-  // configuration, as the shipped default has them).
+  // channels in processes of their own (pair_backend()); 0 = the backend's default: two on the
+  // simulated cell, two on a segment whose bus configuration has K2 and the load-side encoders
+  // (the shipped default has them), else one with channels_note() saying why. `--channels 2`
+  // on a segment without them is refused.
   unsigned channels = 0;
 };
 
@@ -51,6 +52,8 @@ class Host {
   // in-process controller (the simulated world alone); null with one.
   [[nodiscard]] virtual unsigned channels() const noexcept { return 1U; }
   virtual hal::Backend* pair_backend() noexcept { return nullptr; }
+  // Why the default gave fewer channels than SPEC §14's two (empty: it did not).
+  [[nodiscard]] virtual std::string channels_note() const { return {}; }
   // The EtherCAT backend and its configuration, or null: for the host's reports (names of the
   // subdevices, boot error, loss, DC).
   virtual hal::ethercat::Backend* ethercat() noexcept { return nullptr; }
