@@ -51,10 +51,11 @@ def _six_names(v):
 def urdf_joint_names(text):
     """The six moving joints of a URDF's chain from its root link, in chain order, or None.
 
-    The chain is followed from the one link that is no joint's child; fixed joints are passed
-    through; a branch, a prismatic joint or a count other than six gives None (the robot
-    description is then not the six-axis arm this adapter reports, and names come from
-    elsewhere)."""
+    The chain is followed from the one link that is no joint's child. Fixed joints are passed
+    through, and a branch of fixed joints only (a `tool0` or `base` frame beside the arm, as in
+    Universal Robots' descriptions) is no branch of the arm. Two branches that both move, a
+    prismatic joint or a count other than six give None (the robot description is then not the
+    six-axis arm this adapter reports, and names come from elsewhere)."""
     try:
         root = ET.fromstring(text)
     except (ET.ParseError, TypeError, ValueError):
@@ -65,19 +66,32 @@ def urdf_joint_names(text):
     children = set()
     for j in root.findall("joint"):
         parent, child = j.find("parent"), j.find("child")
-        if parent is None or child is None:
+        if parent is None or child is None or j.get("type") not in ("revolute", "continuous", "fixed", "prismatic",
+                                                                     "floating", "planar"):
             return None
         p, c = parent.get("link"), child.get("link")
+        if c in children:
+            return None  # a link with two parents: no tree
         by_parent.setdefault(p, []).append(j)
         children.add(c)
     roots = [ln.get("name") for ln in root.findall("link") if ln.get("name") not in children]
     if len(roots) != 1:
         return None
+
+    def moves(link, depth=0):
+        """Whether any joint below link is not fixed (depth-bounded: a cycle is no tree)."""
+        if depth > 200:
+            return True
+        return any(j.get("type") != "fixed" or moves(j.find("child").get("link"), depth + 1)
+                   for j in by_parent.get(link, []))
+
     names, link = [], roots[0]
-    while link in by_parent:
-        joints = by_parent[link]
+    for _ in range(200):
+        joints = [j for j in by_parent.get(link, []) if j.get("type") != "fixed" or moves(j.find("child").get("link"))]
+        if not joints:
+            break
         if len(joints) != 1:
-            return None  # a branch: not one chain
+            return None  # two branches that move: not one arm
         j = joints[0]
         kind = j.get("type")
         if kind in ("revolute", "continuous"):

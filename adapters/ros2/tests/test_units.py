@@ -82,19 +82,45 @@ URDF = """<robot name="r"><link name="base"/><link name="a"/><link name="b"/><li
 <joint name="tool" type="fixed"><parent link="flange"/><child link="tool0"/></joint></robot>"""
 
 
+# As Universal Robots' descriptions are laid out (example-robot-data's ur5_robot.urdf): a world
+# link above the base, and fixed frames beside the chain (base, ee_link, tool0); a <joint>
+# inside a <transmission> is no joint of the tree.
+UR_LIKE = """<robot name="ur"><link name="world"/><link name="base_link"/><link name="base"/><link name="a"/>
+<link name="b"/><link name="c"/><link name="d"/><link name="e"/><link name="f"/><link name="ee_link"/><link name="tool0"/>
+<joint name="world_joint" type="fixed"><parent link="world"/><child link="base_link"/></joint>
+<joint name="shoulder_pan_joint" type="revolute"><parent link="base_link"/><child link="a"/></joint>
+<joint name="base_link-base_fixed_joint" type="fixed"><parent link="base_link"/><child link="base"/></joint>
+<joint name="shoulder_lift_joint" type="revolute"><parent link="a"/><child link="b"/></joint>
+<joint name="elbow_joint" type="revolute"><parent link="b"/><child link="c"/></joint>
+<joint name="wrist_1_joint" type="revolute"><parent link="c"/><child link="d"/></joint>
+<joint name="wrist_2_joint" type="revolute"><parent link="d"/><child link="e"/></joint>
+<joint name="wrist_3_joint" type="revolute"><parent link="e"/><child link="f"/></joint>
+<joint name="ee_fixed_joint" type="fixed"><parent link="f"/><child link="ee_link"/></joint>
+<joint name="wrist_3_link-tool0_fixed_joint" type="fixed"><parent link="f"/><child link="tool0"/></joint>
+<transmission name="t1"><joint name="shoulder_pan_joint"/></transmission></robot>"""
+UR_NAMES = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+            "wrist_3_joint"]
+
+
 def test_joint_names_from_the_best_source():
     six = ["a1", "a2", "a3", "a4", "a5", "a6"]
     assert mapping.joint_names({"joint_names": six}) == six
     assert mapping.joint_names({"joints": [{"name": n} for n in six]}) == six
     assert mapping.joint_names({"urdf": URDF}) == ["s", "l", "u", "r1", "b1", "t"]
     assert mapping.joint_names(URDF) == ["s", "l", "u", "r1", "b1", "t"]
+    assert mapping.urdf_joint_names(UR_LIKE) == UR_NAMES  # fixed frames beside the chain are no branch
+    assert mapping.joint_names({"urdf": UR_LIKE, "joints": "?"}) == UR_NAMES
     assert mapping.joint_names({"dh": []}, {"joint_names": six}) == six
     assert mapping.joint_names(None, None) == [f"joint_{i}" for i in range(1, 7)]
     # Refused sources: five names, repeats, not names, a branch, a prismatic joint, bad XML.
     for robot in ({"joint_names": six[:5]}, {"joint_names": ["a"] * 6}, {"joint_names": ["1x"] * 6},
                   {"urdf": URDF.replace('type="continuous"', 'type="prismatic"')},
                   {"urdf": URDF.replace('<parent link="e"/><child link="f"/>', '<parent link="d"/><child link="f"/>')},
-                  {"urdf": "<robot"}, "<notarobot/>"):
+                  {"urdf": "<robot"}, "<notarobot/>",
+                  # a moving joint on a branch beside the arm (a second arm, a gripper finger)
+                  UR_LIKE.replace('type="fixed"><parent link="base_link"/>', 'type="revolute"><parent link="base_link"/>'),
+                  # a link with two parents
+                  UR_LIKE.replace('<child link="tool0"/>', '<child link="e"/>')):
         assert mapping.joint_names(robot) == list(mapping.DEFAULT_JOINT_NAMES), robot
 
 
