@@ -2,6 +2,8 @@
 gateway's status to what is published, the event sequencing across reconnects, the settings.
 Run: .venv-ros2/bin/python -m pytest adapters/ros2/tests  (CTest ros2_units)."""
 
+import fnmatch
+import re
 import sys
 from pathlib import Path
 
@@ -293,3 +295,47 @@ def test_backoff_matches_the_other_clients():
     assert [backoff.retry_ceiling_s(n) for n in (1, 2, 3, 4, 5, 6, 99)] == [0.5, 1, 2, 4, 8, 10, 10]
     assert backoff.retry_delay_s(1, random=lambda: 0.0) == 0.25
     assert backoff.retry_delay_s(3, random=lambda: 1.0) == 2.0
+
+
+# ------------------------------------------------------------------ installation
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def requirements():
+    """(name, version) of every line of adapters/ros2/requirements.txt; a line that does not pin
+    one version (==) fails the test."""
+    out = []
+    for line in (ROOT / "adapters" / "ros2" / "requirements.txt").read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        m = re.fullmatch(r"([A-Za-z0-9_.\-]+)(\[[A-Za-z0-9_,\-]+\])?==([A-Za-z0-9_.+\-]+)", line)
+        assert m, f"requirements.txt: not pinned to one version: {line!r}"
+        out.append((m.group(1).lower(), m.group(3)))
+    return out
+
+
+def test_every_distribution_is_pinned_and_installed_at_that_version():
+    from importlib.metadata import PackageNotFoundError, version  # noqa: PLC0415
+    reqs = requirements()
+    assert len(reqs) > 50 and ("ros-jazzy-rclpy", "7.1.6") in reqs, reqs[:5]
+    wrong = []
+    for name, want in reqs:
+        try:
+            got = version(name)
+        except PackageNotFoundError:
+            got = None
+        if got != want:
+            wrong.append((name, want, got))
+    assert not wrong, f"the venv differs from requirements.txt (name, pinned, installed): {wrong}"
+
+
+def test_every_distribution_has_its_licence_in_the_docs():
+    doc = (ROOT / "docs" / "ros2.md").read_text()
+    section = doc[doc.index("## Licences"):]
+    names = set()
+    for row in section.splitlines():
+        if row.startswith("|") and not row.startswith("|---"):
+            names.update(re.findall(r"`([a-z0-9\-*]+)`", row.split("|")[1]))
+    missing = [n for n, _ in requirements() if not any(fnmatch.fnmatchcase(n, pat) for pat in names)]
+    assert not missing, f"docs/ros2.md Licences does not name: {missing}"
