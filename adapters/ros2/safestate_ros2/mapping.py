@@ -399,7 +399,8 @@ def channel_diagnostics(status, active, info):
     runs and answered this cycle, its state, cycle, last digest, whether it agrees with the
     other and the first field that differed: GET /api/status); none for a one-channel core. A
     channel that does not agree or whose process has ended is an ERROR, one not in the state the
-    status reports a WARN; CHANNEL_MISMATCH / CHANNEL_LOST go to every channel."""
+    status reports a WARN; CHANNEL_MISMATCH goes to both channels, CHANNEL_LOST to the one it
+    names (its subject)."""
     chans = status.get("channels")
     if not isinstance(chans, list) or len(chans) < 2:
         return []
@@ -420,8 +421,19 @@ def channel_diagnostics(status, active, info):
             msg = "process ended; " + msg
         if isinstance(c.get("differs_in"), str):
             msg += f", differs in {c['differs_in']}"
-        out.append(_function_status(f"channel {name}", CHANNEL_ALARMS, active, info, level, msg, values))
+        out.append(_function_status(f"channel {name}", _channel_alarms(name, info), active, info, level, msg, values))
     return out
+
+
+def _channel_alarms(name, info):
+    """The alarms that belong to channel `name`: CHANNEL_MISMATCH (the pair) always; CHANNEL_LOST
+    only when its subject (GET /api/alarms: "A" or "B", the channel that was lost) is this one,
+    or while its subject is not known yet."""
+    lost = info.get("CHANNEL_LOST") if isinstance(info.get("CHANNEL_LOST"), dict) else {}
+    subject = lost.get("subject")
+    if isinstance(subject, str) and subject in ("A", "B") and subject != name:
+        return ("CHANNEL_MISMATCH",)
+    return CHANNEL_ALARMS
 
 
 def stale_diagnostics(why):

@@ -202,6 +202,16 @@ def test_one_status_per_channel_when_the_status_has_two():
     d = by_name(mapping.diagnostics(status(channels=healthy, state="IDLE")))
     assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.OK
     assert "channel A" not in by_name(mapping.diagnostics(status(channels=[dict(a, agree=True)])))
+    # CHANNEL_LOST names the channel that was lost (its subject): that channel's status says so,
+    # the other's does not; before GET /api/alarms has answered, both carry it.
+    lost = {"CHANNEL_LOST": {"severity": "lockout", "text": "A channel was lost.", "detail": "Safety channel B lost",
+                             "subject": "B"}}
+    both = [dict(a, agree=True, differs_in=None, state="ERROR_LOCKOUT"), dict(b, agree=True, state="ERROR_LOCKOUT")]
+    d = by_name(mapping.diagnostics(status(channels=both, state="ERROR_LOCKOUT", alarms=["CHANNEL_LOST"]), lost))
+    assert d["channel B"]["message"] == "Safety channel B lost" and ("alarms", "CHANNEL_LOST") in d["channel B"]["values"]
+    assert d["channel A"]["level"] == mapping.OK and ("alarms", "none") in d["channel A"]["values"], d["channel A"]
+    d = by_name(mapping.diagnostics(status(channels=both, state="ERROR_LOCKOUT", alarms=["CHANNEL_LOST"])))
+    assert ("alarms", "CHANNEL_LOST") in d["channel A"]["values"] and ("alarms", "CHANNEL_LOST") in d["channel B"]["values"]
 
 
 # ------------------------------------------------------------------ events
