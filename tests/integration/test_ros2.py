@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ros2_user import ROS2_DIR, ROS2_PY, RosUser, dds_domain, diag_status, level, user_environment  # noqa: E402
+from ros2_user import ROOT, ROS2_DIR, ROS2_PY, RosUser, dds_domain, diag_status, level, user_environment  # noqa: E402
 from test_gateway import SafeState, booted, get_json, pendant, run, try_status, wait_until  # noqa: E402
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
@@ -93,17 +93,23 @@ def test_topics_types_qos_and_services_as_documented(ros):
     for topic, typ in want.items():
         assert topics.get(topic) == [typ], f"{topic}: {topics.get(topic)}"
     # QoS: the state topics reliable and transient-local, so a late subscriber gets the value.
-    infos = ros.user.node.get_publishers_info_by_topic("/safestate/safety_state")
-    assert len(infos) == 1, infos
-    q = infos[0].qos_profile
-    assert (q.reliability.name, q.durability.name) == ("RELIABLE", "TRANSIENT_LOCAL"), q
-    q = ros.user.node.get_publishers_info_by_topic("/joint_states")[0].qos_profile
-    assert q.reliability.name == "RELIABLE", q
-    # A late subscriber: a second user node that joins now gets the current state at once.
+    for topic, durability in (("/safestate/safety_state", "TRANSIENT_LOCAL"),
+                              ("/safestate/speed_scaling", "TRANSIENT_LOCAL"),
+                              ("/safestate/events", "TRANSIENT_LOCAL"), ("/joint_states", "VOLATILE"),
+                              ("/diagnostics", "VOLATILE")):
+        infos = ros.user.node.get_publishers_info_by_topic(topic)
+        assert len(infos) == 1, (topic, infos)
+        q = infos[0].qos_profile
+        assert (q.reliability.name, q.durability.name) == ("RELIABLE", durability), (topic, q)
+    # A late subscriber: a second user node that joins now gets the current values at once
+    # (nothing changes in ESTOP_RESET_NEEDED, so nothing is published again for a second).
     late = RosUser(ros.domain, name="late_user")
     try:
         m2 = late.state(lambda m: True, 10, what="the latched state")
         assert m2.known and m2.state == "ESTOP_RESET_NEEDED", m2
+        _, s2 = late.wait("scaling", lambda m: True, 10, what="the latched speed scaling")
+        assert s2.data == 0.0, s2
+        assert late.got["state"][0][1].known, "the first state a late subscriber gets is the current one"
     finally:
         late.close()
     services = ros.user.services()
@@ -207,32 +213,48 @@ def test_estop_is_seen_in_safety_state_and_diagnostics(ros):
 def test_start_works_from_auto_idle_and_is_refused_with_the_reason_otherwise(ros):
     ros.known()
 
-    def call(cmd, ok, message):
+    def call(cmd, ok, message, then=None, what=None):
+        """~/cmd answered (success, message); then, if given, a state after the call (not one
+        from before it) that satisfies `then`."""
+        mark = ros.user.mark("state")
         r = ros.user.call(cmd)
         assert (r.success, r.message) == (ok, message), f"~/{cmd}: {r}"
+        if then is not None:
+            ros.user.state(then, 15, mark, what or f"the state after ~/{cmd}")
 
     async def main():
         p = await booted(ros.cell)
         call("start", False, "RESET_REQUIRED")  # ESTOP_RESET_NEEDED: a reset at the cell first
+        mark = ros.user.mark("state")
         assert await p.command("reset") == "OK"
-        ros.user.state(lambda m: m.state == "IDLE", 10)
+        ros.user.state(lambda m: m.state == "IDLE", 10, mark)
         call("start", False, "WRONG_STATE")  # IDLE: servo_on first
-        call("servo_on", True, "OK")
-        ros.user.state(lambda m: m.sub == "AUTO_IDLE", 10)
-        call("start", True, "OK")
-        ros.user.state(lambda m: m.sub == "AUTO_RUNNING", 10)
+        call("servo_on", True, "OK", lambda m: m.sub == "AUTO_IDLE")
+        call("start", True, "OK", lambda m: m.sub == "AUTO_RUNNING")
         call("start", False, "WRONG_STATE")  # already running: refused, not retried
-        call("pause", True, "OK")
-        ros.user.state(lambda m: m.sub == "AUTO_PAUSED", 10)
-        call("resume", True, "OK")
-        ros.user.state(lambda m: m.sub == "AUTO_RUNNING", 10)
-        call("stop", True, "OK")
-        ros.user.state(lambda m: m.sub == "AUTO_IDLE", 10)
-        call("servo_off", True, "OK")
-        ros.user.state(lambda m: m.state == "IDLE", 10)
+        call("pause", True, "OK", lambda m: m.sub == "AUTO_PAUSED")
+        call("resume", True, "OK", lambda m: m.sub == "AUTO_RUNNING")
+        call("stop", True, "OK", lambda m: m.sub == "AUTO_IDLE")
+        # The brake test (SPEC §12) from AUTO_IDLE at standstill: its sub-state, then its result
+        # in the brake test's diagnostics (the test takes about 7 s of cycles).
+        ros.user.wait("joints", lambda m: len(m.velocity) == 6 and max(abs(v) for v in m.velocity) < 1e-6, 15,
+                      ros.user.mark("joints"), "standstill")
+        d_mark = ros.user.mark("diag")
+        call("brake_test", True, "OK", lambda m: m.sub == "BRAKE_TEST")
+        ros.user.wait("diag", lambda a: "running" in diag_status(a, "brake test").message, 10, d_mark,
+                      "the brake test running in diagnostics")
+        mark = ros.user.mark("state")
+        _, d = ros.user.wait("diag", lambda a: diag_status(a, "brake test").message == "last passed", 30, d_mark,
+                             "the brake test passed in diagnostics")
+        assert level(diag_status(d, "brake test")) == OK
+        ros.user.state(lambda m: m.sub == "AUTO_IDLE", 10, mark)
+        call("start", True, "OK", lambda m: m.sub == "AUTO_RUNNING")
+        call("brake_test", False, "WRONG_STATE")  # only at AUTO_IDLE
+        call("stop", True, "OK", lambda m: m.sub == "AUTO_IDLE")
+        call("servo_off", True, "OK", lambda m: m.state == "IDLE")
         # T1: the pendant's mode; the remote role may not command (SPEC roles, protocol.md).
         assert (await p.sim(set={"mode": "T1"}))["result"] == "OK"
-        ros.user.state(lambda m: m.mode == "T1" and m.owner == "pendant", 10)
+        ros.user.state(lambda m: m.mode == "T1" and m.owner == "pendant", 10, ros.user.mark("state") - 1)
         call("servo_on", False, "NOT_CONTROL_OWNER")
         # Each command the adapter sent is in the event log once, from the remote role.
         events = json.loads(json.dumps(get_json(ros.cell.port, "/api/events?after=0&limit=500")))
@@ -240,6 +262,7 @@ def test_start_works_from_auto_idle_and_is_refused_with_the_reason_otherwise(ros
                 if e["kind"] == "command" and e["data"].get("from") == "remote"]
         assert cmds == [("start", "RESET_REQUIRED"), ("start", "WRONG_STATE"), ("servo_on", "OK"), ("start", "OK"),
                         ("start", "WRONG_STATE"), ("pause", "OK"), ("resume", "OK"), ("stop", "OK"),
+                        ("brake_test", "OK"), ("start", "OK"), ("brake_test", "WRONG_STATE"), ("stop", "OK"),
                         ("servo_off", "OK"), ("servo_on", "NOT_CONTROL_OWNER")], cmds
     run(main())
 
@@ -276,6 +299,52 @@ def test_joint_states_move_with_the_simulated_arm(ros):
     run(main())
 
 
+UR5_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+              "wrist_3_joint"]
+
+
+def ur5_urdf():
+    """example-robot-data's UR5 (Universal Robots' description) from the test venv (.venv:
+    tests/integration/requirements-robots.txt, installed by `make test`; never copied here)."""
+    py = ROOT / ".venv" / "bin" / "python"
+    assert py.exists(), f"{py} missing: `make test` installs the test venv with example-robot-data"
+    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    urdf = Path(purelib) / "cmeel.prefix/share/example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"
+    assert urdf.is_file(), f"{urdf} missing: pip install -r tests/integration/requirements-robots.txt into .venv"
+    return str(urdf)
+
+
+def test_joint_names_come_from_the_robot_description(tmp_path):
+    """`safestate run --robot ur5_robot.urdf --ros2`: joint_states carry the UR5's joint names
+    (the description the gateway serves at /api/robot), in every message from the first."""
+    r = RosCell(tmp_path, args=["--robot", ur5_urdf()])
+    try:
+        r.known()
+        served = [j["name"] for j in get_json(r.cell.port, "/api/robot")["joints"]]
+        assert served == UR5_JOINTS, served
+        r.user.wait("joints", lambda m: True, 10, what="joint_states")
+        mark = r.user.mark("joints")
+        r.user.wait("joints", lambda m: True, 10, mark + 10, "ten more joint_states")
+        names = {tuple(m.name) for _, m in r.user.got["joints"]}
+        assert names == {tuple(UR5_JOINTS)}, names
+        s = try_status(r.cell.port)
+        latest = r.user.latest("joints")
+        assert max(abs(a - b) for a, b in zip(latest.position, s["joints"])) < 1e-3, (latest.position, s["joints"])
+    finally:
+        assert r.close() == 0, r.cell.output()
+
+
+def test_ros2_is_off_by_default(tmp_path):
+    cell = SafeState(tmp_path, env=user_environment())
+    try:
+        wait_until(lambda: try_status(cell.port) is not None, 30, "the gateway")
+        time.sleep(1.0)  # an adapter would have been started with the gateway
+        assert adapter_pids(cell) == [] and "ROS 2" not in cell.output(), cell.output()
+    finally:
+        assert cell.stop() == 0, cell.output()
+
+
 # ------------------------------------------------------------------------------ speed scaling
 def test_speed_scaling_falls_when_reduced_mode_comes(ros):
     ros.known()
@@ -299,7 +368,63 @@ def test_speed_scaling_falls_when_reduced_mode_comes(ros):
         _, d = ros.user.wait("diag", lambda a: "reduced" in diag_status(a, "safe limits").message, 10)
         assert (await p.sim(set={"reduced.a": 1, "reduced.b": 1}))["result"] == "OK"
         ros.user.wait("scaling", lambda m: m.data == 1.0, 10, what="speed_scaling back to 1.0")
+        # T1: 250 mm/s at the TCP and every link origin (SPEC §4 rule 3), whatever the configuration.
+        mark = ros.user.mark("state")
+        assert ros.user.call("servo_off").success
+        ros.user.state(lambda m: m.state == "IDLE", 10, mark, "IDLE after ~/servo_off")
+        assert (await p.sim(set={"mode": "T1"}))["result"] == "OK"
+        await p.status(lambda s: s["mode"] == "T1", what="T1")
+        assert (await p.sim(set={"enable": "centre"}))["result"] == "OK"  # the enabling device held
+        await p.status(lambda s: s["mode"] == "T1", what="T1")
+        mark = ros.user.mark("scaling")
+        assert await p.command("servo_on") == "OK"  # the pendant's, in T1
+        await p.state("OPERATIONAL", "MANUAL_IDLE")
+        m = ros.user.state(lambda m: m.sub == "MANUAL_IDLE", 10, what="MANUAL_IDLE in T1")
+        _, t1 = ros.user.wait("scaling", lambda m: m.data > 0.0, 10, mark, "speed_scaling in T1")
+        assert t1.data == pytest.approx(250.0 / 2000.0), t1
+        assert m.mode == "T1" and m.speed_scaling == pytest.approx(0.125), m
     run(main())
+
+
+def test_speed_scaling_follows_ssm_allowed_speed(tmp_path):
+    """Speed and separation monitoring (SPEC §11, examples/safety/collaborative.json without its
+    brake test: normal 1500 mm/s): speed_scaling is SSM's allowed speed over the normal one, 0 while SSM holds."""
+    cfg = json.loads((ROOT / "examples" / "safety" / "collaborative.json").read_text())
+    del cfg["brake_test"]  # no brake test due (SPEC §12: optional), so AUTO may power up at once
+    path = tmp_path / "collaborative.json"
+    path.write_text(json.dumps(cfg))
+    r = RosCell(tmp_path, args=["--safety", str(path)])
+    try:
+        r.known()
+
+        async def main():
+            p = await booted(r.cell)
+            assert (await p.sim(set={"mode": "T1"}))["result"] == "OK"
+            await p.status(lambda s: s["mode"] == "T1", what="T1")
+            assert await p.command("reset") == "OK"
+            await p.state("IDLE")
+            code = get_json(r.cell.port, "/api/status")["safety"]["checksum"]
+            assert await p.command("validate_config", code=code) == "OK"
+            assert (await p.sim(set={"mode": "AUTO"}))["result"] == "OK"
+            await p.status(lambda s: s["mode"] == "AUTO" and s["owner"] == "remote", what="AUTO, the remote owning")
+            mark = r.user.mark("state")
+            assert (r.user.call("servo_on").message) == "OK"
+            m = r.user.state(lambda m: m.sub == "AUTO_IDLE", 15, mark, "AUTO_IDLE")
+            # No sensor reading yet: SSM holds (v_allowed 0), so nothing may move.
+            assert m.speed_scaling == 0.0, m
+            s_mark = r.user.mark("scaling")
+            assert (await p.sim(set={"separation_mm": 800}))["result"] == "OK"
+            # A person 800 mm away: SSM allows a speed well under the normal limit (the arm at
+            # standstill, so the gateway's figure holds still), and speed_scaling says that much.
+            r.user.wait("scaling", lambda m: m.data > 0.0, 10, s_mark, "speed_scaling under SSM")
+            st = (await p.status(lambda s: s["safety"]["separation_mm"] == 800, what="separation 800"))["safety"]
+            assert 0.0 < st["v_allowed"] < min(st["speed_limit"], 1500.0), st
+            want = st["v_allowed"] / 1500.0
+            r.user.wait("scaling", lambda m: abs(m.data - want) < 1e-9, 10, s_mark, f"speed_scaling {want}")
+            assert abs(r.user.latest("scaling").data - want) < 1e-9, (r.user.latest("scaling"), st)
+        run(main())
+    finally:
+        assert r.close() == 0, r.cell.output()
 
 
 # ------------------------------------------------------------------------------ events
@@ -485,6 +610,9 @@ def test_the_adapter_is_a_remote_with_its_token_and_nothing_without(tmp_path):
     ("cycle_us:=5", "cycle_us: 5 out of range"),
     ("cycle_us:=fast", "cycle_us"),
     ("remote_token_file:=/nonexistent/token", "remote_token_file: No such file or directory"),
+    ("localhost_only:=maybe", "localhost_only: expected true or false, got 'maybe'"),
+    ("events_after:=-5", "events_after: -5 must be -1 or an event id"),
+    ("gatway:=127.0.0.1:8080", "unknown parameter gatway"),
 ])
 def test_bad_parameters_are_refused_with_their_name_and_exit_2(param, words):
     p = subprocess.run([str(ROS2_PY), "-m", "safestate_ros2", "--ros-args", "-p", param],

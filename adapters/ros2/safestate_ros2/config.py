@@ -17,6 +17,7 @@ import re
 EXIT_CONFIG = 2
 HERE = os.path.dirname(os.path.abspath(__file__))
 LOOPBACK_PROFILE = os.path.join(HERE, "fastdds-loopback.xml")
+EARLY_PARAMETERS = ("domain_id", "namespace", "localhost_only")  # read before rclpy starts
 MAX_DOMAIN_ID = 232  # the largest domain id Fast DDS maps to valid UDP ports (ROS 2 "domain ID" docs)
 
 

@@ -212,9 +212,8 @@ class Gateway:
         self.events.start_empty()
 
     async def _fetch_descriptions(self):
-        robot = await self._get("/api/robot", required=False)
-        if robot is not None:
-            self.on_robot(robot)
+        # Called with None too (no description served): joint_states wait for this call.
+        self.on_robot(await self._get("/api/robot", required=False))
         safety = await self._get("/api/safety", required=False)
         if safety is not None:
             self.on_safety(safety)

@@ -51,10 +51,11 @@ def _six_names(v):
 def urdf_joint_names(text):
     """The six moving joints of a URDF's chain from its root link, in chain order, or None.
 
-    The chain is followed from the one link that is no joint's child; fixed joints are passed
-    through; a branch, a prismatic joint or a count other than six gives None (the robot
-    description is then not the six-axis arm this adapter reports, and names come from
-    elsewhere)."""
+    The chain is followed from the one link that is no joint's child. Fixed joints are passed
+    through, and a branch of fixed joints only (a `tool0` or `base` frame beside the arm, as in
+    Universal Robots' descriptions) is no branch of the arm. Two branches that both move, a
+    prismatic joint or a count other than six give None (the robot description is then not the
+    six-axis arm this adapter reports, and names come from elsewhere)."""
     try:
         root = ET.fromstring(text)
     except (ET.ParseError, TypeError, ValueError):
@@ -65,19 +66,32 @@ def urdf_joint_names(text):
     children = set()
     for j in root.findall("joint"):
         parent, child = j.find("parent"), j.find("child")
-        if parent is None or child is None:
+        if parent is None or child is None or j.get("type") not in ("revolute", "continuous", "fixed", "prismatic",
+                                                                     "floating", "planar"):
             return None
         p, c = parent.get("link"), child.get("link")
+        if c in children:
+            return None  # a link with two parents: no tree
         by_parent.setdefault(p, []).append(j)
         children.add(c)
     roots = [ln.get("name") for ln in root.findall("link") if ln.get("name") not in children]
     if len(roots) != 1:
         return None
+
+    def moves(link, depth=0):
+        """Whether any joint below link is not fixed (depth-bounded: a cycle is no tree)."""
+        if depth > 200:
+            return True
+        return any(j.get("type") != "fixed" or moves(j.find("child").get("link"), depth + 1)
+                   for j in by_parent.get(link, []))
+
     names, link = [], roots[0]
-    while link in by_parent:
-        joints = by_parent[link]
+    for _ in range(200):
+        joints = [j for j in by_parent.get(link, []) if j.get("type") != "fixed" or moves(j.find("child").get("link"))]
+        if not joints:
+            break
         if len(joints) != 1:
-            return None  # a branch: not one chain
+            return None  # two branches that move: not one arm
         j = joints[0]
         kind = j.get("type")
         if kind in ("revolute", "continuous"):
@@ -385,7 +399,8 @@ def channel_diagnostics(status, active, info):
     runs and answered this cycle, its state, cycle, last digest, whether it agrees with the
     other and the first field that differed: GET /api/status); none for a one-channel core. A
     channel that does not agree or whose process has ended is an ERROR, one not in the state the
-    status reports a WARN; CHANNEL_MISMATCH / CHANNEL_LOST go to every channel."""
+    status reports a WARN; CHANNEL_MISMATCH goes to both channels, CHANNEL_LOST to the one it
+    names (its subject)."""
     chans = status.get("channels")
     if not isinstance(chans, list) or len(chans) < 2:
         return []
@@ -406,8 +421,19 @@ def channel_diagnostics(status, active, info):
             msg = "process ended; " + msg
         if isinstance(c.get("differs_in"), str):
             msg += f", differs in {c['differs_in']}"
-        out.append(_function_status(f"channel {name}", CHANNEL_ALARMS, active, info, level, msg, values))
+        out.append(_function_status(f"channel {name}", _channel_alarms(name, info), active, info, level, msg, values))
     return out
+
+
+def _channel_alarms(name, info):
+    """The alarms that belong to channel `name`: CHANNEL_MISMATCH (the pair) always; CHANNEL_LOST
+    only when its subject (GET /api/alarms: "A" or "B", the channel that was lost) is this one,
+    or while its subject is not known yet."""
+    lost = info.get("CHANNEL_LOST") if isinstance(info.get("CHANNEL_LOST"), dict) else {}
+    subject = lost.get("subject")
+    if isinstance(subject, str) and subject in ("A", "B") and subject != name:
+        return ("CHANNEL_MISMATCH",)
+    return CHANNEL_ALARMS
 
 
 def stale_diagnostics(why):

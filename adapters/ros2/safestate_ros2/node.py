@@ -52,7 +52,8 @@ def _read_only(description):
 
 
 class SafeStateNode(Node):
-    def __init__(self, domain_id, namespace, localhost_only):
+    def __init__(self, domain_id, namespace, localhost_only, cmdline=()):
+        """cmdline: the names of the parameters given with -p on the command line."""
         super().__init__("safestate", namespace=namespace or None)
         self.declare_parameter("domain_id", domain_id, _read_only("the DDS domain (set at start: -p domain_id:=N)"))
         self.declare_parameter("namespace", namespace, _read_only("the node's namespace (set at start)"))
@@ -65,6 +66,18 @@ class SafeStateNode(Node):
         cycle_us = self.declare_parameter("cycle_us", 1000, _read_only("the core's scan cycle in us (velocities)"))
         after = self.declare_parameter("events_after", -1,
                                        _read_only("publish events after this id; -1: from the start of the adapter"))
+        # A parameter this node does not have (a typo: `gatway:=...`) would be ignored by ROS and
+        # the node would run on the default: refused instead, naming it and the known ones.
+        unknown = sorted(set(self._parameter_overrides) - set(self._parameters))
+        if unknown:
+            raise config.ConfigError(f"unknown parameter{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} "
+                                     f"(known: {', '.join(sorted(set(self._parameters) - {'use_sim_time'}))})")
+        # domain_id, namespace and localhost_only take effect before the node exists (config.py):
+        # from a params file they would show here and not be in force.
+        for name in config.EARLY_PARAMETERS:
+            if name in self._parameter_overrides and name not in cmdline:
+                raise config.ConfigError(f"{name}: give it on the command line (--ros-args -p {name}:=...), "
+                                         "not in a params file: it is needed before the node is created")
         host, port = config.gateway_address(gw.value)
         if not isinstance(cycle_us.value, int) or not 50 <= cycle_us.value <= 100000:
             raise config.ConfigError(f"cycle_us: {cycle_us.value!r} out of range 50..100000")
@@ -97,6 +110,7 @@ class SafeStateNode(Node):
         self._why = "not connected to the gateway yet"
         self._received = 0.0
         self._robot = None
+        self._described = False  # /api/robot asked (joint_states wait for it: one set of names)
         self._names = list(mapping.DEFAULT_JOINT_NAMES)
         self._status_names = None
         self._normal = None
@@ -144,7 +158,8 @@ class SafeStateNode(Node):
             if s.get("joint_names") != self._status_names:
                 self._status_names = s.get("joint_names")
                 self._names = mapping.joint_names(self._robot, s)
-            self._publish_joints(s)
+            if self._described:
+                self._publish_joints(s)
             self._publish_all()
 
     def _on_down(self, why):
@@ -163,9 +178,12 @@ class SafeStateNode(Node):
                 self.pub_events.publish(m)
 
     def _on_robot(self, robot):
+        """The robot description (GET /api/robot), or None when the gateway serves none."""
         with self._lock:
-            self._robot = robot
-            self._names = mapping.joint_names(robot, self._status)
+            if robot is not None or not self._described:
+                self._robot = robot
+                self._names = mapping.joint_names(robot, self._status)
+            self._described = True
 
     def _on_safety(self, cfg):
         with self._lock:
@@ -297,7 +315,7 @@ def main(argv=None):
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
     try:
-        node = SafeStateNode(domain, ns, localhost)
+        node = SafeStateNode(domain, ns, localhost, cmdline=set(config.ros_params(argv)))
     except (config.ConfigError, ParameterException, NameValidationException) as e:
         # A parameter of the wrong type (cycle_us:=fast), or a remapped name that is no ROS name.
         print(f"safestate-ros2: {e}", file=sys.stderr)

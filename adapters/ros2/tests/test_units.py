@@ -2,6 +2,8 @@
 gateway's status to what is published, the event sequencing across reconnects, the settings.
 Run: .venv-ros2/bin/python -m pytest adapters/ros2/tests  (CTest ros2_units)."""
 
+import fnmatch
+import re
 import sys
 from pathlib import Path
 
@@ -82,19 +84,45 @@ URDF = """<robot name="r"><link name="base"/><link name="a"/><link name="b"/><li
 <joint name="tool" type="fixed"><parent link="flange"/><child link="tool0"/></joint></robot>"""
 
 
+# As Universal Robots' descriptions are laid out (example-robot-data's ur5_robot.urdf): a world
+# link above the base, and fixed frames beside the chain (base, ee_link, tool0); a <joint>
+# inside a <transmission> is no joint of the tree.
+UR_LIKE = """<robot name="ur"><link name="world"/><link name="base_link"/><link name="base"/><link name="a"/>
+<link name="b"/><link name="c"/><link name="d"/><link name="e"/><link name="f"/><link name="ee_link"/><link name="tool0"/>
+<joint name="world_joint" type="fixed"><parent link="world"/><child link="base_link"/></joint>
+<joint name="shoulder_pan_joint" type="revolute"><parent link="base_link"/><child link="a"/></joint>
+<joint name="base_link-base_fixed_joint" type="fixed"><parent link="base_link"/><child link="base"/></joint>
+<joint name="shoulder_lift_joint" type="revolute"><parent link="a"/><child link="b"/></joint>
+<joint name="elbow_joint" type="revolute"><parent link="b"/><child link="c"/></joint>
+<joint name="wrist_1_joint" type="revolute"><parent link="c"/><child link="d"/></joint>
+<joint name="wrist_2_joint" type="revolute"><parent link="d"/><child link="e"/></joint>
+<joint name="wrist_3_joint" type="revolute"><parent link="e"/><child link="f"/></joint>
+<joint name="ee_fixed_joint" type="fixed"><parent link="f"/><child link="ee_link"/></joint>
+<joint name="wrist_3_link-tool0_fixed_joint" type="fixed"><parent link="f"/><child link="tool0"/></joint>
+<transmission name="t1"><joint name="shoulder_pan_joint"/></transmission></robot>"""
+UR_NAMES = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+            "wrist_3_joint"]
+
+
 def test_joint_names_from_the_best_source():
     six = ["a1", "a2", "a3", "a4", "a5", "a6"]
     assert mapping.joint_names({"joint_names": six}) == six
     assert mapping.joint_names({"joints": [{"name": n} for n in six]}) == six
     assert mapping.joint_names({"urdf": URDF}) == ["s", "l", "u", "r1", "b1", "t"]
     assert mapping.joint_names(URDF) == ["s", "l", "u", "r1", "b1", "t"]
+    assert mapping.urdf_joint_names(UR_LIKE) == UR_NAMES  # fixed frames beside the chain are no branch
+    assert mapping.joint_names({"urdf": UR_LIKE, "joints": "?"}) == UR_NAMES
     assert mapping.joint_names({"dh": []}, {"joint_names": six}) == six
     assert mapping.joint_names(None, None) == [f"joint_{i}" for i in range(1, 7)]
     # Refused sources: five names, repeats, not names, a branch, a prismatic joint, bad XML.
     for robot in ({"joint_names": six[:5]}, {"joint_names": ["a"] * 6}, {"joint_names": ["1x"] * 6},
                   {"urdf": URDF.replace('type="continuous"', 'type="prismatic"')},
                   {"urdf": URDF.replace('<parent link="e"/><child link="f"/>', '<parent link="d"/><child link="f"/>')},
-                  {"urdf": "<robot"}, "<notarobot/>"):
+                  {"urdf": "<robot"}, "<notarobot/>",
+                  # a moving joint on a branch beside the arm (a second arm, a gripper finger)
+                  UR_LIKE.replace('type="fixed"><parent link="base_link"/>', 'type="revolute"><parent link="base_link"/>'),
+                  # a link with two parents
+                  UR_LIKE.replace('<child link="tool0"/>', '<child link="e"/>')):
         assert mapping.joint_names(robot) == list(mapping.DEFAULT_JOINT_NAMES), robot
 
 
@@ -174,6 +202,16 @@ def test_one_status_per_channel_when_the_status_has_two():
     d = by_name(mapping.diagnostics(status(channels=healthy, state="IDLE")))
     assert d["channel A"]["level"] == mapping.OK and d["channel B"]["level"] == mapping.OK
     assert "channel A" not in by_name(mapping.diagnostics(status(channels=[dict(a, agree=True)])))
+    # CHANNEL_LOST names the channel that was lost (its subject): that channel's status says so,
+    # the other's does not; before GET /api/alarms has answered, both carry it.
+    lost = {"CHANNEL_LOST": {"severity": "lockout", "text": "A channel was lost.", "detail": "Safety channel B lost",
+                             "subject": "B"}}
+    both = [dict(a, agree=True, differs_in=None, state="ERROR_LOCKOUT"), dict(b, agree=True, state="ERROR_LOCKOUT")]
+    d = by_name(mapping.diagnostics(status(channels=both, state="ERROR_LOCKOUT", alarms=["CHANNEL_LOST"]), lost))
+    assert d["channel B"]["message"] == "Safety channel B lost" and ("alarms", "CHANNEL_LOST") in d["channel B"]["values"]
+    assert d["channel A"]["level"] == mapping.OK and ("alarms", "none") in d["channel A"]["values"], d["channel A"]
+    d = by_name(mapping.diagnostics(status(channels=both, state="ERROR_LOCKOUT", alarms=["CHANNEL_LOST"])))
+    assert ("alarms", "CHANNEL_LOST") in d["channel A"]["values"] and ("alarms", "CHANNEL_LOST") in d["channel B"]["values"]
 
 
 # ------------------------------------------------------------------ events
@@ -267,3 +305,47 @@ def test_backoff_matches_the_other_clients():
     assert [backoff.retry_ceiling_s(n) for n in (1, 2, 3, 4, 5, 6, 99)] == [0.5, 1, 2, 4, 8, 10, 10]
     assert backoff.retry_delay_s(1, random=lambda: 0.0) == 0.25
     assert backoff.retry_delay_s(3, random=lambda: 1.0) == 2.0
+
+
+# ------------------------------------------------------------------ installation
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def requirements():
+    """(name, version) of every line of adapters/ros2/requirements.txt; a line that does not pin
+    one version (==) fails the test."""
+    out = []
+    for line in (ROOT / "adapters" / "ros2" / "requirements.txt").read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        m = re.fullmatch(r"([A-Za-z0-9_.\-]+)(\[[A-Za-z0-9_,\-]+\])?==([A-Za-z0-9_.+\-]+)", line)
+        assert m, f"requirements.txt: not pinned to one version: {line!r}"
+        out.append((m.group(1).lower(), m.group(3)))
+    return out
+
+
+def test_every_distribution_is_pinned_and_installed_at_that_version():
+    from importlib.metadata import PackageNotFoundError, version  # noqa: PLC0415
+    reqs = requirements()
+    assert len(reqs) > 50 and ("ros-jazzy-rclpy", "7.1.6") in reqs, reqs[:5]
+    wrong = []
+    for name, want in reqs:
+        try:
+            got = version(name)
+        except PackageNotFoundError:
+            got = None
+        if got != want:
+            wrong.append((name, want, got))
+    assert not wrong, f"the venv differs from requirements.txt (name, pinned, installed): {wrong}"
+
+
+def test_every_distribution_has_its_licence_in_the_docs():
+    doc = (ROOT / "docs" / "ros2.md").read_text()
+    section = doc[doc.index("## Licences"):]
+    names = set()
+    for row in section.splitlines():
+        if row.startswith("|") and not row.startswith("|---"):
+            names.update(re.findall(r"`([a-z0-9\-*]+)`", row.split("|")[1]))
+    missing = [n for n, _ in requirements() if not any(fnmatch.fnmatchcase(n, pat) for pat in names)]
+    assert not missing, f"docs/ros2.md Licences does not name: {missing}"
