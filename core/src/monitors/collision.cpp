@@ -35,7 +35,7 @@ Vec3 inertia_times(const std::array<float, 6>& i, const Vec3& v) noexcept {
           (i[2] * v[0]) + (i[4] * v[1]) + (i[5] * v[2])};
 }
 // R Rot(axis, q) for an axis along +-x, +-y or +-z of the frame: the two columns other than
-// the axis turn (cyclic order x -> y -> z); `sign` is -1 for a minus axis.
+// the axis turn (cyclic order x -> y -> z); a minus axis turns by -q (the caller passes -s).
 void turn(Mat3& r, std::size_t a, float s, float c) noexcept {
   const std::size_t u = (a + 1U) % 3U;
   const std::size_t v = (a + 2U) % 3U;
