@@ -9,6 +9,12 @@
 //                          (rad, rad/s, rad/s^2, N in the base frame, on the TCP = the flange,
 //                          no payload) and prints the 6 joint torques (N m) of
 //                          sim::ArmDynamics::torques() per line, full precision.
+//   sim_dynamics --core    the core's collision model instead (core::arm_dynamics on the
+//                          description's chain and inertials, float, as the running program
+//                          prepares it): reads lines of 24 numbers, q[6] qd[6] qdd[6] tau[6]
+//                          (tau: the drives' torques, N m), prints the model's 6 joint torques
+//                          and the force at the TCP (the flange, N, base frame) that the
+//                          estimator reads from tau - model (core::estimate_tcp_force).
 //
 // Exit 0; 1 when a line's torques could not be computed (NaN printed); 2 on a malformed
 // line or option.
@@ -24,6 +30,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "safestate/core/collision.hpp"
 #include "safestate/core/dynamics.hpp"
 #include "safestate/motion/robot.hpp"
 #include "safestate/robot/description.hpp"
@@ -119,6 +126,56 @@ int torques_from_stdin() {
   return rc;
 }
 
+// The core's model: lines of q qd qdd tau (24 numbers) -> model torques (6) and force (3).
+int core_from_stdin() {
+  const safestate::robot::Robot& r = safestate::robot::active();
+  const core::ArmDynamicsModel m = core::prepare_dynamics(r.geometry, r.inertials);
+  std::cout << std::setprecision(9);  // float round-trip
+  std::string line;
+  long n = 0;
+  while (std::getline(std::cin, line)) {
+    ++n;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) {
+      continue;
+    }
+    std::istringstream in(line);
+    std::array<double, 24> v{};
+    std::size_t got = 0;
+    double x = 0.0;
+    while (in >> x) {
+      if (got < v.size()) {
+        v.at(got) = x;
+      }
+      ++got;
+    }
+    if (!in.eof() || got != v.size()) {
+      std::cerr << "sim_dynamics: line " << n << ": expected 24 numbers (q qd qdd tau)\n";
+      return 2;
+    }
+    core::JointArray q{};
+    core::JointArray qd{};
+    core::JointArray qdd{};
+    core::JointArray residual{};
+    for (std::size_t i = 0; i < 6; ++i) {
+      q.at(i) = static_cast<float>(v.at(i));
+      qd.at(i) = static_cast<float>(v.at(6 + i));
+      qdd.at(i) = static_cast<float>(v.at(12 + i));
+    }
+    core::ArmDynamicsState s{};
+    core::arm_dynamics(m, q, qd, qdd, 0.0F, {0.0F, 0.0F, 0.0F}, s);
+    for (std::size_t i = 0; i < 6; ++i) {
+      residual.at(i) = static_cast<float>(v.at(18 + i)) - s.tau_nm.at(i);
+    }
+    core::Vec3 f{};
+    (void)core::estimate_tcp_force(s, residual, f);
+    for (std::size_t i = 0; i < 6; ++i) {
+      std::cout << (i == 0 ? "" : " ") << s.tau_nm.at(i);
+    }
+    std::cout << ' ' << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
+  }
+  return 0;
+}
+
 int run(std::span<char*> argv) {
   std::vector<std::string> args;
   for (const char* a : argv.subspan(1)) {
@@ -143,13 +200,18 @@ int run(std::span<char*> argv) {
   if (args.size() == 1 && args[0] == "--model") {
     return print_model();
   }
+  if (args.size() == 1 && args[0] == "--core") {
+    return core_from_stdin();
+  }
   if (args.size() == 1 && (args[0] == "--help" || args[0] == "-h")) {
-    std::cout << "usage: sim_dynamics [--robot FILE.urdf [--base LINK] [--flange LINK]] [--model]\n"
+    std::cout << "usage: sim_dynamics [--robot FILE.urdf [--base LINK] [--flange LINK]] [--model | --core]\n"
                  "  --model  the arm's description: name, links, joints, ranges, gravity (JSON)\n"
+                 "  --core   stdin lines 'q[6] qd[6] qdd[6] tau[6]' -> the core's collision model: 6 joint\n"
+                 "           torques (N m) and the TCP force it reads from tau (N, base frame)\n"
                  "  (none)   stdin lines 'q[6] qd[6] qdd[6] f_world[3]' -> 6 joint torques (N m) per line\n";
     return 0;
   }
-  std::cerr << "sim_dynamics: unknown option (usage: sim_dynamics [--model])\n";
+  std::cerr << "sim_dynamics: unknown option (usage: sim_dynamics [--model | --core])\n";
   return 2;
 }
 

@@ -85,7 +85,7 @@ void SystemStateManager::configure_limits(const SafetyLimits& limits, const ArmG
   limits_.configure(limits, arm, cycle_us);
   fields_.configure(limits.collaborative, cycle_us);
   ssm_.configure(limits, cycle_us);
-  collision_.configure(limits, cycle_us);
+  collision_.configure(limits, arm, cycle_us);
   config_validated_ = validated;
   brake_test_.configure(limits.brake_test, cycle_us, timing_.brake_confirm, timing_.brakes_timeout);
 }

@@ -286,6 +286,17 @@ void make_models(Robot& r) {
   }
   m.reach_mm = reach;
   r.geometry = controller::Controller::arm_geometry(m);
+  // The core's collision model: each moving link's inertial in its joint's frame, the
+  // effort as the drive's rated torque (docs/robot.md "Dynamics").
+  for (std::size_t k = 0; k < kJoints; ++k) {
+    const Inertial& in = r.d.joints[k].inertial;
+    core::LinkInertial& l = r.inertials.link[k];
+    l.mass_kg = f(in.mass_kg);
+    l.com_m = {f(in.com_m[0]), f(in.com_m[1]), f(in.com_m[2])};
+    l.inertia = {f(in.inertia[0][0]), f(in.inertia[0][1]), f(in.inertia[0][2]),
+                 f(in.inertia[1][1]), f(in.inertia[1][2]), f(in.inertia[2][2])};
+    r.inertials.rated_torque_nm[k] = f(r.d.joints[k].effort_nm);
+  }
 }
 
 std::mutex g_parse_mutex;  // console_bridge's handler is process-wide
@@ -475,6 +486,10 @@ std::unique_ptr<Robot> load_text(const std::string& urdf, const std::string& sou
       return nullptr;
     }
     out.velocity_rad_s = lim->velocity;
+    if (lim->effort < 0.0) {
+      error = "joint '" + j->name + "': its effort limit must be >= 0 (found " + std::to_string(lim->effort) + ")";
+      return nullptr;
+    }
     out.effort_nm = lim->effort;
     ++k;
   }

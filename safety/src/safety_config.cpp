@@ -25,8 +25,12 @@ using nlohmann::json;
 
 namespace {
 
-// [docs/robot.md] the IRB 120-3/0.58 carries 3 kg; robot.hpp does not hold it (yet).
+// [docs/robot.md] the IRB 120-3/0.58 carries 3 kg (motion::kRatedPayloadKg). A URDF holds no
+// rated payload: another arm's comes from robot.rated_payload_kg (the vendor's data sheet).
 constexpr double kRatedPayloadKg = static_cast<double>(motion::kRatedPayloadKg);
+// A plausibility bound for robot.rated_payload_kg and tool.payload_kg (the largest industrial
+// arms carry some 2.3 t): it refuses typos, not arms.
+constexpr double kMaxPayloadKg = 2500.0;
 // Plausibility bounds where the robot has no published number; they refuse typos (a TCP
 // speed of 150000 mm/s, a box 100 m wide), not settings that make sense for this arm.
 constexpr double kMaxTcpSpeedMmS = 10000.0;
@@ -57,7 +61,9 @@ const std::vector<KeySpec> kTop = {{"format", true},        {"name", true},   {"
                                    {"zones", false},        {"stop", true},   {"collaborative", false},
                                    {"brake_test", false},   {"channels", false}};
 // `urdf` or `parameters` (the checksummed form the gateway reads back may hold only the latter).
-const std::vector<KeySpec> kRobotKey = {{"urdf", false}, {"base", false}, {"flange", false}, {"parameters", false}};
+const std::vector<KeySpec> kRobotKey = {{"urdf", false},       {"base", false},
+                                        {"flange", false},     {"parameters", false},
+                                        {"rated_payload_kg", false}};
 const std::vector<KeySpec> kTool = {{"tcp_mm", true}, {"radius_mm", true}, {"payload_kg", true}};
 const std::vector<KeySpec> kJoint = {{"min_deg", true}, {"max_deg", true}, {"max_speed_deg_s", true}};
 const std::vector<KeySpec> kReduced = {{"tcp_max_speed_mm_s", true}, {"ramp_ms", true}};
@@ -424,6 +430,36 @@ void check_collaborative(const json& c, double tcp_max, Checker& ck, Collaborati
   }
 }
 
+// tool.payload_kg within the robot's rated payload: robot.rated_payload_kg, else the built-in
+// IRB 120's 3 kg; another arm without the key carries none (its URDF gives no rated payload).
+void check_payload(const safestate::robot::Robot& rb, const std::optional<double>& payload,
+                   const std::optional<double>& rated_key, Checker& ck) {
+  const bool builtin = safestate::robot::is_builtin(rb);
+  if (builtin && rated_key && *rated_key > kRatedPayloadKg) {
+    ck.add("robot.rated_payload_kg", "must be <= " + num(kRatedPayloadKg) +
+                                         " (the IRB 120-3/0.58's rated payload) (found " + num(*rated_key) + ")");
+    return;
+  }
+  if (!payload) {
+    return;
+  }
+  if (!rated_key && !builtin) {
+    if (*payload > 0.0) {
+      ck.add("tool.payload_kg", "must be 0 without robot.rated_payload_kg: the description of robot " + rb.d.name +
+                                    " (URDF) gives no rated payload; set robot.rated_payload_kg from the arm's data "
+                                    "sheet (found " + num(*payload) + ")");
+    }
+    return;
+  }
+  const double rated = rated_key ? *rated_key : kRatedPayloadKg;
+  if (!(*payload <= rated)) {
+    ck.add("tool.payload_kg", "must be >= 0 and <= " + num(rated) + " (" +
+                                  (rated_key ? "robot.rated_payload_kg, robot " + rb.d.name + "'s rated payload"
+                                             : std::string("the IRB 120's rated payload")) +
+                                  ") (found " + num(*payload) + ")");
+  }
+}
+
 // The file's §11 section in the core's units (only for a configuration without errors).
 void to_core(const Collaborative& c, float payload_kg, core::CollaborativeLimits& out) {
   out.enabled = c.enabled;
@@ -541,6 +577,8 @@ Result parse_safety(std::string_view text, const std::string& dir) {
     }
   }
 
+  std::optional<double> payload;        // tool.payload_kg
+  std::optional<double> rated_payload;  // robot.rated_payload_kg
   if (doc.contains("tool") && ck.object(doc.at("tool"), "tool", kTool)) {
     const json& t = doc.at("tool");
     if (auto v = ck.vec3(t, "tool", "tcp_mm", kMaxToolOffsetMm)) {
@@ -549,8 +587,10 @@ Result parse_safety(std::string_view text, const std::string& dir) {
     if (auto v = ck.number(t, "tool", "radius_mm", 0.0, false, kMaxToolRadiusMm)) {
       lim.tool_radius_mm = static_cast<float>(*v);
     }
-    if (auto v = ck.number(t, "tool", "payload_kg", 0.0, false, kRatedPayloadKg, "the IRB 120's rated payload")) {
+    // Bounded by the robot's rated payload below, once the robot is known.
+    if (auto v = ck.number(t, "tool", "payload_kg", 0.0, false, kMaxPayloadKg, "a plausibility bound")) {
       lim.payload_kg = static_cast<float>(*v);
+      payload = *v;
     }
   }
 
@@ -558,9 +598,13 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   cfg.robot.robot = safestate::robot::active_shared();
   if (doc.contains("robot") && ck.object(doc.at("robot"), "robot", kRobotKey)) {
     const json& r = doc.at("robot");
-    if (!r.contains("urdf") && !r.contains("parameters")) {
+    // Only rated_payload_kg: the rated payload of the arm the program runs (--robot, else the
+    // built-in IRB 120); anything else names the arm's URDF.
+    const bool payload_only = r.contains("rated_payload_kg") && !r.contains("base") && !r.contains("flange");
+    if (!r.contains("urdf") && !r.contains("parameters") && !payload_only) {
       ck.add("robot.urdf", "missing (required): the arm's URDF file");
     }
+    rated_payload = ck.number(r, "robot", "rated_payload_kg", 0.0, true, kMaxPayloadKg, "a plausibility bound");
     const auto urdf = r.contains("urdf") ? ck.string(r, "robot", "urdf") : std::optional<std::string>(std::string());
     const auto base = r.contains("base") ? ck.string(r, "robot", "base") : std::optional<std::string>(std::string());
     const auto flange =
@@ -589,6 +633,8 @@ Result parse_safety(std::string_view text, const std::string& dir) {
     }
   }
   const safestate::robot::Robot& rb = *cfg.robot.robot;
+  check_payload(rb, payload, rated_payload, ck);
+  lim.inertials = rb.inertials;
   for (std::size_t i = 0; i < core::kAxes; ++i) {  // no `joints` key: the robot's own limits
     lim.joints[i] = core::JointLimit{rb.model.q_min_rad[i], rb.model.q_max_rad[i], rb.model.qd_max_rad_s[i]};
   }
@@ -727,14 +773,19 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   if (doc.contains("collaborative")) {
     Collaborative c;
     check_collaborative(doc.at("collaborative"), tcp_max.value_or(kMaxTcpSpeedMmS), ck, c);
-    // PFL's collision detection compares the drives' torques with the core's model of the arm's
-    // dynamics, which is the IRB 120's (core/include/safestate/core/dynamics.hpp): on another
-    // arm it would judge contact forces from the wrong masses, so it is refused there.
-    if (c.pfl && c.pfl->enabled && !safestate::robot::is_builtin(*cfg.robot.robot)) {
-      ck.add("collaborative.pfl.enabled",
-             "power and force limiting needs the core's collision model, which is the IRB 120's (its link masses and "
-             "inertias); with robot " + cfg.robot.robot->d.name +
-                 " leave it off (docs/robot.md, \"Not yet general\"; SSM and the protective fields work on any arm)");
+    // PFL's collision detection compares the drives' torques (per mille of their rated torque)
+    // with the core's model of the arm's dynamics, both from the description: the rated torque
+    // is the URDF's effort, so every joint needs one.
+    if (c.pfl && c.pfl->enabled) {
+      for (const safestate::robot::Joint& j : cfg.robot.robot->d.joints) {
+        if (!(j.effort_nm > 0.0)) {
+          ck.add("collaborative.pfl.enabled",
+                 "power and force limiting reads the drives' torques in per mille of their rated torque, the URDF's "
+                 "effort limit: joint '" + j.name + "' of robot " + cfg.robot.robot->d.name +
+                     " has none (effort 0); give it its rated torque or leave PFL off");
+          break;
+        }
+      }
     }
     cfg.collaborative = c;
   }

@@ -55,8 +55,14 @@ struct ArmDynamics::Impl {
   KDL::Frame link6;
   KDL::Frame flange;  // the flange (tool0) in link 6's frame
   robot::Description desc;
+  JointVec rated{};
 
-  explicit Impl(const robot::Robot& r) : flange(frame(r.d.flange_frame)), desc(r.d) {}
+  explicit Impl(const robot::Robot& r) : flange(frame(r.d.flange_frame)), desc(r.d) {
+    for (std::size_t k = 0; k < kDynAxes; ++k) {
+      const double e = r.d.joints[k].effort_nm;
+      rated[k] = (e > 0.0) ? e : d(core::kIrb120Inertials.rated_torque_nm[k]);
+    }
+  }
 
   // A point in flange (tool0) coordinates, in link 6's frame.
   [[nodiscard]] KDL::Vector in_link6(const Vec3& p) const noexcept { return flange * KDL::Vector(p[0], p[1], p[2]); }
@@ -98,6 +104,8 @@ ArmDynamics::ArmDynamics(const robot::Robot& r) : impl_(std::make_unique<Impl>(r
 }
 
 ArmDynamics::~ArmDynamics() = default;
+
+const JointVec& ArmDynamics::rated_torque_nm() const noexcept { return impl_->rated; }
 
 void ArmDynamics::set_payload(double kg, const Vec3& tcp_tool0_m) { impl_->build(kg, tcp_tool0_m); }
 

@@ -307,7 +307,8 @@ void SimPlant::write(const hal::ProcessImageOut& out) noexcept {
 // @req COL-SIM-DYNAMICS
 // Torque actual (0x6077) of the drives that hold the arm: what its rigid-body dynamics
 // (KDL) need for this cycle's motion under gravity, against the contact's force, in per mille
-// of rated torque (core::kRatedTorqueNm) within the drive's peak, plus an injected bias.
+// of rated torque (the description's efforts, ArmDynamics::rated_torque_nm) within the drive's
+// peak, plus an injected bias.
 void SimPlant::dynamics() noexcept {
   JointVec q{};
   JointVec qd{};
@@ -320,12 +321,13 @@ void SimPlant::dynamics() noexcept {
   contact(q);
   JointVec tau{};
   const bool ok = dyn_->torques(q, qd, qdd, contact_f_, tcp_m_, tau);
+  const JointVec& rated = dyn_->rated_torque_nm();
   for (std::size_t i = 0; i < hal::kAxes; ++i) {
     Axis& a = axis_[i];
     if (!a.held_by_drive) {
       continue;
     }
-    const double permille = ok ? (1000.0 * tau[i] / static_cast<double>(core::kRatedTorqueNm[i])) : 0.0;
+    const double permille = ok ? (1000.0 * tau[i] / rated[i]) : 0.0;
     const double limit = static_cast<double>(hal::kDriveMaxTorquePermille);
     const double t = std::fmin(std::fmax(permille, -limit), limit) + static_cast<double>(a.bias);
     a.torque = static_cast<std::int16_t>(std::lround(std::fmin(std::fmax(t, -32768.0), 32767.0)));

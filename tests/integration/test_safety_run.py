@@ -342,3 +342,39 @@ def test_collaborative_status_and_the_value_faults_through_the_gateway(tmp_path)
         run(main())
     finally:
         stop(s)
+
+
+def test_pfl_on_a_ur5_starts_and_reads_its_drives_torques(tmp_path):
+    """Issue 38: collaborative operation with PFL on another arm than the built-in IRB 120. A
+    UR5 (example-robot-data, the test venv) with `collaborative.pfl.enabled` starts; the core's
+    collision model is the UR5's, so the held arm shows no force, and a torque bias on axis 2
+    (per mille of the UR5's rated torque, its URDF effort) is read as a force at the TCP."""
+    import sysconfig
+    ur5 = (Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" /
+           "ur_description" / "urdf" / "ur5_robot.urdf")
+    assert ur5.is_file(), "example-robot-data missing: pip install -r tests/integration/requirements-robots.txt"
+    cfg = ROOT / "tests" / "scenarios" / "ur5" / "configs" / "pfl-abdomen.json"
+    s = SafeState(tmp_path, args=["--robot", str(ur5), "--safety", str(cfg)])
+    try:
+        async def main():
+            p = await pendant(s)
+            sf = (await p.status())["safety"]
+            assert sf["pfl"] is True, sf
+            assert sf["contact_force_limit"] == 110.0, sf  # abdomen
+            await p.state("ESTOP_RESET_NEEDED")
+            await t1_idle(p)
+            assert (await p.sim(set={"enable": "centre"}))["result"] == "OK"
+            assert await p.command("servo_on") == "OK"
+            await p.state("OPERATIONAL", "MANUAL_IDLE")
+            await p.status(lambda m: m["safety"]["contact_force"] is not None and m["safety"]["contact_force"] < 5.0,
+                           what="no force on the held UR5")
+            assert (await p.sim(fault="drive 2 torque_bias 25"))["result"] == "OK"
+            # 25 % of the UR5's 150 N m is 37.5 N m, some 49 N at the TCP 0.77 m out in this pose
+            # (read in per mille of the IRB 120's 60 N m it would be some 20 N).
+            m = await p.status(lambda m: 35.0 < m["safety"]["contact_force"] < 65.0, what="the bias read as a force")
+            assert m["state"] == "OPERATIONAL" and "COLLISION" not in m["alarms"], "standing still: no rule 8"
+            assert (await p.sim(fault="drive 2 torque_bias 0"))["result"] == "OK"
+            await p.status(lambda m: m["safety"]["contact_force"] < 5.0, what="the bias gone")
+        run(main())
+    finally:
+        stop(s)

@@ -8,15 +8,26 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 
 #include "safestate/core/collision.hpp"
 #include "safestate/core/dynamics.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/sim/dynamics.hpp"
 #include "monitor_harness.hpp"
 
 using namespace safestate::core;
 
 namespace {
+
+// The built-in IRB 120: its chain as the description gives it, its inertials as the constants
+// (test_robot_description checks that the description gives those too).
+const ArmGeometry& irb_arm() { return safestate::robot::active().geometry; }
+const ArmDynamicsModel& irb() {
+  static const ArmDynamicsModel m = prepare_dynamics(irb_arm(), kIrb120Inertials);
+  return m;
+}
+const JointArray& kRatedTorqueNm = kIrb120Inertials.rated_torque_nm;
 
 JointArray random_q(std::mt19937& g) {
   // Inside the IRB 120's ranges (docs/robot.md), away from the ends.
@@ -58,7 +69,7 @@ TEST(CollisionModel, AgreesWithTheSimulatorsKdlModelOnRandomStates) {
     const JointArray qd = uniform(g, 3.0F);
     const JointArray qdd = uniform(g, 20.0F);
     ArmDynamicsState s{};
-    arm_dynamics(q, qd, qdd, 1.5F, tcp_mm, s);
+    arm_dynamics(irb(), q, qd, qdd, 1.5F, tcp_mm, s);
     safestate::sim::JointVec tau{};
     ASSERT_TRUE(kdl.torques(to_d(q), to_d(qd), to_d(qdd), {0.0, 0.0, 0.0}, {0.0, 0.0, 0.12}, tau));
     safestate::sim::Vec3 p{};
@@ -73,13 +84,78 @@ TEST(CollisionModel, AgreesWithTheSimulatorsKdlModelOnRandomStates) {
   }
 }
 
+// Any arm from its description: turned joint frames, an axis along minus z, a skew axis, a
+// turned flange, fixed links folded in. The core's model (prepared from the description's
+// chain and inertials) against the simulator's KDL chain of the same description.
+// @req COL-COLLISION
+TEST(CollisionModel, AgreesWithKdlOnAGeneralArm) {
+  const auto link = [](const std::string& name, const std::string& com, double mass) {
+    return "<link name=\"" + name + "\"><inertial><origin xyz=\"" + com + "\" rpy=\"0.2 -0.1 0.3\"/><mass value=\"" +
+           std::to_string(mass) + "\"/><inertia ixx=\"0.03\" ixy=\"0.001\" ixz=\"-0.002\" iyy=\"0.02\" "
+           "iyz=\"0.0015\" izz=\"0.025\"/></inertial></link>";
+  };
+  const auto joint = [](const std::string& name, const std::string& parent, const std::string& child,
+                        const std::string& xyz, const std::string& rpy, const std::string& axis, const std::string& effort) {
+    return "<joint name=\"" + name + "\" type=\"revolute\"><parent link=\"" + parent + "\"/><child link=\"" + child +
+           "\"/><origin xyz=\"" + xyz + "\" rpy=\"" + rpy + "\"/><axis xyz=\"" + axis +
+           "\"/><limit lower=\"-3\" upper=\"3\" velocity=\"2\" effort=\"" + effort + "\"/></joint>";
+  };
+  const std::string urdf =
+      "<?xml version=\"1.0\"?><robot name=\"general\"><link name=\"base\"/>" + link("l1", "0 0.01 0.1", 4.0) +
+      link("l2", "0.2 0 0.02", 6.0) + link("l3", "0.15 0.01 0", 3.0) + link("l4", "0 0.02 0.03", 1.2) +
+      link("l5", "0.01 0 0.02", 1.0) + link("l6", "0 0 0.02", 0.3) + link("tool0", "0 0 0.01", 0.2) +
+      joint("j1", "base", "l1", "0 0 0.1", "0 0 0", "0 0 1", "150") +
+      joint("j2", "l1", "l2", "0 0.13 0.05", "0 1.5707963267948966 0", "0 1 0", "150") +
+      joint("j3", "l2", "l3", "0 -0.12 0.42", "0.3 -0.2 0.1", "0 0 -1", "150") +
+      joint("j4", "l3", "l4", "0.39 0 0.01", "0 1.5707963267948966 0", "0.6 0 0.8", "28") +
+      joint("j5", "l4", "l5", "0 0.09 0", "0 0 0", "1 0 0", "28") +
+      joint("j6", "l5", "l6", "0 0 0.09", "0 0 0", "0 -1 0", "28") +
+      "<joint name=\"flange\" type=\"fixed\"><parent link=\"l6\"/><child link=\"tool0\"/><origin "
+      "xyz=\"0 0.08 0\" rpy=\"-1.5707963267948966 0 0\"/></joint></robot>";
+  std::string error;
+  const auto r = safestate::robot::load_text(urdf, "test", "", "", error);
+  ASSERT_NE(r, nullptr) << error;
+  const ArmDynamicsModel m = prepare_dynamics(r->geometry, r->inertials);
+  EXPECT_TRUE(m.joint[1].turned);
+  EXPECT_EQ(m.joint[2].axis_kind, AxisKind::minus_z);
+  EXPECT_EQ(m.joint[3].axis_kind, AxisKind::general);
+  EXPECT_EQ(m.joint[5].axis_kind, AxisKind::minus_y);
+  EXPECT_EQ(m.rated_torque_nm[3], 28.0F);
+  safestate::sim::ArmDynamics kdl(*r);
+  const Vec3 tcp_mm{10.0F, -5.0F, 120.0F};
+  const safestate::sim::Vec3 tcp_m{0.01, -0.005, 0.12};
+  kdl.set_payload(2.0, tcp_m);
+  std::mt19937 g(11U);
+  float worst = 0.0F;
+  for (int n = 0; n < 500; ++n) {
+    JointArray q{};
+    for (float& x : q) x = std::uniform_real_distribution<float>(-3.0F, 3.0F)(g);
+    const JointArray qd = uniform(g, 3.0F);
+    const JointArray qdd = uniform(g, 20.0F);
+    ArmDynamicsState s{};
+    arm_dynamics(m, q, qd, qdd, 2.0F, tcp_mm, s);
+    safestate::sim::JointVec tau{};
+    ASSERT_TRUE(kdl.torques(to_d(q), to_d(qd), to_d(qdd), {0.0, 0.0, 0.0}, tcp_m, tau));
+    safestate::sim::Vec3 p{};
+    kdl.tcp(to_d(q), tcp_m, p);
+    for (std::size_t k = 0; k < 3U; ++k) {
+      EXPECT_NEAR(s.tcp_m[k], p[k], 1.0e-5) << "tcp " << k << " sample " << n;
+    }
+    for (std::size_t k = 0; k < kAxes; ++k) {
+      EXPECT_NEAR(s.tau_nm[k], tau[k], 1.0e-3 * m.rated_torque_nm[k]) << "axis " << (k + 1) << " sample " << n;
+      worst = std::fmax(worst, std::fabs(static_cast<float>(tau[k])));
+    }
+  }
+  EXPECT_GT(worst, 20.0F) << "not vacuous: the states load the axes";
+}
+
 // @req COL-COLLISION
 TEST(CollisionModel, JacobianIsTheDerivativeOfTheTcp) {
   std::mt19937 g(7U);
   for (int n = 0; n < 50; ++n) {
     const JointArray q = random_q(g);
     ArmDynamicsState s{};
-    arm_dynamics(q, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, s);
+    arm_dynamics(irb(), q, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, s);
     for (std::size_t k = 0; k < kAxes; ++k) {
       JointArray qp = q;
       JointArray qm = q;
@@ -87,8 +163,8 @@ TEST(CollisionModel, JacobianIsTheDerivativeOfTheTcp) {
       qm[k] -= 1.0e-3F;
       ArmDynamicsState sp{};
       ArmDynamicsState sm{};
-      arm_dynamics(qp, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, sp);
-      arm_dynamics(qm, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, sm);
+      arm_dynamics(irb(), qp, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, sp);
+      arm_dynamics(irb(), qm, {}, {}, 0.0F, {10.0F, -20.0F, 100.0F}, sm);
       for (std::size_t i = 0; i < 3U; ++i) {
         EXPECT_NEAR(s.jacobian[k][i], (sp.tcp_m[i] - sm.tcp_m[i]) / 2.0e-3F, 2.0e-3F) << "joint " << k;
       }
@@ -99,7 +175,7 @@ TEST(CollisionModel, JacobianIsTheDerivativeOfTheTcp) {
 // @req COL-COLLISION
 TEST(CollisionModel, GravityAtTheZeroPoseLoadsAxes2And3NotAxis1) {
   ArmDynamicsState s{};
-  arm_dynamics({}, {}, {}, 0.0F, {}, s);
+  arm_dynamics(irb(), {}, {}, {}, 0.0F, {}, s);
   EXPECT_NEAR(s.tau_nm[0], 0.0F, 1.0e-5F);  // gravity is parallel to axis 1
   // q = 0: upper arm upright, forearm forward: axis 2 and 3 hold the forearm's weight, which
   // pulls forward-down (a negative torque about +y tips it further: the drive holds with -).
@@ -114,7 +190,7 @@ TEST(CollisionEstimate, RecoversAKnownForceAtTheTcp) {
   for (int n = 0; n < 200; ++n) {
     const JointArray q = random_q(g);
     ArmDynamicsState s{};
-    arm_dynamics(q, {}, {}, 0.0F, {0.0F, 0.0F, 100.0F}, s);
+    arm_dynamics(irb(), q, {}, {}, 0.0F, {0.0F, 0.0F, 100.0F}, s);
     const Vec3 f{std::uniform_real_distribution<float>(-200.0F, 200.0F)(g),
                  std::uniform_real_distribution<float>(-200.0F, 200.0F)(g),
                  std::uniform_real_distribution<float>(-200.0F, 200.0F)(g)};
@@ -145,7 +221,7 @@ TEST(CollisionEstimate, RecoversAKnownForceAtTheTcp) {
 // @req COL-COLLISION
 TEST(CollisionEstimate, NaNResidualIsNaN) {
   ArmDynamicsState s{};
-  arm_dynamics({0.1F, 0.2F, 0.3F, 0.4F, 0.5F, 0.6F}, {}, {}, 0.0F, {}, s);
+  arm_dynamics(irb(), {0.1F, 0.2F, 0.3F, 0.4F, 0.5F, 0.6F}, {}, {}, 0.0F, {}, s);
   JointArray r{};
   r[1] = std::numeric_limits<float>::quiet_NaN();
   Vec3 f{};
@@ -166,7 +242,7 @@ SafetyLimits pfl_limits() {
 Feedback drives_for(const JointArray& q, const JointArray& qd, const JointArray& qdd, const Vec3& f_env,
                     std::size_t bias_axis = 0, float bias_permille = 0.0F) {
   ArmDynamicsState s{};
-  arm_dynamics(q, qd, qdd, 0.0F, {}, s);
+  arm_dynamics(irb(), q, qd, qdd, 0.0F, {}, s);
   Feedback fb{};
   for (std::size_t k = 0; k < kAxes; ++k) {
     const float tau = s.tau_nm[k] - ((s.jacobian[k][0] * f_env[0]) + (s.jacobian[k][1] * f_env[1]) +
@@ -189,7 +265,7 @@ const JointArray kPose{0.3F, 0.4F, -0.2F, 0.1F, 0.6F, 0.0F};
 // @req COL-COLLISION
 TEST(CollisionMonitor, AForceOverFqsTwoCyclesInARowTrips) {
   CollisionMonitor m;
-  m.configure(pfl_limits(), 1000U);
+  m.configure(pfl_limits(), irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   safestate::test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
   EXPECT_TRUE(r.acting);
@@ -209,7 +285,7 @@ TEST(CollisionMonitor, AForceOverFqsTwoCyclesInARowTrips) {
 // @req COL-COLLISION
 TEST(CollisionMonitor, AForceBelowFqsNeverTrips) {
   CollisionMonitor m;
-  m.configure(pfl_limits(), 1000U);
+  m.configure(pfl_limits(), irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   for (int i = 0; i < 10; ++i) {
     safestate::test::collide(m, drives_for(kPose, {}, {}, {0.0F, 0.0F, 120.0F}), true, r);
@@ -223,7 +299,7 @@ TEST(CollisionMonitor, AnEstimateThatIsNotANumberCountsAsOver) {
   // A drive whose velocity reads NaN (a corrupted sample) leaves the force unknown: unknown
   // is unsafe (SPEC §2's principle), so it counts as over F_qs and trips like a force would.
   CollisionMonitor m;
-  m.configure(pfl_limits(), 1000U);
+  m.configure(pfl_limits(), irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   safestate::test::collide(m, drives_for(kPose, {}, {}, {}), true, r);
   ASSERT_FALSE(r.hit.hit);
@@ -240,7 +316,7 @@ TEST(CollisionMonitor, AnEstimateThatIsNotANumberCountsAsOver) {
 TEST(CollisionMonitor, ATorqueBiasIsReadAsTheForceItWouldTake) {
   // 5 % of rated on axis 2 (3 N m): far below what 140 N at the TCP would take.
   CollisionMonitor m;
-  m.configure(pfl_limits(), 1000U);
+  m.configure(pfl_limits(), irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   for (int i = 0; i < 5; ++i) {
     safestate::test::collide(m, drives_for(kPose, {}, {}, {}, 2U, 50.0F), true, r);
@@ -260,7 +336,7 @@ TEST(CollisionMonitor, InertiaIsModelledFromTheDrivesVelocities) {
   // Accelerating: the drives' torque includes M qdd; the monitor derives qdd from two
   // velocity samples a cycle apart and finds no force.
   CollisionMonitor m;
-  m.configure(pfl_limits(), 1000U);
+  m.configure(pfl_limits(), irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   const JointArray qdd{10.0F, -15.0F, 12.0F, 20.0F, -20.0F, 25.0F};
   JointArray qd{};
@@ -280,7 +356,7 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
   CollisionMonitor off;
   SafetyLimits l = pfl_limits();
   l.collaborative.pfl_enabled = false;
-  off.configure(l, 1000U);
+  off.configure(l, irb_arm(), 1000U);
   safestate::test::CollisionResult r{};
   const Feedback pushed = drives_for(kPose, {}, {}, {0.0F, 0.0F, 500.0F});
   for (int i = 0; i < 3; ++i) {
@@ -289,7 +365,7 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
   EXPECT_FALSE(r.acting);
   EXPECT_FALSE(r.hit.hit);
   CollisionMonitor on;
-  on.configure(pfl_limits(), 1000U);
+  on.configure(pfl_limits(), irb_arm(), 1000U);
   for (int i = 0; i < 3; ++i) {
     safestate::test::collide(on, pushed, false, r);  // brakes engaged, power off, brake test
   }
@@ -302,7 +378,7 @@ TEST(CollisionMonitor, OffWithoutPflAndWhileTheArmIsNotFree) {
   EXPECT_TRUE(r.hit.hit);
   // No cycle time, no velocity to differentiate the inertia from: off rather than guessing.
   CollisionMonitor timeless;
-  timeless.configure(pfl_limits(), 0U);
+  timeless.configure(pfl_limits(), irb_arm(), 0U);
   EXPECT_FALSE(timeless.enabled());
   EXPECT_TRUE(on.enabled());
 }

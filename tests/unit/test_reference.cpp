@@ -378,6 +378,8 @@ struct Harness {
   Pose pose = kHome;
   bool within_limits = true;
   SafetyLimits lim = limits();
+  // The core's collision model of the arm the core is configured with (its chain, the limits' inertials).
+  const ArmDynamicsModel dyn = prepare_dynamics(geometry(), lim.inertials);
   bool validated_at_start = true;
 
   void configure() {
@@ -555,9 +557,9 @@ struct Harness {
           qdd[i] = (qd[i] - qd_prev[i]) * 1000.0F;
         }
         ArmDynamicsState model{};
-        arm_dynamics(q, qd, have_qd_prev ? qdd : JointArray{}, lim.payload_kg, lim.tcp_mm, model);
+        arm_dynamics(dyn, q, qd, have_qd_prev ? qdd : JointArray{}, lim.payload_kg, lim.tcp_mm, model);
         for (std::size_t i = 0; i < kAxes; ++i) {
-          const float expected = std::round(1000.0F * model.tau_nm[i] / kRatedTorqueNm[i]);
+          const float expected = std::round(1000.0F * model.tau_nm[i] / dyn.rated_torque_nm[i]);
           const float burst = (contact_left > 0U)
                                   ? static_cast<float>(std::uniform_int_distribution<int>(-1500, 1500)(torque_rng))
                                   : 0.0F;
@@ -565,7 +567,7 @@ struct Harness {
         }
         contact_left = (contact_left > 0U) ? contact_left - 1U : 0U;
         Vec3 f{};
-        geo.contact_force_n = tcp_force_from_drives(fb, model, f);
+        geo.contact_force_n = tcp_force_from_drives(fb, dyn.rated_torque_nm, model, f);
       }
       with_t1_points(geo, lim, fb);
       for (std::size_t i = 0; i < kAxes; ++i) qd_prev[i] = fb.drive[i].velocity_rad_s;

@@ -146,6 +146,31 @@ TEST(RobotDescription, ShippedIrb120MassesAreTheTables) {
   EXPECT_NEAR(r.d.joints[5].inertial.com_m[0], 0.072 - 0.00706, 1e-12);  // link 6's, from the wrist centre
 }
 
+// The core's collision model reads the description's inertials and efforts: for the shipped
+// IRB 120 exactly the compiled-in table (so PFL on the built-in arm is what it was).
+TEST(RobotDescription, ShippedIrb120InertialsAreTheCoresTable) {
+  const robot::Robot& r = robot::active();
+  const core::ArmInertials& k = core::kIrb120Inertials;
+  for (std::size_t j = 0; j < 6; ++j) {
+    const core::LinkInertial& a = r.inertials.link[j];
+    EXPECT_EQ(a.mass_kg, k.link[j].mass_kg) << "link " << (j + 1);
+    for (std::size_t c = 0; c < 3; ++c) {
+      EXPECT_EQ(a.com_m[c], k.link[j].com_m[c]) << "link " << (j + 1) << " com " << c;
+    }
+    for (std::size_t c = 0; c < 6; ++c) {
+      EXPECT_EQ(a.inertia[c], k.link[j].inertia[c]) << "link " << (j + 1) << " inertia " << c;
+    }
+    EXPECT_EQ(r.inertials.rated_torque_nm[j], k.rated_torque_nm[j]) << "joint " << (j + 1);
+  }
+}
+
+// A negative effort is refused naming the joint (it is the drive's rated torque).
+TEST(RobotDescription, RefusesANegativeEffort) {
+  Arm arm;
+  arm.limit[3] = "<limit lower=\"-3\" upper=\"3\" velocity=\"2\" effort=\"-5\"/>";
+  expect_refused(arm.text(), "joint 'j4': its effort limit must be >= 0");
+}
+
 // The general chain of the URDF reproduces the former DH model: same link origins (the DH
 // frames' origins), the same joint axes, the same tool0 and TCP, on random poses.
 TEST(RobotDescription, CoreChainEqualsTheFormerDhModel) {

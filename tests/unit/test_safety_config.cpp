@@ -602,29 +602,97 @@ TEST(SafetyRobot, TheKeysUrdfIsCheckedAndItsParametersAreInTheChecksum) {
   EXPECT_EQ(other.errors.front().path, "robot.parameters");
 }
 
-// The core's collision model (PFL) is the IRB 120's: on another arm PFL is refused, naming it,
-// while SSM and the fields are not.
-TEST(SafetyRobot, PflIsRefusedOnAnArmThatIsNotTheCollisionModels) {
+// The core's collision model (PFL) is the description's: PFL is accepted on another arm and the
+// core gets that arm's inertials and rated torques; a joint without an effort (the rated
+// torque the drives report in) is refused, naming it.
+TEST(SafetyRobot, PflTakesTheArmsInertialsAndNeedsEveryEffort) {
   const std::string dir = kSource + "/examples/robots";
-  const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-irb120-other.urdf";
-  std::string text = slurp(dir + "/abb_irb120.urdf");
-  const std::string from = "<origin xyz=\"0 0 0.27\" rpy=\"0 0 0\"/>";
-  ASSERT_NE(text.find(from), std::string::npos);
-  text.replace(text.find(from), from.size(), "<origin xyz=\"0 0 0.30\" rpy=\"0 0 0\"/>");
-  std::ofstream(tmp) << text;
+  const auto write = [&](const std::string& name, const std::string& from, const std::string& to) {
+    const auto tmp = std::filesystem::temp_directory_path() / name;
+    std::string text = slurp(dir + "/abb_irb120.urdf");
+    EXPECT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+    std::ofstream(tmp) << text;
+    return tmp;
+  };
+  const auto other = write("safestate-test-irb120-other.urdf", "<mass value=\"3.909\"/>", "<mass value=\"5.5\"/>");
+  const auto no_effort = write("safestate-test-irb120-noeffort.urdf", "velocity=\"5.58505344\" effort=\"8\"/>",
+                               "velocity=\"5.58505344\" effort=\"0\"/>");
   const auto with_collab = [&](const std::string& urdf, bool pfl) {
     json d = json::parse(with_robot(R"({"urdf": ")" + urdf + R"("})"));
     d["collaborative"] = json::parse(std::string(R"({"enabled": true, "reduced_speed_mm_s": 200, "pfl": {"enabled": )") +
                                      (pfl ? "true" : "false") + R"(, "body_region": "hand", "robot_mass_kg": 25}})");
     return parse_safety(d.dump(), dir);
   };
-  const Result other = with_collab(tmp.string(), true);
-  ASSERT_FALSE(other.ok());
-  EXPECT_EQ(other.errors.front().path, "collaborative.pfl.enabled");
-  EXPECT_NE(other.errors.front().message.find("the IRB 120's"), std::string::npos) << other.errors.front().message;
-  EXPECT_TRUE(with_collab(tmp.string(), false).ok()) << "PFL off: the rest of §11 on any arm";
+  const Result heavier = with_collab(other.string(), true);
+  ASSERT_TRUE(heavier.ok()) << (heavier.errors.empty() ? "" : heavier.errors.front().text());
+  EXPECT_EQ(heavier.config->limits.inertials.link[1].mass_kg, 5.5F) << "the core gets the description's masses";
+  EXPECT_EQ(heavier.config->limits.inertials.link[0].mass_kg, 3.067F);
+  EXPECT_EQ(heavier.config->limits.inertials.rated_torque_nm[2], 30.0F);
+  const Result refused = with_collab(no_effort.string(), true);
+  ASSERT_FALSE(refused.ok());
+  ASSERT_EQ(refused.errors.size(), 1U);
+  EXPECT_EQ(refused.errors.front().path, "collaborative.pfl.enabled");
+  EXPECT_NE(refused.errors.front().message.find("joint 'joint_4'"), std::string::npos) << refused.errors.front().message;
+  EXPECT_NE(refused.errors.front().message.find("effort"), std::string::npos);
+  EXPECT_TRUE(with_collab(no_effort.string(), false).ok()) << "PFL off: no rated torque needed";
   const Result irb = with_collab("abb_irb120.urdf", true);
-  EXPECT_TRUE(irb.ok()) << (irb.errors.empty() ? "" : irb.errors.front().text());
+  ASSERT_TRUE(irb.ok()) << (irb.errors.empty() ? "" : irb.errors.front().text());
+  EXPECT_EQ(irb.config->limits.inertials.link[5].com_m[0], core::kIrb120Inertials.link[5].com_m[0]);
+  std::filesystem::remove(other);
+  std::filesystem::remove(no_effort);
+}
+
+// tool.payload_kg is bounded by the robot's rated payload: the IRB 120's 3 kg built in, another
+// arm's from robot.rated_payload_kg (a URDF holds none); refused with the key named.
+TEST(SafetyRobot, ThePayloadIsBoundedByTheRobotsRatedPayload) {
+  const std::string dir = kSource + "/examples/robots";
+  const auto tmp = std::filesystem::temp_directory_path() / "safestate-test-irb120-payload.urdf";
+  {
+    std::string text = slurp(dir + "/abb_irb120.urdf");
+    const std::string from = "<mass value=\"3.909\"/>";
+    ASSERT_NE(text.find(from), std::string::npos);
+    text.replace(text.find(from), from.size(), "<mass value=\"5.5\"/>");
+    std::ofstream(tmp) << text;
+  }
+  const auto with = [&](const std::string& robot, double payload) {
+    json d = json::parse(with_robot(robot));
+    d["tool"]["payload_kg"] = payload;
+    return parse_safety(d.dump(), dir);
+  };
+  const std::string other = R"({"urdf": ")" + tmp.string() + R"("})";
+  const std::string other5 = R"({"urdf": ")" + tmp.string() + R"(", "rated_payload_kg": 5})";
+  // Another arm: no payload without its rated payload; up to it with the key.
+  EXPECT_TRUE(with(other, 0.0).ok());
+  const Result none = with(other, 1.5);
+  ASSERT_FALSE(none.ok());
+  ASSERT_EQ(none.errors.size(), 1U);
+  EXPECT_EQ(none.errors.front().path, "tool.payload_kg");
+  EXPECT_NE(none.errors.front().message.find("robot.rated_payload_kg"), std::string::npos) << none.errors.front().message;
+  EXPECT_TRUE(with(other5, 5.0).ok());
+  const Result over = with(other5, 5.5);
+  ASSERT_FALSE(over.ok());
+  EXPECT_EQ(over.errors.front().path, "tool.payload_kg");
+  EXPECT_NE(over.errors.front().message.find("<= 5 (robot.rated_payload_kg"), std::string::npos) << over.errors.front().message;
+  // The built-in IRB 120: 3 kg, the key may only lower it.
+  EXPECT_TRUE(with(R"({"urdf": "abb_irb120.urdf"})", 3.0).ok());
+  const Result irb_over = with(R"({"urdf": "abb_irb120.urdf"})", 3.5);
+  ASSERT_FALSE(irb_over.ok());
+  EXPECT_NE(irb_over.errors.front().message.find("the IRB 120's rated payload"), std::string::npos);
+  const Result key_over = with(R"({"urdf": "abb_irb120.urdf", "rated_payload_kg": 4})", 1.0);
+  ASSERT_FALSE(key_over.ok());
+  EXPECT_EQ(key_over.errors.front().path, "robot.rated_payload_kg");
+  // Only the key: the rated payload of the arm the program runs (here the built-in IRB 120).
+  EXPECT_TRUE(with(R"({"rated_payload_kg": 2})", 2.0).ok());
+  const Result low = with(R"({"rated_payload_kg": 2})", 2.5);
+  ASSERT_FALSE(low.ok());
+  EXPECT_EQ(low.errors.front().path, "tool.payload_kg");
+  const Result bad = with(R"({"rated_payload_kg": 0})", 0.0);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.errors.front().path, "robot.rated_payload_kg");
+  const Result base_only = with(R"({"rated_payload_kg": 2, "base": "base_link"})", 0.0);
+  ASSERT_FALSE(base_only.ok());
+  EXPECT_EQ(base_only.errors.front().path, "robot.urdf");
   std::filesystem::remove(tmp);
 }
 

@@ -1,5 +1,6 @@
-// The simulated arm's rigid-body dynamics (sim::ArmDynamics, KDL's RNE on core::kIrb120Links)
-// against hand computations from the table: gravity about axis 1 at home, axis 2's gravity
+// The simulated arm's rigid-body dynamics (sim::ArmDynamics, KDL's RNE on the built-in IRB 120's
+// description) against hand computations from its numbers (motion::kRobot's joint origins,
+// core::kIrb120Inertials' masses and centres of mass): gravity about axis 1 at home, axis 2's gravity
 // torque with the arm turned forward, the external force's torques as -J^T f with J from
 // finite differences of tcp() (this pins KDL's f_ext convention), and the payload's lever.
 // Pinocchio checks the inertial terms on random states (tests/integration/
@@ -29,6 +30,11 @@ const Vec3 kTool0{0.0, 0.0, 0.0};
 
 double d(float v) { return static_cast<double>(v); }
 double g() { return d(core::kGravityM_S2); }
+// Joint j's origin (1-based) in joint j-1's frame, m; every IRB 120 frame is parallel at q = 0.
+double origin(std::size_t j, std::size_t c) {
+  return d(safestate::motion::kRobot.joints[j - 1].origin.xyz_mm[c]) / 1000.0;
+}
+const core::LinkInertial& link(std::size_t k) { return core::kIrb120Inertials.link[k - 1]; }
 
 JointVec gravity(ArmDynamics& dyn, const JointVec& q, const Vec3& tcp = kTool0) {
   JointVec tau{};
@@ -41,18 +47,19 @@ JointVec gravity(ArmDynamics& dyn, const JointVec& q, const Vec3& tcp = kTool0) 
 std::array<double, 3> com_in_link2(std::size_t k) {
   std::array<double, 3> p{0.0, 0.0, 0.0};
   for (std::size_t j = 3; j <= k; ++j) {
-    for (std::size_t c = 0; c < 3; ++c) p[c] += d(core::kIrb120Links[j - 1].joint_origin_m[c]);
+    for (std::size_t c = 0; c < 3; ++c) p[c] += origin(j, c);
   }
-  for (std::size_t c = 0; c < 3; ++c) p[c] += d(core::kIrb120Links[k - 1].com_m[c]);
+  for (std::size_t c = 0; c < 3; ++c) p[c] += d(link(k).com_m[c]);
   return p;
 }
 
-// Link 6's origin in link 2's coordinates with q3..q6 = 0.
+// The flange's (tool0's) origin in link 2's coordinates with q3..q6 = 0.
 std::array<double, 3> link6_in_link2() {
   std::array<double, 3> p{0.0, 0.0, 0.0};
   for (std::size_t j = 3; j <= 6; ++j) {
-    for (std::size_t c = 0; c < 3; ++c) p[c] += d(core::kIrb120Links[j - 1].joint_origin_m[c]);
+    for (std::size_t c = 0; c < 3; ++c) p[c] += origin(j, c);
   }
+  for (std::size_t c = 0; c < 3; ++c) p[c] += d(safestate::motion::kRobot.flange.xyz_mm[c]) / 1000.0;
   return p;
 }
 
@@ -142,19 +149,19 @@ TEST(ArmDynamics, AxisTwoGravityWithTheArmForwardIsSumOfMassTimesLever) {
   // sits on the base's z axis). Gravity's moment about +y is m g x, so the drive holds with
   // tau2 = -g sum(m_k x_k).
   double sum = 0.0;
-  for (std::size_t k = 2; k <= 6; ++k) sum += d(core::kIrb120Links[k - 1].mass_kg) * com_in_link2(k)[2];
+  for (std::size_t k = 2; k <= 6; ++k) sum += d(link(k).mass_kg) * com_in_link2(k)[2];
   const double expected = -g() * sum;
   expect_rel(tau[1], expected, 1e-6, "axis 2");
   EXPECT_LT(tau[1], -10.0);  // some 20 N m of unloaded arm held forward
   // Axis 3 holds links 3..6 about joint 3 (base x 0.27 from joint 2's).
   double sum3 = 0.0;
-  const double x3 = d(core::kIrb120Links[2].joint_origin_m[2]);
-  for (std::size_t k = 3; k <= 6; ++k) sum3 += d(core::kIrb120Links[k - 1].mass_kg) * (com_in_link2(k)[2] - x3);
+  const double x3 = origin(3, 2);
+  for (std::size_t k = 3; k <= 6; ++k) sum3 += d(link(k).mass_kg) * (com_in_link2(k)[2] - x3);
   expect_rel(tau[2], -g() * sum3, 1e-6, "axis 3");
   // The same with q2 = 0 (upper arm up): axis 2 now holds the forearm's forward lever only.
   const JointVec tau0 = gravity(dyn, kZero);
   double sum0 = 0.0;
-  for (std::size_t k = 2; k <= 6; ++k) sum0 += d(core::kIrb120Links[k - 1].mass_kg) * com_in_link2(k)[0];
+  for (std::size_t k = 2; k <= 6; ++k) sum0 += d(link(k).mass_kg) * com_in_link2(k)[0];
   expect_rel(tau0[1], -g() * sum0, 1e-6, "axis 2 at home");
 }
 
@@ -219,7 +226,7 @@ TEST(ArmDynamics, PayloadAddsMassTimesGravityTimesLever) {
   // (link 6 x) points down, so the 0.1 m adds no lever about axes 2 and 3.
   const double x_tcp = link6_in_link2()[2];
   expect_rel(t1[1] - t0[1], -kg * g() * x_tcp, 1e-6, "axis 2");
-  const double x3 = d(core::kIrb120Links[2].joint_origin_m[2]);
+  const double x3 = origin(3, 2);
   expect_rel(t1[2] - t0[2], -kg * g() * (x_tcp - x3), 1e-6, "axis 3");
   EXPECT_NEAR(t1[0] - t0[0], 0.0, 1e-9);
   // At home the 0.1 m lengthens the lever (link 6 x is forward): axis 2 holds
@@ -228,7 +235,7 @@ TEST(ArmDynamics, PayloadAddsMassTimesGravityTimesLever) {
   const JointVec h1 = gravity(loaded, kZero);
   const double x_home = link6_in_link2()[0] + 0.1;
   expect_rel(h1[1] - h0[1], -kg * g() * x_home, 1e-6, "axis 2 at home");
-  expect_rel(h1[4] - h0[4], -kg * g() * (d(core::kIrb120Links[5].joint_origin_m[0]) + 0.1), 1e-6,
+  expect_rel(h1[4] - h0[4], -kg * g() * (origin(6, 0) + (d(safestate::motion::kRobot.flange.xyz_mm[0]) / 1000.0) + 0.1), 1e-6,
              "axis 5 at home");
   // A payload of 0 is the bare arm again.
   loaded.set_payload(0.0, tcp);

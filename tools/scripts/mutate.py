@@ -291,7 +291,7 @@ def mutants():
         (CM, "Vec3 a{0.0F, 0.0F, kGravityM_S2};", "Vec3 a{0.0F, 0.0F, 0.0F};", "model: no gravity"),
         (CM, "  const float k = -1.0F / det;", "  const float k = 1.0F / (det * 4.0F);", "estimate: a quarter of the force"),
         (CM, "    qdd[k] = have_prev_ ? ((qd[k] - qd_prev_[k]) * inv_dt_) : 0.0F;", "    qdd[k] = 0.0F;", "model: no inertia"),
-        (CM, "* 0.001F * kRatedTorqueNm[k];", "* 0.0005F * kRatedTorqueNm[k];", "torque: half the scale"),
+        (CM, "* 0.001F * rated_torque_nm[k];", "* 0.0005F * rated_torque_nm[k];", "torque: half the scale"),
         (SUPERVISOR, "        if (c.collision.hit.hit) {\n          hit(AlarmId::COLLISION", "        if (false) {\n          hit(AlarmId::COLLISION",
              "rule 8: the entry dropped"),
         (SUPERVISOR, "      if (c.at_standstill && !(s->back_off && c.fb.backing_off)) {", "      if (c.at_standstill) {",

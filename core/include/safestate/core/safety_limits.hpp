@@ -10,6 +10,7 @@
 
 #include "safestate/core/brake_test.hpp"
 #include "safestate/core/collaborative.hpp"
+#include "safestate/core/dynamics.hpp"
 #include "safestate/core/types.hpp"
 
 namespace safestate::core {
@@ -69,6 +70,9 @@ struct SafetyLimits {
   std::array<Zone, kMaxZones> zones{};
   std::uint32_t max_stop_ms = 1000;  // stop.max_time_ms: SPEC §3 max_stop_ms
   CollaborativeLimits collaborative{};
+  // The arm's links' inertials and the drives' rated torques (SPEC §11 collision detection),
+  // from the robot's description (safety/ fills them; the built-in IRB 120's by default).
+  ArmInertials inertials = kIrb120Inertials;
   BrakeTestLimits brake_test{};  // SPEC §12 (defaults when the file has no `brake_test` key)
 };
 

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "safestate/core/arm.hpp"
+#include "safestate/core/dynamics.hpp"
 #include "safestate/motion/robot.hpp"
 
 namespace safestate::robot {
@@ -50,7 +51,7 @@ struct Joint {
   double lower_rad = 0.0;   // continuous: -2 pi (one turn each way; the configuration narrows it)
   double upper_rad = 0.0;
   double velocity_rad_s = 0.0;
-  double effort_nm = 0.0;   // 0 when the URDF gives none
+  double effort_nm = 0.0;   // 0 when the URDF gives none; the drive's rated torque (0x6077's unit)
   Inertial inertial;        // the moving link and everything fixed to it
 };
 
@@ -64,12 +65,13 @@ struct Description {
   std::string urdf;     // the file's text (served to the HMI at /api/robot)
 };
 
-// What the rest of the program uses: the description and the two models made from it. Not
+// What the rest of the program uses: the description and the models made from it. Not
 // copyable or movable: model.name and model.link_names point into `d`.
 struct Robot {
   Description d;
   motion::RobotModel model{};
   core::ArmGeometry geometry{};
+  core::ArmInertials inertials{};  // the core's collision model: links' inertials, rated torques
   std::array<std::string, motion::kLinks> link_names;
 
   Robot() = default;

@@ -53,6 +53,12 @@ class ArmDynamics {
   // The TCP (`tcp_tool0_m` in tool0 coordinates) in the base frame, m.
   void tcp(const JointVec& q, const Vec3& tcp_tool0_m, Vec3& p_world_m) noexcept;
 
+  // The simulated drives' rated torques, N m (their torque actual is per mille of these): the
+  // description's efforts, the same numbers the core's collision model reads (robot::Robot::
+  // inertials). A joint whose URDF gives no effort keeps the IRB 120's rating for its axis
+  // (core::kIrb120Inertials), an arbitrary scale: PFL is refused on such an arm.
+  [[nodiscard]] const JointVec& rated_torque_nm() const noexcept;
+
  private:
   struct Impl;  // KDL's chain, solvers and preallocated arrays (sim/src/dynamics.cpp)
   std::unique_ptr<Impl> impl_;
