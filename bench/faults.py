@@ -42,13 +42,21 @@ def section(d):
     two, one = d["runs"]["2"], d["runs"]["1"]
     L = [TITLE, "",
          f"`safestate faults --seed {SEED} --injections {INJECTIONS}` on the simulated cell (replay), "
-         f"{d['date']}, {d['machine']}. Each injection: one single fault at a random moment of the AUTO "
-         "program (a channel stalled or crashed, a channel reading one contact wrong, digests corrupted, "
-         "dropped or repeated, a contactor welded, a load-side encoder stuck, off or drifting, or — 70 % of "
-         "them — one random bit of one channel's supervisor), then after 300 ms each demand on a copy "
-         "(E-stop, guard opened in AUTO, drive 1 running away), each against its fault-free twin: safe "
-         "within the twin's time plus `cross_check_cycles`. Classes: faults/campaign.hpp; "
-         "[docs/two-channels.md](two-channels.md).", "",
+         f"{d['date']}, {d['machine']}. Each injection: one single fault (a channel stalled or crashed, a "
+         "channel reading one contact wrong, digests corrupted, dropped or repeated, a contactor welded, a "
+         "load-side encoder stuck, off or drifting, or — 70 % of them — one random bit of one channel's "
+         "supervisor) at a random moment of one of four situations in turn, then after 300 ms each demand of "
+         "that situation on a copy, each against its fault-free twin: safe within the twin's time plus "
+         "`cross_check_cycles`. The demands, where they are made, and the safety function that answers each "
+         "in the fault-free cell (asserted by test_faults):", ""]
+    L += ["| demand | situation | answered by (fault-free) | fault-free reaction (cycles) | pairs safe, two channels "
+          "| pairs safe, one channel |", "|---|---|---|---:|---:|---:|"]
+    by_name = {x["name"]: x for x in one["demands"]}
+    for x in two["demands"]:
+        o = by_name.get(x["name"], {"safe": 0, "pairs": 0})
+        L.append(f"| {x['name']} | {x['situation']} | {x['answered_by'] or 'its own stop (no alarm)'} | "
+                 f"{x['reaction_cycles']} | {x['safe']} of {x['pairs']} | {o['safe']} of {o['pairs']} |")
+    L += ["", "Classes: faults/campaign.hpp; [docs/two-channels.md](two-channels.md).", "",
          "| | two channels | one channel |", "|---|---:|---:|"]
 
     def row(name, key, fmt=str):

@@ -38,9 +38,34 @@ constexpr int kWarmLimit = 20000;
 
 constexpr std::array<const char*, 7> kClasses{"channel stall", "channel crash", "channel input", "digest",
                                               "contactor welded", "encoder", "supervisor bit flip"};
-enum class Demand : std::uint8_t { estop, guard, runaway };
-constexpr std::array<Demand, 3> kDemands{Demand::estop, Demand::guard, Demand::runaway};
-constexpr std::array<const char*, 3> kDemandNames{"E-stop", "guard opened in AUTO", "drive 1 runaway"};
+// Where an injection happens (SPEC §14: every demand after any one fault). Each situation is
+// one warm cell, made once, with the demands that belong to it.
+enum class Situation : std::uint8_t {
+  auto_running,  // AUTO, the demo program moving, the built-in safety configuration
+  t1_jogging,    // T1, the enabling device held, axis 1 jogged from the pendant
+  in_slot,       // AUTO, standing in a keep_in slot 5 mm wider than the tool on each side
+  at_joint,      // AUTO, standing with axis 1 limited to its position +-2 degrees
+};
+constexpr std::size_t kSituations = 4;
+constexpr std::array<const char*, kSituations> kSituationNames{
+    "AUTO, the program running", "T1, jogging axis 1", "AUTO, standing in a keep_in slot",
+    "AUTO, standing 2 degrees from axis 1's limits"};
+
+enum class Demand : std::uint8_t { estop, guard, runaway, reduced, enabling, zone, joint };
+struct DemandInfo {
+  Demand d;
+  Situation where;
+  const char* name;
+};
+constexpr std::array<DemandInfo, 7> kDemands{{
+    {Demand::estop, Situation::auto_running, "E-stop"},
+    {Demand::guard, Situation::auto_running, "guard opened in AUTO"},
+    {Demand::runaway, Situation::auto_running, "drive 1 runaway"},
+    {Demand::reduced, Situation::auto_running, "reduced speed requested (speed over its new limit)"},
+    {Demand::enabling, Situation::t1_jogging, "enabling device released in T1"},
+    {Demand::zone, Situation::in_slot, "drive 1 runaway into the slot's wall (zone)"},
+    {Demand::joint, Situation::at_joint, "drive 1 runaway past axis 1's limit"},
+}};
 
 struct Fault {
   bool flip = false;
@@ -126,8 +151,37 @@ void demand(sim::Cell& c, Demand d) {
   switch (d) {
     case Demand::estop: in.estop_a = in.estop_b = false; break;
     case Demand::guard: in.gate_a = in.gate_b = false; break;
-    case Demand::runaway: c.inject(vocab::Fault{FaultKind::drive_runaway, 1, 0}); break;
+    case Demand::reduced: in.reduced_a = in.reduced_b = false; break;
+    case Demand::enabling: in.enable_a = in.enable_b = false; break;
+    case Demand::runaway:
+    case Demand::zone:
+    case Demand::joint: c.inject(vocab::Fault{FaultKind::drive_runaway, 1, 0}); break;
   }
+}
+
+// The operator's part of a situation, before each cycle: in T1 the pendant's jog command,
+// repeated as the pendant does (the jog link's deadman), axis 1 back and forth.
+void operate(sim::Cell& c, Situation where) {
+  if (where != Situation::t1_jogging) {
+    return;
+  }
+  const core::Cycle k = c.now();
+  if ((k % 40U) != 0U) {
+    return;
+  }
+  core::Command cmd{};
+  cmd.seq = static_cast<std::uint32_t>(k);
+  cmd.id = static_cast<std::uint8_t>(core::CommandId::jog);
+  cmd.source = static_cast<std::uint8_t>(core::Source::pendant);
+  cmd.axis = 1;
+  cmd.dir = static_cast<std::int8_t>(((k / 2000U) % 2U == 0U) ? 1 : -1);
+  cmd.speed = 20;
+  static_cast<void>(c.submit(cmd));
+}
+
+void step(sim::Cell& c, Situation where) {
+  operate(c, where);
+  c.step();
 }
 
 bool stopping(State s) {
@@ -139,11 +193,19 @@ bool stopping(State s) {
 // two channels: a welded contactor is no open path, whatever was commanded); for the guard in
 // AUTO (a Cat 1 stop, power on while it ramps) also the channel that moves the arm (A) running
 // and stopping it.
-bool safe(const sim::Cell& c, Demand d) {
+bool safe(const sim::Cell& c, Demand d, float reduced_mm_s) {
   if (!c.power_on()) {
     return true;
   }
-  return d == Demand::guard && c.channel_running(0) && stopping(c.channel(0).out().state);
+  switch (d) {
+    case Demand::guard:
+    case Demand::enabling:  // a Cat 1 stop likewise
+      return c.channel_running(0) && stopping(c.channel(0).out().state);
+    case Demand::reduced:  // the arm at or under the reduced limit, moved by a running channel A
+      return c.channel_running(0) && c.view().tcp_speed_mm_s <= reduced_mm_s;
+    default:
+      return false;
+  }
 }
 
 // The safety outputs as the world gets them (a change that makes the cell less safe than
@@ -174,30 +236,86 @@ std::string diagnostic_named(const sim::Cell& c) {
 }
 
 // Cycles until the safe state (0: already), -1: not within kDemandCycles.
-int cycles_to_safe(sim::Cell& c, Demand d) {
-  if (safe(c, d)) {
+int cycles_to_safe(sim::Cell& c, const DemandInfo& d, float reduced_mm_s) {
+  if (safe(c, d.d, reduced_mm_s)) {
     return 0;
   }
   for (std::uint32_t k = 1; k <= kDemandCycles; ++k) {
-    c.step();
-    if (safe(c, d)) {
+    step(c, d.where);
+    if (safe(c, d.d, reduced_mm_s)) {
       return static_cast<int>(k);
     }
   }
   return -1;
 }
 
-// The warm cell: AUTO, the demo program running (the arm moving), the built-in safety
-// configuration validated, a distance sensor that sees nobody.
-std::unique_ptr<sim::Cell> warm_cell(std::uint8_t channels, std::string& error) {
-  core::Config cfg{};
-  auto cell = std::make_unique<sim::Cell>(cfg, nullptr, channels);
-  const safety::Result r = safety::parse_safety(safety::default_safety_text());
-  if (!r.ok()) {
-    error = "the built-in safety configuration does not load";
-    return nullptr;
+// The first alarm the cell raised that it did not have before (the safety function that
+// answered a demand), or "" (the demand's own stop raises none: an E-stop, a guard).
+std::string answered_by(const sim::Cell& c, core::AlarmMask before) {
+  const core::AlarmMask m = c.out().alarms & ~before;
+  for (std::size_t i = 0; i < core::kAlarmCount; ++i) {
+    if ((m & core::bit(static_cast<AlarmId>(i))) != 0U) {
+      return core::to_string(static_cast<AlarmId>(i));
+    }
   }
-  cell->configure_limits(r.config->limits, true);
+  return "";
+}
+
+// A situation's warm cell and what its demands are judged by.
+struct Warm {
+  std::unique_ptr<sim::Cell> cell;
+  float reduced_mm_s = 0.0F;  // the configuration's reduced TCP speed (Demand::reduced)
+};
+
+// The built-in safety configuration, and for the standing situations narrowed around the
+// arm's standing pose (TCP in mm, axis 1 in rad), through the configuration's own parser so
+// that it is validated and checksummed as any configuration is.
+bool situation_config(Situation where, const controller::CellView& at, safety::Loaded& out, std::string& error) {
+  nlohmann::json j = nlohmann::json::parse(safety::default_safety_text());
+  const safety::Result base = safety::parse_safety(safety::default_safety_text());
+  if (!base.ok()) {
+    error = "the built-in safety configuration does not load";
+    return false;
+  }
+  constexpr double kPi = 3.14159265358979323846;
+  if (where == Situation::in_slot) {
+    // A slot along the arm's reach: the tool sphere 5 mm from each wall; axis 1 turning moves
+    // the TCP across it (the arm stands along x at its home pose).
+    const double half = static_cast<double>(base.config->limits.tool_radius_mm) + 5.0;
+    j["zones"] = nlohmann::json::array({{{"name", "slot"},
+                                          {"kind", "keep_in"},
+                                          {"min_mm", {-3000.0, static_cast<double>(at.tcp[1]) - half, -3000.0}},
+                                          {"max_mm", {3000.0, static_cast<double>(at.tcp[1]) + half, 3000.0}}}});
+  } else if (where == Situation::at_joint) {
+    // Degrees to 0.001 (as `safestate safety check` prints them): a float's own rounding
+    // must not put a limit past the robot's.
+    const auto deg = [&](float rad) { return std::round(static_cast<double>(rad) * 180.0 / kPi * 1000.0) / 1000.0; };
+    nlohmann::json joints = nlohmann::json::array();
+    for (std::size_t i = 0; i < core::kAxes; ++i) {
+      const core::JointLimit& l = base.config->limits.joints[i];
+      const double q = deg(at.joints_rad[i]);
+      joints.push_back({{"min_deg", i == 0U ? q - 2.0 : deg(l.min_rad)},
+                        {"max_deg", i == 0U ? q + 2.0 : deg(l.max_rad)},
+                        {"max_speed_deg_s", deg(l.max_speed_rad_s)}});
+    }
+    j["joints"] = joints;
+  }
+  safety::Result r = safety::parse_safety(j.dump());
+  if (!r.ok()) {
+    error = std::string("the configuration of \"") + kSituationNames[static_cast<std::size_t>(where)] +
+            "\" does not load: " + (r.errors.empty() ? std::string("?") : r.errors.front().text());
+    return false;
+  }
+  out = std::move(*r.config);
+  return true;
+}
+
+// A cell of the situation, brought to it: reset, servo_on, and in AUTO_RUNNING the program
+// started, in T1 the enabling device held and the jog going; a distance sensor that sees
+// nobody, the brake test passed.
+std::unique_ptr<sim::Cell> bring_up(Situation where, const safety::Loaded& cfg, std::uint8_t channels, std::string& error) {
+  auto cell = std::make_unique<sim::Cell>(core::Config{}, nullptr, channels);
+  cell->configure_limits(cfg.limits, true);
   core::BrakeTestHistory h{};
   h.last = core::BrakeTestResult::passed;
   h.passed_ever = true;
@@ -205,11 +323,13 @@ std::unique_ptr<sim::Cell> warm_cell(std::uint8_t channels, std::string& error) 
   core::RawInputs& in = cell->inputs();
   in.separation_mm = 100000;
   in.separation_valid = true;
-  in.mode_auto = true;
-  std::uint32_t seq = 0;
+  const bool t1 = where == Situation::t1_jogging;
+  in.mode_auto = !t1;
+  in.mode_t1 = t1;
+  std::uint32_t seq = 0x40000000U;  // apart from operate()'s jog numbers
   const auto until = [&](const auto& p) {
     for (int k = 0; k < kWarmLimit; ++k) {
-      cell->step();
+      step(*cell, t1 ? Situation::auto_running : where);  // no jog before it is OPERATIONAL
       if (p(*cell)) return true;
     }
     return false;
@@ -218,25 +338,61 @@ std::unique_ptr<sim::Cell> warm_cell(std::uint8_t channels, std::string& error) 
     core::Command c{};
     c.seq = ++seq;
     c.id = static_cast<std::uint8_t>(id);
+    c.source = static_cast<std::uint8_t>(core::Source::pendant);
     return cell->submit(c) == core::Result::OK;
   };
-  const bool ok = until([](const sim::Cell& c) { return c.out().state == State::ESTOP_RESET_NEEDED; }) &&
-                  cmd(core::CommandId::reset) &&
-                  until([](const sim::Cell& c) { return c.out().state == State::IDLE; }) &&
-                  cmd(core::CommandId::servo_on) &&
-                  until([](const sim::Cell& c) { return c.out().state == State::OPERATIONAL; }) &&
-                  cmd(core::CommandId::start) &&
-                  until([](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 0.5F; });
-  if (!ok || cell->out().sub != core::Sub::AUTO_RUNNING) {
-    error = std::string("the warm cell did not reach AUTO_RUNNING (") + core::to_string(cell->out().state) + ")";
+  bool ok = until([](const sim::Cell& c) { return c.out().state == State::ESTOP_RESET_NEEDED; }) &&
+            cmd(core::CommandId::reset) && until([](const sim::Cell& c) { return c.out().state == State::IDLE; });
+  if (ok && t1) {
+    in.enable_a = in.enable_b = true;
+  }
+  ok = ok && cmd(core::CommandId::servo_on) &&
+       until([](const sim::Cell& c) { return c.out().state == State::OPERATIONAL; });
+  if (ok && where == Situation::auto_running) {
+    ok = cmd(core::CommandId::start) &&
+         until([](const sim::Cell& c) { return std::fabs(c.view().velocities_rad_s[0]) > 0.5F; }) &&
+         cell->out().sub == core::Sub::AUTO_RUNNING;
+  }
+  if (ok && t1) {
+    for (int k = 0; k < 300 && ok; ++k) {
+      step(*cell, where);
+    }
+    ok = cell->out().state == State::OPERATIONAL && std::fabs(cell->view().velocities_rad_s[0]) > 0.01F;
+  }
+  if (!ok) {
+    error = std::string("the warm cell of \"") + kSituationNames[static_cast<std::size_t>(where)] +
+            "\" did not get there (" + core::to_string(cell->out().state) + ")";
     return nullptr;
   }
   return cell;
 }
 
-// Injection `index` of the seed: its jitter (cycles past the warm point) and its fault. The one
-// place that draws them, so that a crashed child's fault can be named by drawing it again.
+Warm warm_cell(Situation where, std::uint8_t channels, std::string& error) {
+  Warm w{};
+  safety::Loaded cfg{};
+  if (where == Situation::in_slot || where == Situation::at_joint) {
+    // Where the arm stands once armed: a cell brought up on the built-in configuration.
+    safety::Loaded plain{};
+    if (!situation_config(Situation::auto_running, controller::CellView{}, plain, error)) {
+      return w;
+    }
+    const std::unique_ptr<sim::Cell> probe = bring_up(Situation::at_joint, plain, channels, error);
+    if (!probe || !situation_config(where, probe->view(), cfg, error)) {
+      return w;
+    }
+  } else if (!situation_config(where, controller::CellView{}, cfg, error)) {
+    return w;
+  }
+  w.reduced_mm_s = cfg.limits.reduced_tcp_max_speed_mm_s;
+  w.cell = bring_up(where, cfg, channels, error);
+  return w;
+}
+
+// Injection `index` of the seed: its situation (every kSituations-th alike), its jitter
+// (cycles past the warm point) and its fault. The one place that draws them, so that a
+// crashed child's fault can be named by drawing it again.
 struct Drawn {
+  Situation where = Situation::auto_running;
   std::uint32_t jitter = 0;
   Fault fault{};
 };
@@ -244,31 +400,35 @@ Drawn drawn(const Options& o, std::uint32_t index) {
   std::seed_seq seq{o.seed, index, 14U};
   std::mt19937 rng(seq);
   Drawn d{};
+  d.where = static_cast<Situation>(index % kSituations);
   d.jitter = static_cast<std::uint32_t>(rng() % kMaxJitter);
   d.fault = draw(rng, o.channels);
   return d;
 }
 
-// One injection, from a copy of the warm cell: its jitter, its twin, the fault, the window
-// before the demands, then each demand on a copy of the faulty cell and of the twin.
-Injection one(const sim::Cell& warm, const Options& o, std::uint32_t index) {
+// One injection, from a copy of its situation's warm cell: its jitter, its twin, the fault,
+// the window before the demands, then each of the situation's demands on a copy of the faulty
+// cell and of the twin.
+Injection one(const std::array<Warm, kSituations>& warm, const Options& o, std::uint32_t index) {
   Injection r{};
   r.index = index;
   const Drawn dr = drawn(o, index);
-  sim::Cell faulty(warm);
+  const Warm& w = warm[static_cast<std::size_t>(dr.where)];
+  sim::Cell faulty(*w.cell);
   for (std::uint32_t k = 0; k < dr.jitter; ++k) {
-    faulty.step();
+    step(faulty, dr.where);
   }
   sim::Cell twin(faulty);
   const Fault& x = dr.fault;
   r.fault = words(x);
   r.cls = kClasses[x.cls];
+  r.situation = kSituationNames[static_cast<std::size_t>(dr.where)];
   apply(faulty, x);
   bool worse = false;
   bool changed = false;
   for (std::uint32_t k = 1; k <= kDetectCycles; ++k) {
-    faulty.step();
-    twin.step();
+    step(faulty, dr.where);
+    step(twin, dr.where);
     if (r.to_lockout < 0) {
       r.named = diagnostic_named(faulty);
       r.to_lockout = r.named.empty() ? -1 : static_cast<std::int32_t>(k);
@@ -279,18 +439,25 @@ Injection one(const sim::Cell& warm, const Options& o, std::uint32_t index) {
   const std::uint32_t limit = faulty.config().cross_check_cycles;
   bool all_safe = true;
   std::string named_at_demand;
-  for (const Demand d : kDemands) {
+  for (std::size_t i = 0; i < kDemands.size(); ++i) {
+    const DemandInfo& d = kDemands[i];
+    if (d.where != dr.where) {
+      r.demand_safe.push_back(true);  // not this situation's: not a pair (demand_run says so)
+      r.demand_run.push_back(false);
+      continue;
+    }
     sim::Cell a(faulty);
     sim::Cell t(twin);
-    demand(a, d);
-    demand(t, d);
-    const int r0 = cycles_to_safe(t, d);
-    const int rf = cycles_to_safe(a, d);
+    demand(a, d.d);
+    demand(t, d.d);
+    const int r0 = cycles_to_safe(t, d, w.reduced_mm_s);
+    const int rf = cycles_to_safe(a, d, w.reduced_mm_s);
     const bool ok = rf >= 0 && (r0 < 0 || rf <= r0 + static_cast<int>(limit));
     r.demand_safe.push_back(ok);
+    r.demand_run.push_back(true);
     all_safe = all_safe && ok;
     for (std::uint32_t k = 0; k < kAfterSafe && named_at_demand.empty() && r.named.empty(); ++k) {
-      a.step();
+      step(a, d.where);
       named_at_demand = diagnostic_named(a);
     }
   }
@@ -311,9 +478,9 @@ Injection one(const sim::Cell& warm, const Options& o, std::uint32_t index) {
 
 // The record a child writes to its parent: one line, fields split by '|'.
 std::string record(const Injection& r) {
-  std::string d;
-  for (const bool b : r.demand_safe) {
-    d += b ? '1' : '0';
+  std::string d;  // per demand: 1 safe in time, 0 not, - not this situation's
+  for (std::size_t i = 0; i < r.demand_safe.size(); ++i) {
+    d += (i < r.demand_run.size() && !r.demand_run[i]) ? '-' : (r.demand_safe[i] ? '1' : '0');
   }
   return std::to_string(static_cast<int>(r.outcome)) + "|" + std::to_string(r.to_lockout) + "|" + r.named + "|" +
          r.cls + "|" + r.fault + "|" + d + "\n";
@@ -344,8 +511,10 @@ bool parse_record(const std::string& line, Injection& r) {
   r.cls = f[3];
   r.fault = f[4];
   r.demand_safe.clear();
+  r.demand_run.clear();
   for (const char c : f[5]) {
-    r.demand_safe.push_back(c == '1');
+    r.demand_safe.push_back(c != '0');
+    r.demand_run.push_back(c != '-');
   }
   return r.demand_safe.size() == kDemands.size();
 }
@@ -387,6 +556,9 @@ void tally(Report& rep, const Injection& r) {
     rep.to_lockout.push_back(static_cast<std::uint32_t>(r.to_lockout));
   }
   for (std::size_t d = 0; d < r.demand_safe.size() && d < rep.demands.size(); ++d) {
+    if (d < r.demand_run.size() && !r.demand_run[d]) {
+      continue;  // another situation's demand
+    }
     ++rep.demands[d].pairs;
     ++rep.pairs;
     if (r.demand_safe[d]) {
@@ -421,21 +593,33 @@ const char* to_string(Outcome o) noexcept {
 Report run(const Options& o) {
   Report rep{};
   rep.options = o;
-  for (const char* n : kDemandNames) {
-    rep.demands.push_back(DemandStats{n});
-  }
   std::string error;
-  const std::unique_ptr<sim::Cell> warm = warm_cell(o.channels, error);
-  if (!warm) {
-    rep.error = error;
-    return rep;
+  std::array<Warm, kSituations> warm{};
+  for (std::size_t i = 0; i < kSituations; ++i) {
+    warm[i] = warm_cell(static_cast<Situation>(i), o.channels, error);
+    if (!warm[i].cell) {
+      rep.error = error;
+      return rep;
+    }
   }
-  // The fault-free reactions (what each demand is allowed, plus cross_check_cycles).
-  for (std::size_t d = 0; d < kDemands.size(); ++d) {
-    sim::Cell t(*warm);
-    demand(t, kDemands[d]);
-    const int r0 = cycles_to_safe(t, kDemands[d]);
-    rep.demands[d].reaction_cycles = r0 < 0 ? 0U : static_cast<std::uint32_t>(r0);
+  // The fault-free reactions from each warm cell (what each demand is allowed, plus
+  // cross_check_cycles, is its own twin's in each injection) and the safety function that
+  // answered it: the first alarm it raised.
+  for (const DemandInfo& d : kDemands) {
+    const Warm& w = warm[static_cast<std::size_t>(d.where)];
+    sim::Cell t(*w.cell);
+    const core::AlarmMask before = t.out().alarms;
+    demand(t, d.d);
+    const int r0 = cycles_to_safe(t, d, w.reduced_mm_s);
+    for (std::uint32_t k = 0; k < kAfterSafe && answered_by(t, before).empty(); ++k) {
+      step(t, d.where);
+    }
+    DemandStats ds{};
+    ds.name = d.name;
+    ds.situation = kSituationNames[static_cast<std::size_t>(d.where)];
+    ds.reaction_cycles = r0 < 0 ? 0U : static_cast<std::uint32_t>(r0);
+    ds.answered_by = answered_by(t, before);
+    rep.demands.push_back(ds);
   }
   std::fflush(stdout);
   std::fflush(stderr);
@@ -457,7 +641,7 @@ Report run(const Options& o) {
       }
       if (pid == 0) {
         close(fds[0]);
-        const std::string line = record(one(*warm, o, next));
+        const std::string line = record(one(warm, o, next));
         const ssize_t w = write(fds[1], line.data(), line.size());
         _exit((w == static_cast<ssize_t>(line.size())) ? 0 : 3);
       }
@@ -494,7 +678,12 @@ Report run(const Options& o) {
       r.fault = words(x);
       r.cls = kClasses[x.cls];
       r.outcome = Outcome::crashed;
-      r.demand_safe.assign(kDemands.size(), o.channels == 2U);  // the partner removes power (ch-crash-a.scn)
+      // The partner removes power (ch-crash-a.scn): the demands of its situation safe with two.
+      const Situation where = drawn(o, it->index).where;
+      for (const DemandInfo& d : kDemands) {
+        r.demand_run.push_back(d.where == where);
+        r.demand_safe.push_back(d.where != where || o.channels == 2U);
+      }
     }
     running.erase(it);
     tally(rep, r);
@@ -535,17 +724,18 @@ std::string table(const Report& r) {
   t << line;
   t << "(fault, demand) pairs that reached their safe state in time: " << r.pairs_safe << " of " << r.pairs << "\n";
   for (const DemandStats& d : r.demands) {
-    t << "  " << d.name << ": " << d.safe << " of " << d.pairs << " (fault-free: safe after " << d.reaction_cycles
-      << " cycles; allowed that + cross_check_cycles)\n";
+    t << "  " << d.name << " (" << d.situation << "): " << d.safe << " of " << d.pairs << " (fault-free: safe after "
+      << d.reaction_cycles << " cycles, answered by " << (d.answered_by.empty() ? "its own stop" : d.answered_by)
+      << "; allowed its twin's time + cross_check_cycles)\n";
   }
   t << "fault to naming lockout (before the demands): p50 " << percentile(r.to_lockout, 0.5) << " cycles, max "
     << percentile(r.to_lockout, 1.0) << " cycles (" << r.to_lockout.size() << " detections)\n";
   for (std::size_t n = 0; n < r.dangerous.size() && n < 10U; ++n) {
     const Injection& i = r.dangerous[n];
     t << "  dangerous: injection " << i.index << ": " << i.fault << " (" << i.cls << ")";
-    for (std::size_t d = 0; d < i.demand_safe.size(); ++d) {
+    for (std::size_t d = 0; d < i.demand_safe.size() && d < kDemands.size(); ++d) {
       if (!i.demand_safe[d]) {
-        t << "; " << kDemandNames[d % kDemandNames.size()] << " not safe in time";
+        t << "; " << kDemands[d].name << " not safe in time";
       }
     }
     t << (i.named.empty() ? "; never named" : "; named " + i.named) << "\n";
@@ -587,7 +777,12 @@ std::string json(const Report& r) {
                             {"dangerous", c.dangerous}});
   }
   for (const DemandStats& d : r.demands) {
-    j["demands"].push_back({{"name", d.name}, {"pairs", d.pairs}, {"safe", d.safe}, {"reaction_cycles", d.reaction_cycles}});
+    j["demands"].push_back({{"name", d.name},
+                            {"situation", d.situation},
+                            {"pairs", d.pairs},
+                            {"safe", d.safe},
+                            {"reaction_cycles", d.reaction_cycles},
+                            {"answered_by", d.answered_by}});
   }
   j["dangerous_injections"] = nlohmann::json::array();
   for (const Injection& i : r.dangerous) {

@@ -4,6 +4,7 @@
 // dangerous (what the second channel buys). The campaign is reproducible.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 #include <string>
 
@@ -23,7 +24,8 @@ TEST(FaultCampaign, WithTwoChannelsEveryDemandStaysSafeAndEveryDangerousFaultIsN
   const faults::Report& r = two();
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.injected, 400U);
-  EXPECT_EQ(r.pairs, 3U * 400U);
+  // Four situations in turn: AUTO running (4 demands), T1 jogging, in a slot, at a joint limit.
+  EXPECT_EQ(r.pairs, 100U * 4U + 100U + 100U + 100U);
   EXPECT_EQ(r.pairs_safe, r.pairs) << faults::table(r);
   EXPECT_EQ(r.dangerous_count, 0U) << faults::table(r);
   EXPECT_GE(r.dc, 0.99);
@@ -43,6 +45,31 @@ TEST(FaultCampaign, WithTwoChannelsEveryDemandStaysSafeAndEveryDangerousFaultIsN
     }
   }
   ASSERT_FALSE(r.to_lockout.empty());
+}
+
+// SPEC §14 / issue 36 item 7: every demand of the list is made, in its own situation, and
+// the fault-free cell answers each with the safety function it is about (a demand answered
+// by another function would not test the one it names).
+TEST(FaultCampaign, EachDemandIsAnsweredByTheSafetyFunctionItNames) {
+  const faults::Report& r = two();
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  const std::map<std::string, std::string> want{
+      {"E-stop", "ESTOP_PRESSED"},
+      {"guard opened in AUTO", "PROTECTIVE_STOP"},
+      {"drive 1 runaway", "DRIVE_FAULT"},
+      {"reduced speed requested (speed over its new limit)", "REDUCED_SPEED"},
+      {"enabling device released in T1", ""},  // its own stop (SPEC §4: no alarm)
+      {"drive 1 runaway into the slot's wall (zone)", "ZONE_VIOLATION"},
+      {"drive 1 runaway past axis 1's limit", "JOINT_LIMIT"},
+  };
+  ASSERT_EQ(r.demands.size(), want.size()) << faults::table(r);
+  for (const faults::DemandStats& d : r.demands) {
+    ASSERT_TRUE(want.count(d.name) == 1U) << d.name;
+    EXPECT_EQ(d.answered_by, want.at(d.name)) << d.name << "\n" << faults::table(r);
+    EXPECT_EQ(d.pairs, 100U) << d.name;
+    EXPECT_EQ(d.safe, d.pairs) << d.name;
+    EXPECT_GT(d.reaction_cycles, 0U) << d.name << ": already safe before the demand proves nothing";
+  }
 }
 
 TEST(FaultCampaign, WithOneChannelAStalledChannelIsDangerous) {

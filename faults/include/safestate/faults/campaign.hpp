@@ -2,12 +2,17 @@
 // injection is one single fault — a channel stalled or crashed, a channel reading one contact
 // wrong, digests corrupted, dropped or repeated, a contactor welded, an encoder stuck, off or
 // drifting, or a random bit flipped in one channel's supervisor (its state, timers, monitors'
-// memory) — put into the running cell (AUTO, the demo program moving) at a random moment,
-// followed after kDetectCycles by each demand (E-stop, guard opened in AUTO, a drive running
-// away). Each injection runs in a child process of its own (a flipped bit may crash it: a
-// crashed process is what `channel X crash` models, named by the other channel), from one
-// warm cell made once. Reproducible: injection i of seed s is always the same fault at the
-// same moment.
+// memory) — put into a warm cell at a random moment, followed after kDetectCycles by each
+// demand of that cell's situation (each injection in one of four situations, in turn):
+//  - AUTO, the demo program moving: E-stop, guard opened, drive 1 running away, reduced speed
+//    requested (the speed over its new limit);
+//  - T1, axis 1 jogged from the pendant: the enabling device released;
+//  - AUTO, standing in a keep_in slot: drive 1 running away into its wall (a zone);
+//  - AUTO, standing 2 degrees inside axis 1's limits: drive 1 running away past them.
+// Each injection runs in a child process of its own (a flipped bit may crash it: a crashed
+// process is what `channel X crash` models, named by the other channel), from the warm cells
+// made once. Reproducible: injection i of seed s is always the same fault in the same
+// situation at the same moment.
 //
 // Each injection is classified:
 //  - dangerous (undetected): a demand did not reach its safe state within the fault-free
@@ -57,9 +62,11 @@ struct ClassStats {
 
 struct DemandStats {
   std::string name;
-  std::uint64_t pairs = 0;
+  std::string situation;    // where it is made (its warm cell)
+  std::uint64_t pairs = 0;  // injections in its situation
   std::uint64_t safe = 0;
-  std::uint32_t reaction_cycles = 0;  // the fault-free cell's (the first injection's twin)
+  std::uint32_t reaction_cycles = 0;  // the fault-free warm cell's
+  std::string answered_by;            // the alarm the fault-free cell answered it with ("": its own stop)
 };
 
 // One injection's result (also the record a child writes to its parent).
@@ -70,7 +77,9 @@ struct Injection {
   Outcome outcome = Outcome::masked;
   std::int32_t to_lockout = -1;  // cycles from the fault to the naming lockout (-1: none before the demands)
   std::string named;             // the diagnostic alarm that named it
-  std::vector<bool> demand_safe;
+  std::vector<bool> demand_safe;  // per demand of the campaign (true for another situation's)
+  std::vector<bool> demand_run;   // whether the demand was made (its situation's)
+  std::string situation;
 };
 
 struct Report {
