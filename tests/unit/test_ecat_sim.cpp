@@ -1539,6 +1539,30 @@ TEST(EcatPacing, AnExtrapolationThatDidNotMoveMakesUpForNoSetPoint) {
   EXPECT_NEAR(rig.cell.max_point_speed_one_step_mm_s(), steady, steady * 0.01F) << "never faster at a one-step pulse";
 }
 
+// ecat_run (session 12, a T1 jog under load: 479 mm/s at a "one-step" pulse, held 1,
+// extrapolated 3): a pulse that took two set-points at once, then a pulse without a frame. A
+// CSP drive extrapolates the last step it took, which was two steps: the axis goes on at twice
+// its speed for that pulse too. That speed comes from the host's timing as much as the first
+// one's: the extrapolated pulse counts as one that applied more than one set-point.
+TEST(EcatPacing, AnExtrapolationOfATwoStepPulseIsTwoStepsToo) {
+  PacingRig rig(EmulatedCell::Pacing::paced);
+  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
+  rig.cell.reset_steps();
+  for (std::int32_t n = 1; n <= 3; ++n) {
+    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
+  }
+  const float steady = rig.cell.max_point_speed_mm_s();
+  rig.cycle({}, false);  // frames 4 and 5 lost: 4 extrapolated, then held at 4
+  rig.cycle({}, false);
+  rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));  // its pulse takes 6: from 4 to 6
+  rig.cycle({}, false);                             // frame 7 lost: the drive repeats its last step
+  const std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 8 * kStep));
+  EXPECT_NEAR(PacingRig::position(in), 8 * kStep, 1) << "6, then 8 extrapolated (the last step was two)";
+  EXPECT_EQ(rig.cell.steps().multi_step, 2U) << "the two-step pulse and its extrapolation";
+  EXPECT_NEAR(rig.cell.max_point_speed_multi_step_mm_s(), 2.0F * steady, steady * 0.05F);
+  EXPECT_NEAR(rig.cell.max_point_speed_one_step_mm_s(), steady, steady * 0.01F) << "never faster at a one-step pulse";
+}
+
 TEST(EcatPacing, WithoutTheMasterThePulsesStepThePlantAndTheWatchdogDropIsTimedAtTheTerminal) {
   PacingRig rig(EmulatedCell::Pacing::paced);
   rig.enable();

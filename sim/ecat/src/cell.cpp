@@ -318,8 +318,11 @@ void EmulatedCell::sync0_setpoints() noexcept {
   // they were meant for, the one extrapolated pulse before making up for one of them.
   // An extrapolated pulse made up for one set-point only when it moved the axis: one that
   // repeated a zero step (after a late frame taken alone) made up for none (issue 40).
+  // And a pulse that extrapolates (no new frame after one that had one) the step of a pulse
+  // that took more than one: the drive repeats that step, the axis goes on as fast.
   const std::uint32_t credit = (missed_ == 1U && extrapolation_moved_) ? 1U : 0U;
-  multi_step_ = fresh_ > 0U && (missed_ > 1U || fresh_ - credit > 1U);
+  const bool repeats_multi = fresh_ == 0U && missed_ == 0U && multi_step_;
+  multi_step_ = (fresh_ > 0U && (missed_ > 1U || fresh_ - credit > 1U)) || repeats_multi;
   steps_.multi_step += multi_step_ ? 1U : 0U;
   if (fresh_ > 0U) {
     missed_ = 0;
