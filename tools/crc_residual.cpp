@@ -22,6 +22,7 @@
 #include "crc/weights.hpp"
 #include "safestate/safelink/container.hpp"
 #include "safestate/safelink/crc32c.hpp"
+#include "safestate/safelink/link.hpp"
 
 namespace crc = safestate::tools::crc;
 namespace sl = safestate::safelink;
@@ -110,6 +111,47 @@ constexpr Stream kStreams[] = {
     {"drive load-side encoder, host -> device (acknowledge only)", 0, 6},
 };
 
+std::string hex(const std::vector<std::uint8_t>& b) {
+  std::string r;
+  char x[4];
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    std::snprintf(x, sizeof x, "%s%02X", i == 0 ? "" : " ", b[i]);
+    r += x;
+  }
+  return r;
+}
+
+// A worked example for an implementer, produced by the library itself (safelink/).
+void example(std::ostringstream& o) {
+  sl::ConnectionParams p;
+  p.id = 0xA002;
+  p.host_data_bytes = 1;
+  p.device_data_bytes = 1;
+  p.watchdog_ms = 10;
+  p.device = {0x00005AFEU, 0x00D50002U, 3};
+  sl::HostEnd h;
+  sl::DeviceEnd d;
+  (void)h.configure(p, 1000);
+  (void)d.configure(p, 1000, 0x0777);
+  (void)h.connect(0x1234);
+  std::vector<std::uint8_t> h2d(h.tx_bytes(), 0);
+  std::vector<std::uint8_t> d2h(d.tx_bytes(), 0);
+  std::vector<std::uint8_t> out{0x01};
+  std::vector<std::uint8_t> in{0x03};
+  o << "Example (connection 0xA002, 1 byte each way, watchdog 10 ms, device vendor 0x00005AFE, product "
+       "0x00D50002, position 3; host session 0x1234, device session 0x0777; host data 0x01, device data "
+       "0x03), each container as sent, byte 0 first:\n\n";
+  const char* names[] = {"host connect", "device connect answer", "host data, sequence 1",
+                         "device data, sequence 1", "host data, sequence 2", "device data, sequence 2"};
+  for (int i = 0; i < 3; ++i) {
+    (void)h.cycle(d2h, out, h2d);
+    o << "    " << names[2 * i] << ": " << hex(h2d) << "\n";
+    (void)d.cycle(h2d, in, d2h);
+    o << "    " << names[2 * i + 1] << ": " << hex(d2h) << "\n";
+  }
+  o << "\n";
+}
+
 bool doc(std::string& out) {
   std::ostringstream o;
   const unsigned lengths[] = {0, 1, 4};
@@ -172,6 +214,7 @@ bool doc(std::string& out) {
   o << "Both channels (an undetected error in a channel A container and one in the channel B container "
        "of the same stream within cross_check_cycles = 2): "
     << sci(pair) << " /h, " << (pair <= kBudget ? "within" : "**over**") << " the budget.\n\n";
+  example(o);
   o << kEnd << "\n";
   out = o.str();
   return true;
