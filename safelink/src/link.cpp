@@ -40,11 +40,17 @@ namespace detail {
 ConfigError EndCommon::configure(const ConnectionParams& p, std::uint32_t cycle_us, std::size_t rx_data,
                                  std::size_t tx_data) noexcept {
   const ConfigError e = check_params(p);
-  if (e != ConfigError::None) return e;
-  if (cycle_us < 50U || cycle_us > 100000U) return ConfigError::BadCycle;
+  if (e != ConfigError::None) {
+    return e;
+  }
+  if (cycle_us < 50U || cycle_us > 100000U) {
+    return ConfigError::BadCycle;
+  }
   const std::uint32_t wd_us = static_cast<std::uint32_t>(p.watchdog_ms) * 1000U;
   const std::uint32_t wd = (wd_us + cycle_us - 1U) / cycle_us;
-  if (wd < 2U) return ConfigError::WatchdogTooShort;
+  if (wd < 2U) {
+    return ConfigError::WatchdogTooShort;
+  }
   *this = EndCommon{};
   params = p;
   watchdog_cycles = wd;
@@ -56,13 +62,17 @@ ConfigError EndCommon::configure(const ConnectionParams& p, std::uint32_t cycle_
 
 bool EndCommon::same_as_last(std::span<const std::uint8_t> rx) const noexcept {
   for (std::size_t i = 0; i < rx_len; ++i) {
-    if (rx[i] != last_rx[i]) return false;
+    if (rx[i] != last_rx[i]) {
+      return false;
+    }
   }
   return true;
 }
 
 void EndCommon::accept(std::span<const std::uint8_t> rx) noexcept {
-  for (std::size_t i = 0; i < rx_len; ++i) last_rx[i] = rx[i];
+  for (std::size_t i = 0; i < rx_len; ++i) {
+    last_rx[i] = rx[i];
+  }
   since_ok = 0;
 }
 
@@ -70,8 +80,12 @@ void EndCommon::accept(std::span<const std::uint8_t> rx) noexcept {
 // direction (masquerade), when its header says so; otherwise corruption.
 Verdict EndCommon::crc_error(std::span<const std::uint8_t> rx, bool host_end) const noexcept {
   const std::uint8_t k = read_kind(rx);
-  if (read_header(rx).connection != params.id) return Verdict::Identity;
-  if (host_end ? is_host_kind(k) : is_device_kind(k)) return Verdict::Identity;
+  if (read_header(rx).connection != params.id) {
+    return Verdict::Identity;
+  }
+  if (host_end ? is_host_kind(k) : is_device_kind(k)) {
+    return Verdict::Identity;
+  }
   return Verdict::Crc;
 }
 
@@ -85,7 +99,9 @@ void EndCommon::fail(Verdict v) noexcept {
 
 void EndCommon::write_tx(std::span<std::uint8_t> out) const noexcept {
   const bool holding = state == LinkState::Connecting || state == LinkState::Connected;
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = (holding && i < tx_len) ? tx[i] : std::uint8_t{0};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = (holding && i < tx_len) ? tx[i] : std::uint8_t{0};
+  }
 }
 
 }  // namespace detail
@@ -97,7 +113,9 @@ ConfigError HostEnd::configure(const ConnectionParams& p, std::uint32_t cycle_us
 }
 
 bool HostEnd::connect(std::uint16_t session) noexcept {
-  if (c_.state == LinkState::Unconfigured || session == 0U) return false;
+  if (c_.state == LinkState::Unconfigured || session == 0U) {
+    return false;
+  }
   c_.state = LinkState::Connecting;
   c_.fault = Verdict::NotConnected;
   c_.host_session = session;
@@ -138,20 +156,34 @@ Verdict HostEnd::check_connecting(std::span<const std::uint8_t> rx) noexcept {
 }
 
 Verdict HostEnd::check_connected(std::span<const std::uint8_t> rx) noexcept {
-  if (all_zero(rx)) return Verdict::NotConnected;  // the device is fail-safe or gone
-  if (c_.same_as_last(rx)) return Verdict::Repetition;
+  if (all_zero(rx)) {
+    return Verdict::NotConnected;  // the device is fail-safe or gone
+  }
+  if (c_.same_as_last(rx)) {
+    return Verdict::Repetition;
+  }
   const std::uint8_t k = read_kind(rx);
   const Header h = read_header(rx);
   if (k == static_cast<std::uint8_t>(Kind::ConnectAck) && h.connection == c_.params.id) {
     return Verdict::Sequence;  // the device opened another session
   }
-  if (k != static_cast<std::uint8_t>(Kind::DeviceData)) return c_.crc_error(rx, true);
+  if (k != static_cast<std::uint8_t>(Kind::DeviceData)) {
+    return c_.crc_error(rx, true);
+  }
   const std::uint32_t next = c_.partner_seq + 1U;
-  if (!crc_matches(c_.prefix, hi16(next), hi16(c_.own_seq), rx)) return c_.crc_error(rx, true);
-  if (h.connection != c_.params.id) return Verdict::Identity;
-  if (h.seq != lo16(next) || h.ack != lo16(c_.own_seq)) return Verdict::Sequence;
+  if (!crc_matches(c_.prefix, hi16(next), hi16(c_.own_seq), rx)) {
+    return c_.crc_error(rx, true);
+  }
+  if (h.connection != c_.params.id) {
+    return Verdict::Identity;
+  }
+  if (h.seq != lo16(next) || h.ack != lo16(c_.own_seq)) {
+    return Verdict::Sequence;
+  }
   c_.partner_seq = next;
-  for (std::size_t i = 0; i < c_.params.device_data_bytes; ++i) c_.data[i] = rx[kHeaderBytes + i];
+  for (std::size_t i = 0; i < c_.params.device_data_bytes; ++i) {
+    c_.data[i] = rx[kHeaderBytes + i];
+  }
   c_.have_data = true;
   c_.accept(rx);
   c_.own_seq += 1U;
@@ -161,20 +193,28 @@ Verdict HostEnd::check_connected(std::span<const std::uint8_t> rx) noexcept {
 Verdict HostEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> out,
                        std::span<std::uint8_t> tx) noexcept {
   if (c_.state == LinkState::Unconfigured) {
-    for (auto& b : tx) b = 0;
+    for (auto& b : tx) {
+      b = 0;
+    }
     return Verdict::NotConnected;
   }
   const bool up = c_.state == LinkState::Connecting || c_.state == LinkState::Connected;
   if (rx.size() != c_.rx_len || tx.size() != c_.tx_len || out.size() != c_.params.host_data_bytes) {
-    if (up) c_.fail(Verdict::Length);
-    if (tx.size() == c_.tx_len) c_.write_tx(tx);
+    if (up) {
+      c_.fail(Verdict::Length);
+    }
+    if (tx.size() == c_.tx_len) {
+      c_.write_tx(tx);
+    }
     return Verdict::Length;
   }
   if (!up) {
     c_.write_tx(tx);
     return Verdict::NotConnected;
   }
-  if (c_.since_ok < 0xFFFFFFFFU) ++c_.since_ok;
+  if (c_.since_ok < 0xFFFFFFFFU) {
+    ++c_.since_ok;
+  }
   const bool connecting = c_.state == LinkState::Connecting;
   Verdict v = connecting ? check_connecting(rx) : check_connected(rx);
   if (v == Verdict::Ok) {
@@ -201,7 +241,9 @@ std::span<const std::uint8_t> HostEnd::data() const noexcept {
 ConfigError DeviceEnd::configure(const ConnectionParams& p, std::uint32_t cycle_us,
                                  std::uint16_t session_seed) noexcept {
   const ConfigError e = c_.configure(p, cycle_us, p.host_data_bytes, p.device_data_bytes);
-  if (e == ConfigError::None) next_session_ = (session_seed == 0U) ? std::uint16_t{1} : session_seed;
+  if (e == ConfigError::None) {
+    next_session_ = (session_seed == 0U) ? std::uint16_t{1} : session_seed;
+  }
   return e;
 }
 
@@ -209,7 +251,9 @@ Verdict DeviceEnd::open_session(std::span<const std::uint8_t> rx) noexcept {
   const std::uint16_t host_session = read_header(rx).ack;
   const std::uint16_t dev_session = next_session_;
   next_session_ = static_cast<std::uint16_t>(next_session_ + 1U);
-  if (next_session_ == 0U) next_session_ = 1;
+  if (next_session_ == 0U) {
+    next_session_ = 1;
+  }
   c_.state = LinkState::Connected;
   c_.fault = Verdict::NotConnected;
   c_.host_session = host_session;
@@ -228,14 +272,24 @@ Verdict DeviceEnd::open_session(std::span<const std::uint8_t> rx) noexcept {
 
 Verdict DeviceEnd::check(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> in) noexcept {
   const bool connected = c_.state == LinkState::Connected;
-  if (all_zero(rx)) return Verdict::NotConnected;  // the host sends nothing (yet, or any more)
-  if (connected && c_.same_as_last(rx)) return Verdict::Repetition;
+  if (all_zero(rx)) {
+    return Verdict::NotConnected;  // the host sends nothing (yet, or any more)
+  }
+  if (connected && c_.same_as_last(rx)) {
+    return Verdict::Repetition;
+  }
   const std::uint8_t k = read_kind(rx);
   const Header h = read_header(rx);
   if (k == static_cast<std::uint8_t>(Kind::Connect)) {
-    if (!crc_matches(prefix_register(c_.params, 0, 0), 0, 0, rx)) return c_.crc_error(rx, false);
-    if (h.connection != c_.params.id) return Verdict::Identity;
-    if (h.ack == 0U || h.seq != 0U) return Verdict::Sequence;  // no host sends session 0
+    if (!crc_matches(prefix_register(c_.params, 0, 0), 0, 0, rx)) {
+      return c_.crc_error(rx, false);
+    }
+    if (h.connection != c_.params.id) {
+      return Verdict::Identity;
+    }
+    if (h.ack == 0U || h.seq != 0U) {
+      return Verdict::Sequence;  // no host sends session 0
+    }
     return open_session(rx);
   }
   if (!connected) {
@@ -243,13 +297,23 @@ Verdict DeviceEnd::check(std::span<const std::uint8_t> rx, std::span<const std::
                ? Verdict::NotConnected
                : c_.crc_error(rx, false);
   }
-  if (k != static_cast<std::uint8_t>(Kind::HostData)) return c_.crc_error(rx, false);
+  if (k != static_cast<std::uint8_t>(Kind::HostData)) {
+    return c_.crc_error(rx, false);
+  }
   const std::uint32_t next = c_.partner_seq + 1U;
-  if (!crc_matches(c_.prefix, hi16(next), hi16(c_.own_seq), rx)) return c_.crc_error(rx, false);
-  if (h.connection != c_.params.id) return Verdict::Identity;
-  if (h.seq != lo16(next) || h.ack != lo16(c_.own_seq)) return Verdict::Sequence;
+  if (!crc_matches(c_.prefix, hi16(next), hi16(c_.own_seq), rx)) {
+    return c_.crc_error(rx, false);
+  }
+  if (h.connection != c_.params.id) {
+    return Verdict::Identity;
+  }
+  if (h.seq != lo16(next) || h.ack != lo16(c_.own_seq)) {
+    return Verdict::Sequence;
+  }
   c_.partner_seq = next;
-  for (std::size_t i = 0; i < c_.params.host_data_bytes; ++i) c_.data[i] = rx[kHeaderBytes + i];
+  for (std::size_t i = 0; i < c_.params.host_data_bytes; ++i) {
+    c_.data[i] = rx[kHeaderBytes + i];
+  }
   c_.have_data = true;
   c_.accept(rx);
   c_.own_seq += 1U;
@@ -261,16 +325,24 @@ Verdict DeviceEnd::check(std::span<const std::uint8_t> rx, std::span<const std::
 Verdict DeviceEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> in,
                          std::span<std::uint8_t> tx) noexcept {
   if (c_.state == LinkState::Unconfigured) {
-    for (auto& b : tx) b = 0;
+    for (auto& b : tx) {
+      b = 0;
+    }
     return Verdict::NotConnected;
   }
   if (rx.size() != c_.rx_len || tx.size() != c_.tx_len || in.size() != c_.params.device_data_bytes) {
-    if (c_.state == LinkState::Connected) c_.fail(Verdict::Length);
-    if (tx.size() == c_.tx_len) c_.write_tx(tx);
+    if (c_.state == LinkState::Connected) {
+      c_.fail(Verdict::Length);
+    }
+    if (tx.size() == c_.tx_len) {
+      c_.write_tx(tx);
+    }
     return Verdict::Length;
   }
   const bool was_connected = c_.state == LinkState::Connected;
-  if (was_connected && c_.since_ok < 0xFFFFFFFFU) ++c_.since_ok;
+  if (was_connected && c_.since_ok < 0xFFFFFFFFU) {
+    ++c_.since_ok;
+  }
   Verdict v = check(rx, in);
   if (c_.state == LinkState::Connected && v != Verdict::Ok) {
     if (is_fault(v)) {
