@@ -403,6 +403,7 @@ class WebGlArm implements ArmDrawing {
     for (const o of this.shapes) o.visible = false;
     for (const g of this.visualFrames) g.visible = true;
     this.meshesShown = true;
+    this.renderer.compile(this.scene, this.camera); // the meshes' shaders now, not on the first jog
     const hot = this.hot;
     this.hot = -1; // re-apply the highlight to the meshes
     this.highlight(hot);
