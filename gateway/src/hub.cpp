@@ -74,8 +74,11 @@ Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log,
       e["uri"] = r.uri;
       e["why"] = r.why;
       refused.push_back(std::move(e));
-      std::fprintf(stderr, "safestate gateway: robot mesh not served (the HMI draws simple shapes): %s: %s\n",
-                   r.uri.c_str(), r.why.c_str());
+      std::string line = r.uri + ": " + r.why;  // from the URDF: no control characters into the log
+      for (char& c : line) {
+        if (static_cast<unsigned char>(c) < 0x20U || c == 0x7F) c = '?';
+      }
+      std::fprintf(stderr, "safestate gateway: robot mesh not served (the HMI draws simple shapes): %s\n", line.c_str());
     }
     rj["meshes"] = std::move(served);
     rj["meshes_refused"] = std::move(refused);
