@@ -2,7 +2,11 @@
 // SPEC §13, ISO 10218-1 Annex B: stopping time and distance of axes 1, 2 and 3 for Cat 0
 // (E-stop) and Cat 1 (guard in AUTO) at 33/66/100 % of the axis speed and 33/66/100 % of
 // the rated payload, on the SIMULATED cell (sim::Cell: the real controller, the simulated
-// plant). One JSON object on stdout for bench/stopping.py. No arguments.
+// plant). One JSON object on stdout for bench/stopping.py.
+// Arguments (all optional): --robot FILE.urdf [--base LINK] [--flange LINK] runs another arm
+// (issue 38; the built-in IRB 120 without); --rated-payload-kg KG names its rated payload (the
+// runs' payloads are fractions of it: only the label); --short runs 100 % speed and payload
+// only (6 runs, for a test).
 //
 // Each run: the arm at home, a one-waypoint program moving only the axis under test at the
 // speed fraction; once the axis runs at that speed the payload's inertia is applied (the
@@ -10,7 +14,9 @@
 // arm's; the stop, which is what Annex B measures, sees the payload) and both channels of
 // the stop input open together. Counted in cycles from that change until every axis is
 // below standstill_rad_s: up to one cycle more than the plant took (conservative).
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -80,7 +86,9 @@ Result run(const safety::Loaded& s, int axis, int cat, float speed, float payloa
   cell.configure_limits(s.limits, true);
   motion::Waypoint wp{};
   wp.q = sim::home_pose();
-  wp.q[i] = motion::deg(kTargetDeg[i]);
+  // Inside another arm's range as well, 10 deg from its limits.
+  const motion::RobotModel& m = safestate::robot::active().model;
+  wp.q[i] = std::clamp(motion::deg(kTargetDeg[i]), m.q_min_rad[i] + motion::deg(10.0F), m.q_max_rad[i] - motion::deg(10.0F));
   wp.speed = speed;
   cell.load_program(&wp, 1);
   std::uint32_t seq = 0;
@@ -145,18 +153,65 @@ Result run(const safety::Loaded& s, int axis, int cat, float speed, float payloa
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  std::string file;
+  std::string base;
+  std::string flange;
+  double rated = static_cast<double>(motion::kRatedPayloadKg);
+  bool rated_given = false;
+  bool short_mode = false;
+  for (int a = 1; a < argc; ++a) {
+    const std::string k = argv[a];
+    const bool has_value = a + 1 < argc;
+    if (k == "--short") {
+      short_mode = true;
+    } else if (k == "--robot" && has_value) {
+      file = argv[++a];
+    } else if (k == "--base" && has_value) {
+      base = argv[++a];
+    } else if (k == "--flange" && has_value) {
+      flange = argv[++a];
+    } else if (k == "--rated-payload-kg" && has_value) {
+      char* end = nullptr;
+      rated = std::strtod(argv[++a], &end);
+      rated_given = true;
+      if (end == nullptr || *end != '\0' || !(rated > 0.0 && rated <= 2000.0)) {
+        std::fprintf(stderr, "bench_stopping: --rated-payload-kg must be a number in (0, 2000]\n");
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr, "bench_stopping: unknown or incomplete argument %s\n"
+                           "usage: bench_stopping [--robot FILE.urdf [--base LINK] [--flange LINK]] "
+                           "[--rated-payload-kg KG] [--short]\n", k.c_str());
+      return 2;
+    }
+  }
+  if (!file.empty() || !base.empty() || !flange.empty()) {
+    std::string error;
+    if (!safestate::robot::select(file, base, flange, error)) {
+      std::fprintf(stderr, "bench_stopping: %s\n", error.c_str());
+      return 2;
+    }
+  }
+  const bool builtin = safestate::robot::is_builtin(safestate::robot::active());
   const safety::Loaded s = safety::default_safety();
   const std::uint32_t cycle_us = core::Config{}.cycle_us;
-  std::printf("{\"cycle_us\": %u, \"payload_rated_kg\": %.3f, \"payload_inertia_ratio\": %.3f, "
-              "\"brake_decel_factor\": %.3f, \"max_stop_ms\": %u, \"runs\": [\n",
-              cycle_us, static_cast<double>(motion::kRatedPayloadKg), static_cast<double>(sim::kPayloadInertiaRatio),
+  std::string name = safestate::robot::active().d.name;  // for the JSON: no quote or control character
+  for (char& ch : name) {
+    if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20U) ch = '_';
+  }
+  const std::string rated_text = (builtin || rated_given) ? std::to_string(rated) : std::string("null");
+  std::printf("{\"robot\": \"%s\", \"builtin\": %s, \"short\": %s, \"cycle_us\": %u, \"payload_rated_kg\": %s, "
+              "\"payload_inertia_ratio\": %.3f, \"brake_decel_factor\": %.3f, \"max_stop_ms\": %u, \"runs\": [\n",
+              name.c_str(), builtin ? "true" : "false", short_mode ? "true" : "false",
+              cycle_us, rated_text.c_str(), static_cast<double>(sim::kPayloadInertiaRatio),
               static_cast<double>(sim::kBrakeStopDecelFactor), s.limits.max_stop_ms);
+  const std::vector<float> fractions = short_mode ? std::vector<float>{1.0F} : std::vector<float>(kFractions.begin(), kFractions.end());
   bool first = true;
   for (int axis = 1; axis <= 3; ++axis) {
     for (int cat = 0; cat <= 1; ++cat) {
-      for (const float sp : kFractions) {
-        for (const float pl : kFractions) {
+      for (const float sp : fractions) {
+        for (const float pl : fractions) {
           const Result r = run(s, axis, cat, sp, pl);
           std::printf("%s {\"axis\": %d, \"cat\": %d, \"speed\": %.2f, \"payload\": %.2f, \"ok\": %s, \"why\": \"%s\", "
                       "\"v0_deg_s\": %.3f, \"tcp0_mm_s\": %.1f, \"reaction_cycles\": %llu, \"stop_cycles\": %llu, "

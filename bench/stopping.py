@@ -8,7 +8,13 @@ Runs build/bin/bench_stopping (Cat 0 and Cat 1, 33/66/100 % speed, 33/66/100 % p
   - safety/include/safestate/safety/stopping_data.hpp: the figures `safestate safety check` compares
     the configuration with (generated, never typed by hand).
 Called by `make bench` (bench/run.py); alone: `python3 bench/stopping.py` (a few seconds).
+
+Another arm (issue 38): `python3 bench/stopping.py --robot FILE.urdf [--rated-payload-kg KG]
+[--short] [--json OUT]` measures it the same way and prints the per-payload summary (what
+`safestate safety check` would compare) without writing the documents or the header, which hold
+the built-in IRB 120's figures. --short: 100 % speed and payload only (a test's run).
 """
+import argparse
 import datetime
 import json
 import os
@@ -67,10 +73,36 @@ def svg(axis, cat, runs):
     return "\n".join(out) + "\n"
 
 
+def summary(d):
+    """Per payload level measured: the longest Cat 1 and Cat 0 stops, the lowest TCP deceleration."""
+    per_level = []
+    for p in sorted({r["payload"] for r in d["runs"]}):
+        rs = [r for r in d["runs"] if abs(r["payload"] - p) < 1e-3]
+        c1 = max((r for r in rs if r["cat"] == 1), key=lambda r: r["stop_ms"])
+        c0 = max((r for r in rs if r["cat"] == 0), key=lambda r: r["stop_ms"])
+        dec = min((r for r in rs if r["tcp0_mm_s"] > 100.0), key=lambda r: r["tcp_decel_mm_s2"])
+        per_level.append({"payload": p, "cat1": c1, "cat0": c0, "decel": dec})
+    return per_level
+
+
 def main():
-    d = json.loads(run([os.path.join(BIN, "bench_stopping")]))
-    rta = json.loads(run([os.path.join(BIN, "safestate"), "rta", "--json"]))
-    guard = next(f for f in rta["functions"] if f["id"] == "guard")
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--robot", help="another arm's URDF (not written to the documents)")
+    ap.add_argument("--base")
+    ap.add_argument("--flange")
+    ap.add_argument("--rated-payload-kg", type=float, help="its rated payload (the label of the payload fractions)")
+    ap.add_argument("--short", action="store_true", help="100 %% speed and payload only")
+    ap.add_argument("--json", help="also write the runs and the summary here")
+    a = ap.parse_args()
+    cmd = [os.path.join(BIN, "bench_stopping")]
+    for flag, v in (("--robot", a.robot), ("--base", a.base), ("--flange", a.flange)):
+        if v:
+            cmd += [flag, v]
+    if a.rated_payload_kg is not None:
+        cmd += ["--rated-payload-kg", str(a.rated_payload_kg)]
+    if a.short:
+        cmd.append("--short")
+    d = json.loads(run(cmd))
     cyc = d["cycle_us"]
     bad = [r for r in d["runs"] if not r["ok"]]
     if bad:
@@ -81,6 +113,27 @@ def main():
         r["reaction_ms"] = r["reaction_cycles"] * cyc / 1000.0
         # The constant deceleration that stops the TCP within the measured distance (SSM's a).
         r["tcp_decel_mm_s2"] = r["tcp0_mm_s"] ** 2 / (2.0 * r["tcp_distance_mm"]) if r["tcp_distance_mm"] > 0 else 0.0
+    if a.robot or a.short:  # not the built-in arm's full table: report only
+        per_level = summary(d)
+        rated = d["payload_rated_kg"]
+        print(f"stopping data of {d['robot']} (SIMULATED cell; rated payload "
+              f"{'%g kg' % rated if rated is not None else 'not given'}"
+              f"{', short: 100 % speed only' if d['short'] else ''})")
+        print("| payload | longest Cat 1 stop | longest Cat 0 stop | lowest TCP deceleration |")
+        print("|---|---|---|---|")
+        for lv in per_level:
+            print(f"| {round(lv['payload'] * 100)} % | {lv['cat1']['stop_ms']:.0f} ms (axis {lv['cat1']['axis']}) | "
+                  f"{lv['cat0']['stop_ms']:.0f} ms (axis {lv['cat0']['axis']}) | "
+                  f"{lv['decel']['tcp_decel_mm_s2']:.0f} mm/s² (axis {lv['decel']['axis']}, Cat {lv['decel']['cat']}) |")
+        if a.json:
+            d["summary"] = [{"payload": lv["payload"], "cat1_stop_ms": lv["cat1"]["stop_ms"], "cat1_axis": lv["cat1"]["axis"],
+                             "cat0_stop_ms": lv["cat0"]["stop_ms"], "cat0_axis": lv["cat0"]["axis"],
+                             "tcp_decel_mm_s2": lv["decel"]["tcp_decel_mm_s2"]} for lv in per_level]
+            with open(a.json, "w") as f:
+                json.dump(d, f, indent=1)
+        return
+    rta = json.loads(run([os.path.join(BIN, "safestate"), "rta", "--json"]))
+    guard = next(f for f in rta["functions"] if f["id"] == "guard")
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     os.makedirs(SVG_DIR, exist_ok=True)
     for axis in (1, 2, 3):
@@ -90,13 +143,7 @@ def main():
                 f.write(svg(axis, cat, runs))
 
     levels = [0.33, 0.66, 1.0]
-    per_level = []
-    for p in levels:
-        rs = [r for r in d["runs"] if abs(r["payload"] - p) < 1e-3]
-        c1 = max((r for r in rs if r["cat"] == 1), key=lambda r: r["stop_ms"])
-        c0 = max((r for r in rs if r["cat"] == 0), key=lambda r: r["stop_ms"])
-        dec = min((r for r in rs if r["tcp0_mm_s"] > 100.0), key=lambda r: r["tcp_decel_mm_s2"])
-        per_level.append({"payload": p, "cat1": c1, "cat0": c0, "decel": dec})
+    per_level = summary(d)
     reaction_ms = max(r["reaction_ms"] for r in d["runs"])
     worst1 = per_level[-1]["cat1"]
     t_ctrl_ms = guard["reaction_cycles"] * cyc / 1000.0

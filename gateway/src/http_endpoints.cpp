@@ -614,6 +614,15 @@ HttpAnswer Hub::http_get(std::string_view target) {
   if (path == "/api/robot") {
     return HttpAnswer{200, "application/json", robot_, {}};
   }
+  if (path.rfind("/api/robot/meshes/", 0) == 0) {  // only the listed ones, from memory
+    for (std::size_t i = 0; i < meshes_.size(); ++i) {
+      if (path == mesh_url(i, meshes_[i].ext)) {
+        const std::string& e = meshes_[i].ext;
+        const char* type = e == "stl" ? "model/stl" : e == "obj" ? "model/obj" : "model/vnd.collada+xml";
+        return HttpAnswer{200, type, meshes_[i].bytes, {}};
+      }
+    }
+  }
   if (path == "/api/safety") {
     return safety_answer();
   }

@@ -56,7 +56,35 @@ Hub::Hub(const GatewayOptions& options, bridge::Segment& segment, EventLog& log,
   core_heartbeat_changed_ = now;
   last_sweep_ = now;
   last_error_log_ = now - std::chrono::hours(1);
-  robot_ = dump(robot_json());
+  {
+    // The meshes the URDF names, from its own package folder only: listed in /api/robot
+    // (url by index), the refused ones with the reason (the HMI then draws simple shapes).
+    robot::Meshes m = robot::read_visual_meshes(robot::active());
+    Json rj = robot_json();
+    Json served = Json::array();
+    for (std::size_t i = 0; i < m.files.size(); ++i) {
+      Json e;
+      e["uri"] = m.files[i].uri;
+      e["url"] = mesh_url(i, m.files[i].ext);
+      served.push_back(std::move(e));
+    }
+    Json refused = Json::array();
+    for (const robot::MeshRefusal& r : m.refused) {
+      Json e;
+      e["uri"] = r.uri;
+      e["why"] = r.why;
+      refused.push_back(std::move(e));
+      std::string line = r.uri + ": " + r.why;  // from the URDF: no control characters into the log
+      for (char& c : line) {
+        if (static_cast<unsigned char>(c) < 0x20U || c == 0x7F) c = '?';
+      }
+      std::fprintf(stderr, "safestate gateway: robot mesh not served (the HMI draws simple shapes): %s\n", line.c_str());
+    }
+    rj["meshes"] = std::move(served);
+    rj["meshes_refused"] = std::move(refused);
+    robot_ = dump(rj);
+    meshes_ = std::move(m.files);
+  }
   parent_at_start_ = ::getppid();
   // What a predecessor already committed stays committed: start after it.
   auto& h = segment_.header();

@@ -224,6 +224,10 @@ export interface Robot {
   velocity_limits: number[];
   link_names: string[];
   tcp_offset: number[];
+  /** The URDF's visual meshes the gateway serves (from the description's own package folder). */
+  meshes?: { uri: string; url: string }[];
+  /** Those it does not serve, and why (the HMI then draws simple shapes). */
+  meshes_refused?: { uri: string; why: string }[];
 }
 
 export type ServerMessage =

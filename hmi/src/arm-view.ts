@@ -5,8 +5,12 @@
 // (data-joints, data-tcp) and as window.safestateHmi.view.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import type { Robot, SafetyZone } from './api';
-import { forward, type Frames, type Vec3 } from './kinematics';
+import { ColladaLoader } from 'three/addons/loaders/ColladaLoader.js';
+import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
+import { STLLoader } from 'three/addons/loaders/STLLoader.js';
+import { authHeaders, type Robot, type SafetyZone } from './api';
+import { forward, linkPoses, type Frames, type Vec3 } from './kinematics';
+import { urdfVisuals, type Visual } from './urdf-visuals';
 import type { PersonDrawing } from './person';
 import { ZONE_STYLE } from './safety-logic';
 
@@ -134,6 +138,18 @@ function exposeDrawn(container: HTMLElement, joints: number[], f: Frames): void 
   w.safestateHmi.view = { joints: j, tcp, origins: f.origin };
 }
 
+/** How the arm is drawn (issue 38 item 6), for tests and diagnostics (#arm's
+ * data-arm-drawing and data-mesh-objects, window.safestateHmi.armDrawing): 'meshes' once every
+ * mesh the URDF's visuals name was served by the gateway and loaded, 'shapes' otherwise (why
+ * says what was missing), 'loading' in between (the shapes shown meanwhile). */
+function exposeArmDrawing(container: HTMLElement, kind: 'shapes' | 'loading' | 'meshes', meshObjects: number, why: string): void {
+  container.dataset.armDrawing = kind;
+  container.dataset.meshObjects = String(meshObjects);
+  const w = window as unknown as { safestateHmi?: Record<string, unknown> };
+  w.safestateHmi ??= {};
+  w.safestateHmi.armDrawing = { kind, meshObjects, why };
+}
+
 class Trail {
   readonly pts: Vec3[] = [];
   push(p: Vec3): boolean {
@@ -189,6 +205,11 @@ class WebGlArm implements ArmDrawing {
   private floor: THREE.GridHelper;
   private personD: PersonDrawing | null = null;
   private widened = false;
+  /** The built-in simple shapes (base, segments, housings, flange): hidden when meshes show. */
+  private shapes: THREE.Object3D[] = [];
+  /** The URDF's visuals, one group per link frame (0 base, k joint k), placed each update. */
+  private visualFrames: THREE.Group[] = [];
+  private meshesShown = false;
 
   constructor(
     private readonly container: HTMLElement,
@@ -334,6 +355,17 @@ class WebGlArm implements ArmDrawing {
     this.controls.addEventListener('change', () => this.requestRender());
     this.controls.update();
 
+    this.shapes = [base, ...this.links, ...this.housings, this.flange];
+    for (let k = 0; k <= 6; k++) {
+      const g = new THREE.Group();
+      g.matrixAutoUpdate = false;
+      g.visible = false;
+      root.add(g);
+      this.visualFrames.push(g);
+    }
+    exposeArmDrawing(container, 'shapes', 0, 'not loaded yet');
+    void this.loadVisuals(linkMat);
+
     // Compile every shader now: a compile on the first motion (the trail's first segment,
     // the highlighted housing) would block the page just when a jog's keep-alive must go.
     this.housings[1].material = this.hotMat;
@@ -342,6 +374,105 @@ class WebGlArm implements ArmDrawing {
 
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
+  }
+
+  /** Draws the URDF's visuals when every mesh they name is served and loads; else keeps the shapes. */
+  private async loadVisuals(linkMat: THREE.MeshStandardMaterial): Promise<void> {
+    const list = urdfVisuals(this.robot.urdf ?? '', this.robot.base, this.robot.joints.map((j) => j.link));
+    const meshes = (list ?? []).filter((v) => v.geometry.type === 'mesh');
+    if (!list || meshes.length === 0) {
+      exposeArmDrawing(this.container, 'shapes', 0, list ? 'the description names no meshes' : 'the description did not parse');
+      return;
+    }
+    const urls = new Map((this.robot.meshes ?? []).map((m) => [m.uri, m.url]));
+    const missing = meshes.find((v) => v.geometry.type === 'mesh' && !urls.has(v.geometry.uri));
+    if (missing && missing.geometry.type === 'mesh') {
+      const why = this.robot.meshes_refused?.find((r) => missing.geometry.type === 'mesh' && r.uri === missing.geometry.uri)?.why;
+      exposeArmDrawing(this.container, 'shapes', 0, `mesh not served: ${missing.geometry.uri}${why ? ` (${why})` : ''}`);
+      return;
+    }
+    exposeArmDrawing(this.container, 'loading', 0, '');
+    let objects: THREE.Object3D[];
+    try {
+      objects = await Promise.all(list.map((v) => this.visualObject(v, urls, linkMat)));
+    } catch (e) {
+      exposeArmDrawing(this.container, 'shapes', 0, `mesh not loaded: ${String(e)}`);
+      return;
+    }
+    list.forEach((v, i) => this.visualFrames[v.frame].add(objects[i]));
+    for (const o of this.shapes) o.visible = false;
+    for (const g of this.visualFrames) g.visible = true;
+    this.meshesShown = true;
+    this.renderer.compile(this.scene, this.camera); // the meshes' shaders now, not on the first jog
+    const hot = this.hot;
+    this.hot = -1; // re-apply the highlight to the meshes
+    this.highlight(hot);
+    this.update(this.lastJoints);
+    let n = 0;
+    for (const g of this.visualFrames) g.traverse((o) => void (o instanceof THREE.Mesh && o.visible && n++));
+    exposeArmDrawing(this.container, 'meshes', n, '');
+  }
+
+  /** One visual in its link frame (mm): a served mesh (STL, COLLADA, OBJ) or a URDF primitive. */
+  private async visualObject(v: Visual, urls: Map<string, string>, linkMat: THREE.MeshStandardMaterial): Promise<THREE.Object3D> {
+    const mat = v.rgba
+      ? new THREE.MeshStandardMaterial({ color: new THREE.Color(v.rgba[0], v.rgba[1], v.rgba[2]), roughness: 0.55, metalness: 0.05 })
+      : linkMat.clone();
+    const inner = new THREE.Group();
+    const g = v.geometry;
+    if (g.type === 'mesh') {
+      const url = urls.get(g.uri)!;
+      const ext = url.slice(url.lastIndexOf('.') + 1);
+      let obj: THREE.Object3D;
+      if (ext === 'stl') {
+        const loader = new STLLoader();
+        loader.setRequestHeader(authHeaders());
+        obj = new THREE.Mesh(await loader.loadAsync(url), mat);
+      } else if (ext === 'dae') {
+        const loader = new ColladaLoader();
+        loader.setRequestHeader(authHeaders());
+        const dae = await loader.loadAsync(url);
+        if (!dae?.scene) throw new Error(`${g.uri}: not COLLADA`);
+        obj = dae.scene;
+        // The vertices are in the link's frame as written (RViz draws them so): keep the
+        // unit's scale, not the loader's turn from Z_UP to three.js's Y_UP.
+        obj.rotation.set(0, 0, 0);
+      } else if (ext === 'obj') {
+        const loader = new OBJLoader();
+        loader.setRequestHeader(authHeaders());
+        obj = await loader.loadAsync(url);
+        obj.traverse((o) => {
+          if (o instanceof THREE.Mesh) o.material = mat;
+        });
+      } else {
+        throw new Error(`${g.uri}: .${ext} is not drawn`);
+      }
+      inner.add(obj);
+      inner.scale.set(g.scale[0] * 1000, g.scale[1] * 1000, g.scale[2] * 1000); // m -> mm
+    } else if (g.type === 'box') {
+      inner.add(new THREE.Mesh(new THREE.BoxGeometry(g.size[0] * 1000, g.size[1] * 1000, g.size[2] * 1000), mat));
+    } else if (g.type === 'cylinder') {
+      const m = new THREE.Mesh(new THREE.CylinderGeometry(g.radius * 1000, g.radius * 1000, g.length * 1000, 32), mat);
+      m.rotation.x = Math.PI / 2; // three's cylinder stands on y, URDF's on z
+      inner.add(m);
+    } else {
+      inner.add(new THREE.Mesh(new THREE.SphereGeometry(g.radius * 1000, 24, 16), mat));
+    }
+    // Each mesh its own materials: the jog highlight tints one link's, not every link's.
+    inner.traverse((o) => {
+      if (!(o instanceof THREE.Mesh)) return;
+      o.material = Array.isArray(o.material) ? o.material.map((x: THREE.Material) => x.clone()) : o.material.clone();
+    });
+    const holder = new THREE.Group();
+    holder.matrixAutoUpdate = false;
+    holder.matrix.set(
+      v.R[0][0], v.R[0][1], v.R[0][2], v.p[0],
+      v.R[1][0], v.R[1][1], v.R[1][2], v.p[1],
+      v.R[2][0], v.R[2][1], v.R[2][2], v.p[2],
+      0, 0, 0, 1,
+    );
+    holder.add(inner);
+    return holder;
   }
 
   private resize(): void {
@@ -399,6 +530,18 @@ class WebGlArm implements ArmDrawing {
     this.housings[0].position.set(0, 0, 140);
     this.flange.position.copy(v3(f.origin[6]));
     this.flange.quaternion.setFromUnitVectors(UP, v3(f.z[6]));
+    if (this.meshesShown) {
+      linkPoses(this.robot.joints, joints).forEach((L, k) => {
+        const R = L.R;
+        this.visualFrames[k].matrix.set(
+          R[0][0], R[0][1], R[0][2], L.p[0],
+          R[1][0], R[1][1], R[1][2], L.p[1],
+          R[2][0], R[2][1], R[2][2], L.p[2],
+          0, 0, 0, 1,
+        );
+        this.visualFrames[k].matrixWorldNeedsUpdate = true;
+      });
+    }
 
     const R = f.R;
     const m4 = new THREE.Matrix4().set(
@@ -521,6 +664,17 @@ class WebGlArm implements ArmDrawing {
     if (axis === this.hot) return;
     this.hot = axis;
     this.housings.forEach((m, k) => (m.material = k + 1 === axis ? this.hotMat : this.housingMat));
+    // With meshes: the link the jogged axis moves glows.
+    this.visualFrames.forEach((g, k) =>
+      g.traverse((o) => {
+        if (!(o instanceof THREE.Mesh)) return;
+        for (const m of Array.isArray(o.material) ? o.material : [o.material]) {
+          if (!('emissive' in m) || !(m.emissive instanceof THREE.Color)) continue;
+          m.userData.emissive ??= m.emissive.getHex();
+          m.emissive.setHex(k > 0 && k === axis ? 0x0b3c55 : m.userData.emissive);
+        }
+      }),
+    );
     this.requestRender();
   }
 
@@ -655,6 +809,7 @@ class FlatArm implements ArmDrawing {
     private readonly robot: Robot,
   ) {
     this.tcpOffset = robot.tcp_offset as Vec3;
+    exposeArmDrawing(container, 'shapes', 0, '2D view');
     container.append(this.canvas);
     this.canvas.style.width = '100%';
     this.canvas.style.height = '100%';

@@ -101,3 +101,27 @@ export function forward(
   x.push(column(R, 0));
   return { origin, z, x, R, tcp: add(p, mulMV(R, tcpOffset)) };
 }
+
+/** A frame of the arm: position (mm) and rotation (rows) in the base frame. */
+export interface Pose {
+  p: Vec3;
+  R: Mat3;
+}
+
+/**
+ * The link frames at q: [0] the base link's (identity), [k] (k = 1..6) joint k's frame turned
+ * by q_k, i.e. the frame of the link joint k moves (URDF: the child link's frame). The URDF's
+ * visuals of each link are placed in these (urdf-visuals.ts).
+ */
+export function linkPoses(joints: ChainJoint[], q: number[]): Pose[] {
+  let p: Vec3 = [0, 0, 0];
+  let R: Mat3 = IDENTITY;
+  const out: Pose[] = [{ p, R }];
+  for (let k = 0; k < joints.length; k++) {
+    const j = joints[k];
+    p = add(p, mulMV(R, j.origin));
+    R = mulMM(mulMM(R, j.rotation), axisTurn(j.axis, q[k] ?? 0));
+    out.push({ p, R });
+  }
+  return out;
+}

@@ -1,5 +1,7 @@
 #include "safestate/robot/description.hpp"
+#include "safestate/robot/meshes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -705,6 +707,38 @@ std::string canonical_parameters(const Robot& r) {
   j["flange_origin_mm"] = v3(m.flange.xyz_mm);
   j["flange_rotation"] = m3(m.flange.R);
   return j.dump();
+}
+
+}  // namespace safestate::robot
+
+namespace safestate::robot {
+
+std::vector<std::string> visual_mesh_uris(const Robot& r) {
+  std::vector<std::string> out;
+  urdf::ModelInterfaceSharedPtr m;
+  {
+    const std::lock_guard<std::mutex> lock(g_parse_mutex);
+    Collect collect;  // the description parsed once already; quiet here
+    console_bridge::useOutputHandler(&collect);
+    try {
+      m = urdf::parseURDF(r.d.urdf);
+    } catch (const std::exception&) {
+      m.reset();
+    }
+    console_bridge::restorePreviousOutputHandler();
+  }
+  if (!m) return out;
+  std::vector<urdf::LinkSharedPtr> links;
+  m->getLinks(links);
+  // urdfdom keeps links in a map (by name): the order is the names', which is stable.
+  for (const urdf::LinkSharedPtr& l : links) {
+    for (const urdf::VisualSharedPtr& v : l->visual_array) {
+      if (!v || !v->geometry || v->geometry->type != urdf::Geometry::MESH) continue;
+      const std::string& f = static_cast<const urdf::Mesh&>(*v->geometry).filename;
+      if (std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
+    }
+  }
+  return out;
 }
 
 }  // namespace safestate::robot

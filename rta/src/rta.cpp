@@ -56,15 +56,35 @@ struct Builder {
     return num(n) + " cycle" + (n == 1U ? "" : "s") + " x cycle_us " + num(c) + (what.empty() ? "" : " (" + what + ")");
   }
 
+  // The arm the configuration was checked against (its `robot` key, else --robot, else the
+  // built-in IRB 120): its speed and acceleration limits, its rated payload.
+  [[nodiscard]] const safestate::robot::Robot& arm() const {
+    return s.robot.robot ? *s.robot.robot : safestate::robot::active();
+  }
+  // tool.payload_kg as a fraction of the arm's rated payload (robot.rated_payload_kg, else the
+  // IRB 120's 3 kg; an arm without one carries none), as the simulated plant scales braking.
+  [[nodiscard]] float payload_fraction() const {
+    const double rated = s.robot.rated_payload_kg;
+    if (!(rated > 0.0)) return 0.0F;
+    return static_cast<float>(std::min(1.0, static_cast<double>(s.limits.payload_kg) / rated));
+  }
+
+  // For an arm other than the built-in IRB 120: whose figures these are.
+  [[nodiscard]] std::string other_arm() const {
+    if (safestate::robot::is_builtin(arm())) return "";
+    return " of rated " + std::to_string(s.robot.rated_payload_kg).substr(0, 4) + ", robot " + arm().d.name;
+  }
+
   // Braking without torque from the drive's own speed limit (the arm cannot go faster):
   // whole cycles, as the plant ramps the velocity down once per cycle.
   [[nodiscard]] std::uint64_t cat0_stop_cycles(std::size_t& axis) const {
     std::uint64_t worst = 0;
-    const float payload_scale = sim::payload_decel_scale(s.limits.payload_kg / motion::kRatedPayloadKg);
+    const float payload_scale = sim::payload_decel_scale(payload_fraction());
     const float dt = static_cast<float>(c) * 1.0e-6F;
+    const motion::RobotModel& m = arm().model;
     for (std::size_t i = 0; i < motion::kJoints; ++i) {
-      const float per_cycle = sim::kBrakeStopDecelFactor * safestate::robot::active().model.qdd_max_rad_s2[i] * payload_scale * dt;
-      const auto n = static_cast<std::uint64_t>(std::ceil((safestate::robot::active().model.qd_max_rad_s[i] / per_cycle) - 1.0e-4F));
+      const float per_cycle = sim::kBrakeStopDecelFactor * m.qdd_max_rad_s2[i] * payload_scale * dt;
+      const auto n = static_cast<std::uint64_t>(std::ceil((m.qd_max_rad_s[i] / per_cycle) - 1.0e-4F));
       if (n > worst) {
         worst = n;
         axis = i + 1U;
@@ -113,7 +133,7 @@ struct Builder {
     const std::uint64_t n = cat0_stop_cycles(axis);
     f.terms.push_back({p + "Cat 0 stop: braked from the axis speed limit", cycles(n),
                        per_cycle(n, "axis " + num(axis) + ": qd_max / (kBrakeStopDecelFactor x qdd_max x payload scale), tool.payload_kg " +
-                                       std::to_string(s.limits.payload_kg).substr(0, 4))});
+                                       std::to_string(s.limits.payload_kg).substr(0, 4) + other_arm())});
   }
   void ramp_stop(Function& f, core::StopCat cat) const {
     const std::uint64_t ms = t.max_stop + 1U;

@@ -634,6 +634,7 @@ Result parse_safety(std::string_view text, const std::string& dir) {
   }
   const safestate::robot::Robot& rb = *cfg.robot.robot;
   check_payload(rb, payload, rated_payload, ck);
+  cfg.robot.rated_payload_kg = rated_payload ? *rated_payload : (safestate::robot::is_builtin(rb) ? kRatedPayloadKg : 0.0);
   lim.inertials = rb.inertials;
   for (std::size_t i = 0; i < core::kAxes; ++i) {  // no `joints` key: the robot's own limits
     lim.joints[i] = core::JointLimit{rb.model.q_min_rad[i], rb.model.q_max_rad[i], rb.model.qd_max_rad_s[i]};

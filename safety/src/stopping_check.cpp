@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "safestate/motion/robot.hpp"
+#include "safestate/robot/description.hpp"
 #include "safestate/safety/stopping_data.hpp"
 
 namespace safestate::safety {
@@ -18,12 +19,23 @@ std::string fmt(double v) {
 
 std::vector<std::string> stopping_warnings(const Loaded& c) {
   std::vector<std::string> w;
+  // The figures were measured on the built-in IRB 120 (bench/stopping.py without --robot);
+  // another arm's stop is its own: say that it is not checked rather than judge it by them.
+  if (c.robot.robot && !robot::is_builtin(*c.robot.robot)) {
+    w.push_back("stop.max_time_ms, collaborative.ssm: not checked against measured stopping data: " + std::string(stopping::kSource) +
+                " holds the built-in IRB 120's; measure robot " + c.robot.robot->d.name +
+                "'s (python3 bench/stopping.py --robot FILE) and compare");
+    return w;
+  }
   // The lightest measured level whose payload is at least the tool's, both in kg as the
-  // configuration holds them (float): a payload of exactly a level's (0.99 kg, 33 %) is judged
-  // by that level's figures, not by the next one's (0.99 as a float is a little above 0.33 x 3).
+  // configuration holds them (float), the levels being fractions of the arm's rated payload
+  // (robot.rated_payload_kg, else the IRB 120's 3 kg): a payload of exactly a level's (0.99 kg,
+  // 33 % of 3 kg) is judged by that level's figures, not by the next one's (0.99 as a float is
+  // a little above 0.33 x 3).
+  const double rated = c.robot.rated_payload_kg > 0.0 ? c.robot.rated_payload_kg : static_cast<double>(motion::kRatedPayloadKg);
   const stopping::Level* lv = &stopping::kLevels.back();
   for (const stopping::Level& l : stopping::kLevels) {
-    if (static_cast<float>(l.payload_fraction * static_cast<double>(motion::kRatedPayloadKg)) >= c.limits.payload_kg) {
+    if (static_cast<float>(l.payload_fraction * rated) >= c.limits.payload_kg) {
       lv = &l;
       break;
     }

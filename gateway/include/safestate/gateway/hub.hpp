@@ -25,6 +25,7 @@
 #include "safestate/gateway/gateway.hpp"
 #include "safestate/gateway/protocol.hpp"
 #include "safestate/gateway/views.hpp"
+#include "safestate/robot/meshes.hpp"
 
 namespace safestate::gateway {
 
@@ -246,6 +247,9 @@ class Hub {
   // the log at start and kept as brake_test events are stored; shown in the status.
   Json brake_test_record_;
   std::string robot_;  // GET /api/robot never changes
+  // GET /api/robot/meshes/N.EXT: the description's visual meshes, read once at start from its
+  // own package folder (robot/include/safestate/robot/meshes.hpp); never written.
+  std::vector<robot::MeshFile> meshes_;
   int parent_at_start_ = 0;
   bool flushing_ = false;
   std::function<void()> on_submit_;

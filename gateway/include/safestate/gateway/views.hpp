@@ -81,6 +81,10 @@ Json event_message(std::int64_t id, std::uint64_t t, const std::string& time, co
 
 // GET /api/robot.
 Json robot_json();
+// Where the gateway serves the description's i-th visual mesh (GET, read-only).
+inline std::string mesh_url(std::size_t i, const std::string& ext) {
+  return "/api/robot/meshes/" + std::to_string(i) + "." + ext;
+}
 
 // GET /metrics (Prometheus text exposition format 0.0.4).
 // The gateway's connections and their bounds (issue 40; gateway/README.md "Admission").

@@ -89,6 +89,9 @@ struct RobotPart {
   std::string parameters;      // robot::canonical_parameters(): what the models use
   std::string checksum;        // first 8 hex digits of SHA-256(RFC 8785 form of `parameters`)
   bool in_checksum = false;    // not the built-in IRB 120's parameters: part of the checksum
+  // The arm's rated payload (kg): robot.rated_payload_kg, else the built-in IRB 120's 3 kg;
+  // 0 for another arm without the key (its URDF gives none, so it carries no payload).
+  double rated_payload_kg = 0.0;
 };
 
 struct Loaded {
