@@ -657,13 +657,19 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(shipped_cell
     assert 10000 <= drop["enable_us"] <= 50000, drop
 
 
-@host_stall_retry
-def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(shipped_cell):
+def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(cell):
     """Issue 22 item 2: one frame in 100 is processed by the emulated segment (the plant
     moves) but its answer never comes back: that cycle is stale, its positions held. The
     motion layer keeps the last speeds and differentiates the next sample over both
     cycles: a T1 jog at the 250 mm/s cap raises no T1_SPEED_EXCEEDED (it did when the
     next sample's two cycles of motion were divided by one).
+
+    Not a test of the bus: it runs on the bus that rides out a host stall. On the bus as
+    shipped a lost answer next to a wake-up 1.6 ms late made 3 stale cycles in a row once in
+    a loop of full runs (FIELDBUS_LOST, correct for the bus, below the 2 ms stall evidence);
+    a lost answer alone is never more than one stale cycle (`lose-every` never loses two in
+    a row), and the 3-cycle rule is the bus tests' (test_losing_the_bus_..., the short
+    working counter).
 
     Issue 40: the host may also deliver frames late past their SYNC0, and the emulated arm then
     really takes two steps in one pulse, over the cap: the core's alarm is right there. Every
@@ -671,7 +677,6 @@ def test_one_percent_of_frames_lost_while_jogging_in_t1_raises_no_speed_alarm(sh
     earn, and the jog itself within the cap. A jog an earned alarm stopped (Cat 0) does not count
     towards the frames lost while jogging: the cell is reset and jogs again, until 10 answers
     were lost in jogs that went on to their end (at most 5 jogs)."""
-    cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert cell.control_line("in mode=T1") == "OK"
     cell.pendant("reset", "IDLE")
