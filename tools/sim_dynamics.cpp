@@ -76,10 +76,11 @@ int print_model() {
   return 0;
 }
 
-int torques_from_stdin() {
-  safestate::sim::ArmDynamics dyn;
-  std::cout << std::setprecision(17);  // round-trip precision
-  const Vec3 tcp{0.0, 0.0, 0.0};
+// Each non-blank line of stdin as N numbers, handed to `each`; a line of another count stops
+// with exit 2 naming it and `what` the line should hold. Returns 2, or 1 when `each` said a
+// line failed, else 0.
+template <std::size_t N, typename Each>
+int lines_from_stdin(const char* what, Each each) {
   int rc = 0;
   std::string line;
   long n = 0;
@@ -89,7 +90,7 @@ int torques_from_stdin() {
       continue;
     }
     std::istringstream in(line);
-    std::array<double, 21> v{};
+    std::array<double, N> v{};
     std::size_t got = 0;
     double x = 0.0;
     while (in >> x) {
@@ -99,9 +100,21 @@ int torques_from_stdin() {
       ++got;
     }
     if (!in.eof() || got != v.size()) {
-      std::cerr << "sim_dynamics: line " << n << ": expected 21 numbers (q qd qdd f_world)\n";
+      std::cerr << "sim_dynamics: line " << n << ": expected " << N << " numbers (" << what << ")\n";
       return 2;
     }
+    if (!each(v)) {
+      rc = 1;
+    }
+  }
+  return rc;
+}
+
+int torques_from_stdin() {
+  safestate::sim::ArmDynamics dyn;
+  std::cout << std::setprecision(17);  // round-trip precision
+  const Vec3 tcp{0.0, 0.0, 0.0};
+  return lines_from_stdin<21>("q qd qdd f_world", [&](const std::array<double, 21>& v) {
     JointVec q{};
     JointVec qd{};
     JointVec qdd{};
@@ -115,15 +128,13 @@ int torques_from_stdin() {
       f.at(i) = v.at(18 + i);
     }
     JointVec tau{};
-    if (!dyn.torques(q, qd, qdd, f, tcp, tau)) {
-      rc = 1;
-    }
+    const bool ok = dyn.torques(q, qd, qdd, f, tcp, tau);
     for (std::size_t i = 0; i < tau.size(); ++i) {
       std::cout << (i == 0 ? "" : " ") << tau.at(i);
     }
     std::cout << '\n';
-  }
-  return rc;
+    return ok;
+  });
 }
 
 // The core's model: lines of q qd qdd tau (24 numbers) -> model torques (6) and force (3).
@@ -131,27 +142,7 @@ int core_from_stdin() {
   const safestate::robot::Robot& r = safestate::robot::active();
   const core::ArmDynamicsModel m = core::prepare_dynamics(r.geometry, r.inertials);
   std::cout << std::setprecision(9);  // float round-trip
-  std::string line;
-  long n = 0;
-  while (std::getline(std::cin, line)) {
-    ++n;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) {
-      continue;
-    }
-    std::istringstream in(line);
-    std::array<double, 24> v{};
-    std::size_t got = 0;
-    double x = 0.0;
-    while (in >> x) {
-      if (got < v.size()) {
-        v.at(got) = x;
-      }
-      ++got;
-    }
-    if (!in.eof() || got != v.size()) {
-      std::cerr << "sim_dynamics: line " << n << ": expected 24 numbers (q qd qdd tau)\n";
-      return 2;
-    }
+  return lines_from_stdin<24>("q qd qdd tau", [&](const std::array<double, 24>& v) {
     core::JointArray q{};
     core::JointArray qd{};
     core::JointArray qdd{};
@@ -172,8 +163,8 @@ int core_from_stdin() {
       std::cout << (i == 0 ? "" : " ") << s.tau_nm.at(i);
     }
     std::cout << ' ' << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
-  }
-  return 0;
+    return true;
+  });
 }
 
 int run(std::span<char*> argv) {
