@@ -24,38 +24,24 @@ these tolerances.
 """
 import json
 import os
-import pathlib
-import subprocess
-import sysconfig
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
+from pin_arms import ROBOTS, descriptions, run
+
 SIM_DYNAMICS = os.environ["SIM_DYNAMICS_BIN"]
-IRB120 = os.environ["IRB120_URDF"]
 STATES = 10_000
 QDD_MAX = 20.0
 TAU_ABS_NM = 1e-3
 TAU_REL = 1e-5
 FORCE_ABS_N = 0.05
 DAMPING_M = 0.01  # core::kDampingM
-ROBOTS = ["irb120", "ur3", "ur5", "ur10"]
 
 
-def descriptions():
-    share = pathlib.Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
-    assert share.is_dir(), ("example-robot-data is not installed in the test venv "
-                            "(pip install -r tests/integration/requirements-robots.txt; `make test` does)")
-    ur = share / "ur_description" / "urdf"
-    return {"irb120": IRB120, "ur3": str(ur / "ur3_robot.urdf"), "ur5": str(ur / "ur5_robot.urdf"),
-            "ur10": str(ur / "ur10_robot.urdf")}
 
 
-def run(args, stdin=None):
-    r = subprocess.run(args, input=stdin, capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    return r.stdout
 
 
 @pytest.fixture(scope="module", params=ROBOTS)

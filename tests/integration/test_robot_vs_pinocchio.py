@@ -19,17 +19,15 @@ inertias); it shares no code with robot/, the core, the motion layer or KDL.
 """
 import json
 import os
-import pathlib
-import subprocess
-import sysconfig
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
+from pin_arms import ROBOTS, descriptions, run
+
 SAFESTATE = os.environ["SAFESTATE_BIN"]
 SIM_DYNAMICS = os.environ["SIM_DYNAMICS_BIN"]
-IRB120 = os.environ["IRB120_URDF"]
 CONFIGS = 10_000
 TCP_MM = np.array([30.0, -20.0, 100.0])
 POS_TOL_MM = 0.01
@@ -38,26 +36,12 @@ SPEED_ABS_MM_S = 1e-3
 GRAVITY_REL = 1e-3
 
 
-def example_robot_data():
-    share = pathlib.Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
-    assert share.is_dir(), ("example-robot-data is not installed in the test venv "
-                            "(pip install -r tests/integration/requirements-robots.txt; `make test` does)")
-    return share / "ur_description" / "urdf"
 
 
-def descriptions():
-    ur = example_robot_data()
-    return {"irb120": IRB120, "ur3": str(ur / "ur3_robot.urdf"), "ur5": str(ur / "ur5_robot.urdf"),
-            "ur10": str(ur / "ur10_robot.urdf")}
 
 
-ROBOTS = ["irb120", "ur3", "ur5", "ur10"]
 
 
-def run(args, stdin=None):
-    r = subprocess.run(args, input=stdin, capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    return r.stdout
 
 
 @pytest.fixture(scope="module", params=ROBOTS)
