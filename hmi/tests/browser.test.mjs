@@ -13,13 +13,13 @@ import assert from 'node:assert/strict';
 import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
-import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
 import { chromium } from 'playwright-core';
 import {
-  ARTIFACTS, BIN, CHROMIUM, DIST, ROOT, RUN_ARGS, banner as pageBanner, bannerUntil as pageBannerUntil, sleep, until,
+  ARTIFACTS, BIN, CHROMIUM, DIST, ROOT, RUN_ARGS, banner as pageBanner, bannerUntil as pageBannerUntil, freePort, sleep,
+  until,
 } from './page.mjs';
 
 const ESTOP_BANNER_MS = 200;
@@ -31,18 +31,6 @@ let page;
 const pageErrors = [];
 
 // ------------------------------------------------------------------ helpers
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const srv = net.createServer();
-    srv.unref();
-    srv.on('error', reject);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => resolve(port));
-    });
-  });
-}
-
 function getJson(port, p) {
   return new Promise((resolve, reject) => {
     const req = http.get({ host: '127.0.0.1', port, path: p, timeout: 1000 }, (res) => {

@@ -2,6 +2,7 @@
 // banner as the operator reads it, and where things are (environment: SAFESTATE_BIN,
 // CHROMIUM, SAFESTATE_RUN_ARGS, SAFESTATE_HMI_ARTIFACTS). Used by browser.test.mjs and
 // ecat_browser.test.mjs.
+import net from 'node:net';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -50,4 +51,17 @@ export async function bannerUntil(page, what, pred, timeoutMs = 10000) {
     const b = await banner(page);
     return pred(b) ? b : JSON.stringify(b) && false;
   }, timeoutMs);
+}
+
+// A port free on loopback now (the cell under test binds it next).
+export function freePort() {
+  return new Promise((resolve, reject) => {
+    const srv = net.createServer();
+    srv.unref();
+    srv.on('error', reject);
+    srv.listen(0, '127.0.0.1', () => {
+      const { port } = srv.address();
+      srv.close(() => resolve(port));
+    });
+  });
 }

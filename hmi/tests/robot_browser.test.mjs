@@ -14,12 +14,11 @@ import assert from 'node:assert/strict';
 import { execFileSync, spawn } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
-import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
 import { chromium } from 'playwright-core';
-import { ARTIFACTS, BIN, CHROMIUM, DIST, ROOT, RUN_ARGS, sleep, until } from './page.mjs';
+import { ARTIFACTS, BIN, CHROMIUM, DIST, ROOT, RUN_ARGS, freePort, sleep, until } from './page.mjs';
 
 let tmp;
 let browser;
@@ -30,18 +29,6 @@ function ur5Urdf() {
   const py = process.env.SAFESTATE_VENV_PY || path.join(ROOT, '.venv', 'bin', 'python');
   const purelib = execFileSync(py, ['-c', "import sysconfig; print(sysconfig.get_paths()['purelib'])"], { encoding: 'utf8' }).trim();
   return path.join(purelib, 'cmeel.prefix/share/example-robot-data/robots/ur_description/urdf/ur5_robot.urdf');
-}
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const srv = net.createServer();
-    srv.unref();
-    srv.on('error', reject);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => resolve(port));
-    });
-  });
 }
 
 function get(port, p) {
