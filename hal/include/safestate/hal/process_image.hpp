@@ -7,6 +7,7 @@
 
 #include "safestate/core/interfaces.hpp"
 #include "safestate/core/signals.hpp"
+#include "safestate/hal/safety_links.hpp"
 
 namespace safestate::hal {
 
@@ -35,6 +36,10 @@ struct ProcessImageIn {
   bool fieldbus_boot_failed = false;                 // the bus cannot come up as configured
   bool integrity_ok = true;                          // the backend's own integrity checks
   bool self_test_ok = true;                          // the platform's start-up self-test
+  // Issue 37, the black channel: each connection's container as the bus delivered it, in the
+  // order of the backend's LinkTable (safety_links()); the channels check them. Unused (len
+  // 0) without safe devices.
+  std::array<LinkFrame, kMaxLinks> link_rx{};
 };
 
 // CiA 402 0x6072 max torque, per mille of rated torque, outside the brake test: the drives'
@@ -63,6 +68,9 @@ struct ProcessImageOut {
   // DO terminal where the bus configuration maps one (`reduced_active`).
   bool reduced_active = false;
   std::array<DriveOut, kAxes> drive{};
+  // Issue 37: the container each connection is to carry to its device (LinkTable order),
+  // written by the channel that hosts it; the backend copies the bytes, nothing more.
+  std::array<LinkFrame, kMaxLinks> link_tx{};
 };
 
 // A HAL backend: the simulated cell, or a fieldbus master driving real hardware.
@@ -71,6 +79,12 @@ class Backend {
   virtual ~Backend() = default;
   virtual void read(ProcessImageIn& in) noexcept = 0;
   virtual void write(const ProcessImageOut& out) noexcept = 0;
+  // Issue 37: the black channel's connections this backend carries (none: the inputs and
+  // outputs above are the safety data, as on the simulated cell).
+  [[nodiscard]] virtual const LinkTable& safety_links() const noexcept { return kNoLinks; }
+
+ private:
+  static constexpr LinkTable kNoLinks{};
 };
 
 }  // namespace safestate::hal
