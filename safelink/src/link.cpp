@@ -190,26 +190,19 @@ Verdict HostEnd::check_connected(std::span<const std::uint8_t> rx) noexcept {
   return Verdict::Ok;
 }
 
-Verdict HostEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> out,
-                       std::span<std::uint8_t> tx) noexcept {
+Verdict HostEnd::receive(std::span<const std::uint8_t> rx) noexcept {
+  pending_ = false;
   if (c_.state == LinkState::Unconfigured) {
-    for (auto& b : tx) {
-      b = 0;
-    }
     return Verdict::NotConnected;
   }
   const bool up = c_.state == LinkState::Connecting || c_.state == LinkState::Connected;
-  if (rx.size() != c_.rx_len || tx.size() != c_.tx_len || out.size() != c_.params.host_data_bytes) {
+  if (rx.size() != c_.rx_len) {
     if (up) {
       c_.fail(Verdict::Length);
-    }
-    if (tx.size() == c_.tx_len) {
-      c_.write_tx(tx);
     }
     return Verdict::Length;
   }
   if (!up) {
-    c_.write_tx(tx);
     return Verdict::NotConnected;
   }
   if (c_.since_ok < 0xFFFFFFFFU) {
@@ -218,7 +211,7 @@ Verdict HostEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::ui
   const bool connecting = c_.state == LinkState::Connecting;
   Verdict v = connecting ? check_connecting(rx) : check_connected(rx);
   if (v == Verdict::Ok) {
-    build(out);
+    pending_ = true;  // the next container goes out with the data of transmit()
   } else if (v == Verdict::Repetition || (connecting && v == Verdict::NotConnected)) {
     if (c_.since_ok >= c_.watchdog_cycles) {
       v = Verdict::Timeout;
@@ -227,8 +220,39 @@ Verdict HostEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::ui
   } else {
     c_.fail(v);
   }
-  c_.write_tx(tx);
   return v;
+}
+
+Verdict HostEnd::transmit(std::span<const std::uint8_t> out, std::span<std::uint8_t> tx) noexcept {
+  const bool build_now = pending_;
+  pending_ = false;
+  if (c_.state == LinkState::Unconfigured) {
+    for (auto& b : tx) {
+      b = 0;
+    }
+    return Verdict::NotConnected;
+  }
+  if (tx.size() != c_.tx_len || out.size() != c_.params.host_data_bytes) {
+    if (c_.state == LinkState::Connecting || c_.state == LinkState::Connected) {
+      c_.fail(Verdict::Length);
+    }
+    if (tx.size() == c_.tx_len) {
+      c_.write_tx(tx);
+    }
+    return Verdict::Length;
+  }
+  if (build_now && c_.state == LinkState::Connected) {
+    build(out);
+  }
+  c_.write_tx(tx);
+  return Verdict::Ok;
+}
+
+Verdict HostEnd::cycle(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> out,
+                       std::span<std::uint8_t> tx) noexcept {
+  const Verdict v = receive(rx);
+  const Verdict t = transmit(out, tx);
+  return (t == Verdict::Length) ? t : v;
 }
 
 std::span<const std::uint8_t> HostEnd::data() const noexcept {

@@ -82,6 +82,12 @@ class HostEnd {
   // (host_data_bytes). Sizes are checked (Length).
   Verdict cycle(std::span<const std::uint8_t> rx, std::span<const std::uint8_t> out,
                 std::span<std::uint8_t> tx) noexcept;
+  // The same cycle in two halves, for a channel whose outputs are decided between them
+  // (controller/safety_links.hpp): receive() checks `rx` (data() then holds what it
+  // delivered); transmit() writes the container to send, a new one with `out` when the
+  // device's last answer was accepted in this cycle's receive(), else the one held.
+  Verdict receive(std::span<const std::uint8_t> rx) noexcept;
+  Verdict transmit(std::span<const std::uint8_t> out, std::span<std::uint8_t> tx) noexcept;
 
   // The device's data of the last valid container, or zeros (the safe values) unless the
   // session is up, has delivered data and no fault is latched.
@@ -99,6 +105,7 @@ class HostEnd {
   void build(std::span<const std::uint8_t> out) noexcept;
   detail::EndCommon c_{};
   std::array<std::uint8_t, kMaxData> zeros_{};
+  bool pending_ = false;  // receive() accepted a new container: transmit() builds the next
 };
 
 // The device's end (a safe terminal, or a drive for its load-side encoder data).
