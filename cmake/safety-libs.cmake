@@ -1,4 +1,4 @@
-# The safety libraries: core, hal, motion, controller (DESIGN.md), included by the top-level
+# The safety libraries: core, hal, motion, safelink, controller (DESIGN.md), included by the top-level
 # CMakeLists.txt and by channel B's own tree (pair/clang/CMakeLists.txt, built by Clang:
 # SPEC §14, one compiler fault is not a common cause). SAFESTATE_ROOT: the repository.
 set(SAFESTATE_WARNINGS -Wall -Wextra -Wpedantic -Wconversion -Wsign-conversion -Wshadow -Wold-style-cast
@@ -45,10 +45,17 @@ target_include_directories(safestate_motion PUBLIC ${SAFESTATE_ROOT}/motion/incl
 target_link_libraries(safestate_motion PUBLIC safestate_core safestate_hal)
 safestate_rt_library(safestate_motion)
 
+# The black channel's safety layer (issue 37, docs/black-channel.md): containers, CRC and the
+# two ends' state machines. The channels check their containers themselves (controller's
+# SafetyLinks), so channel B's Clang tree builds it too.
+add_library(safestate_safelink STATIC ${SAFESTATE_ROOT}/safelink/src/container.cpp ${SAFESTATE_ROOT}/safelink/src/link.cpp)
+target_include_directories(safestate_safelink PUBLIC ${SAFESTATE_ROOT}/safelink/include)
+safestate_rt_library(safestate_safelink)
+
 # The scan cycle: core + motion over the process image. Same rules as core/.
 add_library(safestate_controller STATIC ${SAFESTATE_ROOT}/controller/src/controller.cpp ${SAFESTATE_ROOT}/controller/src/cell.cpp ${SAFESTATE_ROOT}/controller/src/platform.cpp
                                          ${SAFESTATE_ROOT}/controller/src/demo_program.cpp ${SAFESTATE_ROOT}/controller/src/cross_check.cpp
-                                         ${SAFESTATE_ROOT}/controller/src/channels.cpp)
+                                         ${SAFESTATE_ROOT}/controller/src/channels.cpp ${SAFESTATE_ROOT}/controller/src/safety_links.cpp)
 target_include_directories(safestate_controller PUBLIC ${SAFESTATE_ROOT}/controller/include)
-target_link_libraries(safestate_controller PUBLIC safestate_motion)
+target_link_libraries(safestate_controller PUBLIC safestate_motion safestate_safelink)
 safestate_rt_library(safestate_controller)

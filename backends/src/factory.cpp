@@ -1,5 +1,6 @@
 #include "safestate/backends/factory.hpp"
 
+#include "safestate/pair/os.hpp"
 #include "safestate/robot/description.hpp"
 #include "safestate/sim/cell.hpp"
 
@@ -41,6 +42,14 @@ class EthercatHost final : public Host {
     std::uint8_t n = 0;
     const motion::Waypoint* p = controller::demo_program(n);
     cell_.load_program(p, n);
+    // Issue 37: a channel alone hosts every black-channel connection of the segment (a pair's
+    // channels host their own: pair/host.cpp hands them the table).
+    if (channels_ == 1U) {
+      const char* why = nullptr;
+      if (!cell_.configure_links(bus_->safety_links(), pair::random_session(), why)) {
+        links_error_ = why != nullptr ? why : "?";
+      }
+    }
   }
   controller::Cell& cell() noexcept override { return cell_; }
   vocab::World* world() noexcept override { return nullptr; }
@@ -49,6 +58,8 @@ class EthercatHost final : public Host {
   unsigned channels() const noexcept override { return channels_; }
   hal::Backend* pair_backend() noexcept override { return channels_ == 2U ? bus_.get() : nullptr; }
   std::string channels_note() const override { return note_; }
+  // Issue 37: why the channel alone refused the bus's safety connections (empty: it did not).
+  const std::string& links_error() const noexcept { return links_error_; }
 
  private:
   hal::ethercat::BusConfig bc_;
@@ -56,6 +67,7 @@ class EthercatHost final : public Host {
   controller::Cell cell_;  // after bus_: it runs on it
   unsigned channels_;
   std::string note_;
+  std::string links_error_;
 };
 
 // SPEC §14 on a segment: what two channels need of the bus configuration (empty: all there).
@@ -119,7 +131,12 @@ std::unique_ptr<Host> make_host(const core::Config& cfg, const Choice& choice, s
   const std::uint32_t budget_us = hal::ethercat::exchange_budget_us(cfg.cycle_us);
   auto bus = std::make_unique<hal::ethercat::Backend>(bc, choice.ifname, cfg.cycle_us, budget_us,
                                                       std::uint64_t{choice.watchdog_ms} * 1000000ULL);
-  return std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus), channels, std::move(note));
+  auto host = std::make_unique<EthercatHost>(cfg, std::move(bc), std::move(bus), channels, std::move(note));
+  if (!host->links_error().empty()) {
+    error = "bus configuration: safety connections: " + host->links_error();
+    return nullptr;
+  }
+  return host;
 }
 
 }  // namespace safestate::backends

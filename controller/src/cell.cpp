@@ -31,7 +31,8 @@ Cell::Cell(const Cell& other, hal::Backend& io) noexcept
       cross_(other.cross_),
       seq_(other.seq_),
       digest_(other.digest_),
-      check_(other.check_) {
+      check_(other.check_),
+      links_(other.links_) {
   // The copy's own controller is its RAM under test (the references and progress are kept:
   // a fork of the checker does not repeat the start-up self-test).
   platform_.relocate(&other.controller_, &controller_, sizeof controller_);
@@ -64,6 +65,11 @@ void Cell::pair(core::Channel self, Link& link) noexcept {
 
 void Cell::step() noexcept {
   io_->read(in_);
+  if (links_.configured()) {
+    // Issue 37: the containers checked, the safety data taken from them (or the safe values).
+    links_.receive(in_);
+    controller_.set_link_check(links_.check());
+  }
   platform_.cycle();
   in_.integrity_ok = in_.integrity_ok && platform_.integrity_ok();
   in_.self_test_ok = in_.self_test_ok && platform_.self_test_ok();
@@ -85,6 +91,9 @@ void Cell::step() noexcept {
       out_.contactor_k2 = false;
       out_.brakes_release = false;
     }
+  }
+  if (links_.configured()) {
+    links_.transmit(out_);  // this cycle's decision, K opened above included
   }
   io_->write(out_);
   update_view();

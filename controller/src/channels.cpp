@@ -31,6 +31,11 @@ hal::ProcessImageOut combine_outputs(const hal::ProcessImageOut& a, const hal::P
   o.contactor_k2 = b.contactor;
   o.brakes_release = a.brakes_release && b.brakes_release;
   o.reduced_active = a.reduced_active || b.reduced_active;
+  // Issue 37: each black-channel connection's container from the channel hosting it (the
+  // other writes none: len 0); a channel whose outputs dropped sends none.
+  for (std::size_t i = 0; i < hal::kMaxLinks; ++i) {
+    o.link_tx[i] = (a.link_tx[i].len != 0U) ? a.link_tx[i] : b.link_tx[i];
+  }
   return o;
 }
 

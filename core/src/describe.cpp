@@ -156,6 +156,11 @@ const char* describe(AlarmId id, const AlarmDetail& d, char* buf, std::size_t n)
       break;
     case AlarmId::CHANNEL_LOST: t.s("Safety channel ").s((d.channel == Channel::b) ? "B" : "A").s(" lost"); break;
     case AlarmId::ENCODER_DISCREPANCY: t.s("Axis ").u(axis).s(" encoders disagree"); break;
+    case AlarmId::SAFETY_LINK_FAULT:
+      // Issue 37: the connection (code), its channel and what its check found (axis).
+      t.s("Safety link 0x").hex4(d.code).s(" (channel ").s((d.channel == Channel::b) ? "B" : "A").s("): ");
+      t.s(to_string(static_cast<LinkError>(d.axis))).s(" error");
+      break;
     case AlarmId::BRAKE_TEST_FAILED: {
       // code: the drift in millidegrees (SPEC §12 names the axis and its drift).
       const unsigned frac = d.code % 1000U;
@@ -218,6 +223,8 @@ const char* signal_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     t.s(to_string(d.signal)).s(".").u(d.axis);
   } else if (d.signal == Signal::zone) {
     t.s("zone.").u(d.code + 1U);  // limit_detail_name() gives the zone's own name
+  } else if (d.signal == Signal::safety_link) {
+    t.s("link.0x").hex4(d.code);  // issue 37: the connection id
   } else if (d.signal == Signal::channel) {
     // SPEC §14: the channels are named A and B (CHANNEL_LOST); none: the pair (a mismatch)
     t.s((d.channel == Channel::none) ? "channel" : ((d.channel == Channel::b) ? "B" : "A"));
@@ -241,6 +248,9 @@ const char* detail_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     t.s((d.channel == Channel::a) ? "k1" : "k2");
   } else if ((d.signal == Signal::channel) && (d.code != 0U)) {
     t.s(to_string(static_cast<CrossField>(d.code)));
+  } else if ((d.signal == Signal::safety_link) && (d.axis != 0U)) {
+    // Issue 37: the connection and what its check found.
+    t.s("link.0x").hex4(d.code).s(".").s(to_string(static_cast<LinkError>(d.axis)));
   } else {
     return signal_name(d, buf, n);
   }

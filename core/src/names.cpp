@@ -49,10 +49,13 @@ constexpr std::array<const char*, kCommandCount> kCommandNames{
     "reset", "servo_on", "servo_off", "start", "pause", "resume", "stop", "jog", "jog_stop", "confirm_t2", "set_mode",
     "validate_config", "brake_test"};
 constexpr std::array<const char*, kSourceCount> kSourceNames{"pendant", "remote", "observer", "reset_button"};
-constexpr std::array<const char*, 20> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
+constexpr std::array<const char*, 21> kSignalNames{"none",      "estop", "gate",  "enable",   "mode",    "reset_button",
                                                    "drive",     "contactor", "brake", "fieldbus", "command", "internal",
                                                    "axis",      "tcp",       "zone",  "reduced",
-                                                   "field.outer", "field.inner", "separation", "channel"};
+                                                   "field.outer", "field.inner", "separation", "channel",
+                                                   "safety_link"};
+constexpr std::array<const char*, 7> kLinkErrorNames{"none",    "crc",           "sequence", "identity",
+                                                     "timeout", "not_connected", "length"};
 constexpr std::array<const char*, 5> kChannelNames{"none", "a", "b", "both", "panic"};
 constexpr std::array<const char*, 9> kCrossFieldNames{"none",    "cycle",   "state",           "sub",    "stop",
                                                       "alarms",  "outputs", "brake_test_axis", "replies"};
@@ -116,6 +119,7 @@ const char* to_string(Result r) noexcept { return name_in(kResultNames, r); }
 const char* to_string(CommandId c) noexcept { return name_in(kCommandNames, c); }
 const char* to_string(Source s) noexcept { return name_in(kSourceNames, s); }
 const char* to_string(Signal s) noexcept { return name_in(kSignalNames, s); }
+const char* to_string(LinkError e) noexcept { return name_in(kLinkErrorNames, e); }
 const char* to_string(Channel c) noexcept { return name_in(kChannelNames, c); }
 const char* to_string(ArmingStep s) noexcept { return name_in(kStepNames, s); }
 const char* to_string(CrossField f) noexcept { return name_in(kCrossFieldNames, f); }

@@ -146,6 +146,7 @@ void SystemStateManager::run_monitors(CycleCtx& c) noexcept {
   jog_link_.check(v, r);
   channel_.check(v, r);
   encoders_.check(v, r);
+  links_.check(v, r);
 }
 
 // @req TR-PRIORITY TR-EVERY-ALARM

@@ -152,6 +152,12 @@ int main(int argc, char** argv) {
   cell->configure_limits(setup.limits, setup.validated != 0U);
   cell->configure_brake_test(setup.brake_history);
   cell->pair(is_a ? core::Channel::a : core::Channel::b, link);
+  const char* link_why = nullptr;
+  if (!cell->configure_links(setup.links, static_cast<std::uint16_t>(setup.link_session_seed), link_why)) {
+    std::fprintf(stderr, "safestate-channel %c: the safety connections are refused: %s\n", tag,
+                 link_why != nullptr ? link_why : "?");
+    return 2;
+  }
   static pair::Report report{};
   report.pid = static_cast<std::uint32_t>(getpid());
   report.compiler = kCompiler;

@@ -104,6 +104,8 @@ bool ChannelPair::start(const PairOptions& opt, const motion::RobotModel& model,
   s.limits = limits;
   s.validated = validated ? 1U : 0U;
   s.brake_history = brake_history;
+  s.links = io_->safety_links();
+  s.link_session_seed = random_session();
   seal_setup(s, model);
   in_->version = kVersion;
   in_->magic = kMagic;

@@ -6,6 +6,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/random.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <time.h>
@@ -113,6 +114,14 @@ CodeRegion own_code() noexcept {
       },
       &r);
   return r;
+}
+
+std::uint16_t random_session() noexcept {
+  std::uint16_t v = 0;
+  if (getrandom(&v, sizeof v, 0) != static_cast<ssize_t>(sizeof v)) {
+    v = static_cast<std::uint16_t>(now_ns() ^ (now_ns() >> 16U));
+  }
+  return (v == 0U) ? std::uint16_t{1} : v;
 }
 
 }  // namespace safestate::pair

@@ -1,6 +1,6 @@
 // SPEC §4 rule 1, BOOT: the start-up self-test (the supervisor's own and the platform's),
-// the fieldbus up and every drive answering (on the bus and past "Not ready to switch
-// on"), within boot_timeout. Passed: the `boot_passed` event (facts). Failed: BOOT_FAILED,
+// the fieldbus up, every drive answering (on the bus and past "Not ready to switch on") and
+// every safety connection of the black channel up (issue 37), within boot_timeout. Passed: the `boot_passed` event (facts). Failed: BOOT_FAILED,
 // at once when the self-test fails or the fieldbus cannot come up as configured, else at
 // the timeout, naming the first drive that did not answer or the subdevice at fault.
 #include "safestate/core/cia402.hpp"
@@ -28,6 +28,12 @@ void BootMonitor::check(const CycleView& v, Reporter& r) noexcept {
       }
       answered = false;
     }
+  }
+  // Issue 37: every safety connection of this channel up (its inputs are the safe values
+  // until then); one that never came up is named at the timeout.
+  if (fb.link.configured && !fb.link.up && answered) {
+    why = detail_of(Signal::safety_link, fb.link.channel, static_cast<std::uint8_t>(fb.link.error), fb.link.connection);
+    answered = false;
   }
   if (!fb.fieldbus_ok || fb.fieldbus_boot_failed) {
     why = detail_of(Signal::fieldbus, Channel::none, 0U, fb.fieldbus_subdevice);

@@ -15,6 +15,7 @@
 #include "safestate/controller/controller.hpp"
 #include "safestate/controller/cross_check.hpp"
 #include "safestate/controller/platform.hpp"
+#include "safestate/controller/safety_links.hpp"
 #include "safestate/core/command_queue.hpp"
 #include "safestate/hal/process_image.hpp"
 
@@ -74,6 +75,15 @@ class Cell {
   // its cross-check as it was.
   void relink(Link& link) noexcept { link_ = &link; }
   [[nodiscard]] bool paired() const noexcept { return link_ != nullptr; }
+  // Issue 37, before the first step and after pair(): the black channel's connections of
+  // `table` this cell hosts (a paired cell its own channel's, a cell alone all of them),
+  // each with a session from `session_seed` (the caller's random source). From then on the
+  // cell checks and creates their containers itself (SafetyLinks) and takes the safety data
+  // from them. false with `why` when the table is refused (nothing changes).
+  bool configure_links(const hal::LinkTable& table, std::uint16_t session_seed, const char*& why) noexcept {
+    return links_.configure(table, self_, cfg_.cycle_us, session_seed, why);
+  }
+  [[nodiscard]] const SafetyLinks& links() const noexcept { return links_; }
   [[nodiscard]] core::Channel channel() const noexcept { return self_; }
   [[nodiscard]] const CrossCheck& cross_check() const noexcept { return cross_; }
   [[nodiscard]] const Digest& last_digest() const noexcept { return digest_; }
@@ -123,6 +133,7 @@ class Cell {
   std::uint32_t seq_ = 0;
   Digest digest_{};
   core::ChannelCheck check_{};
+  SafetyLinks links_{};  // issue 37
 };
 
 // SPEC §3's output bits of one cycle, as the black box records them and the cross-channel

@@ -42,6 +42,8 @@ class Controller {
   [[nodiscard]] const core::Feedback& feedback() const noexcept { return feedback_; }
   // SPEC §14: the cross-check's verdict on the other channel, for the next step.
   void set_cross_check(const core::ChannelCheck& c) noexcept { feedback_.cross = c; }
+  // Issue 37: this cycle's check of the black channel's connections (SafetyLinks), for this step.
+  void set_link_check(const core::LinkCheck& c) noexcept { feedback_.link = c; }
   [[nodiscard]] const core::Supervisor& supervisor() const noexcept { return supervisor_; }
   [[nodiscard]] const motion::MotionController& motion() const noexcept { return motion_; }
 

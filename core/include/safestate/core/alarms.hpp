@@ -52,8 +52,10 @@ enum class AlarmId : std::uint8_t {
   CHANNEL_MISMATCH,
   CHANNEL_LOST,
   ENCODER_DISCREPANCY,
+  // Issue 37, the black channel (docs/black-channel.md), appended likewise.
+  SAFETY_LINK_FAULT,
 };
-inline constexpr std::size_t kAlarmCount = 34;
+inline constexpr std::size_t kAlarmCount = 35;
 
 enum class Severity : std::uint8_t { info, warning, fault, lockout };
 
@@ -191,6 +193,14 @@ inline constexpr std::array<AlarmInfo, kAlarmCount> kAlarms{{
    "longer than encoder_discrepancy_ms, or stood still while the motor encoder moved: position-based limits "
    "cannot be trusted.",
    "Check both encoders of the named axis, its gearbox and its coupling, then power-cycle."},
+  {AlarmId::SAFETY_LINK_FAULT, "SAFETY_LINK_FAULT", 112, Severity::lockout, Latch::power_cycle,
+   "A safety container of the named connection (the black channel between a channel and a safe device) failed "
+   "its check: crc (corrupted), sequence (repeated, lost or out of order), identity (another connection's or "
+   "device's), timeout (none new within its watchdog), not_connected (nothing valid from the device) or length. "
+   "The bus or its master altered it; the channel took the safe values and opened its contactor, the device "
+   "went to its safe state by itself.",
+   "Check the named device, the cabling to it and the EtherCAT master (event log), then power-cycle: a new "
+   "session is opened at start-up."},
 }};
 // clang-format on
 

@@ -34,6 +34,20 @@ struct ChannelCheck {
   bool lost = false;
 };
 
+// Issue 37, the black channel: the state of this channel's safety connections (the controller's
+// SafetyLinks). configured: the backend carries connections (else nothing here applies);
+// up: every one of them has delivered valid data in its session; fault: one failed its check
+// (the first found: its connection id and error). While a connection is not up or failed its
+// data are the safe values (contacts open, E-stop pressed).
+struct LinkCheck {
+  bool configured = false;
+  bool up = false;
+  bool fault = false;
+  Channel channel = Channel::none;  // the channel hosting the connection named
+  std::uint16_t connection = 0;     // its id (0xA002, ...)
+  LinkError error = LinkError::none;
+};
+
 struct Feedback {
   std::array<DriveFeedback, kAxes> drive{};
   bool contactor_closed = false;                 // main contactor (K1) auxiliary contact
@@ -44,6 +58,7 @@ struct Feedback {
   // SPEC §14: a second (load-side) encoder per axis, DriveFeedback::load_position_rad.
   bool load_encoders = false;
   ChannelCheck cross{};
+  LinkCheck link{};  // issue 37: the black channel's connections of this channel
   std::array<bool, kAxes> brake_released{};      // brake feedback: true = released
   bool fieldbus_ok = true;                       // cyclic data valid this cycle
   // Bus position (1-based) of the first fieldbus subdevice at fault, 0 = the bus as a

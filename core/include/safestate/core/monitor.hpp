@@ -40,7 +40,7 @@ namespace safestate::core {
 
 // ---- The rules the alarms belong to ---------------------------------------------------
 
-inline constexpr std::size_t kMaxRuleAlarms = 11;
+inline constexpr std::size_t kMaxRuleAlarms = 12;
 struct RuleAlarms {
   Trigger rule;
   std::uint8_t count;
@@ -51,10 +51,10 @@ struct RuleAlarms {
 // (ARMING_TIMEOUT: an event's; the Latch::condition alarms: raised by hold()).
 // @req TR-PRIORITY TR-EVERY-ALARM
 inline constexpr std::array<RuleAlarms, kConditionCount> kRuleAlarms{{
-    {Trigger::lockout_condition, 11U,
+    {Trigger::lockout_condition, 12U,
      {AlarmId::ESTOP_DISCREPANCY, AlarmId::GATE_DISCREPANCY, AlarmId::ENABLE_DISCREPANCY, AlarmId::FIELD_DISCREPANCY,
       AlarmId::FIELDBUS_LOST, AlarmId::INTEGRITY_FAULT, AlarmId::BOOT_FAILED, AlarmId::CONTACTOR_WELDED,
-      AlarmId::CHANNEL_MISMATCH, AlarmId::CHANNEL_LOST, AlarmId::ENCODER_DISCREPANCY}},
+      AlarmId::CHANNEL_MISMATCH, AlarmId::CHANNEL_LOST, AlarmId::ENCODER_DISCREPANCY, AlarmId::SAFETY_LINK_FAULT}},
     {Trigger::estop_pressed, 1U, {AlarmId::ESTOP_PRESSED}},
     // @req LIM-RULE3
     {Trigger::stop_fault, 9U,

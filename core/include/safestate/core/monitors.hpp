@@ -179,6 +179,14 @@ class ChannelMonitor {
   void check(const CycleView& v, Reporter& r) noexcept;
 };
 
+// Issue 37, the black channel (Feedback::link, from the controller's SafetyLinks):
+// SAFETY_LINK_FAULT naming the connection and its error (rule 1, lockout). Nothing on a
+// backend without safety connections.
+class SafetyLinkMonitor {
+ public:
+  void check(const CycleView& v, Reporter& r) noexcept;
+};
+
 // Two encoders per axis (Feedback::load_encoders): ENCODER_DISCREPANCY naming the axis
 // (rule 1, lockout) when the motor and load-side positions differ by more than
 // encoder_tolerance for longer than encoder_discrepancy, or the load-side one stood still

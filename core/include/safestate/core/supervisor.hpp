@@ -194,6 +194,7 @@ class SystemStateManager {
   JogLinkMonitor jog_link_;
   ChannelMonitor channel_;
   EncoderMonitor encoders_;
+  SafetyLinkMonitor links_;
 };
 
 // The whole supervisor of DESIGN.md: signal layer + state manager, one call per cycle.

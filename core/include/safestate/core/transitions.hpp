@@ -212,7 +212,7 @@ inline constexpr auto kTransitions = [] {
   constexpr AlarmMask kRule1 = bit(ESTOP_DISCREPANCY) | bit(GATE_DISCREPANCY) | bit(ENABLE_DISCREPANCY) |
                                bit(FIELDBUS_LOST) | bit(INTEGRITY_FAULT) | bit(BOOT_FAILED) | bit(CONTACTOR_WELDED) |
                                bit(FIELD_DISCREPANCY) | bit(CHANNEL_MISMATCH) | bit(CHANNEL_LOST) |
-                               bit(ENCODER_DISCREPANCY);
+                               bit(ENCODER_DISCREPANCY) | bit(SAFETY_LINK_FAULT);
   constexpr AlarmMask kRule3 = bit(DRIVE_FAULT) | bit(T1_SPEED_EXCEEDED) | bit(STOP_TIME_EXCEEDED) |
                                bit(BRAKE_NOT_ENGAGED) | bit(JOINT_LIMIT) | bit(ZONE_VIOLATION) |
                                bit(ORIENTATION_LIMIT) | bit(SPEED_LIMIT) | bit(SEPARATION_VIOLATED);

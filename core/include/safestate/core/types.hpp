@@ -147,12 +147,22 @@ enum class Signal : std::uint8_t {
   axis, tcp, zone, reduced,
   field_outer, field_inner, separation,
   channel,  // SPEC §14: a safety channel (CHANNEL_LOST: which; CHANNEL_MISMATCH: code = the CrossField)
+  // Issue 37, the black channel: a safety connection (SAFETY_LINK_FAULT: channel = the one
+  // hosting it, code = the connection id, axis = the LinkError).
+  safety_link,
 };
 enum class Channel : std::uint8_t { none, a, b, both, panic };
 
 // SPEC §14: the fields of the cross-channel digest a mismatch names, in the order compared.
 enum class CrossField : std::uint8_t { none, cycle, state, sub, stop, alarms, outputs, brake_test_axis, replies };
 const char* to_string(CrossField f) noexcept;
+
+// Issue 37: what a safety connection's check found (docs/black-channel.md; safelink's verdicts,
+// named the same): a corrupted container (crc), a repeated, lost or out-of-order one
+// (sequence), another connection's or device's (identity), none new within the watchdog
+// (timeout), nothing valid from the device at all (not_connected), a wrong size (length).
+enum class LinkError : std::uint8_t { none, crc, sequence, identity, timeout, not_connected, length };
+const char* to_string(LinkError e) noexcept;
 
 // ARMING steps (SPEC §4): contactor, then drives, then brakes.
 enum class ArmingStep : std::uint8_t { CONTACTOR, DRIVES, BRAKES };

@@ -25,6 +25,10 @@ void futex_wake(std::atomic<std::uint32_t>& word) noexcept;
 
 std::uint64_t now_ns() noexcept;  // CLOCK_MONOTONIC
 
+// Issue 37: a host session for the black channel's connections, different at every start
+// (getrandom; the monotonic clock's low bits if that fails), never 0.
+std::uint16_t random_session() noexcept;
+
 // SCHED_FIFO at `priority` (0: none), pinned to `cpu` (-1: not), memory locked; what could
 // not be done, one line each (empty: all of it).
 std::string realtime(int priority, int cpu);

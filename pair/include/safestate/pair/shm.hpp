@@ -41,7 +41,7 @@
 namespace safestate::pair {
 
 inline constexpr std::uint32_t kMagic = 0x53535043U;  // "SSPC"
-inline constexpr std::uint32_t kVersion = 2U;
+inline constexpr std::uint32_t kVersion = 3U;
 inline constexpr std::size_t kLaneSlots = 16;  // digests kept for a reader that fell behind
 // Frames kept for a channel that fell behind: it runs every one of them, in order (a channel
 // that skipped a frame would run its timers a cycle behind the other's). One that falls
@@ -61,6 +61,10 @@ struct Setup {
   motion::RobotModel model{};  // its pointers null here: the names are below
   char model_name[kNameLen]{};
   char link_names[motion::kLinks][kNameLen]{};
+  // Issue 37: the black channel's connections of the backend (each channel hosts its own)
+  // and the first host session (random at each start of the host).
+  hal::LinkTable links{};
+  std::uint32_t link_session_seed = 0;
   std::uint32_t crc = 0;  // CRC-32 of every byte above
 };
 
