@@ -45,7 +45,7 @@ target_include_directories(safestate_motion PUBLIC ${SAFESTATE_ROOT}/motion/incl
 target_link_libraries(safestate_motion PUBLIC safestate_core safestate_hal)
 safestate_rt_library(safestate_motion)
 
-# The black channel's safety layer (issue 37, docs/black-channel.md): containers, CRC and the
+# The black channel's safety layer (issue 37, docs/black-channel.md): containers, CRC-64/XZ and the
 # two ends' state machines. The channels check their containers themselves (controller's
 # SafetyLinks), so channel B's Clang tree builds it too.
 add_library(safestate_safelink STATIC ${SAFESTATE_ROOT}/safelink/src/container.cpp ${SAFESTATE_ROOT}/safelink/src/link.cpp)

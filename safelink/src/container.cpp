@@ -1,6 +1,6 @@
 #include "safestate/safelink/container.hpp"
 
-#include "safestate/safelink/crc32c.hpp"
+#include "safestate/safelink/crc64.hpp"
 
 namespace safestate::safelink {
 namespace {
@@ -17,21 +17,26 @@ void put32(std::span<std::uint8_t> out, std::size_t at, std::uint32_t v) noexcep
 std::uint16_t get16(std::span<const std::uint8_t> in, std::size_t at) noexcept {
   return static_cast<std::uint16_t>(static_cast<unsigned>(in[at]) | (static_cast<unsigned>(in[at + 1U]) << 8U));
 }
-std::uint32_t get32(std::span<const std::uint8_t> in, std::size_t at) noexcept {
-  std::uint32_t v = 0;
-  for (std::size_t i = 0; i < 4U; ++i) {
-    v |= static_cast<std::uint32_t>(in[at + i]) << (8U * i);
+void put64(std::span<std::uint8_t> out, std::size_t at, std::uint64_t v) noexcept {
+  for (std::size_t i = 0; i < 8U; ++i) {
+    out[at + i] = static_cast<std::uint8_t>((v >> (8U * i)) & 0xFFU);
+  }
+}
+std::uint64_t get64(std::span<const std::uint8_t> in, std::size_t at) noexcept {
+  std::uint64_t v = 0;
+  for (std::size_t i = 0; i < 8U; ++i) {
+    v |= static_cast<std::uint64_t>(in[at + i]) << (8U * i);
   }
   return v;
 }
 
 // The register after the counters' high halves and the header and data of a container.
-std::uint32_t body_register(std::uint32_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
+std::uint64_t body_register(std::uint64_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
                             std::span<const std::uint8_t> body) noexcept {
   std::array<std::uint8_t, 4> hi{};
   put16(hi, 0, seq_hi);
   put16(hi, 2, ack_hi);
-  return crc32c_update(crc32c_update(prefix, hi), body);
+  return crc64_update(crc64_update(prefix, hi), body);
 }
 
 }  // namespace
@@ -61,7 +66,7 @@ ConfigError check_params(const ConnectionParams& p) noexcept {
   return ConfigError::None;
 }
 
-std::uint32_t prefix_register(const ConnectionParams& p, std::uint16_t host_session,
+std::uint64_t prefix_register(const ConnectionParams& p, std::uint16_t host_session,
                               std::uint16_t device_session) noexcept {
   // "SSB1" id(2) host_data(1) device_data(1) watchdog_ms(2) vendor(4) product(4) position(2)
   // host_session(2) device_session(2): 24 bytes.
@@ -75,10 +80,10 @@ std::uint32_t prefix_register(const ConnectionParams& p, std::uint16_t host_sess
   put16(b, 18, p.device.position);
   put16(b, 20, host_session);
   put16(b, 22, device_session);
-  return crc32c_update(kCrc32cInit, b);
+  return crc64_update(kCrc64Init, b);
 }
 
-bool encode(std::uint32_t prefix, const Header& h, std::uint16_t seq_hi, std::uint16_t ack_hi,
+bool encode(std::uint64_t prefix, const Header& h, std::uint16_t seq_hi, std::uint16_t ack_hi,
             std::span<const std::uint8_t> data, std::span<std::uint8_t> out) noexcept {
   if (data.size() > kMaxData || out.size() != container_bytes(data.size())) {
     return false;
@@ -91,17 +96,17 @@ bool encode(std::uint32_t prefix, const Header& h, std::uint16_t seq_hi, std::ui
     out[kHeaderBytes + i] = data[i];
   }
   const std::size_t body = kHeaderBytes + data.size();
-  put32(out, body, crc32c_final(body_register(prefix, seq_hi, ack_hi, out.first(body))));
+  put64(out, body, crc64_final(body_register(prefix, seq_hi, ack_hi, out.first(body))));
   return true;
 }
 
-bool crc_matches(std::uint32_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
+bool crc_matches(std::uint64_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
                  std::span<const std::uint8_t> container) noexcept {
   if (container.size() < kHeaderBytes + kCrcBytes) {
     return false;
   }
   const std::size_t body = container.size() - kCrcBytes;
-  return crc32c_final(body_register(prefix, seq_hi, ack_hi, container.first(body))) == get32(container, body);
+  return crc64_final(body_register(prefix, seq_hi, ack_hi, container.first(body))) == get64(container, body);
 }
 
 Header read_header(std::span<const std::uint8_t> c) noexcept {

@@ -1,4 +1,4 @@
-// The black channel's safety layer (issue 37, docs/black-channel.md): CRC-32C, the container,
+// The black channel's safety layer (issue 37, docs/black-channel.md): CRC-64/XZ, the container,
 // and the two ends against every communication error IEC 61784-3 lists (corruption,
 // unintended repetition, incorrect sequence, loss, unacceptable delay, insertion,
 // masquerade, addressing), each caught with its own verdict and the device's outputs off.
@@ -11,8 +11,9 @@
 #include <vector>
 
 #include "safestate/safelink/container.hpp"
-#include "safestate/safelink/crc32c.hpp"
+#include "safestate/safelink/crc64.hpp"
 #include "safestate/safelink/link.hpp"
+#include "safestate/hal/safety_links.hpp"
 
 namespace sl = safestate::safelink;
 using sl::Verdict;
@@ -83,28 +84,34 @@ struct Pair {
 
 }  // namespace
 
-// ---- CRC-32C -------------------------------------------------------------------------------
+// ---- CRC-64/XZ -----------------------------------------------------------------------------
+
+// Every container fits the process image's slot for it (hal::LinkSlot, which a backend copies
+// without knowing safelink): checked here so that safelink does not depend on hal.
+static_assert(sl::kMaxContainer <= safestate::hal::kLinkBytes, "a container must fit hal::kLinkBytes");
+static_assert(sl::container_bytes(0) == 15 && sl::container_bytes(1) == 16 && sl::container_bytes(4) == 19);
 
 TEST(SafelinkCrc, KnownValues) {
-  // RFC 3720 (iSCSI) appendix B.4 test vectors.
+  // Values of liblzma's CRC-64 (the .xz format's check, read out of files Python's lzma wrote
+  // with CHECK_CRC64), not of this code.
   std::array<std::uint8_t, 32> zeros{};
   std::array<std::uint8_t, 32> ones{};
   ones.fill(0xFF);
   std::array<std::uint8_t, 32> inc{};
   for (std::size_t i = 0; i < inc.size(); ++i) inc[i] = static_cast<std::uint8_t>(i);
-  EXPECT_EQ(sl::crc32c(zeros), 0x8A9136AAU);
-  EXPECT_EQ(sl::crc32c(ones), 0x62A8AB43U);
-  EXPECT_EQ(sl::crc32c(inc), 0x46DD794EU);
+  EXPECT_EQ(sl::crc64(zeros), 0xC95AF8617CD5330CULL);
+  EXPECT_EQ(sl::crc64(ones), 0xE95DCE9EFAA09ACFULL);
+  EXPECT_EQ(sl::crc64(inc), 0x7FE571A587084D10ULL);
   // Carrying the register across calls is the same as one call.
-  const std::uint32_t reg = sl::crc32c_update(sl::kCrc32cInit, std::span{inc}.first(10));
-  EXPECT_EQ(sl::crc32c_final(sl::crc32c_update(reg, std::span{inc}.subspan(10))), 0x46DD794EU);
+  const std::uint64_t reg = sl::crc64_update(sl::kCrc64Init, std::span{inc}.first(10));
+  EXPECT_EQ(sl::crc64_final(sl::crc64_update(reg, std::span{inc}.subspan(10))), 0x7FE571A587084D10ULL);
 }
 
 TEST(SafelinkContainer, LayoutAndCrc) {
   const auto p = k1_params();
-  const std::uint32_t prefix = sl::prefix_register(p, 0x1234, 0x0777);
+  const std::uint64_t prefix = sl::prefix_register(p, 0x1234, 0x0777);
   std::array<std::uint8_t, 1> data{0x5A};
-  std::array<std::uint8_t, 12> c{};
+  std::array<std::uint8_t, 16> c{};
   const sl::Header h{sl::Kind::HostData, 0xA002, 0xBEEF, 0x0102};
   ASSERT_TRUE(sl::encode(prefix, h, 3, 4, data, c));
   EXPECT_EQ(c[0], 0x10);
@@ -115,6 +122,17 @@ TEST(SafelinkContainer, LayoutAndCrc) {
   EXPECT_EQ(c[5], 0x02);
   EXPECT_EQ(c[6], 0x01);
   EXPECT_EQ(c[7], 0x5A);
+  // The CRC at 7+n, 8 bytes little-endian: CRC-64/XZ over the prefix P, the counters' high
+  // halves and bytes 0..7, computed here from the documented layout of P.
+  const std::array<std::uint8_t, 24> pb{'S', 'S', 'B', '1', 0x02, 0xA0, 1, 1, 10, 0, 0x5A, 0x0E, 0, 0,
+                                        0x02, 0x00, 0x01, 0x00, 0xEA, 0x03, 0x34, 0x12, 0x77, 0x07};
+  const std::array<std::uint8_t, 4> hi{3, 0, 4, 0};
+  const std::uint64_t want =
+      sl::crc64_final(sl::crc64_update(sl::crc64_update(sl::crc64_update(sl::kCrc64Init, pb), hi), std::span{c}.first(8)));
+  std::uint64_t stored = 0;
+  for (std::size_t i = 0; i < 8U; ++i) stored |= static_cast<std::uint64_t>(c[8U + i]) << (8U * i);
+  EXPECT_EQ(stored, want);
+  EXPECT_EQ(sl::prefix_register(p, 0x1234, 0x0777), sl::crc64_update(sl::kCrc64Init, pb));
   EXPECT_TRUE(sl::crc_matches(prefix, 3, 4, c));
   // The unsent parts are in the CRC: the counters' high halves, sessions, every parameter.
   EXPECT_FALSE(sl::crc_matches(prefix, 4, 4, c));
@@ -131,10 +149,10 @@ TEST(SafelinkContainer, LayoutAndCrc) {
   q.device.vendor_id ^= 1U;
   EXPECT_FALSE(sl::crc_matches(sl::prefix_register(q, 0x1234, 0x0777), 3, 4, c));
   // Wrong sizes are refused and write nothing.
-  std::array<std::uint8_t, 13> wrong{};
+  std::array<std::uint8_t, 17> wrong{};
   EXPECT_FALSE(sl::encode(prefix, h, 3, 4, data, wrong));
   EXPECT_TRUE(sl::all_zero(wrong));
-  std::array<std::uint8_t, 5> tiny{};
+  std::array<std::uint8_t, 14> tiny{};
   EXPECT_FALSE(sl::crc_matches(prefix, 0, 0, tiny));
 }
 
@@ -161,8 +179,8 @@ TEST(SafelinkConfig, EveryBadParameterRefusedAndNothingChanges) {
   EXPECT_FALSE(host.connect(1));
   EXPECT_EQ(dev.state(), sl::LinkState::Unconfigured);
   // Unconfigured ends send zeros and accept nothing.
-  Bytes tx(12, 0xFF);
-  EXPECT_EQ(dev.cycle(Bytes(12, 1), Bytes(1, 1), tx), Verdict::NotConnected);
+  Bytes tx(16, 0xFF);
+  EXPECT_EQ(dev.cycle(Bytes(16, 1), Bytes(1, 1), tx), Verdict::NotConnected);
   EXPECT_TRUE(sl::all_zero(tx));
   EXPECT_FALSE(dev.outputs_enabled());
   // Session 0 is refused.

@@ -17,8 +17,8 @@ TEST(SafelinkNoAlloc, ExchangesAndFaultsAllocateNothing) {
   p.device_data_bytes = 4;
   p.watchdog_ms = 10;
   p.device = {0x5AFEU, 0x00D50001U, 2};
-  std::array<std::uint8_t, 12> h2d{};
-  std::array<std::uint8_t, 15> d2h{};
+  std::array<std::uint8_t, sl::container_bytes(1)> h2d{};
+  std::array<std::uint8_t, sl::container_bytes(4)> d2h{};
   std::array<std::uint8_t, 1> out{1};
   std::array<std::uint8_t, 4> in{1, 2, 3, 4};
   sl::HostEnd host;

@@ -10,7 +10,7 @@
 //   3      2  sequence number (low 16 bits of the sender's 32-bit counter)
 //   5      2  acknowledge (low 16 bits of the partner's counter last accepted)
 //   7      n  safety data (n fixed per connection and direction, 0..kMaxData)
-//   7+n    4  CRC-32C over the connection's prefix (parameters, sessions: not sent), the
+//   7+n    8  CRC-64/XZ over the connection's prefix (parameters, sessions: not sent), the
 //             high 16 bits of both counters (not sent) and bytes 0..6+n.
 //
 // core's rules: no heap, no exceptions, no RTTI, no OS calls, no clock; every input checked.
@@ -23,7 +23,7 @@
 namespace safestate::safelink {
 
 inline constexpr std::size_t kHeaderBytes = 7;
-inline constexpr std::size_t kCrcBytes = 4;
+inline constexpr std::size_t kCrcBytes = 8;
 inline constexpr std::size_t kMaxData = 16;
 inline constexpr std::size_t kMaxContainer = kHeaderBytes + kMaxData + kCrcBytes;
 
@@ -78,7 +78,7 @@ ConfigError check_params(const ConnectionParams& p) noexcept;
 
 // The CRC register after the prefix: the connection's parameters and the two sessions
 // (0 before they are known). Computed once per session.
-std::uint32_t prefix_register(const ConnectionParams& p, std::uint16_t host_session,
+std::uint64_t prefix_register(const ConnectionParams& p, std::uint16_t host_session,
                               std::uint16_t device_session) noexcept;
 
 struct Header {
@@ -91,12 +91,12 @@ struct Header {
 // Writes a whole container into `out` (size container_bytes(data.size())). The high halves of
 // the sender's counter (seq_hi) and of the acknowledged counter (ack_hi) enter the CRC only.
 // false (and `out` unchanged) when a size is wrong.
-bool encode(std::uint32_t prefix, const Header& h, std::uint16_t seq_hi, std::uint16_t ack_hi,
+bool encode(std::uint64_t prefix, const Header& h, std::uint16_t seq_hi, std::uint16_t ack_hi,
             std::span<const std::uint8_t> data, std::span<std::uint8_t> out) noexcept;
 
-// The CRC a container must carry (its last four bytes excluded); the container must be at
+// The CRC a container must carry (its last eight bytes, kCrcBytes, excluded); the container must be at
 // least kHeaderBytes + kCrcBytes long (false otherwise).
-bool crc_matches(std::uint32_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
+bool crc_matches(std::uint64_t prefix, std::uint16_t seq_hi, std::uint16_t ack_hi,
                  std::span<const std::uint8_t> container) noexcept;
 
 // The header fields as sent (unchecked: read only after crc_matches, or to name an error).

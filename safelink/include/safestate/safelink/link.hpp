@@ -48,7 +48,7 @@ struct EndCommon {
   Verdict fault = Verdict::NotConnected;  // the latched fault while Failed
   std::uint16_t host_session = 0;
   std::uint16_t device_session = 0;
-  std::uint32_t prefix = 0;       // CRC register after P(host_session, device_session)
+  std::uint64_t prefix = 0;       // CRC register after P(host_session, device_session)
   std::uint32_t own_seq = 0;      // this end's counter (32 bits; 16 sent)
   std::uint32_t partner_seq = 0;  // the partner's counter last accepted
   std::uint32_t since_ok = 0;     // calls since the last new valid container
