@@ -68,6 +68,7 @@ TEST(AlarmTable, SeverityAndLatchingAreThoseOfTheSpec) {
       {"CHANNEL_MISMATCH", Severity::lockout, Latch::power_cycle},
       {"CHANNEL_LOST", Severity::lockout, Latch::power_cycle},
       {"ENCODER_DISCREPANCY", Severity::lockout, Latch::power_cycle},
+      {"SAFETY_LINK_FAULT", Severity::lockout, Latch::power_cycle},
   };
   ASSERT_EQ(std::size(spec), kAlarmCount);
   for (const Row& r : spec) {

@@ -339,6 +339,8 @@ struct Harness {
   // tolerance) or a lot, or stuck.
   bool two_channels = false;
   std::mt19937 channel_rng{2718281U};
+  std::mt19937 link_rng{1414213U};
+  bool link_faults = false;  // half the two-channel histories: the others keep their coverage
   std::array<float, kAxes> enc_offset{};
   std::array<bool, kAxes> enc_stuck{};
   std::array<float, kAxes> enc_stuck_at{};
@@ -358,6 +360,16 @@ struct Harness {
     }
     if (c(5)) { const auto i = channel_rng() % 6U; enc_stuck[i] = !enc_stuck[i]; enc_stuck_at[i] = fb.drive[i].position_rad; log << t << ":encoder " << i << " stuck " << enc_stuck[i] << "\n"; }
     if (c(3)) { k2_welded = !k2_welded; log << t << ":k2 welded " << k2_welded << "\n"; }
+    // Issue 37: the black channel's connections, up; now and then one fails its check.
+    fb.link.configured = true;
+    fb.link.up = true;
+    // (a stream of its own: the channel stream's histories stay as they were)
+    if (link_faults && static_cast<int>(link_rng() % 100000U) < 3) {
+      fb.link.fault = true;
+      fb.link.connection = static_cast<std::uint16_t>(0xA001U + link_rng() % 2U);
+      fb.link.error = static_cast<LinkError>(1U + link_rng() % 6U);
+      log << t << ":link fault\n";
+    }
   }
   void load_encoders() {
     for (std::size_t i = 0; i < kAxes; ++i) {
@@ -669,6 +681,8 @@ TEST(Differential, CoreAndReferenceAgreeOverRandomHistories) {
     h.feedback_faults = seed % 5 == 3;
     h.two_channels = seed % 6 == 5;  // SPEC §14 (its own stream: the other histories unchanged)
     h.channel_rng.seed(static_cast<std::uint32_t>(seed) * 2654435761U);
+    h.link_rng.seed(static_cast<std::uint32_t>(seed) * 40503U + 7U);
+    h.link_faults = seed % 12 == 11;
     const std::string diff = h.run(kCycles);
     ASSERT_TRUE(diff.empty()) << "seed " << seed << ": " << diff << "\nlast events:\n" << tail(h.log.str(), 25);
     for (std::size_t i = 0; i < states.size(); ++i) states[i] += h.state_cycles[i];

@@ -183,6 +183,7 @@ struct Rig {
 
 }  // namespace
 
+// @req LINK-FAULT LINK-SAFE-VALUES
 TEST(SafetyLinks, EveryConnectionComesUpAndTheBootWaitsForIt) {
   Rig r;
   r.cell.step();
@@ -214,6 +215,7 @@ TEST(SafetyLinks, ADeviceThatNeverAnswersFailsTheBootNamingItsConnection) {
             "link.0xB011.not_connected");
 }
 
+// @req LINK-SAFE-VALUES
 TEST(SafetyLinks, TheContactsComeFromTheSafeTerminalNotFromWhatTheMasterDecoded) {
   Rig r;
   r.run(10);
@@ -271,6 +273,7 @@ void expect_caught(Rig& r, const std::string& detail, int within = 11) {
 }
 }  // namespace
 
+// @req LINK-FAULT
 TEST(SafetyLinks, AFlippedBitIsACrcError) {
   Rig r;
   r.run(10);
@@ -283,6 +286,7 @@ TEST(SafetyLinks, AFlippedBitIsACrcError) {
   EXPECT_EQ(r.message(), "Safety link 0xA001 (channel A): crc error");
 }
 
+// @req LINK-FAULT
 TEST(SafetyLinks, AStaleContainerReplayedIsASequenceError) {
   Rig r;
   r.run(10);
@@ -309,6 +313,7 @@ TEST(SafetyLinks, TwoConnectionsSwappedAreAnIdentityError) {
   EXPECT_TRUE(d == "link.0xA013.identity" || d == "link.0xA001.identity") << d;
 }
 
+// @req LINK-FAULT
 TEST(SafetyLinks, AContainerOfAnotherConnectionInsertedIsAnIdentityError) {
   Rig r;
   r.run(10);
@@ -321,6 +326,7 @@ TEST(SafetyLinks, AContainerOfAnotherConnectionInsertedIsAnIdentityError) {
   expect_caught(r, "link.0xA001.identity", 2);
 }
 
+// @req LINK-FAULT
 TEST(SafetyLinks, ContainersHeldPastTheWatchdogAreATimeout) {
   Rig r;
   r.run(10);
@@ -332,6 +338,7 @@ TEST(SafetyLinks, ContainersHeldPastTheWatchdogAreATimeout) {
   expect_caught(r, "link.0xA014.timeout", 11);
 }
 
+// @req LINK-FAULT
 TEST(SafetyLinks, AFlippedBitOnTheWayToTheOutputTerminalOpensItsOutputsAtOnce) {
   Rig r;
   r.run(10);

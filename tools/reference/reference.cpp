@@ -316,6 +316,7 @@ void Supervisor::conditions(const core::SafetyInputs& in, const core::Feedback& 
   if (channel_mismatch_) { raise(AlarmId::CHANNEL_MISMATCH); r1 = true; }
   if (channel_lost_) { raise(AlarmId::CHANNEL_LOST); r1 = true; }
   if (encoder_bad_) { raise(AlarmId::ENCODER_DISCREPANCY); r1 = true; }
+  if (fb.link.configured && fb.link.fault) { raise(AlarmId::SAFETY_LINK_FAULT); r1 = true; }
   if (r1) {
     done = true;
     cat0_to(St::LOCKOUT);
@@ -715,6 +716,7 @@ std::size_t Supervisor::step(const core::SafetyInputs& in, const core::Feedback&
       const c402::DriveState ds = c402::decode(d.statusword);
       answered = answered && d.online && ds != c402::DriveState::Unknown && ds != c402::DriveState::NotReadyToSwitchOn;
     }
+    answered = answered && (!fb.link.configured || fb.link.up);  // issue 37: every safety connection up
     if (answered && fb.self_test_ok && !fb.fieldbus_boot_failed) boot_pending_ = false;
   }
   // Contactor commanded open with its feedback closed, brakes commanded engaged with a

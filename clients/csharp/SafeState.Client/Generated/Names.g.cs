@@ -201,6 +201,7 @@ namespace SafeState.Client
         CHANNEL_MISMATCH = 109,
         CHANNEL_LOST = 110,
         ENCODER_DISCREPANCY = 111,
+        SAFETY_LINK_FAULT = 112,
     }
 
     public static partial class Alarms
@@ -310,6 +311,9 @@ namespace SafeState.Client
             new AlarmInfo(AlarmName.ENCODER_DISCREPANCY, 111, Severity.lockout, AlarmLatch.PowerCycle,
                 "The named axis' load-side encoder disagreed with its motor encoder by more than encoder_tolerance_deg for longer than encoder_discrepancy_ms, or stood still while the motor encoder moved: position-based limits cannot be trusted.",
                 "Check both encoders of the named axis, its gearbox and its coupling, then power-cycle."),
+            new AlarmInfo(AlarmName.SAFETY_LINK_FAULT, 112, Severity.lockout, AlarmLatch.PowerCycle,
+                "A safety container of the named connection (the black channel between a channel and a safe device) failed its check: crc (corrupted), sequence (repeated, lost or out of order), identity (another connection's or device's), timeout (none new within its watchdog), not_connected (nothing valid from the device) or length. The bus or its master altered it; the channel took the safe values and opened its contactor, the device went to its safe state by itself.",
+                "Check the named device, the cabling to it and the EtherCAT master (event log), then power-cycle: a new session is opened at start-up."),
         };
     }
 
@@ -484,6 +488,7 @@ namespace SafeState.Client
             "CHANNEL_MISMATCH",
             "CHANNEL_LOST",
             "ENCODER_DISCREPANCY",
+            "SAFETY_LINK_FAULT",
         };
     }
 }
