@@ -117,6 +117,18 @@ struct Builder {
                        "watchdog_ms " + num(bus.watchdog_ms) + " + frame_timeout_us " + num(bus.frame_timeout_us) +
                            " of " + bus.source});
     f.reaction_cycles += 1U;
+    if (bus.safety_links) {
+      // docs/black-channel.md "Timing": the ping-pong. The device answers each new container of
+      // the channel with its data of that moment; the channel sends its next only once the
+      // answer came back: the contacts can be one exchange older than the frame that brings
+      // them, and the channel's decision waits up to one exchange for the output terminal's
+      // acknowledge before its container can carry it.
+      f.terms.push_back({"black channel: the safe input terminal's container, one exchange older", cycles(1),
+                         per_cycle(1, "ping-pong: the data of the device's last answer")});
+      f.terms.push_back({"black channel: the output terminal's container waits for its acknowledge", cycles(1),
+                         per_cycle(1, "ping-pong: one container in flight per connection")});
+      f.reaction_cycles += 2U;
+    }
   }
   [[nodiscard]] std::uint64_t bus_watchdog_us() const {
     return static_cast<std::uint64_t>(bus.watchdog_ms) * 1000U + bus.frame_timeout_us;
@@ -336,6 +348,28 @@ Analysis analyse(const core::Config& cfg_in, const safety::Loaded& s, const BusT
     b.cat0(f);
   }
   a.functions.push_back(f);
+
+  if (bus.ethercat && bus.safety_links) {
+    // Issue 37: a container that does not come, or comes invalid: the safe output terminal
+    // opens its outputs by itself after its watchdog, whatever the channel and the master do
+    // (the channel, finding the same, names SAFETY_LINK_FAULT).
+    f = b.make("link_loss", "safety container lost, late or invalid (black channel)", "1", StopKind::cat0);
+    f.terms.push_back({"safe output terminal's watchdog: no new valid container of its channel",
+                       static_cast<std::uint64_t>(bus.link_watchdog_ms) * 1000U,
+                       "watchdog_ms " + num(bus.link_watchdog_ms) + " of the connections (" + bus.source +
+                           "); an invalid container opens them at once"});
+    f.terms.push_back({"output: the terminal opens K1 / K2 and the brake relay itself", 0,
+                       "docs/black-channel.md: the device's fail-safe rule"});
+    f.terms.push_back({"contactor drop-out", b.cycles(b.plant.contactor_cycles),
+                       b.per_cycle(b.plant.contactor_cycles, "sim kContactorFeedbackMs " + num(sim::kContactorFeedbackMs) +
+                                                                 " rounded up")});
+    std::size_t axis = 0;
+    const std::uint64_t n = b.cat0_stop_cycles(axis);
+    f.terms.push_back({"Cat 0 stop: braked from the axis speed limit", b.cycles(n),
+                       b.per_cycle(n, "axis " + num(axis) + ", as the other Cat 0 stops")});
+    f.note = "measured on the wire by ecat-sim (`fault link ...`, status -> safety -> outputs_open_after_us)";
+    a.functions.push_back(f);
+  }
   return a;
 }
 

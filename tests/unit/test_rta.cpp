@@ -150,6 +150,33 @@ TEST(Rta, ChangedConfigurationByHand) {
   EXPECT_EQ(term(fn(a, "bus_loss"), "bus watchdog"), 120000U);
 }
 
+// Issue 37, the black channel on the bus (2 ms cycle as above, 10 ms container watchdog): the
+// ping-pong's two exchanges in every function that goes through the bus, and a function of its
+// own for a container that does not come. By hand: E-stop as above + 2 x 2 ms; link_loss =
+// watchdog 10 ms + contactor 10 ms + Cat 0 braking 126 ms.
+// @req RTA-TERMS
+TEST(Rta, TheBlackChannelsExchangesAndWatchdog) {
+  core::Config cfg{};
+  cfg.cycle_us = 2000;
+  rta::BusTiming bus{true, "bus.json", 20000, 100};
+  bus.safety_links = true;
+  bus.link_watchdog_ms = 10;
+  const rta::Analysis a = rta::analyse(cfg, changed(), bus);
+  const rta::Function& e = fn(a, "estop");
+  EXPECT_EQ(term(e, "black channel: the safe input terminal"), 2000U);
+  EXPECT_EQ(term(e, "black channel: the output terminal"), 2000U);
+  EXPECT_EQ(e.total_us(), 2000U + 2000U + 120000U + 2000U + 2000U + 2000U + 10000U + 126000U);
+  EXPECT_EQ(e.reaction_cycles, 4U);
+  const rta::Function& l = fn(a, "link_loss");
+  EXPECT_EQ(term(l, "safe output terminal's watchdog"), 10000U);
+  EXPECT_EQ(l.total_us(), 10000U + 10000U + 126000U);
+  // Without the black channel neither the terms nor the function.
+  bus.safety_links = false;
+  const rta::Analysis plain = rta::analyse(cfg, changed(), bus);
+  EXPECT_EQ(fn(plain, "estop").total_us(), 2000U + 2000U + 120000U + 2000U + 10000U + 126000U);
+  EXPECT_EQ(plain.find("link_loss"), nullptr);
+}
+
 // @req RTA-TERMS
 TEST(Rta, JsonCarriesEveryTermAndTheTotal) {
   const rta::Analysis a = builtin();

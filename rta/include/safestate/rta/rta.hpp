@@ -24,6 +24,11 @@ struct BusTiming {
   // SPEC §11: the bus has a distance_sensor subdevice (always so in the simulated cell).
   // Without one the separation is invalid: SSM holds the program at v_allowed 0.
   bool distance_sensor = true;
+  // Issue 37: the bus carries the black channel (safe terminals, the drives' containers): the
+  // contacts and the contactors travel in containers, one exchange of the ping-pong each way
+  // more, and a container that does not come opens the outputs after its watchdog.
+  bool safety_links = false;
+  std::uint32_t link_watchdog_ms = 0;  // the longest of the connections'
 };
 
 struct Term {
