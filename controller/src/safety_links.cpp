@@ -138,10 +138,7 @@ void SafetyLinks::receive(hal::ProcessImageIn& in) noexcept {
       // Start-up: the device did not answer the connect in time (the bus still coming up):
       // connect again, with a new session.
       static_cast<void>(c.end.connect(next_session_));
-      next_session_ = static_cast<std::uint16_t>(next_session_ + 1U);
-      if (next_session_ == 0U) {
-        next_session_ = 1U;
-      }
+      next_session_ = (next_session_ == 0xFFFFU) ? std::uint16_t{1} : static_cast<std::uint16_t>(next_session_ + 1U);
     }
     const bool valid = c.end.data_valid();
     if (!check_.fault && c.end.state() == safelink::LinkState::Failed) {
@@ -219,16 +216,17 @@ void SafetyLinks::transmit(hal::ProcessImageOut& out) noexcept {
       f.len = 0;
       continue;
     }
-    std::array<std::uint8_t, 1> data{};
-    std::span<const std::uint8_t> payload{};
-    if (c.spec.role == hal::LinkRole::safe_outputs) {
-      const bool k = (c.spec.channel == 'B') ? out.contactor_k2 : out.contactor;
-      data[0] = static_cast<std::uint8_t>((k ? kFdoContactor : 0U) | (out.brakes_release ? kFdoBrakeRelay : 0U));
-      payload = std::span<const std::uint8_t>{data};
-    }
     const std::size_t n = c.end.tx_bytes();
     f.len = static_cast<std::uint8_t>(n);
-    static_cast<void>(c.end.transmit(payload, std::span<std::uint8_t>{f.bytes}.first(n)));
+    const std::span<std::uint8_t> tx = std::span<std::uint8_t>{f.bytes}.first(n);
+    if (c.spec.role == hal::LinkRole::safe_outputs) {
+      const bool k = (c.spec.channel == 'B') ? out.contactor_k2 : out.contactor;
+      const std::array<std::uint8_t, 1> data{
+          static_cast<std::uint8_t>((k ? kFdoContactor : 0U) | (out.brakes_release ? kFdoBrakeRelay : 0U))};
+      static_cast<void>(c.end.transmit(data, tx));
+    } else {
+      static_cast<void>(c.end.transmit({}, tx));
+    }
   }
 }
 

@@ -274,10 +274,7 @@ ConfigError DeviceEnd::configure(const ConnectionParams& p, std::uint32_t cycle_
 Verdict DeviceEnd::open_session(std::span<const std::uint8_t> rx) noexcept {
   const std::uint16_t host_session = read_header(rx).ack;
   const std::uint16_t dev_session = next_session_;
-  next_session_ = static_cast<std::uint16_t>(next_session_ + 1U);
-  if (next_session_ == 0U) {
-    next_session_ = 1;
-  }
+  next_session_ = (next_session_ == 0xFFFFU) ? std::uint16_t{1} : static_cast<std::uint16_t>(next_session_ + 1U);
   c_.state = LinkState::Connected;
   c_.fault = Verdict::NotConnected;
   c_.host_session = host_session;
