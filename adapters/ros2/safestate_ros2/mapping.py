@@ -235,7 +235,7 @@ FUNCTIONS = (
     ("mode", ("MODE_SELECTOR_INVALID", "MODE_CHANGED")),
     ("drives", ("DRIVE_FAULT", "ARMING_TIMEOUT", "STOP_TIME_EXCEEDED", "BRAKE_NOT_ENGAGED", "CONTACTOR_WELDED",
                 "ENCODER_DISCREPANCY")),
-    ("fieldbus", ("FIELDBUS_LOST", "BOOT_FAILED")),
+    ("fieldbus", ("FIELDBUS_LOST", "BOOT_FAILED", "SAFETY_LINK_FAULT")),
     ("safety configuration", ("CONFIG_NOT_VALIDATED", "INTEGRITY_FAULT")),
     ("safe limits", ("JOINT_LIMIT", "ZONE_VIOLATION", "ORIENTATION_LIMIT", "SPEED_LIMIT", "T1_SPEED_EXCEEDED",
                      "REDUCED_SPEED")),
