@@ -187,13 +187,14 @@ int main(int argc, char** argv) {
   auto* ecat_sim = app.add_subcommand(
       "ecat-sim",
       "emulate an EtherCAT segment on a network interface: EMULATED subdevices (a DI terminal, a DO terminal, six "
-      "CiA 402 CSP drives) in front of the simulated cell. It stands in for real hardware: it is no drive, no I/O, "
-      "no safety device");
+      "CiA 402 CSP drives, a distance sensor, a safe input and a safe output terminal speaking our black-channel "
+      "protocol) in front of the simulated cell. It stands in for real hardware: it is no drive, no I/O, no safety "
+      "device");
   ecat_sim->add_option("--ifname", ecat_opt.ifname, "network interface to answer EtherCAT frames on (needs CAP_NET_RAW)")
       ->required();
   ecat_sim->add_option("--control", ecat_opt.control,
                        "Unix socket for the emulated world: `in ...`, `fault ...` lines (scenario vocabulary, plus "
-                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`), `plant lockstep|paced|reset`, JSON sim messages, `status`");
+                       "`fault unplug N`, `fault replug`, `fault drop N`, `fault corrupt N`, `fault no-pd N`, `fault sdo-refuse POS INDEX:SUB ABORT`, `fault link flip|replay|swap|delay|insert ...`), `plant lockstep|paced|reset`, JSON sim messages, `status`");
   ecat_sim->add_option("--cycle-us", ecat_opt.cycle_us, "plant cycle when the master is silent (microseconds)")
       ->check(CLI::Range(250, 4000));
   ecat_sim->add_option("--priority", ecat_opt.priority, "SCHED_FIFO priority when permitted, 0 for none")
@@ -207,6 +208,12 @@ int main(int argc, char** argv) {
   ecat_sim->add_flag("--no-distance-sensor", ecat_opt.no_distance_sensor,
                      "a segment without the distance sensor (its bus configuration has no distance_sensor: the "
                      "separation stays invalid)");
+  ecat_sim->add_flag("--no-safe-terminals", ecat_opt.no_safe_terminals,
+                     "a segment without the safe input and output terminals and with the drives' PDOs without "
+                     "safety containers, as before issue 37 (the DO terminal's bits drive the power path)");
+  ecat_sim->add_option("--link-seed", ecat_opt.link_seed,
+                       "the safe devices' first sessions from this number instead of at random (tests)")
+      ->check(CLI::Range(1U, 0xFFFFFFFFU));
   ecat_sim->add_flag("--lockstep", ecat_opt.lockstep,
                      "step the plant once per process-data exchange instead of on the drives' SYNC0 pulses (what "
                      "`safestate replay` asks for over the control socket)");

@@ -17,7 +17,9 @@ namespace {
 constexpr std::uint8_t kBool = 0x01;
 constexpr std::uint8_t kInt16 = 0x03;
 constexpr std::uint8_t kInt32 = 0x04;
+constexpr std::uint8_t kUsint = 0x05;
 constexpr std::uint8_t kUint16 = 0x06;
+constexpr std::uint8_t kUdint = 0x07;
 
 const char* const kDiNames[] = {"estop.a",      "estop.b",    "gate.a",      "gate.b",      "enable.a",
                                 "enable.b",     "enable.panic", "mode.auto", "mode.t1",     "mode.t2",
@@ -65,6 +67,36 @@ SubdeviceDesc distance_sensor() {
   return d;
 }
 
+// Issue 37: the safe input terminal (F-DI): its contacts, the DI terminal's 32-bit word, to
+// channel A and to channel B in containers of their own (0 bytes of host data each way in).
+SubdeviceDesc safe_in() {
+  SubdeviceDesc d{kVendorId, kProductSafeIn, kRevision, 4, "SafeState emu F-DI safety contacts", {}, {}};
+  d.rx.index = 0x1600;
+  add_container(d.rx, kObjToDeviceA, kSafeInHostData, 0);
+  add_container(d.rx, kObjToDeviceB, kSafeInHostData, 0);
+  d.tx.index = 0x1A00;
+  add_container(d.tx, kObjToHostA, kSafeInDeviceData, kUdint);
+  add_container(d.tx, kObjToHostB, kSafeInDeviceData, kUdint);
+  d.out_address = 0x1000;
+  d.in_address = 0x1100;
+  return d;
+}
+
+// Issue 37: the safe output terminal (F-DO): K1 from channel A's container, K2 from channel
+// B's, the brakes from both; answers with each contactor's auxiliary contact.
+SubdeviceDesc safe_out() {
+  SubdeviceDesc d{kVendorId, kProductSafeOut, kRevision, 5, "SafeState emu F-DO contactors brake relays", {}, {}};
+  d.rx.index = 0x1600;
+  add_container(d.rx, kObjToDeviceA, kSafeOutHostData, kUsint);
+  add_container(d.rx, kObjToDeviceB, kSafeOutHostData, kUsint);
+  d.tx.index = 0x1A00;
+  add_container(d.tx, kObjToHostA, kSafeOutDeviceData, kUsint);
+  add_container(d.tx, kObjToHostB, kSafeOutDeviceData, kUsint);
+  d.out_address = 0x1000;
+  d.in_address = 0x1100;
+  return d;
+}
+
 SubdeviceDesc drive(std::size_t axis) {
   SubdeviceDesc d{kVendorId, kProductDrive, kRevision, static_cast<std::uint32_t>(10U + axis),
                   "SafeState emu CiA402 CSP drive " + std::to_string(axis), {}, {}};
@@ -78,6 +110,11 @@ SubdeviceDesc drive(std::size_t axis) {
                   {0x606C, 0, 32, kInt32, "Velocity actual value"},
                   {0x6077, 0, 16, kInt16, "Torque actual value"},
                   {0x60E4, 1, 32, kInt32, "Additional position actual value"}};  // SPEC §14 load side
+  // Issue 37: 0x60E4:01 again, to each channel in a container of its own.
+  add_container(d.rx, kObjToDeviceA, kEncoderHostData, 0);
+  add_container(d.rx, kObjToDeviceB, kEncoderHostData, 0);
+  add_container(d.tx, kObjToHostA, kEncoderDeviceData, kInt32);
+  add_container(d.tx, kObjToHostB, kEncoderDeviceData, kInt32);
   // SM0/SM1 hold the CoE mailbox at 0x1000/0x1080: the process data on SM2 and SM3.
   d.out_address = 0x1100;
   d.in_address = 0x1800;
@@ -117,13 +154,30 @@ sim::PlantTiming timing(std::uint32_t cycle_us) {
 
 }  // namespace
 
-std::vector<SubdeviceDesc> default_segment() {
+std::vector<SubdeviceDesc> default_segment(bool safe_terminals) {
   std::vector<SubdeviceDesc> v{digital_in(), digital_out()};
   for (std::size_t a = 1; a <= hal::kAxes; ++a) {
     v.push_back(drive(a));
   }
   v.push_back(distance_sensor());
+  if (safe_terminals) {
+    v.push_back(safe_in());
+    v.push_back(safe_out());
+  } else {
+    for (SubdeviceDesc& d : v) {
+      strip_containers(d);
+    }
+  }
   return v;
+}
+
+std::size_t position_of(const Segment& seg, std::uint32_t product) noexcept {
+  for (std::size_t i = 0; i < seg.size(); ++i) {
+    if (seg.esc(i).desc().product_code == product) {
+      return i;
+    }
+  }
+  return static_cast<std::size_t>(-1);
 }
 
 void pack_distance(const core::RawInputs& in, std::uint8_t* tx) noexcept {
@@ -190,7 +244,7 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
   }
 }
 
-EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices)
+EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices, std::uint32_t link_seed)
     : cycle_us_(cycle_us),
       plant_(safestate::robot::active().model, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
       segment_(with_cycle(devices, cycle_us)) {
@@ -198,7 +252,32 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
   // and `contactor_k2`), each with its auxiliary contact on the DI terminal.
   plant_.set_two_contactors(true);
   segment_.on_process_data([this] { on_exchange(); });
+  pos_distance_ = position_of(segment_, kProductDistance);
+  links_.setup(segment_, cycle_us, link_seed);
   latch_inputs();
+}
+
+std::string EmulatedCell::link_fault(const std::string& words) { return links_.fault(words); }
+
+// One cycle of the safe devices (safe_io.hpp): the master's containers as the last frame left
+// them, the contacts and load-side positions as the plant holds them now.
+void EmulatedCell::link_cycle(bool exchange) noexcept {
+  if (!links_.any()) {
+    return;
+  }
+  std::uint8_t di[kDiBytes];
+  std::uint8_t tx[hal::kAxes][kDriveTxBytes];
+  pack_inputs(in_, di, tx);
+  const std::uint32_t contacts = static_cast<std::uint32_t>(di[0]) | (static_cast<std::uint32_t>(di[1]) << 8U) |
+                                 (static_cast<std::uint32_t>(di[2]) << 16U) | (static_cast<std::uint32_t>(di[3]) << 24U);
+  std::array<std::int32_t, hal::kAxes> load{};
+  for (std::size_t a = 0; a < hal::kAxes; ++a) {
+    load[a] = static_cast<std::int32_t>(get32(&tx[a][12]));
+  }
+  links_.cycle(segment_, contacts, load, in_.contactor_closed, in_.k2_closed, now_ns_, exchange);
+  if (links_.take_fault_hit()) {
+    timing_.fault_injected();  // `time ... from=fault`: a wire fault of a container starts it
+  }
 }
 
 void EmulatedCell::latch_inputs() noexcept {
@@ -221,10 +300,10 @@ void EmulatedCell::latch_inputs() noexcept {
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     segment_.esc(kPosFirstDrive + a).set_inputs(tx[a]);
   }
-  if (segment_.size() > kPosDistance) {  // a segment built without the sensor has none to feed
+  if (pos_distance_ < segment_.size()) {  // a segment built without the sensor has none to feed
     std::uint8_t dist[kDistanceBytes];
     pack_distance(in_.safety, dist);
-    segment_.esc(kPosDistance).set_inputs(dist);
+    segment_.esc(pos_distance_).set_inputs(dist);
   }
 }
 
@@ -244,22 +323,34 @@ bool any_enabled(const hal::ProcessImageOut& out) noexcept {
   return false;
 }
 
-void unpack_held(Segment& seg, hal::ProcessImageOut& out) noexcept {
+}  // namespace
+
+// The outputs the plant's actuators see. With the F-DO on the line (issue 37) the power path
+// is its: K1 from channel A's connection, K2 from channel B's, the brakes released only with
+// both brake relays; the DO terminal's contactor, contactor_k2 and brakes_release bits are
+// wired to nothing, its brake_hold.N still holds axis N (docs/ethercat.md).
+void EmulatedCell::unpack_held(hal::ProcessImageOut& out) noexcept {
   std::uint8_t rx[hal::kAxes][kDriveRxBytes];
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
-    const std::span<const std::uint8_t> o = seg.esc(kPosFirstDrive + a).outputs();
+    const std::span<const std::uint8_t> o = segment_.esc(kPosFirstDrive + a).outputs();
     std::memcpy(rx[a], o.data(), kDriveRxBytes);
   }
-  unpack_outputs(seg.esc(kPosDigitalOut).outputs().data(), rx, out);
+  unpack_outputs(segment_.esc(kPosDigitalOut).outputs().data(), rx, out);
+  if (links_.drives_power()) {
+    out.contactor = links_.k1();
+    out.contactor_k2 = links_.k2();
+    out.brakes_release = links_.relay_a() && links_.relay_b();
+  }
 }
-
-}  // namespace
 
 // A subdevice whose outputs the plant still holds active has put them in the safe state
 // (its process-data watchdog expired: it left OP).
 bool EmulatedCell::outputs_went_safe() const noexcept {
-  if (powered(out_) && segment_.esc(kPosDigitalOut).state() != AlState::op) {
+  if (powered(out_) && segment_.esc(kPosDigitalOut).state() != AlState::op && !links_.drives_power()) {
     return true;
+  }
+  if (powered(out_) && links_.drives_power() && !(links_.k1() && links_.k2())) {
+    return true;  // the F-DO opened K1 or K2 by itself (a connection failed or timed out)
   }
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     if (out_.drive[a].controlword != 0U && segment_.esc(kPosFirstDrive + a).state() != AlState::op) {
@@ -275,7 +366,7 @@ bool EmulatedCell::outputs_went_safe() const noexcept {
 void EmulatedCell::watch_held_outputs() noexcept {
   const bool was_closed = powered(held_);
   const bool was_enabled = any_enabled(held_);
-  unpack_held(segment_, held_);
+  unpack_held(held_);
   const std::uint64_t since = (now_ns_ > last_exchange_ns_) ? now_ns_ - last_exchange_ns_ : 0U;
   if (was_closed && !powered(held_) && !drop_.contactor) {
     drop_.contactor = true;
@@ -290,7 +381,8 @@ void EmulatedCell::watch_held_outputs() noexcept {
 void EmulatedCell::on_exchange() noexcept {
   free_running_ = false;
   const bool was_closed = powered(held_);
-  unpack_held(segment_, held_);
+  link_cycle(true);  // the safe devices take their containers before the plant cycle
+  unpack_held(held_);
   time_reaction(was_closed);
   last_exchange_ns_ = now_ns_;
   if (powered(held_)) {
@@ -312,7 +404,7 @@ void EmulatedCell::on_exchange() noexcept {
 // and jump), then holds them. Outside OP a drive holds nothing (its outputs are safe).
 void EmulatedCell::sync0_setpoints() noexcept {
   const hal::ProcessImageOut before = out_;
-  unpack_held(segment_, out_);
+  unpack_held(out_);
   // More than one set-point applied at once: after a held pulse (the set-points went on while
   // the axis stood: frames late or lost), or more frames since the last pulse than the pulses
   // they were meant for, the one extrapolated pulse before making up for one of them.
@@ -357,7 +449,7 @@ void EmulatedCell::plant_cycle(Cause cause) noexcept {
     ++steps_.sync0;
   } else {
     multi_step_ = false;
-    unpack_held(segment_, out_);
+    unpack_held(out_);
     ++(cause == Cause::exchange ? steps_.exchange : steps_.free);
   }
   plant_.write(out_);
@@ -445,6 +537,10 @@ std::uint64_t EmulatedCell::sleep_ns(std::uint64_t now_ns, std::uint64_t most_ns
 void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   now_ns_ = now_ns;
   segment_.poll(now_ns);
+  // The safe devices run their own cycle while no exchange comes (their watchdogs run down).
+  for (std::uint32_t k = 0; links_.due(now_ns) && k < 1000U; ++k) {
+    link_cycle(false);
+  }
   watch_held_outputs();
   sync0_until(now_ns);
   if (pacer_ != kNoPacer) {

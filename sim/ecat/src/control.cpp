@@ -225,7 +225,7 @@ std::string world_line(EmulatedCell& cell, const std::string& line) {
     }
     // SPEC §11's distance sensor is a subdevice of its own (kPosDistance): a segment built
     // without it refuses a separation rather than take it and never put it on the wire.
-    if ((in.separation_mm || in.separation_valid) && cell.segment().size() <= kPosDistance) {
+    if ((in.separation_mm || in.separation_valid) && cell.distance_position() >= cell.segment().size()) {
       return "ERROR this emulated segment has no distance sensor (separation_mm, separation_valid)";
     }
     vocab::apply(in, cell.inputs());
@@ -254,6 +254,7 @@ std::string world_line(EmulatedCell& cell, const std::string& line) {
       cell.segment().go_silent();
     } else if (f.kind == vocab::FaultKind::clear_all) {
       cell.segment().clear_wire_faults();
+      cell.links().clear_faults();
       for (std::size_t i = 0; i < cell.segment().size(); ++i) {
         cell.segment().esc(i).dictionary().refuse(0, 0, 0);
       }
@@ -455,6 +456,9 @@ std::string status(EmulatedCell& cell) {
     j["reaction"] = nullptr;
   }
   j["wire_timing"] = cell.wire_timing().to_json(in);
+  // Issue 37: each safety connection's device end, the F-DO's outputs as driven, and the time
+  // from the last link fault's first affected frame to the F-DO's outputs opening.
+  j["safety"] = cell.links().status();
   return j.dump();
 }
 
@@ -480,6 +484,9 @@ std::string control_line(EmulatedCell& cell, const std::string& raw) {
   }
   if (!line.empty() && line.front() == '{') {
     return json_line(cell, line);
+  }
+  if (line.rfind("fault link ", 0) == 0 || line == "fault link") {  // issue 37: a container on the wire
+    return cell.link_fault(line.size() > 11U ? line.substr(11) : std::string());
   }
   if (line.rfind("fault sdo-refuse", 0) == 0) {
     return sdo_refuse_line(cell, line);

@@ -289,6 +289,14 @@ int ecat_sim_main(const EcatSimOptions& opt) {
   if (opt.no_distance_sensor) {
     std::erase_if(devs, [](const SubdeviceDesc& d) { return d.product_code == kProductDistance; });
   }
+  if (opt.no_safe_terminals) {
+    std::erase_if(devs, [](const SubdeviceDesc& d) {
+      return d.product_code == kProductSafeIn || d.product_code == kProductSafeOut;
+    });
+    for (SubdeviceDesc& d : devs) {
+      strip_containers(d);
+    }
+  }
   if (opt.drives_free_run) {
     for (SubdeviceDesc& d : devs) {
       d.dc_sync0_required = false;
@@ -318,7 +326,7 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     }
     return 2;
   }
-  EmulatedCell cell(opt.cycle_us, devs);
+  EmulatedCell cell(opt.cycle_us, devs, opt.link_seed);
   cell.set_pacing(opt.lockstep ? EmulatedCell::Pacing::lockstep : EmulatedCell::Pacing::paced);
   for (std::size_t i = 0; i < drifts.size(); ++i) {
     cell.segment().esc(i).set_drift_ppm(drifts[i]);

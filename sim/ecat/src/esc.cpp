@@ -467,6 +467,11 @@ void Esc::set_inputs(std::span<const std::uint8_t> in) noexcept {
   std::memcpy(&mem_[desc_.in_address], in.data(), n);
 }
 
+void Esc::set_inputs_at(std::size_t offset, std::span<const std::uint8_t> in) noexcept {
+  const std::size_t at = std::min<std::size_t>(desc_.in_address + offset, kEscMemory);
+  std::memcpy(&mem_[at], in.data(), std::min(in.size(), kEscMemory - at));
+}
+
 void Esc::pdi_write(std::uint16_t address, std::span<const std::uint8_t> in) noexcept {
   const std::size_t n = std::min(in.size(), kEscMemory - std::min<std::size_t>(address, kEscMemory));
   std::memcpy(&mem_[address], in.data(), n);

@@ -104,11 +104,13 @@ bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err) {
   if (!hal::esi::parse_esi(hal::esi::builtin_esi(), hal::esi::kBuiltinEsiName, lib, err, warnings)) {
     return false;
   }
-  // The line of default_segment(): the DI terminal, the DO terminal, one drive per axis, then
-  // the distance sensor.
+  // The line of default_segment(): the DI terminal, the DO terminal, one drive per axis, the
+  // distance sensor, then the safe input and output terminals (issue 37).
   std::vector<std::uint32_t> products{kProductDigitalIn, kProductDigitalOut};
   products.insert(products.end(), hal::kAxes, kProductDrive);
   products.push_back(kProductDistance);
+  products.push_back(kProductSafeIn);
+  products.push_back(kProductSafeOut);
   std::vector<const hal::esi::Device*> bus;
   for (const std::uint32_t product : products) {
     const auto it = std::find_if(lib.begin(), lib.end(), [&](const hal::esi::Device& d) {
@@ -124,6 +126,8 @@ bool esi_segment(std::vector<SubdeviceDesc>& out, std::string& err) {
   for (std::size_t i = 0; i < bus.size(); ++i) {
     const bool is_drive = i >= kPosFirstDrive && i < kPosFirstDrive + hal::kAxes;
     const std::uint32_t serial = i == kPosDistance ? 3U
+                                 : i == kPosSafeIn  ? 4U
+                                 : i == kPosSafeOut ? 5U
                                  : !is_drive       ? static_cast<std::uint32_t>(i + 1U)
                                                    : static_cast<std::uint32_t>(10U + (i - kPosFirstDrive) + 1U);
     SubdeviceDesc d;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "safestate/robot/description.hpp"
+#include "safestate/ecat/safe_io.hpp"
 #include "safestate/ecat/segment.hpp"
 #include "safestate/ecat/wire_timing.hpp"
 #include "safestate/hal/process_image.hpp"
@@ -27,12 +28,18 @@ inline constexpr std::uint32_t kProductDistance = 0x00D15001;
 inline constexpr std::uint32_t kRevision = 0x00010000;
 
 // Positions on the line (0-based): the I/O terminals in the cabinet first, then drives,
-// then the distance sensor out in the cell (SPEC §11), at the end of the line.
+// then the distance sensor out in the cell (SPEC §11), then the safe input and output
+// terminals of the black channel (issue 37: kProductSafeIn/Out, safe_io.hpp). Without the
+// distance sensor (`--no-distance-sensor`) the safe terminals move up by one; without the
+// safe terminals (`--no-safe-terminals`) the segment is the nine subdevices of before.
 inline constexpr std::size_t kPosDigitalIn = 0;
 inline constexpr std::size_t kPosDigitalOut = 1;
 inline constexpr std::size_t kPosFirstDrive = 2;
 inline constexpr std::size_t kPosDistance = 8;
-inline constexpr std::size_t kSubdevices = 9;
+inline constexpr std::size_t kPosSafeIn = 9;
+inline constexpr std::size_t kPosSafeOut = 10;
+inline constexpr std::size_t kSubdevices = 11;
+inline constexpr std::size_t kPlainSubdevices = 9;  // without the safe terminals
 
 // Bits of the digital input terminal's TxPDO (0x6000:01.. = bit 0..), in this order.
 // Bits 20..23 are the protective-field scanner's four OSSD channels (field.outer.a/b,
@@ -62,8 +69,17 @@ inline constexpr std::size_t kDoBytes = 2;
 // (u16), 0x6064 position actual (i32), 0x606C velocity actual (i32), 0x6077 torque actual
 // (i16, per mille of rated), 0x60E4:01 additional position actual value (i32: the load-side
 // encoder of SPEC §14, in the same counts per joint radian). Little-endian, as on the wire.
+// These are the CiA 402 part; with the black channel (issue 37) each PDO carries two
+// containers behind it (channel A's, then B's: kDriveRxSafeBytes, kDriveTxSafeBytes in all).
 inline constexpr std::size_t kDriveRxBytes = 8;
 inline constexpr std::size_t kDriveTxBytes = 16;
+inline constexpr std::size_t kDriveRxSafeBytes = kDriveRxBytes + 2U * safelink::container_bytes(kEncoderHostData);
+inline constexpr std::size_t kDriveTxSafeBytes = kDriveTxBytes + 2U * safelink::container_bytes(kEncoderDeviceData);
+// The safe terminals' PDOs: channel A's container at 0, B's behind it.
+inline constexpr std::size_t kSafeInRxBytes = 2U * safelink::container_bytes(kSafeInHostData);
+inline constexpr std::size_t kSafeInTxBytes = 2U * safelink::container_bytes(kSafeInDeviceData);
+inline constexpr std::size_t kSafeOutRxBytes = 2U * safelink::container_bytes(kSafeOutHostData);
+inline constexpr std::size_t kSafeOutTxBytes = 2U * safelink::container_bytes(kSafeOutDeviceData);
 // The distance sensor's TxPDO 0x1A00: 0x6000:01 separation in mm (INT32, little-endian),
 // 0x6000:02 valid (BOOL, bit 32), 7 bits padding.
 inline constexpr std::size_t kDistanceBytes = 5;
@@ -71,7 +87,11 @@ inline constexpr std::size_t kDistanceValidBit = 32;
 // Encoder resolution of the emulated drives: 2^20 increments per revolution.
 inline constexpr double kCountsPerRad = 1048576.0 / 6.283185307179586;
 
-std::vector<SubdeviceDesc> default_segment();
+// `safe_terminals` false: the segment as before issue 37 (no F-DI/F-DO, the drives' PDOs
+// without containers: `ecat-sim --no-safe-terminals`).
+std::vector<SubdeviceDesc> default_segment(bool safe_terminals = true);
+// The position (0-based) of the first subdevice with this product code, or SIZE_MAX.
+std::size_t position_of(const Segment& seg, std::uint32_t product) noexcept;
 
 // Process image <-> PDO bytes of the default layout (used by both sides of the wire in tests).
 void pack_inputs(const hal::ProcessImageIn& in, std::uint8_t* di, std::uint8_t (*drive_tx)[kDriveTxBytes]) noexcept;
@@ -113,7 +133,10 @@ class EmulatedCell {
     // one of them). The axis really took two steps or more in one cycle there.
     std::uint64_t multi_step = 0;
   };
-  explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment());
+  // `link_seed`: the safe devices' first sessions; 0 = random at power-up (getrandom), as
+  // `ecat-sim` runs; another value makes them reproducible (tests, `--link-seed`).
+  explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment(),
+                        std::uint32_t link_seed = 0);
   void set_pacing(Pacing p) noexcept { pacing_ = p; }
   [[nodiscard]] Pacing pacing() const noexcept { return pacing_; }
   // The plant is stepped by SYNC0 now (paced, and the first drive's SYNC0 runs).
@@ -214,8 +237,18 @@ class EmulatedCell {
   // Any safety function's response time on the wire (issue 21 item 4, wire_timing.hpp).
   [[nodiscard]] WireTiming& wire_timing() noexcept { return timing_; }
   [[nodiscard]] std::uint32_t cycle_us() const noexcept { return cycle_us_; }
+  // The black channel's device ends (issue 37): the F-DI, the F-DO and the drives' encoder
+  // connections, and the wire faults between them and the master.
+  SafeLinks& links() noexcept { return links_; }
+  [[nodiscard]] const SafeLinks& links() const noexcept { return links_; }
+  // `fault link ...` (the words after "fault link").
+  std::string link_fault(const std::string& words);
+  // Where the distance sensor is (SIZE_MAX: none on this segment).
+  [[nodiscard]] std::size_t distance_position() const noexcept { return pos_distance_; }
 
  private:
+  void unpack_held(hal::ProcessImageOut& out) noexcept;
+  void link_cycle(bool exchange) noexcept;
   enum class Cause : std::uint8_t { exchange, sync0, free };
   void on_exchange() noexcept;
   void time_reaction(bool was_closed) noexcept;
@@ -258,6 +291,8 @@ class EmulatedCell {
   sim::Person person_{};
   sim::PersonSensors person_sensors_{};
   sim::PersonView person_view_{};
+  SafeLinks links_{};
+  std::size_t pos_distance_ = static_cast<std::size_t>(-1);
 };
 
 }  // namespace safestate::ecat

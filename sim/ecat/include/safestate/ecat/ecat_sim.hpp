@@ -34,6 +34,12 @@ struct EcatSimOptions {
   // A segment without the distance sensor (SPEC §11): a cell whose bus configuration has no
   // distance_sensor, where the separation stays invalid (tests).
   bool no_distance_sensor = false;
+  // Issue 37: a segment without the safe input and output terminals and the drives' PDOs
+  // without containers, exactly as before them (the DO terminal's bits drive the power path).
+  bool no_safe_terminals = false;
+  // The safe devices' first sessions: 0 = random at power-up (getrandom); a fixed value for
+  // tests (each connection and each power-up still gets a session of its own).
+  std::uint32_t link_seed = 0;
   // The plant one cycle per process-data exchange (EmulatedCell::Pacing::lockstep) instead
   // of paced by the drives' SYNC0; `safestate replay` sets it over the control channel.
   bool lockstep = false;

@@ -180,6 +180,8 @@ class Esc {
   // watchdog expired: the safe state of the outputs), inputs it will read.
   [[nodiscard]] std::span<const std::uint8_t> outputs() const noexcept;
   void set_inputs(std::span<const std::uint8_t> in) noexcept;
+  // Part of the inputs: `in` at byte `offset` of the input image (a safety container).
+  void set_inputs_at(std::size_t offset, std::span<const std::uint8_t> in) noexcept;
   // A register the application (PDI) sets, read-only from the wire (e.g. DL status).
   void pdi_write(std::uint16_t address, std::span<const std::uint8_t> in) noexcept;
   // Process-data watchdog (ETG.1000.4 6.3): no write to the output sync manager for
