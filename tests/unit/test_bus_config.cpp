@@ -100,7 +100,7 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   EXPECT_NE(refused(j).find("appears twice"), std::string::npos);
 
   j = default_json();
-  j["subdevices"][4]["pdo"]["velocity_actual"] = 14;  // 4 bytes at 14 of a 16-byte image
+  j["subdevices"][4]["pdo"]["velocity_actual"] = 52;  // 4 bytes at 52 of a 54-byte image
   EXPECT_NE(refused(j).find("subdevices[4].pdo.velocity_actual"), std::string::npos);
 
   // The brake test's objects (SPEC §12) are part of every drive's layout: 0x6072 max torque
@@ -109,7 +109,7 @@ TEST(BusConfig, EveryMistakeIsNamed) {
   j["subdevices"][4]["pdo"].erase("max_torque");
   EXPECT_NE(refused(j).find("subdevices[4].pdo.max_torque"), std::string::npos);
   j = default_json();
-  j["subdevices"][4]["pdo"]["torque_actual"] = 15;  // 2 bytes at 15 of a 16-byte image
+  j["subdevices"][4]["pdo"]["torque_actual"] = 53;  // 2 bytes at 53 of a 54-byte image
   EXPECT_NE(refused(j).find("subdevices[4].pdo.torque_actual"), std::string::npos);
   j = default_json();
   j["subdevices"][1]["bits"].erase("brake_hold.4");
@@ -334,7 +334,7 @@ TEST(BusConfig, DistanceSensorAndReducedActive) {
   j["subdevices"].erase(safestate::ecat::kPosDistance);
   j["subdevices"][1]["bits"].erase("reduced_active");
   ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
-  EXPECT_EQ(c.subdevices.size(), safestate::ecat::kPosDistance);
+  EXPECT_EQ(c.subdevices.size(), safestate::ecat::kSubdevices - 1U);
   EXPECT_EQ(c.subdevices[1].out_bit[9], kNoBit);
   for (const Subdevice& d : c.subdevices) {
     EXPECT_NE(d.role, Role::distance_sensor);
@@ -394,6 +394,7 @@ TEST(BusConfig, K2AndTheLoadSideEncoders) {
   j["subdevices"][1]["bits"].erase("contactor_k2");
   for (std::size_t a = 0; a < 6; ++a) {
     j["subdevices"][safestate::ecat::kPosFirstDrive + a]["pdo"].erase("load_position");
+    j["subdevices"][safestate::ecat::kPosFirstDrive + a].erase("safety_links");  // they carry it (issue 37)
   }
   ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
   EXPECT_EQ(c.subdevices[0].in_bit[kInputBits - 1U], kNoBit);
@@ -410,10 +411,11 @@ TEST(BusConfig, K2AndTheLoadSideEncoders) {
             std::string::npos);
   j = default_json();
   j["subdevices"][safestate::ecat::kPosFirstDrive + 3]["pdo"].erase("load_position");
+  j["subdevices"][safestate::ecat::kPosFirstDrive + 3].erase("safety_links");
   EXPECT_NE(refused(j).find("drive axis 4 (drive axis 4) has no pdo.load_position while 5 drive(s) have one"),
             std::string::npos);
   j = default_json();
-  j["subdevices"][safestate::ecat::kPosFirstDrive]["pdo"]["load_position"] = 13;  // 4 bytes past the 16
+  j["subdevices"][safestate::ecat::kPosFirstDrive]["pdo"]["load_position"] = 51;  // 4 bytes past the 54
   EXPECT_NE(refused(j).find("subdevices[2].pdo.load_position"), std::string::npos);
   j = default_json();
   j["subdevices"][safestate::ecat::kPosFirstDrive]["pdo"]["load_positon"] = 12;  // a typo is not ignored
@@ -421,4 +423,142 @@ TEST(BusConfig, K2AndTheLoadSideEncoders) {
   j = default_json();
   j["subdevices"][1]["bits"]["contactor_k2"] = 0;  // K1's bit
   EXPECT_NE(refused(j).find("used twice"), std::string::npos);
+}
+
+// Issue 37: the black channel's connections of the built-in bus, as the backend hands them to
+// the channels (LinkTable: bus order, within a subdevice the listed order), and every mistake
+// of a "safety_links" entry refused with the subdevice and the field named.
+TEST(BusConfig, SafetyLinksOfTheDefaultBus) {
+  namespace hal = safestate::hal;
+  namespace sl = safestate::safelink;
+  BusConfig c;
+  std::string err;
+  ASSERT_TRUE(parse_bus_config(default_bus_config(), c, err)) << err;
+  ASSERT_EQ(c.links.count, 16U);
+  for (std::size_t a = 0; a < 6; ++a) {  // the drives first (positions 3..8), A then B
+    for (std::size_t k = 0; k < 2; ++k) {
+      const hal::LinkSpec& l = c.links.link[2 * a + k];
+      EXPECT_EQ(l.id, (k == 0 ? 0xA011U : 0xB011U) + a) << a;
+      EXPECT_EQ(l.channel, k == 0 ? 'A' : 'B');
+      EXPECT_EQ(l.role, hal::LinkRole::load_encoder);
+      EXPECT_EQ(l.axis, a + 1U);
+      EXPECT_EQ(l.host_data_bytes, 0U);
+      EXPECT_EQ(l.device_data_bytes, 4U);
+      EXPECT_EQ(l.watchdog_ms, 10U);
+      EXPECT_EQ(l.vendor_id, safestate::ecat::kVendorId);
+      EXPECT_EQ(l.product_code, safestate::ecat::kProductDrive);
+      EXPECT_EQ(l.position, a + 3U);
+      EXPECT_EQ(l.counts_per_revolution, 1048576U);
+    }
+    // the containers behind the CiA 402 objects, as the emulated drive's PDOs place them
+    const Subdevice& d = c.subdevices[safestate::ecat::kPosFirstDrive + a];
+    const auto seg = safestate::ecat::default_segment();
+    const auto& e = seg[safestate::ecat::kPosFirstDrive + a];
+    EXPECT_EQ(d.links[0].out_offset, safestate::ecat::container_offset(e.rx, safestate::ecat::kObjToDeviceA));
+    EXPECT_EQ(d.links[1].out_offset, safestate::ecat::container_offset(e.rx, safestate::ecat::kObjToDeviceB));
+    EXPECT_EQ(d.links[0].in_offset, safestate::ecat::container_offset(e.tx, safestate::ecat::kObjToHostA));
+    EXPECT_EQ(d.links[1].in_offset, safestate::ecat::container_offset(e.tx, safestate::ecat::kObjToHostB));
+  }
+  const struct {
+    std::uint16_t id;
+    hal::LinkRole role;
+    std::uint8_t host, device;
+    std::uint32_t product;
+    std::uint16_t position;
+  } safe[] = {{0xA001, hal::LinkRole::safe_inputs, 0, 4, 0x00D1F001, 10},
+              {0xB001, hal::LinkRole::safe_inputs, 0, 4, 0x00D1F001, 10},
+              {0xA002, hal::LinkRole::safe_outputs, 1, 1, 0x00D0F001, 11},
+              {0xB002, hal::LinkRole::safe_outputs, 1, 1, 0x00D0F001, 11}};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const hal::LinkSpec& l = c.links.link[12 + i];
+    EXPECT_EQ(l.id, safe[i].id) << i;
+    EXPECT_EQ(l.role, safe[i].role) << i;
+    EXPECT_EQ(l.host_data_bytes, safe[i].host) << i;
+    EXPECT_EQ(l.device_data_bytes, safe[i].device) << i;
+    EXPECT_EQ(l.product_code, safe[i].product) << i;
+    EXPECT_EQ(l.position, safe[i].position) << i;
+    EXPECT_EQ(l.axis, 0U) << i;
+  }
+  // The wire contract's sizes (CRC-64): 15, 16 and 19 bytes, channel B's behind channel A's.
+  EXPECT_EQ(sl::container_bytes(0), 15U);
+  EXPECT_EQ(sl::container_bytes(1), 16U);
+  EXPECT_EQ(sl::container_bytes(4), 19U);
+  EXPECT_EQ(c.subdevices[9].in_bytes, 2U * sl::container_bytes(4));
+  EXPECT_EQ(c.subdevices[9].out_bytes, 2U * sl::container_bytes(0));
+  EXPECT_EQ(c.subdevices[10].in_bytes, 2U * sl::container_bytes(1));
+  EXPECT_EQ(c.subdevices[10].out_bytes, 2U * sl::container_bytes(1));
+  // Watchdog against the cycle: 10 ms is 2 cycles or more up to a 5 ms cycle.
+  EXPECT_TRUE(links_fit_cycle(c, 1000, err)) << err;
+  EXPECT_TRUE(links_fit_cycle(c, 5000, err)) << err;
+  EXPECT_FALSE(links_fit_cycle(c, 5001, err));
+  EXPECT_NE(err.find("safety link 0xA011: watchdog_ms 10 is shorter than 2 cycles of 5001 us"), std::string::npos) << err;
+
+  // Without any: the bus of before (--no-safe-terminals), no connections.
+  Json j = default_json();
+  j["subdevices"].erase(10);
+  j["subdevices"].erase(9);
+  for (std::size_t a = 0; a < 6; ++a) {
+    j["subdevices"][safestate::ecat::kPosFirstDrive + a].erase("safety_links");
+    j["subdevices"][safestate::ecat::kPosFirstDrive + a]["in_bytes"] = 16;
+    j["subdevices"][safestate::ecat::kPosFirstDrive + a]["out_bytes"] = 8;
+  }
+  ASSERT_TRUE(parse_bus_config(j.dump(), c, err)) << err;
+  EXPECT_EQ(c.links.count, 0U);
+}
+
+TEST(BusConfig, SafetyLinkMistakesAreNamed) {
+  const auto with = [](std::size_t sub, const std::function<void(Json&)>& change) {
+    Json k = default_json();
+    change(k["subdevices"][sub]);
+    return k;
+  };
+  const auto has = [](const Json& j, const std::string& part) {
+    const std::string e = refused(j);
+    EXPECT_NE(e.find(part), std::string::npos) << "'" << part << "' not in: " << e;
+  };
+  const std::string fdi = "subdevices[9] (F-DI safety contacts).safety_links";
+  const std::string fdo = "subdevices[10] (F-DO contactors brake relays).safety_links";
+  has(with(9, [](Json& d) { d["safety_links"][0]["id"] = "0x0"; }), fdi + "[0].id: expected a non-zero 16-bit");
+  has(with(9, [](Json& d) { d["safety_links"][0]["id"] = "0x1A001"; }), fdi + "[0].id: expected a non-zero 16-bit");
+  has(with(9, [](Json& d) { d["safety_links"][0]["id"] = "A001"; }), fdi + "[0].id: expected a 32-bit number");
+  has(with(9, [](Json& d) { d["safety_links"][0].erase("id"); }), fdi + "[0].id: missing");
+  has(with(10, [](Json& d) { d["safety_links"][0]["id"] = "0xA001"; }),
+      "subdevices[10] (F-DO contactors brake relays).safety_links[0].id: connection 0xA001 is used twice");
+  has(with(9, [](Json& d) { d["safety_links"][0]["channel"] = "C"; }), fdi + "[0].channel: expected \"A\" or \"B\"");
+  has(with(9, [](Json& d) { d["safety_links"][1]["channel"] = "A"; }),
+      fdi + "[1].channel: channel A has a connection to this subdevice already");
+  has(with(9, [](Json& d) { d["safety_links"][1]["out_offset"] = 16; }),
+      fdi + "[1].out_offset: the channel's container (15 bytes) must lie inside the 30 output bytes");
+  has(with(9, [](Json& d) { d["safety_links"][1]["in_offset"] = 20; }),
+      fdi + "[1].in_offset: the device's container (19 bytes) must lie inside the 38 input bytes");
+  has(with(10, [](Json& d) { d["safety_links"][1]["out_offset"] = 8; }), fdo + "[1]: its container overlaps");
+  has(with(10, [](Json& d) { d["safety_links"][1]["in_offset"] = 15; }), fdo + "[1]: its container overlaps");
+  has(with(10, [](Json& d) { d["safety_links"][0]["watchdog_ms"] = 0; }), fdo + "[0].watchdog_ms: expected an integer 1..60000");
+  has(with(10, [](Json& d) { d["safety_links"][0]["watchdog_ms"] = 60001; }),
+      fdo + "[0].watchdog_ms: expected an integer 1..60000");
+  has(with(10, [](Json& d) { d["safety_links"][0]["watchdog"] = 10; }), fdo + "[0].watchdog: unknown key");
+  has(with(10, [](Json& d) { d.erase("safety_links"); }), fdo + ": missing");
+  has(with(10, [](Json& d) { d["safety_links"] = Json::array(); }), fdo + ": expected a list of one or two");
+  has(with(10, [](Json& d) { d["bits"] = {{"contactor", 0}}; }), "subdevices[10].bits: a safe terminal has no bits");
+  has(with(9, [](Json& d) { d["role"] = "safe_input"; }), "subdevices[9].role: expected safety_inputs");
+  // The F-DI's containers sized as the F-DO's role says: 16 bytes do not fit at 15 of 30.
+  has(with(9, [](Json& d) { d["role"] = "safe_outputs"; }), "subdevices[9] (F-DI safety contacts).safety_links[1]");
+  has(with(0, [](Json& d) { d["safety_links"] = {{{"id", "0xA0FF"}, {"channel", "A"}, {"out_offset", 0}, {"in_offset", 0}, {"watchdog_ms", 10}}}; }),
+      "subdevices[0] (DI safety contacts).safety_links: only the safe_inputs, safe_outputs and drive subdevices");
+  // a second safe terminal of a kind
+  Json j = default_json();
+  Json second = j["subdevices"][9];
+  second["safety_links"][0]["id"] = "0xA0F1";
+  second["safety_links"][1]["id"] = "0xB0F1";
+  j["subdevices"].push_back(second);
+  has(j, "subdevices[11] (F-DI safety contacts).role: a second safe_inputs subdevice (at most one)");
+  // the drives' containers: all or none, and only with the load-side encoder
+  has(with(4, [](Json& d) { d.erase("safety_links"); }),
+      "drive axis 3 (drive axis 3) has no safety_links while 5 drive(s) have some");
+  has(with(4, [](Json& d) { d["pdo"].erase("load_position"); }),
+      "subdevices[4] (drive axis 3).safety_links: a drive's containers carry its load-side encoder");
+  has(with(4, [](Json& d) { d["safety_links"][0]["in_offset"] = 10; }),
+      "subdevices[4] (drive axis 3).safety_links[0]: its container overlaps pdo.torque_actual");
+  has(with(4, [](Json& d) { d["safety_links"][1]["out_offset"] = 0; }),
+      "subdevices[4] (drive axis 3).safety_links[1]: its container overlaps pdo.controlword");
 }

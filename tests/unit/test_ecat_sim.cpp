@@ -244,14 +244,14 @@ constexpr std::size_t kOutBytes = kDoBytes + 6 * kDriveRxBytes;
 }  // namespace
 
 TEST(EcatSegment, BroadcastReadCountsEverySubdevice) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
   EXPECT_EQ(r[0].wkc, 9);
   EXPECT_EQ(r[0].adp, 9);  // every subdevice increments the position field
 }
 
 TEST(EcatSegment, AutoIncrementAddressesOnePositionOnly) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   auto r = exchange(seg, {{Cmd::APWR, static_cast<std::uint16_t>(0U - 3U), reg::station_addr, le16(0x0777)}});
   EXPECT_EQ(r[0].wkc, 1);
   EXPECT_EQ(seg.esc(3).station_address(), 0x0777);
@@ -261,7 +261,7 @@ TEST(EcatSegment, AutoIncrementAddressesOnePositionOnly) {
 }
 
 TEST(EcatSegment, ReadOnlyRegistersIgnoreWrites) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   exchange(seg, {{Cmd::FPWR, 0x1001, reg::al_status, le16(8)}});
   EXPECT_EQ(al_status(seg, 0x1001), 1);  // still INIT
@@ -271,7 +271,7 @@ TEST(EcatSegment, ReadOnlyRegistersIgnoreWrites) {
 }
 
 TEST(EcatSegment, SiiCarriesTheIdentity) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   EXPECT_EQ(sii_u32(seg, 0x1001, 0x08), kVendorId);
   EXPECT_EQ(sii_u32(seg, 0x1001, 0x0A), kProductDigitalIn);
@@ -282,7 +282,7 @@ TEST(EcatSegment, SiiCarriesTheIdentity) {
 }
 
 TEST(EcatSegment, SiiCategoriesDescribeThePdos) {
-  const std::vector<std::uint16_t> w = build_sii(default_segment()[kPosFirstDrive]);
+  const std::vector<std::uint16_t> w = build_sii(default_segment(false)[kPosFirstDrive]);
   std::size_t o = 0x40;
   std::size_t tx_bits = 0;
   std::size_t rx_bits = 0;
@@ -303,7 +303,7 @@ TEST(EcatSegment, SiiCategoriesDescribeThePdos) {
 }
 
 TEST(EcatAl, WalksInitPreopSafeopOp) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   bring_to_op(seg);
   for (std::uint16_t st = 0x1001; st <= 0x1008; ++st) {
     EXPECT_EQ(al_status(seg, st), 8) << "station " << st;
@@ -311,7 +311,7 @@ TEST(EcatAl, WalksInitPreopSafeopOp) {
 }
 
 TEST(EcatAl, RefusesToSkipAState) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   request(seg, 0x1003, 8);
   EXPECT_EQ(al_status(seg, 0x1003), 0x11);  // INIT with the error flag
@@ -325,7 +325,7 @@ TEST(EcatAl, RefusesToSkipAState) {
 }
 
 TEST(EcatAl, SafeopNeedsTheSyncManagersOfTheSii) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   drive_in_preop(seg, 0x1003);
   ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
   request(seg, 0x1003, 4);
@@ -340,7 +340,7 @@ TEST(EcatAl, SafeopNeedsTheSyncManagersOfTheSii) {
 }
 
 TEST(EcatAl, UnknownAndBootStatesAreRefused) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   request(seg, 0x1001, 5);
   EXPECT_EQ(seg.esc(0).al_status_code(), al_code::unknown_state);
@@ -349,7 +349,7 @@ TEST(EcatAl, UnknownAndBootStatesAreRefused) {
 }
 
 TEST(EcatProcessData, LogicalReadWriteCountsAndCarriesTheImage) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   bring_to_op(seg);
   std::vector<std::uint8_t> out(kOutBytes, 0);
@@ -366,7 +366,7 @@ TEST(EcatProcessData, LogicalReadWriteCountsAndCarriesTheImage) {
 }
 
 TEST(EcatProcessData, LrwOnOverlappingAreasGivesThreePerSubdeviceWithBoth) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
   // A drive with inputs and outputs at the same logical address (as kickcat maps them).
@@ -377,7 +377,7 @@ TEST(EcatProcessData, LrwOnOverlappingAreasGivesThreePerSubdeviceWithBoth) {
 }
 
 TEST(EcatProcessData, InputsFollowThePlantAndEstopOnOneChannel) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   ASSERT_EQ(control_line(cell, "in estop.b=0"), "OK");
   auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
@@ -386,7 +386,7 @@ TEST(EcatProcessData, InputsFollowThePlantAndEstopOnOneChannel) {
 }
 
 TEST(EcatProcessData, ReducedInputChannelsAreBits18And19) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   const auto di = [&] {
     auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
@@ -407,7 +407,7 @@ TEST(EcatProcessData, ReducedInputChannelsAreBits18And19) {
 
 // @req COL-FIELDS
 TEST(EcatProcessData, ProtectiveFieldChannelsAreBits20To23) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   const auto di = [&] {
     auto r = exchange(cell.segment(), {{Cmd::LRW, 0x0000, 0x0001, std::vector<std::uint8_t>(kInBytes)},
@@ -437,7 +437,7 @@ void exchange_contactor(EmulatedCell& cell, bool contactor, std::uint64_t t) {
 }
 
 TEST(EcatReaction, FromTheExchangeCarryingTheContactToTheFirstClearedContactorBit) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   exchange_contactor(cell, true, 1'000'000);
   exchange_contactor(cell, true, 2'000'000);
@@ -473,7 +473,7 @@ TEST(EcatReaction, FromTheExchangeCarryingTheContactToTheFirstClearedContactorBi
 // Issue 21 item 4: the response-time measurement is fed by every process-data exchange
 // (sim/ecat/src/wire_timing.cpp; its logic in test_ecat_wire_timing.cpp).
 TEST(EcatWireTiming, EveryExchangeFeedsTheMeasurementArmedOnTheControlSocket) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   for (std::uint64_t t = 1; t <= 20; ++t) {  // exchanges 0..19: the contactor closes (10 ms pick-up)
     exchange_contactor(cell, true, t * 1'000'000);
@@ -504,7 +504,7 @@ TEST(EcatWireTiming, EveryExchangeFeedsTheMeasurementArmedOnTheControlSocket) {
 // encoder (0x60E4:01, bytes 12..15) beside the motor encoder (0x6064, bytes 2..5).
 // @req CH-CONTACTORS CH-ENCODERS
 TEST(EcatProcessData, K2AndTheLoadSideEncoderCrossTheWire) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   const auto write = [&cell](bool k1, bool k2, std::uint64_t t) {
     std::vector<std::uint8_t> out(kOutBytes, 0);
@@ -572,7 +572,7 @@ TEST(EcatProcessData, K2AndTheLoadSideEncoderCrossTheWire) {
 }
 
 TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   exchange(cell.segment(), {{Cmd::BWR, 0, reg::al_control, le16(4)}});  // back to SAFEOP
   std::vector<std::uint8_t> out(kOutBytes, 0xFF);
@@ -582,7 +582,7 @@ TEST(EcatProcessData, OutputsAreSafeOutsideOp) {
 }
 
 TEST(EcatWatchdog, SilenceLongerThanTheWatchdogDropsToSafeop) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   std::vector<std::uint8_t> out(kOutBytes, 0);
   out[0] = 0x01;
@@ -597,7 +597,7 @@ TEST(EcatWatchdog, SilenceLongerThanTheWatchdogDropsToSafeop) {
 }
 
 TEST(EcatWire, CutBeforeADriveHidesItAndEverythingBehind) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   seg.cut_before(5);
   auto r = exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}});
   EXPECT_EQ(r[0].wkc, 4);
@@ -608,7 +608,7 @@ TEST(EcatWire, CutBeforeADriveHidesItAndEverythingBehind) {
 }
 
 TEST(EcatWire, DroppedAndCorruptedFrames) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   seg.drop_frames(2);
   bool answered = true;
   exchange(seg, {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
@@ -624,7 +624,7 @@ TEST(EcatWire, DroppedAndCorruptedFrames) {
 }
 
 TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bool answered = true;
   ASSERT_EQ(control_line(cell, "fault fieldbus lost"), "OK");
   exchange(cell.segment(), {{Cmd::BRD, 0, reg::type, std::vector<std::uint8_t>(1)}}, 0, &answered);
@@ -636,7 +636,7 @@ TEST(EcatWire, FieldbusLostSilencesTheWireUntilClearAll) {
 }
 
 TEST(EcatWire, ASubdeviceIgnoringProcessDataStaysInOpWithAShortWorkingCounter) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   bring_to_op(seg);
   ASSERT_EQ(control_line(cell, "fault no-pd 8"), "OK");  // drive 6
@@ -656,7 +656,7 @@ TEST(EcatWire, ASubdeviceIgnoringProcessDataStaysInOpWithAShortWorkingCounter) {
 }
 
 TEST(EcatWire, NotEtherCatOrTruncatedIsNotAnswered) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   std::vector<std::uint8_t> ip(60, 0);
   ip[12] = 0x08;
   EXPECT_FALSE(seg.process(ip, 0));
@@ -670,7 +670,7 @@ TEST(EcatWire, NotEtherCatOrTruncatedIsNotAnswered) {
 }
 
 TEST(EcatControl, ValidatesEveryLine) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   EXPECT_EQ(control_line(cell, "in gate=open"), "OK");
   EXPECT_FALSE(cell.inputs().gate_a);
   EXPECT_EQ(control_line(cell, R"({"type":"sim","set":{"gate":"closed","estop.a":0}})"), "OK");
@@ -701,7 +701,7 @@ TEST(EcatControl, ValidatesEveryLine) {
 // terminal lets go of the contactor and the drives of their enable within that time, and
 // the plant sees it then, not after 20 silent cycles; the emulator reports the figure.
 TEST(EcatWatchdog, TheWatchdogTheMasterWroteDropsContactorAndEnableInItsTime) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   exchange(cell.segment(), {{Cmd::BWR, 0, 0x0400, le16(2498)}, {Cmd::BWR, 0, 0x0420, le16(100)}});
   EXPECT_EQ(cell.segment().esc(kPosDigitalOut).watchdog_ns(), 10'000'000U);
@@ -743,7 +743,7 @@ TEST(EcatWatchdog, TheWatchdogTheMasterWroteDropsContactorAndEnableInItsTime) {
 }
 
 TEST(EcatWire, OneFrameInNIsProcessedButItsAnswerLost) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   ASSERT_EQ(control_line(cell, "fault lose-every 3"), "OK");
   const std::uint64_t before = cell.cycles();
@@ -767,7 +767,7 @@ TEST(EcatWire, OneFrameInNIsProcessedButItsAnswerLost) {
 // axis under test, each drive's 0x6072 max torque) reach the plant, and 0x6077 torque actual
 // comes back in the drives' TxPDO (bytes 10..11, signed, per mille of rated torque).
 TEST(EcatProcessData, BrakeTestObjectsCrossTheWire) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   bring_to_op(cell.segment());
   std::vector<std::uint8_t> out(kOutBytes, 0);
   out[0] = static_cast<std::uint8_t>(1U << static_cast<unsigned>(DoBit::brake_hold3));
@@ -806,7 +806,7 @@ TEST(EcatProcessData, BrakeTestObjectsCrossTheWire) {
 // line) carries what `in separation_mm=` / `separation_valid=` set, INT32 mm and a valid bit;
 // SPEC §10: the DO terminal's reduced_active bit reaches the plant's view of the outputs.
 TEST(EcatProcessData, DistanceSensorAndReducedActiveCrossTheWire) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   bring_to_op(seg);
   const auto st = static_cast<std::uint16_t>(0x1001 + kPosDistance);
@@ -874,7 +874,7 @@ TEST(EcatProcessData, DistanceSensorAndReducedActiveCrossTheWire) {
 // sensor's reading show it while it is in the cell, over what `in` lines set.
 // @req COL-SIM-PERSON
 TEST(EcatControl, TheSimulatedPersonFeedsTheScannerAndTheDistanceSensor) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   ASSERT_EQ(control_line(cell, "in separation_mm=300"), "OK");
   for (const char* bad : {"person walk 0 0 1000", "person stand", "person leave", "person at 1 2 3",
                           "person at 50000 0", "person dance", "config person_fields=300,400",
@@ -908,7 +908,7 @@ TEST(EcatControl, TheSimulatedPersonFeedsTheScannerAndTheDistanceSensor) {
 
 // A segment built without the sensor refuses a separation rather than drop it.
 TEST(EcatControl, ASegmentWithoutTheDistanceSensorRefusesASeparation) {
-  std::vector<SubdeviceDesc> devs = default_segment();
+  std::vector<SubdeviceDesc> devs = default_segment(false);
   devs.pop_back();
   EmulatedCell cell(1000, devs);
   EXPECT_NE(control_line(cell, "in separation_mm=800").find("no distance sensor"), std::string::npos);
@@ -917,19 +917,19 @@ TEST(EcatControl, ASegmentWithoutTheDistanceSensorRefusesASeparation) {
 
 // Issue 22 item 4: the drives' CoE mailbox and object dictionary.
 TEST(EcatCoe, SiiOffersTheMailboxOnTheDrivesOnly) {
-  const std::vector<std::uint16_t> drive = build_sii(default_segment()[kPosFirstDrive]);
+  const std::vector<std::uint16_t> drive = build_sii(default_segment(false)[kPosFirstDrive]);
   EXPECT_EQ(drive[0x18], kMailboxOut);
   EXPECT_EQ(drive[0x19], kMailboxBytes);
   EXPECT_EQ(drive[0x1A], kMailboxIn);
   EXPECT_EQ(drive[0x1B], kMailboxBytes);
   EXPECT_EQ(drive[0x1C], 0x0004);  // CoE
-  const std::vector<std::uint16_t> di = build_sii(default_segment()[kPosDigitalIn]);
+  const std::vector<std::uint16_t> di = build_sii(default_segment(false)[kPosDigitalIn]);
   EXPECT_EQ(di[0x1C], 0);  // the I/O terminals have no mailbox, as simple real ones
   EXPECT_EQ(di[0x19], 0);
 }
 
 TEST(EcatCoe, PreopNeedsTheMailboxSyncManagers) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   request(seg, 0x1004, 2);
   EXPECT_EQ(al_status(seg, 0x1004), 0x11);
@@ -942,7 +942,7 @@ TEST(EcatCoe, PreopNeedsTheMailboxSyncManagers) {
 }
 
 TEST(EcatCoe, UploadsTheIdentityExpeditedAndTheNameNormal) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   drive_in_preop(seg, 0x1005);
   EXPECT_EQ(sdo_value(seg, 0x1005, 0x1000, 0), 0x00020192);  // CiA 402 servo drive
   EXPECT_EQ(sdo_value(seg, 0x1005, 0x1018, 0), 4);
@@ -966,7 +966,7 @@ TEST(EcatCoe, UploadsTheIdentityExpeditedAndTheNameNormal) {
 }
 
 TEST(EcatCoe, DownloadsExpeditedAndNormalAndReadsThemBack) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   drive_in_preop(seg, 0x1003);
   EXPECT_EQ(sdo_value(seg, 0x1003, 0x6060, 0), 0);  // no mode at power-on
   ASSERT_EQ(sdo_write(seg, 0x1003, 0x6060, 0, {8}), 0U);
@@ -987,7 +987,7 @@ TEST(EcatCoe, DownloadsExpeditedAndNormalAndReadsThemBack) {
 }
 
 TEST(EcatCoe, AnswersEveryRefusalWithItsAbortCode) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   drive_in_preop(seg, 0x1003);
   std::vector<std::uint8_t> v;
@@ -1031,7 +1031,7 @@ TEST(EcatCoe, AnswersEveryRefusalWithItsAbortCode) {
 }
 
 TEST(EcatCoe, MailboxFullBitsAndWorkingCountersAsAnEscShowsThem) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   drive_in_preop(seg, 0x1003);
   const auto status = [&](std::uint16_t sm) {
     return exchange(seg, {{Cmd::FPRD, 0x1003, static_cast<std::uint16_t>(reg::sm + sm * 8 + 5), {0}}})[0].data[0];
@@ -1059,7 +1059,7 @@ TEST(EcatCoe, MailboxFullBitsAndWorkingCountersAsAnEscShowsThem) {
 }
 
 TEST(EcatCoe, SafeopNeedsCspAndTheInterpolationPeriodOfTheCycle) {
-  EmulatedCell cell(2000);  // a 2 ms drive: 0x60C2 = 2 x 10^-3 s at power-on
+  EmulatedCell cell(2000, default_segment(false));  // a 2 ms drive: 0x60C2 = 2 x 10^-3 s at power-on
   Segment& seg = cell.segment();
   drive_in_preop(seg, 0x1003);
   map(seg, 0x1003, 2, 0x1100, kDriveRxBytes, 0x64, 0, 0x20000, 2);
@@ -1079,7 +1079,7 @@ TEST(EcatCoe, SafeopNeedsCspAndTheInterpolationPeriodOfTheCycle) {
 }
 
 TEST(EcatCoe, ARefusalFaultAndTheStatusOfTheDictionary) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   drive_in_preop(seg, 0x1005);
   ASSERT_EQ(control_line(cell, "fault sdo-refuse 5 0x6072:0 0x08000020"), "OK");
@@ -1114,9 +1114,9 @@ namespace {
 // and the delay from the port receive times, then reset the control loops (0x0930).
 void dc_init(Segment& seg, std::uint64_t t, std::uint64_t master_ns) {
   ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 9);
-  constexpr std::uint16_t kLast = kSubdevices - 1U;
-  std::vector<std::uint32_t> loop(kSubdevices);
-  for (std::uint16_t p = 0; p < kSubdevices; ++p) {
+  constexpr std::uint16_t kLast = kPlainSubdevices - 1U;
+  std::vector<std::uint32_t> loop(kPlainSubdevices);
+  for (std::uint16_t p = 0; p < kPlainSubdevices; ++p) {
     const auto st = static_cast<std::uint16_t>(0x1001 + p);
     const std::uint64_t recv = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
     const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
@@ -1124,7 +1124,7 @@ void dc_init(Segment& seg, std::uint64_t t, std::uint64_t master_ns) {
     exchange(seg, {{Cmd::FPWR, st, reg::dc_offset, le_n(master_ns - recv, 8)}}, t);
   }
   std::uint32_t delay = 0;
-  for (std::uint16_t p = 1; p < kSubdevices; ++p) {
+  for (std::uint16_t p = 1; p < kPlainSubdevices; ++p) {
     delay += (loop[p - 1] - loop[p]) / 2;
     exchange(seg, {{Cmd::FPWR, static_cast<std::uint16_t>(0x1001 + p), reg::dc_delay, le_n(delay, 4)}}, t);
   }
@@ -1139,14 +1139,14 @@ std::uint16_t frmw(Segment& seg, std::uint64_t t) {
 }  // namespace
 
 TEST(EcatDc, EveryEscHasA64BitDcUnitAndLatchesItsPortTimes) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   const auto f = exchange(seg, {{Cmd::FPRD, 0x1005, reg::features, std::vector<std::uint8_t>(2)}})[0].data;
   EXPECT_EQ(u16(f) & 0x010C, 0x010C);  // DC, 64 bit, enhanced SYNC activation
   const std::uint64_t t = 50000000;
   ASSERT_EQ(exchange(seg, {{Cmd::BWR, 0, reg::dc_recv_port0, std::vector<std::uint8_t>(4)}}, t)[0].wkc, 9);
-  constexpr std::uint16_t kLast = kSubdevices - 1U;
-  for (std::uint16_t p = 0; p < kSubdevices; ++p) {
+  constexpr std::uint16_t kLast = kPlainSubdevices - 1U;
+  for (std::uint16_t p = 0; p < kPlainSubdevices; ++p) {
     const auto st = static_cast<std::uint16_t>(0x1001 + p);
     const auto ports = exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_port0, std::vector<std::uint8_t>(16)}}, t)[0].data;
     const std::uint64_t pu = le_u64(exchange(seg, {{Cmd::FPRD, st, reg::dc_recv_pu, std::vector<std::uint8_t>(8)}}, t)[0].data);
@@ -1163,7 +1163,7 @@ TEST(EcatDc, EveryEscHasA64BitDcUnitAndLatchesItsPortTimes) {
 }
 
 TEST(EcatDc, TheClocksDriftApartAndTheFrmwEveryCycleKeepsThemInStep) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   std::uint64_t t = 100000000;
   dc_init(seg, t, 800000000000000000ULL);
@@ -1203,7 +1203,7 @@ TEST(EcatDc, TheClocksDriftApartAndTheFrmwEveryCycleKeepsThemInStep) {
 }
 
 TEST(EcatDc, ADriveRefusesOpWithoutSync0WithTheStandardAlCode) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   address_all(seg);
   for (std::uint16_t a = 0; a < 6; ++a) {
@@ -1256,7 +1256,7 @@ TEST(EcatDc, ADriveRefusesOpWithoutSync0WithTheStandardAlCode) {
 }
 
 TEST(EcatDc, SetPointsAreTakenBySync0AndLateOrDoubleFramesAreCounted) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   bring_to_op(seg);  // SYNC0 1 ms, started ~1.6 us after t = 0 on the drives' clocks
   const std::uint64_t start = le_u64(exchange(seg, {{Cmd::FPRD, 0x1003, reg::dc_start_time, std::vector<std::uint8_t>(8)}})[0].data);
@@ -1284,7 +1284,7 @@ TEST(EcatDc, SetPointsAreTakenBySync0AndLateOrDoubleFramesAreCounted) {
 }
 
 TEST(EcatDc, TheControlChannelReportsSyncErrorsAndResetsTheFigures) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   Segment& seg = cell.segment();
   bring_to_op(seg);
   std::vector<std::uint8_t> out(kOutBytes, 0);
@@ -1395,7 +1395,7 @@ class PacingRig {
     const std::uint8_t* p = &in[kDiBytes + axis * kDriveTxBytes];
     return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
   }
-  EmulatedCell cell{1000};
+  EmulatedCell cell{1000, default_segment(false)};
 
  private:
   std::uint64_t pulse0_ = 0;
@@ -1612,7 +1612,7 @@ TEST(EcatPacing, TheControlChannelSetsThePacingAndReportsIt) {
 // not before (the OP request itself is answered), and `freeze` lines are validated;
 // `fault clear all` takes a freeze back.
 TEST(EcatControl, FreezeAtOpStartsAtTheFirstProcessDataExchangeInOpAndIsValidated) {
-  EmulatedCell cell(1000);
+  EmulatedCell cell(1000, default_segment(false));
   for (const char* bad : {"freeze", "freeze 0", "freeze 1001", "freeze 15 later", "freeze 15 at-op now", "freeze x",
                           "freezes 15"}) {
     EXPECT_EQ(control_line(cell, bad).rfind("ERROR", 0), 0U) << bad;
@@ -1652,7 +1652,7 @@ TEST(EcatControl, FreezeAtOpStartsAtTheFirstProcessDataExchangeInOpAndIsValidate
 // last one every clock is back within 1 us of the reference within 1 s, and stays there.
 TEST(EcatDc, GapsBetweenTheInputsDoNotWindTheLoopsUp) {
   for (const std::uint64_t startup_gap_ms : {20ULL, 60ULL, 150ULL, 400ULL}) {
-    Segment seg(default_segment());
+    Segment seg(default_segment(false));
     address_all(seg);
     std::uint64_t t = 100000000;
     dc_init(seg, t, 800000000000000000ULL);
@@ -1693,7 +1693,7 @@ TEST(EcatDc, GapsBetweenTheInputsDoNotWindTheLoopsUp) {
 // from differences that large, and the clock fell behind at its own drift for ever: -123 us
 // after 2.5 s here; ecat_dc's drive at -122 us 3 s after the start (issue 40).
 TEST(EcatDc, OneBadInputAfterAPauseDoesNotPinTheRateCorrection) {
-  Segment seg(default_segment());
+  Segment seg(default_segment(false));
   address_all(seg);
   std::uint64_t t = 100000000;
   dc_init(seg, t, 800000000000000000ULL);

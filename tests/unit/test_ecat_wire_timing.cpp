@@ -239,7 +239,7 @@ TEST(EcatWireTiming, TiltAndTcpAreJudgedWithTheArmsKinematics) {
 }
 
 TEST(EcatWireTiming, TheControlLineIsValidatedAndABadOneChangesNothing) {
-  EmulatedCell cell(kCycleUs);
+  EmulatedCell cell(kCycleUs, safestate::ecat::default_segment(false));
   const auto armed = [&cell] { return nlohmann::json::parse(control_line(cell, "status"))["wire_timing"]["armed"]; };
   EXPECT_EQ(armed(), false);
   for (const char* bad : {"time", "time cat3 from=input", "time cat1", "time cat1 from=gate", "time cat1 from=input x",
@@ -362,7 +362,7 @@ TEST(EcatWireTiming, TheSeparationBelowAThresholdStartsTheCount) {
   v.go();
   EXPECT_TRUE(v.t.start().seen);
 
-  EmulatedCell cell(kCycleUs);
+  EmulatedCell cell(kCycleUs, safestate::ecat::default_segment(false));
   for (const char* bad : {"time cat2 from=separation<0", "time cat2 from=separation<x", "time cat2 from=separation>5",
                           "time reduced from=separation<", "time reducedx from=input"}) {
     EXPECT_EQ(control_line(cell, bad).rfind("ERROR", 0), 0U) << bad;

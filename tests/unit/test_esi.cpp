@@ -17,7 +17,8 @@ using safestate::ecat::SubdeviceDesc;
 
 namespace {
 
-const std::vector<std::string> kBusOrder = {"0x00D10018", "0x00D00003", "0x00402001*6", "0x00D15001"};
+const std::vector<std::string> kBusOrder = {"0x00D10018", "0x00D00003", "0x00402001*6", "0x00D15001", "0x00D1F001",
+                                            "0x00D0F001"};
 constexpr std::uint32_t kCounts = 1048576;  // the emulated drives' 2^20 increments per revolution
 
 std::string builtin() { return esi::builtin_esi(); }
@@ -198,7 +199,7 @@ TEST(EsiEmulated, ReadsIdentityProfileMailboxAndDc) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(builtin(), "emu.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   const esi::Device& drive = lib[2];
   EXPECT_EQ(drive.vendor_id, 0x00005AFEU);
   EXPECT_EQ(drive.product_code, 0x00402001U);
@@ -319,7 +320,7 @@ TEST(EsiEmulated, InitCmdsOfIpComeBeforePs) {
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "ip.xml", lib, err, warnings)) << err;
   EXPECT_TRUE(warnings.empty());
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   ASSERT_EQ(lib[2].startup.size(), 4U);
   EXPECT_EQ(lib[2].startup[0].index, 0x6072U);
   EXPECT_EQ(lib[2].startup[1].index, 0x6060U);
@@ -336,7 +337,7 @@ TEST(EsiWarn, InitCmdOfAnotherTransitionIsSkipped) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "w.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   EXPECT_EQ(lib[2].startup.size(), 3U);
   EXPECT_TRUE(lib[0].warnings.empty());
   ASSERT_EQ(lib[2].warnings.size(), 1U);
@@ -365,7 +366,7 @@ TEST(EsiBad, OneBadDeviceOnlyRefusedWhenUsed) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "lib.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   EXPECT_TRUE(lib[0].error.empty());
   EXPECT_TRUE(lib[2].error.empty());
   expect_has(lib[1].error, "lib.xml:" + std::to_string(line_of(text, "STRING(1)")) +
@@ -499,7 +500,7 @@ TEST(EsiEmulated, Latin1FilesAndStrayBytes) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(text, "latin1.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   EXPECT_EQ(lib[0].name, "DI24 24 V \xC2\xB1 10 %");
   EXPECT_EQ(lib[2].line, line_of(text, "<Device Physics=\"YY\">\n        <Type ProductCode=\"#x00402001\""));
 
@@ -523,7 +524,7 @@ TEST(EsiEmulated, VendorForms) {
   std::vector<std::string> warnings;
   std::string err;
   ASSERT_TRUE(esi::parse_esi(negative, "v.xml", lib, err, warnings)) << err;
-  ASSERT_EQ(lib.size(), 4U);
+  ASSERT_EQ(lib.size(), 6U);
   EXPECT_TRUE(lib[2].error.empty()) << lib[2].error;
   EXPECT_EQ(lib[2].startup.size(), 4U);
   EXPECT_EQ(lib[2].shift_sync0_ns, 0U);

@@ -15,6 +15,7 @@
 #include "safestate/hal/ecat_master.hpp"
 #include "safestate/hal/ethercat.hpp"
 #include "safestate/hal/pdo_bytes.hpp"
+#include "safestate/safelink/container.hpp"
 
 namespace safestate::hal::ethercat {
 
@@ -98,7 +99,25 @@ Backend::Backend(const BusConfig& cfg, const std::string& ifname, std::uint32_t 
   ans_in_.assign(in, 0);
   asked_ns_.assign(cfg_.subdevices.size(), 0);
   asked_.assign(cfg_.subdevices.size(), 0);
-  boot(ifname);
+  // Issue 37: where each connection's containers lie in the whole images (LinkTable order).
+  for (std::size_t i = 0; i < cfg_.links.count; ++i) {
+    const LinkSpec& l = cfg_.links.link[i];
+    const std::size_t sub = l.position - 1U;
+    for (const SafetyLink& s : cfg_.subdevices[sub].links) {
+      if (s.id == l.id) {
+        link_in_[i] = in_off_[sub] + s.in_offset;
+        link_out_[i] = out_off_[sub] + s.out_offset;
+      }
+    }
+    link_in_len_[i] = static_cast<std::uint8_t>(safelink::container_bytes(l.device_data_bytes));
+    link_out_len_[i] = static_cast<std::uint8_t>(safelink::container_bytes(l.host_data_bytes));
+  }
+  std::string why;
+  if (links_fit_cycle(cfg_, cycle_us, why)) {
+    boot(ifname);
+  } else {
+    boot_error_ = why;
+  }
   if (!boot_error_.empty()) {
     health_ = Health{false, health_.subdevice, false, "boot failed"};
   }
@@ -539,6 +558,14 @@ void Backend::read(ProcessImageIn& in) noexcept {
   }
   sample_time(in, fresh, c.dc_time);
   decode(in);
+  // Issue 37: each connection's container from the device as the bus delivered it, copied,
+  // not looked into (the channels check them). A stale cycle repeats the last answered
+  // frame's bytes: the channel's watchdog counts it.
+  for (std::size_t i = 0; i < cfg_.links.count; ++i) {
+    LinkFrame& f = in.link_rx[i];
+    f.len = link_in_len_[i];
+    std::copy_n(in_buf_.begin() + static_cast<std::ptrdiff_t>(link_in_[i]), f.len, f.bytes.begin());
+  }
 }
 
 // @req MO-SAMPLE-TIME
@@ -659,6 +686,15 @@ void Backend::write(const ProcessImageOut& out) noexcept {
       put32(p + s.target_position, static_cast<std::int32_t>(std::lround(static_cast<double>(d.target_position_rad) * s.counts_per_rad)));
       put16(p + s.max_torque, d.max_torque_permille);
     }
+  }
+  // Issue 37: each connection's container to its device, copied as the channel made it
+  // (zeros where it made none: the device then sees "not connected").
+  for (std::size_t i = 0; i < cfg_.links.count; ++i) {
+    const LinkFrame& f = out.link_tx[i];
+    std::uint8_t* p = out_buf_.data() + link_out_[i];
+    const std::size_t n = std::min<std::size_t>(f.len, link_out_len_[i]);
+    std::copy_n(f.bytes.begin(), n, p);
+    std::fill(p + n, p + link_out_len_[i], std::uint8_t{0});
   }
   if (async_ && handed_over_ && booted()) {
     {

@@ -4,11 +4,13 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
 
 #include "safestate/hal/ethercat.hpp"
+#include "safestate/safelink/container.hpp"
 
 namespace safestate::hal::ethercat {
 
@@ -140,6 +142,124 @@ bool distance_sensor(const Json& s, const std::string& where, Subdevice& d, Chec
   return true;
 }
 
+// Issue 37: the data lengths (host -> device, device -> host) a role's connections carry
+// (docs/black-channel.md "Connections").
+struct LinkData {
+  LinkRole role = LinkRole::none;
+  std::uint8_t host = 0;
+  std::uint8_t device = 0;
+};
+LinkData link_data(Role r) {
+  switch (r) {
+    case Role::safe_inputs: return {LinkRole::safe_inputs, 0, 4};
+    case Role::safe_outputs: return {LinkRole::safe_outputs, 1, 1};
+    case Role::drive: return {LinkRole::load_encoder, 0, 4};
+    default: return {};
+  }
+}
+
+// "safety_links": [{"id": "0xA001", "channel": "A", "out_offset": 0, "in_offset": 0,
+// "watchdog_ms": 10}, ...]: each container inside the PDO images, not overlapping another one,
+// each channel at most once per subdevice. Required on safe_inputs / safe_outputs, optional on
+// a drive (its load-side encoder: only with load_position).
+bool safety_links(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
+  const auto it = s.find("safety_links");
+  const bool safe = d.role == Role::safe_inputs || d.role == Role::safe_outputs;
+  const std::string at = where + " (" + d.name + ").safety_links";
+  if (it == s.end()) {
+    return !safe || c.fail(at, "missing: a safe terminal's connections to the channels (docs/black-channel.md)");
+  }
+  if (!safe && d.role != Role::drive) {
+    return c.fail(at, "only the safe_inputs, safe_outputs and drive subdevices carry safety containers");
+  }
+  if (!it->is_array() || it->empty() || it->size() > 2U) {
+    return c.fail(at, "expected a list of one or two connections (channel A's, channel B's)");
+  }
+  if (d.role == Role::drive && d.load_position == kNoOffset) {
+    return c.fail(at, "a drive's containers carry its load-side encoder: give pdo.load_position too");
+  }
+  const LinkData data = link_data(d.role);
+  const std::size_t out_len = safelink::container_bytes(data.host);
+  const std::size_t in_len = safelink::container_bytes(data.device);
+  for (std::size_t k = 0; k < it->size(); ++k) {
+    const Json& e = (*it)[k];
+    const std::string w = at + "[" + std::to_string(k) + "]";
+    if (!e.is_object()) {
+      return c.fail(w, "expected an object with id, channel, out_offset, in_offset and watchdog_ms");
+    }
+    for (const auto& [key, v] : e.items()) {
+      if (key != "id" && key != "channel" && key != "out_offset" && key != "in_offset" && key != "watchdog_ms") {
+        return c.fail(w + "." + key, "unknown key (expected id, channel, out_offset, in_offset, watchdog_ms)");
+      }
+    }
+    SafetyLink l;
+    std::uint32_t id = 0;
+    if (!e.contains("id")) {
+      return c.fail(w + ".id", "missing (the connection id, e.g. \"0xA001\")");
+    }
+    if (!id32(e["id"], w + ".id", id, c)) {
+      return false;
+    }
+    if (id == 0U || id > 0xFFFFU) {
+      return c.fail(w + ".id", "expected a non-zero 16-bit connection id");
+    }
+    l.id = static_cast<std::uint16_t>(id);
+    const auto ch = e.find("channel");
+    if (ch == e.end() || !ch->is_string() || (ch->get<std::string>() != "A" && ch->get<std::string>() != "B")) {
+      return c.fail(w + ".channel", "expected \"A\" or \"B\" (the supervisor channel that hosts it)");
+    }
+    l.channel = ch->get<std::string>()[0];
+    for (const SafetyLink& o : d.links) {
+      if (o.channel == l.channel) {
+        return c.fail(w + ".channel", std::string("channel ") + l.channel + " has a connection to this subdevice already");
+      }
+    }
+    std::uint64_t v = 0;
+    if (d.out_bytes < out_len || !uint_in(e, "out_offset", w, 0, d.out_bytes - out_len, v, c)) {
+      return c.fail(w + ".out_offset", "the channel's container (" + std::to_string(out_len) +
+                                            " bytes) must lie inside the " + std::to_string(d.out_bytes) +
+                                            " output bytes");
+    }
+    l.out_offset = static_cast<std::uint16_t>(v);
+    if (d.in_bytes < in_len || !uint_in(e, "in_offset", w, 0, d.in_bytes - in_len, v, c)) {
+      return c.fail(w + ".in_offset", "the device's container (" + std::to_string(in_len) +
+                                           " bytes) must lie inside the " + std::to_string(d.in_bytes) +
+                                           " input bytes");
+    }
+    l.in_offset = static_cast<std::uint16_t>(v);
+    if (d.role == Role::drive) {  // nor any of the drive's own objects
+      const struct {
+        const char* key;
+        std::uint16_t at;
+        std::uint16_t bytes;
+        bool out;
+      } objs[] = {{"controlword", d.controlword, 2, true},         {"target_position", d.target_position, 4, true},
+                  {"max_torque", d.max_torque, 2, true},           {"statusword", d.statusword, 2, false},
+                  {"position_actual", d.position_actual, 4, false}, {"velocity_actual", d.velocity_actual, 4, false},
+                  {"torque_actual", d.torque_actual, 2, false},     {"load_position", d.load_position, 4, false}};
+      for (const auto& o : objs) {
+        const std::size_t start = o.out ? l.out_offset : l.in_offset;
+        const std::size_t len = o.out ? out_len : in_len;
+        if (start < std::size_t{o.at} + o.bytes && o.at < start + len) {
+          return c.fail(w, std::string("its container overlaps pdo.") + o.key);
+        }
+      }
+    }
+    for (const SafetyLink& o : d.links) {
+      if ((l.out_offset < o.out_offset + out_len && o.out_offset < l.out_offset + out_len) ||
+          (l.in_offset < o.in_offset + in_len && o.in_offset < l.in_offset + in_len)) {
+        return c.fail(w, "its container overlaps the one of connection " + std::to_string(o.id));
+      }
+    }
+    if (!uint_in(e, "watchdog_ms", w, 1, 60000, v, c)) {
+      return false;
+    }
+    l.watchdog_ms = static_cast<std::uint16_t>(v);
+    d.links.push_back(l);
+  }
+  return true;
+}
+
 bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
   std::uint64_t v = 0;
   if (!uint_in(s, "axis", where, 1, kAxes, v, c)) {
@@ -150,6 +270,7 @@ bool drive(const Json& s, const std::string& where, Subdevice& d, Checker& c) {
     return false;
   }
   d.counts_per_rad = static_cast<double>(v) / 6.283185307179586;
+  d.counts_per_revolution = static_cast<std::uint32_t>(v);
   const auto pdo = s.find("pdo");
   if (pdo == s.end() || !pdo->is_object()) {
     return c.fail(where + ".pdo", "expected the byte offsets of the CiA 402 objects");
@@ -300,8 +421,13 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     d.role = Role::drive;
   } else if (r == "distance_sensor") {
     d.role = Role::distance_sensor;
+  } else if (r == "safe_inputs") {
+    d.role = Role::safe_inputs;
+  } else if (r == "safe_outputs") {
+    d.role = Role::safe_outputs;
   } else {
-    return c.fail(where + ".role", "expected safety_inputs, safety_outputs, drive or distance_sensor");
+    return c.fail(where + ".role",
+                  "expected safety_inputs, safety_outputs, drive, distance_sensor, safe_inputs or safe_outputs");
   }
   for (const char* k : {"vendor_id", "product_code"}) {
     if (s.find(k) == s.end()) {
@@ -335,8 +461,16 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
     case Role::safety_outputs:
       return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, kRequiredOutputBits, d.out_bytes, d.out_bit, c)
                              : c.fail(where + ".out_bytes", "safety outputs need output bytes");
-    case Role::drive: return drive(s, where, d, c);
-    case Role::distance_sensor: return distance_sensor(s, where, d, c);
+    case Role::drive: return drive(s, where, d, c) && safety_links(s, where, d, c);
+    case Role::distance_sensor: return distance_sensor(s, where, d, c) && safety_links(s, where, d, c);
+    case Role::safe_inputs:
+    case Role::safe_outputs:
+      for (const char* k : {"bits", "pdo"}) {
+        if (s.contains(k)) {
+          return c.fail(where + "." + k, "a safe terminal has no bits or objects of its own, only safety_links");
+        }
+      }
+      return safety_links(s, where, d, c);
   }
   return false;
 }
@@ -378,6 +512,70 @@ bool two_channel_io(const BusConfig& bus, std::string& err) {
           " drive(s) have one (SPEC §14: the load-side encoder on every axis or on none)";
     return false;
   }
+  std::size_t with_links = 0;
+  for (const Subdevice& d : bus.subdevices) {
+    with_links += (d.role == Role::drive && !d.links.empty()) ? 1U : 0U;
+  }
+  if (with_links != 0U && with_links != drives) {
+    for (const Subdevice& d : bus.subdevices) {
+      if (d.role == Role::drive && d.links.empty()) {
+        err = "subdevices: drive axis " + std::to_string(d.axis) + " (" + d.name + ") has no safety_links while " +
+              std::to_string(with_links) +
+              " drive(s) have some (issue 37: the load-side encoder protected on every axis or on none)";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+namespace {
+
+// Issue 37: at most one safe input and one safe output terminal, every connection id once,
+// and the LinkTable in bus order (the order of the process image's containers).
+bool link_table(BusConfig& bus, std::string& err) {
+  int safe_in = 0;
+  int safe_out = 0;
+  std::set<std::uint16_t> ids;
+  LinkTable t{};
+  for (std::size_t i = 0; i < bus.subdevices.size(); ++i) {
+    const Subdevice& d = bus.subdevices[i];
+    const std::string where = "subdevices[" + std::to_string(i) + "] (" + d.name + ")";
+    if ((d.role == Role::safe_inputs && ++safe_in > 1) || (d.role == Role::safe_outputs && ++safe_out > 1)) {
+      err = where + ".role: a second " + (d.role == Role::safe_inputs ? "safe_inputs" : "safe_outputs") +
+            " subdevice (at most one)";
+      return false;
+    }
+    const LinkData data = link_data(d.role);
+    for (std::size_t k = 0; k < d.links.size(); ++k) {
+      const SafetyLink& l = d.links[k];
+      if (!ids.insert(l.id).second) {
+        char id[8];
+        std::snprintf(id, sizeof id, "0x%04X", static_cast<unsigned>(l.id));
+        err = where + ".safety_links[" + std::to_string(k) + "].id: connection " + id + " is used twice";
+        return false;
+      }
+      if (t.count >= kMaxLinks) {
+        err = where + ".safety_links: more than " + std::to_string(kMaxLinks) + " connections on the bus";
+        return false;
+      }
+      LinkSpec& s = t.link[t.count++];
+      s.id = l.id;
+      s.channel = l.channel;
+      s.role = data.role;
+      s.axis = d.role == Role::drive ? d.axis : 0U;
+      s.host_data_bytes = data.host;
+      s.device_data_bytes = data.device;
+      s.watchdog_ms = l.watchdog_ms;
+      s.vendor_id = d.vendor_id;
+      s.product_code = d.product_code;
+      s.position = static_cast<std::uint16_t>(i + 1U);
+      s.counts_per_revolution = d.role == Role::drive ? d.counts_per_revolution : 0U;
+    }
+  }
+  bus.links = t;
   return true;
 }
 
@@ -446,7 +644,24 @@ bool parse_bus_config(const std::string& text, BusConfig& out, std::string& err)
     err = "subdevices: expected exactly one safety_inputs and one safety_outputs subdevice";
     return false;
   }
-  return two_channel_io(out, err);
+  if (!two_channel_io(out, err)) {
+    return false;
+  }
+  return link_table(out, err);
+}
+
+bool links_fit_cycle(const BusConfig& cfg, std::uint32_t cycle_us, std::string& err) {
+  for (std::size_t i = 0; i < cfg.links.count; ++i) {
+    const LinkSpec& l = cfg.links.link[i];
+    if (cycle_us == 0U || std::uint64_t{l.watchdog_ms} * 1000U < 2U * std::uint64_t{cycle_us}) {
+      char id[8];
+      std::snprintf(id, sizeof id, "0x%04X", static_cast<unsigned>(l.id));
+      err = std::string("safety link ") + id + ": watchdog_ms " + std::to_string(l.watchdog_ms) +
+            " is shorter than 2 cycles of " + std::to_string(cycle_us) + " us (one exchange of the ping-pong)";
+      return false;
+    }
+  }
+  return true;
 }
 
 bool watchdog_registers(std::uint32_t cycles, std::uint32_t cycle_us, std::uint16_t& divider, std::uint16_t& time) noexcept {

@@ -12,6 +12,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 namespace safestate::hal::esi {
 
@@ -731,6 +732,63 @@ int named_bits(const std::vector<Placed>& placed, const char* const (&names)[N],
   return found;
 }
 
+// Issue 37: the safety containers of our black-channel protocol in a device's default PDOs
+// (docs/black-channel.md; ours, not FSoE): the objects 0x2E00 / 0x2E01 carry channel A's /
+// B's container to the device, 0x2E10 / 0x2E11 the device's answers, field by field from
+// subindex 1 (kind) on, subindex 5 the data when there is any. The connection ids and the
+// watchdog are not in an ESI: ours by convention (0xA001/0xB001 the safe inputs, 0xA002/0xB002
+// the safe outputs, 0xA010 + axis / 0xB010 + axis a drive; 10 ms).
+struct FoundLink {
+  char channel = 'A';
+  std::uint32_t out_offset = 0;
+  std::uint32_t in_offset = 0;
+  std::uint32_t host_data = 0;
+  std::uint32_t device_data = 0;
+};
+
+bool find_links(const Device& d, const Image& im, const std::string& where, std::vector<FoundLink>& out,
+                std::string& err) {
+  const auto at = [](const std::vector<Placed>& v, std::uint16_t index, std::uint8_t sub) -> const Placed* {
+    const auto it = std::find_if(v.begin(), v.end(), [&](const Placed& p) { return p.entry->index == index && p.entry->sub == sub; });
+    return it == v.end() ? nullptr : &*it;
+  };
+  for (const auto& [ch, to_dev, to_host] : {std::tuple{'A', std::uint16_t{0x2E00}, std::uint16_t{0x2E10}},
+                                            std::tuple{'B', std::uint16_t{0x2E01}, std::uint16_t{0x2E11}}}) {
+    const Placed* o = at(im.out, to_dev, 1);
+    const Placed* i = at(im.in, to_host, 1);
+    if (o == nullptr && i == nullptr) {
+      continue;
+    }
+    if (o == nullptr || i == nullptr || (o->bit % 8U) != 0U || (i->bit % 8U) != 0U) {
+      err = where + ": " + d.file + ": channel " + ch + "'s safety container needs " + hex(to_dev, 4) +
+            ":01 in the RxPDOs and " + hex(to_host, 4) + ":01 in the TxPDOs, each on a byte boundary";
+      return false;
+    }
+    FoundLink f;
+    f.channel = ch;
+    f.out_offset = o->bit / 8U;
+    f.in_offset = i->bit / 8U;
+    const Placed* od = at(im.out, to_dev, 5);
+    const Placed* id = at(im.in, to_host, 5);
+    f.host_data = od != nullptr ? od->entry->bits / 8U : 0U;
+    f.device_data = id != nullptr ? id->entry->bits / 8U : 0U;
+    out.push_back(f);
+  }
+  return true;
+}
+
+OJson links_json(const std::vector<FoundLink>& links, std::uint16_t base_a, std::uint16_t base_b) {
+  OJson list = OJson::array();
+  for (const FoundLink& l : links) {
+    list.push_back({{"id", hex(l.channel == 'A' ? base_a : base_b, 4)},
+                    {"channel", std::string(1, l.channel)},
+                    {"out_offset", l.out_offset},
+                    {"in_offset", l.in_offset},
+                    {"watchdog_ms", 10}});
+  }
+  return list;
+}
+
 }  // namespace
 
 bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& opt, std::string& json, std::string& err,
@@ -760,6 +818,7 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
       warnings.insert(warnings.end(), d.warnings.begin(), d.warnings.end());
     }
     const Image im = image(d);
+    std::vector<FoundLink> links;  // issue 37 (looked for after the CiA 402 objects of a drive)
     OJson s;
     s["name"] = d.name.empty() ? d.type : d.name;
     s["role"] = "";
@@ -822,7 +881,17 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
         }
       }
       s["pdo"] = pdo;
+      if (!find_links(d, im, where, links, err)) {
+        return false;
+      }
+      if (!links.empty()) {  // issue 37: its load-side encoder to each channel again, protected
+        s["safety_links"] = links_json(links, static_cast<std::uint16_t>(0xA010U + axis),
+                                       static_cast<std::uint16_t>(0xB010U + axis));
+      }
     } else {
+      if (!find_links(d, im, where, links, err)) {
+        return false;
+      }
       OJson in_bits;
       OJson out_bits;
       std::string in_missing;
@@ -834,6 +903,10 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
       const auto valid =
           std::find_if(im.in.begin(), im.in.end(), [](const Placed& p) { return p.entry->name == "separation_valid"; });
       const bool sensor = sep != im.in.end() || valid != im.in.end();
+      if (!links.empty() && (sensor || ins > 0 || outs > 0)) {
+        err = where + ": its PDOs carry both safety containers and named signals; one subdevice has one role";
+        return false;
+      }
       if (sensor && (ins > 0 || outs > 0)) {
         err = where + ": its PDO entries name both the distance sensor's separation and safety inputs or outputs; one "
                       "subdevice has one role";
@@ -878,6 +951,19 @@ bool make_bus_config(const std::vector<const Device*>& bus, const GenOptions& op
         }
         s["role"] = "safety_outputs";
         s["bits"] = out_bits;
+      } else if (!links.empty()) {
+        // Issue 37: a safe terminal, known by its containers' data lengths.
+        const bool inputs = std::all_of(links.begin(), links.end(),
+                                        [](const FoundLink& l) { return l.host_data == 0U && l.device_data == 4U; });
+        const bool outputs = std::all_of(links.begin(), links.end(),
+                                         [](const FoundLink& l) { return l.host_data == 1U && l.device_data == 1U; });
+        if (!inputs && !outputs) {
+          err = where + ": its safety containers carry neither the safe inputs' data (0 bytes to it, 4 from it) nor "
+                        "the safe outputs' (1 byte each way)";
+          return false;
+        }
+        s["role"] = inputs ? "safe_inputs" : "safe_outputs";
+        s["safety_links"] = inputs ? links_json(links, 0xA001, 0xB001) : links_json(links, 0xA002, 0xB002);
       } else {
         err = where + ": no role: neither a CiA 402 drive (<Profile><ProfileNo>402) nor a terminal whose PDO entries "
                       "carry our signal names (estop.a, ..., contactor, ..., separation_mm)";

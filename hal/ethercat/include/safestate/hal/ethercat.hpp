@@ -15,13 +15,29 @@
 #include <vector>
 
 #include "safestate/hal/process_image.hpp"
+#include "safestate/hal/safety_links.hpp"
 
 namespace safestate::hal::ethercat {
 
 // distance_sensor: SPEC §11's safety-rated distance sensor (optional, at most one): a TxPDO
 // with the separation person-robot in mm (INT32) and a valid bit. Without one the separation
 // is invalid, as unknown is unsafe (SSM then holds at v_allowed 0).
-enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive, distance_sensor };
+// safe_inputs / safe_outputs (issue 37): the safe input and output terminals of the black
+// channel (docs/black-channel.md): no bits of their own, only safety containers
+// ("safety_links"), which the backend copies and the channels check.
+enum class Role : std::uint8_t { safety_inputs, safety_outputs, drive, distance_sensor, safe_inputs, safe_outputs };
+
+// One connection of the black channel as a subdevice's entry lists it ("safety_links": [{"id":
+// "0xA001", "channel": "A", "out_offset": 0, "in_offset": 0, "watchdog_ms": 10}, ...]): where
+// its container lies in the subdevice's RxPDO image (the channel's, out_offset) and TxPDO image
+// (the device's answer, in_offset). The container sizes follow from the role's data lengths.
+struct SafetyLink {
+  std::uint16_t id = 0;
+  char channel = 'A';
+  std::uint16_t out_offset = 0;
+  std::uint16_t in_offset = 0;
+  std::uint16_t watchdog_ms = 0;
+};
 
 // Named bits of the safety I/O terminals, in the order of the names below.
 // SPEC §2 contacts, contactor/brake feedbacks, the SPEC §10 reduced-speed input, the SPEC §11
@@ -82,6 +98,10 @@ struct Subdevice {
   // clocks; the ESI's AssignActivate word (0x0980/0x0981: 0x0300 = cyclic unit on, SYNC0).
   // 0 = free run (no "dc" key).
   std::uint16_t dc_assign_activate = 0;
+  // Issue 37: the black channel's connections to this subdevice (safe_inputs, safe_outputs:
+  // required; a drive: optional, its load-side encoder, together with load_position).
+  std::vector<SafetyLink> links;
+  std::uint32_t counts_per_revolution = 0;  // drive: as configured (LinkSpec)
 };
 
 // The range of `watchdog_cycles` in a bus configuration.
@@ -105,7 +125,14 @@ struct BusConfig {
   // 500: half the default 1 ms cycle, so that a frame sent up to that late still reaches the
   // drives before the SYNC0 that applies it (docs/ethercat.md, "Distributed clocks").
   std::uint32_t sync0_shift_us = 500;
+  // Issue 37: every connection of the subdevices, in bus order and within a subdevice in its
+  // listed order: the order of ProcessImageIn::link_rx / ProcessImageOut::link_tx.
+  LinkTable links{};
 };
+
+// Each connection's watchdog must be at least 2 cycles of `cycle_us` (one exchange of the
+// ping-pong): false with the connection named in `err` otherwise.
+bool links_fit_cycle(const BusConfig& cfg, std::uint32_t cycle_us, std::string& err);
 
 // The process-data watchdog registers for `cycles` scan cycles of `cycle_us`: the divider
 // (0x0400, ticks of (divider + 2) x 40 ns) and the time in ticks (0x0420). 100 us ticks
@@ -192,6 +219,8 @@ class Backend final : public hal::Backend {
   [[nodiscard]] int dc_reference() const noexcept { return dc_reference_; }
   [[nodiscard]] std::int64_t dc_phase_ns() const noexcept { return dc_phase_ns_.load(std::memory_order_relaxed); }
   std::atomic<std::int64_t>* cycle_adjust() noexcept { return dc_ ? &cycle_adjust_ns_ : nullptr; }
+  // Issue 37: the black channel's connections of the bus configuration (LinkTable order).
+  [[nodiscard]] const LinkTable& safety_links() const noexcept override { return cfg_.links; }
   [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
     static const std::string none = "the bus";
     return (position >= 1U && position <= cfg_.subdevices.size()) ? cfg_.subdevices[position - 1U].name : none;
@@ -218,6 +247,11 @@ class Backend final : public hal::Backend {
   std::vector<std::uint8_t> out_buf_;
   std::vector<std::size_t> in_off_;
   std::vector<std::size_t> out_off_;
+  // Issue 37: each connection's container: its byte offset in in_buf_ / out_buf_ and size.
+  std::array<std::size_t, kMaxLinks> link_in_{};
+  std::array<std::size_t, kMaxLinks> link_out_{};
+  std::array<std::uint8_t, kMaxLinks> link_in_len_{};
+  std::array<std::uint8_t, kMaxLinks> link_out_len_{};
   std::atomic<std::uint8_t> lost_position_{0};
   std::atomic<bool> lost_silent_{false};
   std::atomic<const char*> lost_why_{nullptr};
