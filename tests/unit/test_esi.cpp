@@ -192,6 +192,57 @@ TEST(EsiEmulated, MakesTheBuiltInBusConfig) {
       EXPECT_EQ(g.name, w.name) << i;  // "drive axis N": the axes in bus order
     }
   }
+  // Issue 37: the black channel's connections, found in the ESI by their container objects
+  // (0x2E00.. ours), with the conventional ids and watchdog: the same table as the built-in.
+  ASSERT_EQ(got.links.count, want.links.count);
+  EXPECT_EQ(want.links.count, 16U);
+  for (std::size_t i = 0; i < want.links.count; ++i) {
+    const safestate::hal::LinkSpec& g = got.links.link[i];
+    const safestate::hal::LinkSpec& w = want.links.link[i];
+    EXPECT_EQ(g.id, w.id) << i;
+    EXPECT_EQ(g.channel, w.channel) << i;
+    EXPECT_EQ(g.role, w.role) << i;
+    EXPECT_EQ(g.axis, w.axis) << i;
+    EXPECT_EQ(g.host_data_bytes, w.host_data_bytes) << i;
+    EXPECT_EQ(g.device_data_bytes, w.device_data_bytes) << i;
+    EXPECT_EQ(g.watchdog_ms, w.watchdog_ms) << i;
+    EXPECT_EQ(g.vendor_id, w.vendor_id) << i;
+    EXPECT_EQ(g.product_code, w.product_code) << i;
+    EXPECT_EQ(g.position, w.position) << i;
+    EXPECT_EQ(g.counts_per_revolution, w.counts_per_revolution) << i;
+  }
+  for (std::size_t i = 0; i < want.subdevices.size(); ++i) {
+    ASSERT_EQ(got.subdevices[i].links.size(), want.subdevices[i].links.size()) << i;
+    for (std::size_t k = 0; k < want.subdevices[i].links.size(); ++k) {
+      EXPECT_EQ(got.subdevices[i].links[k].out_offset, want.subdevices[i].links[k].out_offset) << i << "/" << k;
+      EXPECT_EQ(got.subdevices[i].links[k].in_offset, want.subdevices[i].links[k].in_offset) << i << "/" << k;
+    }
+  }
+}
+
+// A safety container half in an ESI (channel A's to the device without its answer), or with
+// data lengths of no safe role, is refused naming the device.
+TEST(EsiBad, SafetyContainers) {
+  std::string text = builtin();
+  // the F-DI's answer to A renamed to an object that is not ours: A's container to it alone
+  std::string bad = text;
+  const auto at = bad.find("<Index>#x2E10</Index>", bad.find("SS-EMU-FDI"));
+  ASSERT_NE(at, std::string::npos);
+  bad.replace(at, 21, "<Index>#x2E20</Index>");
+  expect_has(generate_error(bad), "channel A's safety container needs 0x2E00:01 in the RxPDOs and 0x2E10:01 in the TxPDOs");
+  // the F-DO's data widened to 2 bytes each way: neither the safe inputs' nor the outputs'
+  bad = text;
+  std::size_t from = bad.find("SS-EMU-FDO");
+  for (int k = 0; k < 4; ++k) {
+    const std::string one = "<SubIndex>5</SubIndex><BitLen>8</BitLen><Name>";
+    from = bad.find(one, from);
+    ASSERT_NE(from, std::string::npos);
+    const auto type = bad.find("<DataType>USINT</DataType>", from);
+    ASSERT_NE(type, std::string::npos);
+    bad.replace(type, 26, "<DataType>UINT</DataType>");
+    bad.replace(from, one.size(), "<SubIndex>5</SubIndex><BitLen>16</BitLen><Name>");
+  }
+  expect_has(generate_error(bad), "its safety containers carry neither the safe inputs' data");
 }
 
 TEST(EsiEmulated, ReadsIdentityProfileMailboxAndDc) {

@@ -215,13 +215,14 @@ bool safety_links(const Json& s, const std::string& where, Subdevice& d, Checker
       }
     }
     std::uint64_t v = 0;
-    if (d.out_bytes < out_len || !uint_in(e, "out_offset", w, 0, d.out_bytes - out_len, v, c)) {
+    Checker range;  // its own message names the container's size and the image's
+    if (d.out_bytes < out_len || !uint_in(e, "out_offset", w, 0, d.out_bytes - out_len, v, range)) {
       return c.fail(w + ".out_offset", "the channel's container (" + std::to_string(out_len) +
                                             " bytes) must lie inside the " + std::to_string(d.out_bytes) +
                                             " output bytes");
     }
     l.out_offset = static_cast<std::uint16_t>(v);
-    if (d.in_bytes < in_len || !uint_in(e, "in_offset", w, 0, d.in_bytes - in_len, v, c)) {
+    if (d.in_bytes < in_len || !uint_in(e, "in_offset", w, 0, d.in_bytes - in_len, v, range)) {
       return c.fail(w + ".in_offset", "the device's container (" + std::to_string(in_len) +
                                            " bytes) must lie inside the " + std::to_string(d.in_bytes) +
                                            " input bytes");
@@ -456,11 +457,13 @@ bool subdevice(const Json& s, const std::string& where, Subdevice& d, Checker& c
   }
   switch (d.role) {
     case Role::safety_inputs:
-      return d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, kRequiredInputBits, d.in_bytes, d.in_bit, c)
-                            : c.fail(where + ".in_bytes", "safety inputs need input bytes");
+      return (d.in_bytes > 0 ? bit_map(s, where, kInputBitNames, kRequiredInputBits, d.in_bytes, d.in_bit, c)
+                             : c.fail(where + ".in_bytes", "safety inputs need input bytes")) &&
+             safety_links(s, where, d, c);
     case Role::safety_outputs:
-      return d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, kRequiredOutputBits, d.out_bytes, d.out_bit, c)
-                             : c.fail(where + ".out_bytes", "safety outputs need output bytes");
+      return (d.out_bytes > 0 ? bit_map(s, where, kOutputBitNames, kRequiredOutputBits, d.out_bytes, d.out_bit, c)
+                              : c.fail(where + ".out_bytes", "safety outputs need output bytes")) &&
+             safety_links(s, where, d, c);
     case Role::drive: return drive(s, where, d, c) && safety_links(s, where, d, c);
     case Role::distance_sensor: return distance_sensor(s, where, d, c) && safety_links(s, where, d, c);
     case Role::safe_inputs:
