@@ -1720,3 +1720,417 @@ TEST(EcatDc, OneBadInputAfterAPauseDoesNotPinTheRateCorrection) {
   EXPECT_LT(worst, 1000) << "ns; rate correction " << seg.esc(5).rate_correction_ppm() << " ppm (needed " << needed << ")";
   EXPECT_NEAR(seg.esc(5).rate_correction_ppm(), needed, 6.0);
 }
+
+// ---- Issue 37: the safe terminals and the drives' protected encoder data -----------------
+
+namespace {
+
+namespace sl = safestate::safelink;
+
+std::vector<SubdeviceDesc> free_running(std::vector<SubdeviceDesc> v) {
+  for (SubdeviceDesc& d : v) {
+    d.dc_sync0_required = false;  // SYNC0 is not the subject here (as `--drives-free-run`)
+  }
+  return v;
+}
+
+// The whole segment with the safe terminals, mapped (each subdevice's PDOs one after the
+// other, outputs at logical 0x20000, inputs at 0x10000) and in OP, lock-step, with one
+// safelink::HostEnd per connection standing in for the channels' ends.
+class LinkRig {
+ public:
+  explicit LinkRig(std::uint32_t seed = 0x5EED) : cell(1000, free_running(default_segment()), seed) {
+    Segment& seg = cell.segment();
+    address_all(seg);
+    for (std::uint16_t a = 0; a < 6; ++a) {
+      mailbox(seg, static_cast<std::uint16_t>(0x1003 + a));
+    }
+    exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(2)}});
+    std::uint32_t in = 0x10000;
+    std::uint32_t out = 0x20000;
+    for (std::size_t p = 0; p < seg.size(); ++p) {
+      const SubdeviceDesc& d = seg.esc(p).desc();
+      const auto st = static_cast<std::uint16_t>(0x1001 + p);
+      if (d.mailbox) {
+        EXPECT_EQ(sdo_write(seg, st, 0x6060, 0, {8}), 0U);
+      }
+      in_at.push_back(in - 0x10000);
+      out_at.push_back(out - 0x20000);
+      auto sm = static_cast<std::uint16_t>(d.mailbox ? 2 : 0);
+      std::uint16_t fmmu = 0;
+      if (!d.rx.entries.empty()) {
+        map(seg, st, sm++, d.out_address, static_cast<std::uint16_t>(d.rx.bytes()), 0x64, fmmu++, out, 2);
+        out += static_cast<std::uint32_t>(d.rx.bytes());
+      }
+      if (!d.tx.entries.empty()) {
+        map(seg, st, sm++, d.in_address, static_cast<std::uint16_t>(d.tx.bytes()), 0x20, fmmu++, in, 1);
+        in += static_cast<std::uint32_t>(d.tx.bytes());
+      }
+    }
+    outputs.assign(out - 0x20000, 0);
+    inputs.assign(in - 0x10000, 0);
+    exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(4)}});
+    exchange(seg, {{Cmd::BWR, 0, reg::al_control, le16(8)}});
+    for (std::size_t p = 0; p < seg.size(); ++p) {
+      EXPECT_EQ(seg.esc(p).state(), AlState::op) << p;
+    }
+    std::uint16_t session = 0x100;
+    for (const SafeLinks::Conn& c : cell.links().connections()) {
+      Host h;
+      h.conn = c;
+      sl::ConnectionParams p;
+      p.id = c.id;
+      p.host_data_bytes = static_cast<std::uint8_t>(c.host_data);
+      p.device_data_bytes = static_cast<std::uint8_t>(c.device_data);
+      p.watchdog_ms = 10;
+      p.device = {kVendorId, c.product, static_cast<std::uint16_t>(c.pos + 1U)};
+      EXPECT_EQ(h.end.configure(p, 1000), sl::ConfigError::None);
+      EXPECT_TRUE(h.end.connect(session++));
+      hosts.push_back(h);
+    }
+  }
+  struct Host {
+    SafeLinks::Conn conn;
+    sl::HostEnd end;
+    std::uint8_t out = 0;  // the F-DO's host data (bit 0 K, bit 1 brake relay)
+    sl::Verdict last = sl::Verdict::NotConnected;
+  };
+  Host& host(std::uint16_t id) {
+    for (Host& h : hosts) {
+      if (h.conn.id == id) {
+        return h;
+      }
+    }
+    ADD_FAILURE() << "no connection " << id;
+    return hosts.front();
+  }
+  std::uint8_t* out_of(const Host& h) { return &outputs[out_at[h.conn.pos] + h.conn.out_off]; }
+  const std::uint8_t* in_of(const Host& h) const { return &inputs[in_at[h.conn.pos] + h.conn.in_off]; }
+  // One cycle: every host checks the answer of the last frame and writes its container, one
+  // frame goes (unless `send` is false: the master silent), then 1 ms passes.
+  void cycle(bool send = true) {
+    for (Host& h : hosts) {
+      std::array<std::uint8_t, sl::kMaxContainer> tx{};
+      const std::uint8_t data[1] = {h.out};
+      h.last = h.end.cycle({in_of(h), h.conn.tx_len}, {data, h.conn.host_data}, {tx.data(), h.conn.rx_len});
+      std::memcpy(out_of(h), tx.data(), h.conn.rx_len);
+    }
+    if (send) {
+      cell.set_time(t);
+      inputs = exchange(cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, outputs},
+                                         {Cmd::LRD, 0x0000, 0x0001, inputs}}, t)[1].data;
+    }
+    t += 1000000;
+    cell.poll(t - 1000);
+  }
+  bool all_up() const {
+    return std::all_of(hosts.begin(), hosts.end(), [](const Host& h) { return h.end.data_valid(); });
+  }
+  std::string line(const std::string& l) { return control_line(cell, l); }
+  nlohmann::json safety() { return nlohmann::json::parse(line("status")).at("safety"); }
+
+  EmulatedCell cell;
+  std::vector<Host> hosts;
+  std::vector<std::size_t> in_at;
+  std::vector<std::size_t> out_at;
+  std::vector<std::uint8_t> outputs;
+  std::vector<std::uint8_t> inputs;
+  std::uint64_t t = 10000000;
+};
+
+std::uint32_t le32p(const std::uint8_t* p) {
+  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8U) |
+         (static_cast<std::uint32_t>(p[2]) << 16U) | (static_cast<std::uint32_t>(p[3]) << 24U);
+}
+
+// The two channels' ends connected to every device and the F-DO's K1, K2 and brake relays on
+// (K1 closed, K2 closed, the brakes released): the plant's power path is the F-DO's.
+void power_up(LinkRig& r) {
+  for (int k = 0; k < 10; ++k) {
+    r.cycle();
+  }
+  ASSERT_TRUE(r.all_up());
+  r.host(kLinkSafeOutA).out = kSafeOutK | kSafeOutRelay;
+  r.host(kLinkSafeOutB).out = kSafeOutK | kSafeOutRelay;
+  for (int k = 0; k < 30; ++k) {
+    r.cycle();
+  }
+  ASSERT_TRUE(r.cell.links().k1() && r.cell.links().k2());
+}
+
+}  // namespace
+
+// The wire contract (docs/ethercat.md): 11 subdevices, the F-DI at 10 and the F-DO at 11, the
+// PDO sizes and container offsets, 16 connections with the ids and data lengths agreed.
+TEST(EcatSafeLinks, TheSegmentCarriesTheContractsContainers) {
+  const std::vector<SubdeviceDesc> s = default_segment();
+  ASSERT_EQ(s.size(), kSubdevices);
+  EXPECT_EQ(s[kPosSafeIn].product_code, kProductSafeIn);
+  EXPECT_EQ(s[kPosSafeOut].product_code, kProductSafeOut);
+  EXPECT_EQ(s[kPosSafeIn].rx.bytes(), 30U);
+  EXPECT_EQ(s[kPosSafeIn].tx.bytes(), 38U);
+  EXPECT_EQ(s[kPosSafeOut].rx.bytes(), 32U);
+  EXPECT_EQ(s[kPosSafeOut].tx.bytes(), 32U);
+  EXPECT_EQ(container_offset(s[kPosSafeIn].rx, kObjToDeviceB), 15);
+  EXPECT_EQ(container_offset(s[kPosSafeIn].tx, kObjToHostB), 19);
+  EXPECT_EQ(container_offset(s[kPosSafeOut].rx, kObjToDeviceB), 16);
+  EXPECT_EQ(container_offset(s[kPosSafeOut].tx, kObjToHostB), 16);
+  for (std::size_t a = 0; a < 6; ++a) {
+    const SubdeviceDesc& d = s[kPosFirstDrive + a];
+    EXPECT_EQ(d.rx.bytes(), 38U);
+    EXPECT_EQ(d.tx.bytes(), 54U);
+    EXPECT_EQ(container_offset(d.rx, kObjToDeviceA), 8);
+    EXPECT_EQ(container_offset(d.rx, kObjToDeviceB), 23);
+    EXPECT_EQ(container_offset(d.tx, kObjToHostA), 16);
+    EXPECT_EQ(container_offset(d.tx, kObjToHostB), 35);
+  }
+  // Without them: the segment as before, and no connection.
+  const std::vector<SubdeviceDesc> plain = default_segment(false);
+  ASSERT_EQ(plain.size(), kPlainSubdevices);
+  EXPECT_EQ(plain[kPosFirstDrive].rx.bytes(), kDriveRxBytes);
+  EXPECT_EQ(plain[kPosFirstDrive].tx.bytes(), kDriveTxBytes);
+  EmulatedCell none(1000, plain);
+  EXPECT_FALSE(none.links().any());
+  EXPECT_EQ(control_line(none, "fault link flip 0xA001 to-device").rfind("ERROR", 0), 0U);
+
+  LinkRig r;
+  ASSERT_EQ(r.hosts.size(), 16U);
+  const std::uint16_t ids[] = {0xA011, 0xB011, 0xA012, 0xB012, 0xA013, 0xB013, 0xA014, 0xB014,
+                               0xA015, 0xB015, 0xA016, 0xB016, 0xA001, 0xB001, 0xA002, 0xB002};
+  for (std::size_t i = 0; i < 16; ++i) {
+    EXPECT_EQ(r.hosts[i].conn.id, ids[i]) << i;
+  }
+  // The CoE dictionary maps the containers as the SII does (SOEM sizes the drives from it).
+  std::vector<std::uint8_t> v;
+  ASSERT_EQ(sdo_read(r.cell.segment(), 0x1003, 0x1A00, 0, v), 0U);
+  EXPECT_EQ(v[0], 5U + 2U * 7U);  // 5 CiA objects, then per container kind, id, seq, ack, data, CRC x 2
+  ASSERT_EQ(sdo_read(r.cell.segment(), 0x1003, 0x1600, 4, v), 0U);
+  EXPECT_EQ(le32(v, 0), 0x2E000108U);  // 0x2E00:01, 8 bits: A's kind
+}
+
+// Valid traffic: every connection up; each channel gets the F-DI's contacts (the DI
+// terminal's word), each drive's 0x60E4:01; the F-DO closes K1 from A's and K2 from B's
+// container and releases the brakes with both relays, answering with each contactor's
+// auxiliary contact.
+TEST(EcatSafeLinks, ValidTrafficDrivesThePowerPath) {
+  LinkRig r;
+  for (int k = 0; k < 10; ++k) {
+    r.cycle();
+  }
+  ASSERT_TRUE(r.all_up());
+  const std::uint32_t di = le32p(&r.inputs[0]);
+  EXPECT_EQ(le32p(r.host(kLinkSafeInA).end.data().data()), di);
+  EXPECT_EQ(le32p(r.host(kLinkSafeInB).end.data().data()), di);
+  for (std::size_t a = 0; a < 6; ++a) {
+    const std::uint32_t q = le32p(&r.inputs[r.in_at[kPosFirstDrive + a] + 12]);
+    EXPECT_EQ(le32p(r.host(link_drive('A', a + 1)).end.data().data()), q) << a;
+    EXPECT_EQ(le32p(r.host(link_drive('B', a + 1)).end.data().data()), q) << a;
+  }
+  EXPECT_FALSE(r.cell.last_outputs().contactor);  // nothing asked yet
+  // K1 alone: the power path stays open (K2 in series), the brakes stay on (one relay).
+  r.host(kLinkSafeOutA).out = kSafeOutK | kSafeOutRelay;
+  for (int k = 0; k < 30; ++k) {
+    r.cycle();
+  }
+  EXPECT_TRUE(r.cell.links().k1());
+  EXPECT_FALSE(r.cell.links().k2());
+  EXPECT_FALSE(r.cell.last_outputs().brakes_release);
+  EXPECT_EQ(r.host(kLinkSafeOutA).end.data()[0], 0x03) << "K1's contact closed, A's outputs on";
+  EXPECT_EQ(r.host(kLinkSafeOutB).end.data()[0], 0x02) << "K2's contact open, B's outputs on";
+  r.host(kLinkSafeOutB).out = kSafeOutK | kSafeOutRelay;
+  for (int k = 0; k < 30; ++k) {
+    r.cycle();
+  }
+  EXPECT_TRUE(r.cell.last_outputs().contactor && r.cell.last_outputs().contactor_k2);
+  EXPECT_TRUE(r.cell.last_outputs().brakes_release);
+  EXPECT_TRUE(r.cell.last_inputs().contactor_closed && r.cell.last_inputs().k2_closed);
+  EXPECT_EQ(r.host(kLinkSafeOutB).end.data()[0], 0x03);
+  // The DO terminal's contactor bits are wired to nothing now: all zero in the outputs.
+  EXPECT_EQ(r.outputs[r.out_at[kPosDigitalOut]], 0U);
+  const nlohmann::json s = r.safety();
+  EXPECT_EQ(s.at("fdo").at("k1"), true);
+  EXPECT_EQ(s.at("fdo").at("relay_b"), true);
+  EXPECT_EQ(s.at("links").at("0xA002").at("state"), "connected");
+  EXPECT_EQ(s.at("links").at("0xA002").at("verdict"), nullptr);
+  // B lets go of its relay: the brakes engage, K2 stays.
+  r.host(kLinkSafeOutB).out = kSafeOutK;
+  for (int k = 0; k < 5; ++k) {
+    r.cycle();
+  }
+  EXPECT_FALSE(r.cell.last_outputs().brakes_release);
+  EXPECT_TRUE(r.cell.last_outputs().contactor_k2);
+  for (const auto& h : r.hosts) {
+    EXPECT_TRUE(h.end.data_valid()) << h.conn.id;
+  }
+}
+
+// Each wire fault of the control socket is caught by the end it reaches, with the verdict
+// the protocol gives it; an F-DO connection's fault opens its contactor at once.
+TEST(EcatSafeLinks, EachWireFaultIsCaughtWithItsVerdict) {
+  struct Case {
+    const char* line;
+    std::uint16_t id;      // the connection whose end must catch it
+    bool device_end;       // at the device (to-device) or the host (to-host)
+    sl::Verdict verdict;
+  } cases[] = {
+      {"flip 0xA002 to-device", kLinkSafeOutA, true, sl::Verdict::Crc},
+      {"flip 0xB002 to-device 8", kLinkSafeOutB, true, sl::Verdict::Identity},  // the id's first byte
+      {"flip 0xA001 to-host", kLinkSafeInA, false, sl::Verdict::Crc},
+      {"replay 0xB002 to-device", kLinkSafeOutB, true, sl::Verdict::Sequence},
+      {"replay 0xA013 to-host", 0xA013, false, sl::Verdict::Sequence},
+      {"swap 0xA002 0xB002 to-device", kLinkSafeOutA, true, sl::Verdict::Identity},
+      {"swap 0xA001 0xB001 to-host", kLinkSafeInB, false, sl::Verdict::Identity},
+      {"insert 0xA012 0xA014 to-host", 0xA012, false, sl::Verdict::Identity},
+      {"insert 0xB002 0xA002 to-device", kLinkSafeOutB, true, sl::Verdict::Identity},
+      {"delay 0xA002 to-device 30", kLinkSafeOutA, true, sl::Verdict::Timeout},
+      {"delay 0xB011 to-host 30", 0xB011, false, sl::Verdict::Timeout},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.line);
+    LinkRig r;
+    power_up(r);
+    ASSERT_EQ(r.line(std::string("fault link ") + c.line), "OK");
+    for (int k = 0; k < 40; ++k) {
+      r.cycle();
+    }
+    const int i = r.cell.links().find(c.id);
+    ASSERT_GE(i, 0);
+    if (c.device_end) {
+      const sl::DeviceEnd& d = r.cell.links().connections()[static_cast<std::size_t>(i)].end;
+      EXPECT_EQ(d.state(), sl::LinkState::Failed);
+      EXPECT_EQ(d.fault(), c.verdict) << sl::to_string(d.fault());
+    } else {
+      EXPECT_EQ(r.host(c.id).end.state(), sl::LinkState::Failed);
+      EXPECT_EQ(r.host(c.id).end.fault(), c.verdict) << sl::to_string(r.host(c.id).end.fault());
+    }
+    if (c.id == kLinkSafeOutA || c.id == kLinkSafeOutB) {
+      EXPECT_FALSE(r.cell.links().k1() && r.cell.links().k2()) << "the F-DO opened its contactor";
+      EXPECT_FALSE(r.cell.last_outputs().contactor && r.cell.last_outputs().contactor_k2);
+      const nlohmann::json s = r.safety();
+      ASSERT_TRUE(s.at("fault_to_open_us").is_number());
+      // at once for a damaged container, within the 10 ms watchdog for a late one
+      EXPECT_LE(s.at("fault_to_open_us").get<std::uint64_t>(), 11000U);
+      char id[8];
+      std::snprintf(id, sizeof id, "0x%04X", static_cast<unsigned>(c.id));
+      EXPECT_EQ(s.at("links").at(id).at("verdict"), sl::to_string(c.verdict));
+    }
+  }
+}
+
+// A delay shorter than the watchdog is not a fault: the ping-pong waits.
+TEST(EcatSafeLinks, ADelayWithinTheWatchdogIsNoFault) {
+  LinkRig r;
+  power_up(r);
+  ASSERT_EQ(r.line("fault link delay 0xA002 to-device 4"), "OK");
+  ASSERT_EQ(r.line("fault link delay 0xA001 to-host 4"), "OK");
+  for (int k = 0; k < 30; ++k) {
+    r.cycle();
+  }
+  EXPECT_TRUE(r.all_up());
+  EXPECT_TRUE(r.cell.links().k1() && r.cell.links().k2());
+}
+
+// The F-DO opens K1 and K2 by itself within the 10 ms watchdog when no container comes (the
+// master silent), and at once when the containers are zeros (a host that failed) or invalid.
+TEST(EcatSafeLinks, TheOutputsOpenWithinTheWatchdog) {
+  LinkRig r;
+  power_up(r);
+  int open_after = -1;
+  for (int ms = 1; ms <= 20 && open_after < 0; ++ms) {
+    r.cycle(false);
+    if (!r.cell.links().k1() && !r.cell.links().k2()) {
+      open_after = ms;
+    }
+  }
+  EXPECT_GE(open_after, 9);
+  EXPECT_LE(open_after, 11) << "the 10 ms watchdog, counted in the device's own cycles";
+  EXPECT_FALSE(r.cell.last_outputs().contactor);
+  EXPECT_FALSE(r.cell.last_outputs().brakes_release);
+
+  LinkRig z;
+  power_up(z);
+  std::memset(z.out_of(z.host(kLinkSafeOutB)), 0, z.host(kLinkSafeOutB).conn.rx_len);
+  z.cell.set_time(z.t);
+  z.inputs = exchange(z.cell.segment(), {{Cmd::LWR, 0x0000, 0x0002, z.outputs}, {Cmd::LRD, 0x0000, 0x0001, z.inputs}}, z.t)[1].data;
+  EXPECT_FALSE(z.cell.links().k2()) << "zeros (not connected): K2 open in the same exchange";
+  EXPECT_TRUE(z.cell.links().k1());
+  EXPECT_FALSE(z.cell.last_outputs().contactor_k2);
+}
+
+// Unplugged, the safe terminals lose their power (outputs off); plugged back they start again
+// with a new session, and the channels connect anew.
+TEST(EcatSafeLinks, UnplugAndReplugPowerCycleTheTerminals) {
+  LinkRig r;
+  power_up(r);
+  const std::uint16_t before = r.cell.links().connections()[static_cast<std::size_t>(r.cell.links().find(kLinkSafeOutA))].end.session();
+  ASSERT_EQ(r.line("fault unplug 10"), "OK");
+  r.cycle();
+  EXPECT_FALSE(r.cell.links().k1());
+  EXPECT_FALSE(r.cell.last_outputs().contactor);
+  EXPECT_EQ(r.safety().at("links").at("0xA002").at("powered"), false);
+  ASSERT_EQ(r.line("fault replug"), "OK");
+  r.cycle();
+  EXPECT_EQ(r.safety().at("links").at("0xA002").at("state"), "idle");
+  // The segment re-powered comes back in INIT: the master brings it up again (here at once).
+  Segment& seg = r.cell.segment();
+  for (std::size_t p = kPosSafeIn; p <= kPosSafeOut; ++p) {
+    const auto st = static_cast<std::uint16_t>(0x1001 + p);
+    exchange(seg, {{Cmd::APWR, static_cast<std::uint16_t>(0U - p), reg::station_addr, le16(st)}});
+    const SubdeviceDesc& d = seg.esc(p).desc();
+    map(seg, st, 0, d.out_address, static_cast<std::uint16_t>(d.rx.bytes()), 0x64, 0, 0x20000 + static_cast<std::uint32_t>(r.out_at[p]), 2);
+    map(seg, st, 1, d.in_address, static_cast<std::uint16_t>(d.tx.bytes()), 0x20, 1, 0x10000 + static_cast<std::uint32_t>(r.in_at[p]), 1);
+    for (const std::uint16_t s : {2, 4, 8}) {
+      request(seg, st, s);
+    }
+    ASSERT_EQ(seg.esc(p).state(), AlState::op) << p;
+  }
+  std::uint16_t session = 0x900;
+  for (auto& h : r.hosts) {
+    if (h.conn.pos >= kPosSafeIn) {
+      EXPECT_TRUE(h.end.connect(session++));
+    }
+  }
+  for (int k = 0; k < 40; ++k) {
+    r.cycle();
+  }
+  EXPECT_TRUE(r.all_up());
+  const std::uint16_t after = r.cell.links().connections()[static_cast<std::size_t>(r.cell.links().find(kLinkSafeOutA))].end.session();
+  EXPECT_NE(before, after) << "a new power-up, a new device session";
+  EXPECT_TRUE(r.cell.links().k1() && r.cell.links().k2());
+}
+
+// `fault link` lines are validated: a bad one is refused naming what is wrong and changes nothing.
+TEST(EcatSafeLinks, BadFaultLinesAreRefused) {
+  LinkRig r;
+  for (const char* bad : {"fault link", "fault link flip", "fault link flip 0xA001", "fault link flip 0xC001 to-device",
+                          "fault link flip 0xA001 sideways", "fault link flip 0xA001 to-device 120",
+                          "fault link flip 0xA001 to-device x", "fault link replay 0xA001 to-host extra",
+                          "fault link swap 0xA001 0xA001 to-host", "fault link swap 0xA001 0xA002 to-host",
+                          "fault link delay 0xA002 to-device 0", "fault link delay 0xA002 to-device 60001",
+                          "fault link insert 0xA002 0xA011 to-device", "fault link bend 0xA001 to-host"}) {
+    const std::string a = r.line(bad);
+    EXPECT_EQ(a.rfind("ERROR", 0), 0U) << bad << " -> " << a;
+  }
+  EXPECT_EQ(r.safety().at("faults_pending"), 0);
+  EXPECT_EQ(r.line("fault link flip 0xA001 to-device 119"), "OK");
+  EXPECT_EQ(r.safety().at("faults_pending"), 1);
+  EXPECT_EQ(r.line("fault clear all"), "OK");
+  EXPECT_EQ(r.safety().at("faults_pending"), 0);
+}
+
+// `time cat0 from=fault` starts at the first frame a link fault hits: the F-DO's opening is
+// measured on the wire.
+TEST(EcatSafeLinks, WireTimingStartsAtALinkFault) {
+  LinkRig r;
+  power_up(r);
+  ASSERT_EQ(r.line("time cat0 from=fault"), "OK");
+  ASSERT_EQ(r.line("fault link flip 0xB002 to-device"), "OK");
+  for (int k = 0; k < 5; ++k) {
+    r.cycle();
+  }
+  const nlohmann::json w = nlohmann::json::parse(r.line("status")).at("wire_timing");
+  ASSERT_TRUE(r.cell.wire_timing().start().seen) << w.dump();
+  ASSERT_TRUE(r.cell.wire_timing().reaction().seen) << w.dump();
+  EXPECT_EQ(r.cell.wire_timing().reaction().exchange, r.cell.wire_timing().start().exchange)
+      << "the damaged container opens K2 in the exchange that carries it";
+}

@@ -176,6 +176,7 @@ void WireTiming::arm(const Spec& s) noexcept {
   fresh.tcp_ = tcp_;
   fresh.have_prev_ = have_prev_;
   fresh.prev_target_ = prev_target_;
+  fresh.prev_powered_ = prev_powered_;
   *this = fresh;
   spec_ = s;
   armed_ = true;
@@ -254,13 +255,20 @@ void WireTiming::exchange(std::uint64_t n, std::uint64_t now_ns, const hal::Proc
   prev_target_ = target;
   const bool had_prev = have_prev_;
   have_prev_ = true;
+  const bool was_powered = prev_powered_;
+  prev_powered_ = out.contactor && out.contactor_k2;
   if (!armed_) return;
 
   if (!start_.seen) {
-    if (had_prev && !(out.contactor && out.contactor_k2) && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
+    const bool trigger = crossed(in);
+    // A fault on the wire (a damaged container to the safe output terminal, issue 37) can open
+    // the outputs in the very exchange that carries it: a reaction of 0 exchanges, not "early".
+    const bool at_once = trigger && spec_.from == From::fault && was_powered && reacted(out, speed_counts, tcp_mm_s);
+    if (!at_once && had_prev && !(out.contactor && out.contactor_k2) && !early_.seen) early_ = Mark{true, n, now_ns};  // stopped before the trigger
     if (spec_.stop == Stop::reduced && out.reduced_active && !early_.seen) early_ = Mark{true, n, now_ns};
-    if (crossed(in)) {
+    if (trigger) {
       start_ = Mark{true, n, now_ns};
+      if (at_once) reaction_ = start_;
       peak_speed_counts_ = speed_counts;
       trace_[0] = static_cast<float>(speed_counts);
       traced_ = 1;

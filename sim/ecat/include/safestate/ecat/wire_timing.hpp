@@ -103,6 +103,7 @@ class WireTiming {
   bool fault_pending_ = false;
   bool have_prev_ = false;
   bool have_ref_axis_ = false;
+  bool prev_powered_ = false;  // K1 and K2 commanded closed in the last exchange
   std::array<float, 3> tcp_{};
   std::array<float, 3> ref_axis_{};
   std::array<float, hal::kAxes> prev_target_{};
