@@ -1927,6 +1927,17 @@ TEST(EcatSafeLinks, ValidTrafficDrivesThePowerPath) {
     EXPECT_EQ(le32p(r.host(link_drive('B', a + 1)).end.data().data()), q) << a;
   }
   EXPECT_FALSE(r.cell.last_outputs().contactor);  // nothing asked yet
+  // The DO terminal's contactor, contactor_k2 and brakes_release bits are wired to nothing
+  // with the F-DO on the line: set, they close nothing.
+  r.outputs[r.out_at[kPosDigitalOut]] = 0x03;
+  r.outputs[r.out_at[kPosDigitalOut] + 1] = 0x04;
+  for (int k = 0; k < 30; ++k) {
+    r.cycle();
+  }
+  EXPECT_FALSE(r.cell.last_outputs().contactor);
+  EXPECT_FALSE(r.cell.last_outputs().contactor_k2);
+  EXPECT_FALSE(r.cell.last_outputs().brakes_release);
+  EXPECT_FALSE(r.cell.last_inputs().contactor_closed);
   // K1 alone: the power path stays open (K2 in series), the brakes stay on (one relay).
   r.host(kLinkSafeOutA).out = kSafeOutK | kSafeOutRelay;
   for (int k = 0; k < 30; ++k) {
@@ -1945,8 +1956,6 @@ TEST(EcatSafeLinks, ValidTrafficDrivesThePowerPath) {
   EXPECT_TRUE(r.cell.last_outputs().brakes_release);
   EXPECT_TRUE(r.cell.last_inputs().contactor_closed && r.cell.last_inputs().k2_closed);
   EXPECT_EQ(r.host(kLinkSafeOutB).end.data()[0], 0x03);
-  // The DO terminal's contactor bits are wired to nothing now: all zero in the outputs.
-  EXPECT_EQ(r.outputs[r.out_at[kPosDigitalOut]], 0U);
   const nlohmann::json s = r.safety();
   EXPECT_EQ(s.at("fdo").at("k1"), true);
   EXPECT_EQ(s.at("fdo").at("relay_b"), true);
