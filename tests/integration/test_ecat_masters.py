@@ -26,10 +26,15 @@ sys.path.insert(0, str(PROBE.parent))
 from probe import control  # noqa: E402  (one line to the emulator's control socket)
 
 VENDOR = 0x5AFE
-PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6 + [0xD15001]  # the distance sensor last (SPEC §11)
+# the distance sensor (SPEC §11), then the safe input and output terminals (issue 37)
+PRODUCTS = [0xD10018, 0xD00003] + [0x402001] * 6 + [0xD15001, 0xD1F001, 0xD0F001]
 REVISION = 0x10000
-IN_BYTES = [4, 0] + [16] * 6 + [5]  # drives: 0x6041, 0x6064, 0x606C, 0x6077, 0x60E4:01; sensor: mm (i32), valid
-OUT_BYTES = [0, 2] + [8] * 6 + [0]  # drives: 0x6040, 0x607A, 0x6072
+COUNT = len(PRODUCTS)
+# drives: 0x6041, 0x6064, 0x606C, 0x6077, 0x60E4:01 and two 19-byte safety containers; sensor: mm (i32),
+# valid; F-DI: two 19-byte containers (the contacts to A and to B), F-DO: two 16-byte ones
+IN_BYTES = [4, 0] + [54] * 6 + [5, 38, 32]
+# drives: 0x6040, 0x607A, 0x6072 and two 15-byte containers; F-DI two 15-byte, F-DO two 16-byte
+OUT_BYTES = [0, 2] + [38] * 6 + [0, 30, 32]
 
 
 def sh(*args, check=True):
@@ -92,6 +97,16 @@ def segment():
 
 
 @pytest.fixture
+def plain_segment():
+    """The segment without the safe terminals (`ecat-sim --no-safe-terminals`: as before issue 37)."""
+    if os.geteuid() != 0:
+        pytest.skip("needs root: network namespaces and raw sockets")
+    s = Segment(extra=["--no-safe-terminals"])
+    yield s
+    s.close()
+
+
+@pytest.fixture
 def free_run_segment():
     """The drives also accept OP without DC SYNC0: kickcat's Python binding configures no
     distributed clocks (pysoem does, Soem.to_op)."""
@@ -104,12 +119,12 @@ def free_run_segment():
 
 def test_pysoem_scans_identities_and_reaches_op(segment):
     r = segment.probe("soem", "scan")
-    assert r["count"] == 9
-    assert [i["vendor"] for i in r["identities"]] == [VENDOR] * 9
+    assert r["count"] == COUNT
+    assert [i["vendor"] for i in r["identities"]] == [VENDOR] * COUNT
     assert [i["product"] for i in r["identities"]] == PRODUCTS
-    assert [i["revision"] for i in r["identities"]] == [REVISION] * 9
+    assert [i["revision"] for i in r["identities"]] == [REVISION] * COUNT
     assert r["op"] is True
-    assert r["wkc"] == r["expected_wkc"] == 22  # SOEM: 7 outputs x 2 + 8 inputs
+    assert r["wkc"] == r["expected_wkc"] == 28  # SOEM: 9 outputs x 2 + 10 inputs
     assert r["input_bytes"] == IN_BYTES
     assert r["ready"] is True
     assert all(sw & 0x4F == 0x40 for sw in r["statuswords"]), r["statuswords"]  # Switch on disabled
@@ -120,7 +135,7 @@ def test_pysoem_scans_identities_and_reaches_op(segment):
 
 def test_kickcat_scans_and_reaches_op_with_the_same_layout(free_run_segment):
     r = free_run_segment.probe("kick", "scan")
-    assert r["count"] == 9
+    assert r["count"] == COUNT
     assert r["op"] is True
     assert r["sizes"] == [[i, o] for i, o in zip(IN_BYTES, OUT_BYTES)]  # from the SII PDO categories
     assert r["ready"] is True
@@ -142,8 +157,10 @@ def test_estop_on_one_channel_shows_on_the_wire(segment):
     assert int(r["after"][0:2], 16) & 0x03 == 0x01  # estop.b open, estop.a still closed
 
 
-def test_contactor_output_and_cia402_walk_through_pdos(segment):
-    r = segment.probe("soem", "power")
+def test_contactor_output_and_cia402_walk_through_pdos(plain_segment):
+    """The segment as before issue 37 (`--no-safe-terminals`): the DO terminal's bits drive K1
+    and K2 (with the safe output terminal on the line only its containers do: below)."""
+    r = plain_segment.probe("soem", "power")
     assert r["contactor_fb"] is True  # DO bit out, emulated contactor, DI feedback back
     assert r["k2_fb_with_k1_alone"] is False  # SPEC §14: K2 has its own output and its own contact
     assert r["contactor_fb_k2"] is True
@@ -151,11 +168,24 @@ def test_contactor_output_and_cia402_walk_through_pdos(segment):
     assert r["statusword"] & 0x6F == 0x27
 
 
+def test_with_the_safe_output_terminal_the_do_bits_close_nothing(segment):
+    """Issue 37: with the F-DO on the line K1 and K2 close only on valid containers of the
+    channels; a master that sets the DO terminal's contactor bits closes nothing."""
+    r = segment.probe("soem", "power")
+    assert r["op"] is True
+    assert r["contactor_fb"] is False and r["contactor_fb_k2"] is False
+    st = json.loads(control(segment.control, "status"))
+    assert st["safety"]["fdo"] == {"k1": False, "k2": False, "relay_a": False, "relay_b": False}
+    assert st["safety"]["links"]["0xA002"]["state"] == "idle"  # nobody connected
+
+
 def test_unplugged_drive_lowers_the_working_counter(segment):
     r = segment.probe("soem", "unplug", segment.control, "8")
     assert r["answer"] == "OK"
     assert r["wkc_before"] == r["expected_wkc"]
-    assert r["wkc_after"] == r["expected_wkc"] - 4  # drive 6 neither read nor written, the sensor behind it not read
+    # drive 6 neither read nor written (3), the sensor behind it not read (1), nor the F-DI and
+    # F-DO (3 each)
+    assert r["wkc_after"] == r["expected_wkc"] - 10
 
 
 def test_pysoem_reads_and_writes_the_drives_sdos(segment):
@@ -174,7 +204,7 @@ def test_pysoem_reads_and_writes_the_drives_sdos(segment):
 def test_watchdog_drops_silent_outputs_to_safeop(segment):
     r = segment.probe("soem", "watchdog")
     al = r["al"]
-    for pos in range(1, 8):  # every subdevice with outputs
+    for pos in [*range(1, 8), 9, 10]:  # every subdevice with outputs (the safe terminals too)
         assert al[pos]["state"] == 0x14 and al[pos]["code"] == 0x1B, al
     assert al[0]["state"] == 0x08  # the input terminal has no output watchdog
     assert al[8]["state"] == 0x08  # nor has the distance sensor
