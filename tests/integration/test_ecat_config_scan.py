@@ -21,7 +21,8 @@ from veth_ns import veth_namespace
 ROOT = Path(__file__).resolve().parents[2]
 BIN = os.environ.get("SAFESTATE_BIN", str(ROOT / "build" / "bin" / "safestate"))
 ESI = str(ROOT / "hal" / "ethercat" / "esi" / "SafeState-Emulated.xml")
-ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6", "--device", "0x00D15001"]
+ORDER = ["--device", "0x00D10018", "--device", "0x00D00003", "--device", "0x00402001*6", "--device", "0x00D15001",
+         "--device", "0x00D1F001", "--device", "0x00D0F001"]  # the safe terminals (issue 37) last
 
 
 @pytest.fixture

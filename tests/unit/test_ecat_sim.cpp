@@ -1740,6 +1740,9 @@ std::vector<SubdeviceDesc> free_running(std::vector<SubdeviceDesc> v) {
 class LinkRig {
  public:
   explicit LinkRig(std::uint32_t seed = 0x5EED) : cell(1000, free_running(default_segment()), seed) {
+    // Paced (as `ecat-sim` runs): the safe devices keep their own time between exchanges. The
+    // drives run free, so the plant still steps per exchange.
+    cell.set_pacing(EmulatedCell::Pacing::paced);
     Segment& seg = cell.segment();
     address_all(seg);
     for (std::uint16_t a = 0; a < 6; ++a) {
@@ -2142,4 +2145,29 @@ TEST(EcatSafeLinks, WireTimingStartsAtALinkFault) {
   ASSERT_TRUE(r.cell.wire_timing().reaction().seen) << w.dump();
   EXPECT_EQ(r.cell.wire_timing().reaction().exchange, r.cell.wire_timing().start().exchange)
       << "the damaged container opens K2 in the exchange that carries it";
+}
+
+// Lock-step (`safestate replay`, not paced in real time: it may pause between two exchanges)
+// the safe devices' time is the plant's: a pause of the master is no timeout, but once the
+// plant runs by itself (the master silent for 20 cycles) their watchdogs run down with it.
+TEST(EcatSafeLinks, LockStepTheDevicesCountPlantCycles) {
+  LinkRig r;
+  power_up(r);
+  r.cell.set_pacing(EmulatedCell::Pacing::lockstep);
+  r.cell.poll(r.t + 15000000);  // 15 ms without a frame: less than the plant's 20 silent cycles
+  EXPECT_TRUE(r.cell.links().k1() && r.cell.links().k2());
+  r.t += 15000000;
+  for (int k = 0; k < 5; ++k) {
+    r.cycle();
+  }
+  EXPECT_TRUE(r.all_up());
+  int open_after = -1;  // ms without a frame: the plant runs by itself after 20, the devices with it
+  for (int ms = 1; ms <= 60 && open_after < 0; ++ms) {
+    r.cell.poll(r.t + static_cast<std::uint64_t>(ms) * 1000000U);
+    if (!r.cell.links().k1() && !r.cell.links().k2()) {
+      open_after = ms;
+    }
+  }
+  EXPECT_GE(open_after, 25);
+  EXPECT_LE(open_after, 35);
 }

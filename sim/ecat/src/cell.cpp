@@ -307,7 +307,12 @@ void EmulatedCell::latch_inputs() noexcept {
   }
 }
 
-void EmulatedCell::step() noexcept { plant_cycle(Cause::free); }
+void EmulatedCell::step() noexcept {
+  if (pacing_ == Pacing::lockstep) {
+    link_cycle(false);  // lock-step: the safe devices' time is the plant's (poll())
+  }
+  plant_cycle(Cause::free);
+}
 
 namespace {
 
@@ -537,8 +542,11 @@ std::uint64_t EmulatedCell::sleep_ns(std::uint64_t now_ns, std::uint64_t most_ns
 void EmulatedCell::poll(std::uint64_t now_ns) noexcept {
   now_ns_ = now_ns;
   segment_.poll(now_ns);
-  // The safe devices run their own cycle while no exchange comes (their watchdogs run down).
-  for (std::uint32_t k = 0; links_.due(now_ns) && k < 1000U; ++k) {
+  // The safe devices run their own cycle while no exchange comes (their watchdogs run down),
+  // in real time when paced; in lock-step (a replay, not paced in real time: it may pause
+  // between two exchanges) their time is the plant's: a cycle per exchange, and per plant
+  // cycle the plant runs by itself once the master fell silent (step()).
+  for (std::uint32_t k = 0; pacing_ == Pacing::paced && links_.due(now_ns) && k < 1000U; ++k) {
     link_cycle(false);
   }
   watch_held_outputs();
