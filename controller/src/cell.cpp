@@ -69,6 +69,9 @@ void Cell::step() noexcept {
     // Issue 37: the containers checked, the safety data taken from them (or the safe values).
     links_.receive(in_);
     controller_.set_link_check(links_.check());
+    if (input_stage_ != nullptr) {
+      input_stage_->apply(in_.safety);
+    }
   }
   platform_.cycle();
   in_.integrity_ok = in_.integrity_ok && platform_.integrity_ok();

@@ -289,6 +289,8 @@ std::size_t count_ranges(const Scenario& s) noexcept {
 
 class Runner {
  public:
+  [[nodiscard]] std::string links_error() const { return cell_.links_error(); }
+  bool connect_links() noexcept { return cell_.connect_links(100); }
   Runner(const Scenario& s, const RunOptions& o)
       : s_(s), opts_(o), cell_(s.config, o.bus, s.channels), failed_(s.steps.size(), 0U), count_(s.steps.size(), 0U) {
     cell_.configure_limits(safety_limits(s), s.safety_validated);
@@ -536,6 +538,17 @@ int run(const Scenario& s, const RunOptions& opts, Summary& summary) {
     return 2;
   }
   Runner r{s, opts};
+  if (const std::string why = r.links_error(); !why.empty()) {
+    if (opts.report != nullptr) {
+      *opts.report << s.file << ": the bus's safety connections are refused: " << why << '\n';
+    }
+    return 2;
+  }
+  // Over a bus with the black channel its sessions are opened before cycle 0, as the bus is
+  // brought up before it: the scenario's cycles are the cell's from its first step. A bus that
+  // did not come up (a scenario about BOOT_FAILED) leaves them connecting: the cell's boot
+  // then names what is missing, as it would without this.
+  static_cast<void>(r.connect_links());
   summary = r.run();
   return (summary.failed == 0U) ? 0 : 1;
 }

@@ -3,6 +3,7 @@
 #include "safestate/controller/channels.hpp"
 
 #include <optional>
+#include <random>
 
 #include "safestate/motion/kinematics.hpp"
 #include "safestate/robot/description.hpp"
@@ -68,10 +69,10 @@ struct ChannelLink final : controller::Link {
 
 // A channel's own view of the world (SPEC §14 `channel X input NAME=V`): contacts it alone
 // reads stuck.
-struct StuckInputs {
+struct StuckInputs final : controller::InputStage {
   std::array<bool, vocab::kContacts> stuck{};
   std::array<bool, vocab::kContacts> value{};
-  void apply(core::RawInputs& raw) const noexcept {
+  void apply(core::RawInputs& raw) const noexcept override {
     for (std::size_t c = 0; c < vocab::kContacts; ++c) {
       if (stuck[c]) {
         vocab::apply(vocab::ContactWrite{static_cast<vocab::Contact>(c), value[c]}, raw);
@@ -112,7 +113,9 @@ struct Cell::Impl final : hal::Backend {
     explicit PortB(Impl& i) noexcept : s(&i) {}
     void read(hal::ProcessImageIn& in) noexcept override {
       in = s->image;
-      s->stuck[1].apply(in.safety);
+      if (!s->links_active) {
+        s->stuck[1].apply(in.safety);
+      }
     }
     void write(const hal::ProcessImageOut& out) noexcept override { s->out_b = out; }
     Impl* s;
@@ -130,6 +133,18 @@ struct Cell::Impl final : hal::Backend {
       core_b.emplace(c, robot::active().model, port_b);
       core.pair(core::Channel::a, link_a);
       core_b->pair(core::Channel::b, link_b);
+    }
+    if (bus != nullptr) {
+      // Issue 37: on a bus with the black channel each controller checks and creates its own
+      // channel's containers (a channel alone all of them); new sessions at every start.
+      const std::uint16_t seed = static_cast<std::uint16_t>(std::random_device{}());
+      const char* why = nullptr;
+      if (core.configure_links(bus->safety_links(), seed, why) && core_b) {
+        static_cast<void>(core_b->configure_links(bus->safety_links(), static_cast<std::uint16_t>(seed + 0x100U), why));
+      }
+      links_error = (why != nullptr) ? why : "";
+      links_active = core.links().configured();
+      stage_inputs();
     }
     load_demo();
   }
@@ -170,6 +185,19 @@ struct Cell::Impl final : hal::Backend {
       core.relink(link_a);  // the copy's own rings, its cross-checks as they were
       core_b->relink(link_b);
     }
+    links_active = o.links_active;
+    links_error = o.links_error;
+    stage_inputs();
+  }
+  // With the black channel the contacts reach the channels in containers: a channel's own
+  // wrong reading (`channel X input`) applies after it decoded them, in the channel.
+  void stage_inputs() noexcept {
+    if (links_active) {
+      core.set_input_stage(&stuck[0]);
+      if (core_b) {
+        core_b->set_input_stage(&stuck[1]);
+      }
+    }
   }
   Impl& operator=(const Impl&) = delete;
   ~Impl() override = default;
@@ -208,7 +236,9 @@ struct Cell::Impl final : hal::Backend {
   void read(hal::ProcessImageIn& in) noexcept override {
     read_world(image);
     in = image;
-    stuck[0].apply(in.safety);
+    if (!links_active) {
+      stuck[0].apply(in.safety);
+    }
   }
   void write(const hal::ProcessImageOut& out) noexcept override {
     out_a = out;
@@ -224,6 +254,8 @@ struct Cell::Impl final : hal::Backend {
 
   core::Config cfg;
   hal::Backend* bus;  // null: the simulated plant
+  const char* links_error = "";  // issue 37: why the bus's safety connections were refused
+  bool links_active = false;     // the controllers check the bus's containers
   std::uint8_t channels;
   SimPlant plant;
   bool jog_link_up = true;
@@ -265,6 +297,31 @@ Cell::Cell(const core::Config& cfg, hal::Backend* bus, std::uint8_t channels)
     : impl_(std::make_unique<Impl>(cfg, bus, channels)) {}
 Cell::~Cell() = default;
 Cell::Cell(const Cell& other) : vocab::World(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
+
+const char* Cell::links_error() const noexcept { return impl_->links_error; }
+
+bool Cell::connect_links(int max_exchanges) noexcept {
+  Impl& s = *impl_;
+  if (s.bus == nullptr || !s.links_active) {
+    return true;
+  }
+  for (int k = 0; k < max_exchanges; ++k) {
+    hal::ProcessImageIn in{};
+    s.bus->read(in);
+    hal::ProcessImageIn in_b = in;
+    hal::ProcessImageOut out_a{};  // every output off: nothing has run yet
+    hal::ProcessImageOut out_b{};
+    bool up = s.core.exchange_links(in, out_a);
+    if (s.core_b) {
+      up = s.core_b->exchange_links(in_b, out_b) && up;
+    }
+    s.bus->write(s.core_b ? controller::combine_outputs(out_a, out_b) : out_a);
+    if (up) {
+      return true;
+    }
+  }
+  return false;
+}
 
 core::RawInputs& Cell::inputs() noexcept { return impl_->plant.inputs(); }
 void Cell::inject(const Fault& f) noexcept {

@@ -261,8 +261,15 @@ std::string EmulatedCell::link_fault(const std::string& words) { return links_.f
 
 // One cycle of the safe devices (safe_io.hpp): the master's containers as the last frame left
 // them, the contacts and load-side positions as the plant holds them now.
-void EmulatedCell::link_cycle(bool exchange) noexcept {
+void EmulatedCell::link_cycle(bool exchange, LinkPhase phase) noexcept {
   if (!links_.any()) {
+    return;
+  }
+  if (phase == LinkPhase::outputs) {
+    links_.outputs(segment_, in_.contactor_closed, in_.k2_closed, now_ns_, exchange);
+    if (links_.take_fault_hit()) {
+      timing_.fault_injected();  // `time ... from=fault`: a wire fault of a container starts it
+    }
     return;
   }
   std::uint8_t di[kDiBytes];
@@ -274,7 +281,11 @@ void EmulatedCell::link_cycle(bool exchange) noexcept {
   for (std::size_t a = 0; a < hal::kAxes; ++a) {
     load[a] = static_cast<std::int32_t>(get32(&tx[a][12]));
   }
-  links_.cycle(segment_, contacts, load, in_.contactor_closed, in_.k2_closed, now_ns_, exchange);
+  if (phase == LinkPhase::inputs) {
+    links_.inputs(segment_, contacts, load, now_ns_);
+  } else {
+    links_.cycle(segment_, contacts, load, in_.contactor_closed, in_.k2_closed, now_ns_, exchange);
+  }
   if (links_.take_fault_hit()) {
     timing_.fault_injected();  // `time ... from=fault`: a wire fault of a container starts it
   }
@@ -386,7 +397,9 @@ void EmulatedCell::watch_held_outputs() noexcept {
 void EmulatedCell::on_exchange() noexcept {
   free_running_ = false;
   const bool was_closed = powered(held_);
-  link_cycle(true);  // the safe devices take their containers before the plant cycle
+  // The safe output terminal takes its containers before the plant cycle (its outputs are the
+  // power path's); the input terminal and the drives answer with what it sampled (below).
+  link_cycle(true, LinkPhase::outputs);
   unpack_held(held_);
   time_reaction(was_closed);
   last_exchange_ns_ = now_ns_;
@@ -399,6 +412,7 @@ void EmulatedCell::on_exchange() noexcept {
   }
   // The outputs it brought, the inputs its reply carries back (segment.cpp logical()):
   // lock-step, those of the plant cycle it ran; paced, those the last SYNC0 sampled.
+  link_cycle(true, LinkPhase::inputs);  // the same sample as the DI terminal's in this frame
   timing_.exchange(exchanges_, now_ns_, held_, in_, cycle_us_);
   ++exchanges_;
 }

@@ -275,6 +275,11 @@ void SafeLinks::apply(LinkDir dir, std::vector<std::array<std::uint8_t, safelink
 
 void SafeLinks::cycle(Segment& seg, std::uint32_t contacts, const std::array<std::int32_t, 6>& load_counts,
                       bool k1_closed, bool k2_closed, std::uint64_t now_ns, bool exchange) {
+  outputs(seg, k1_closed, k2_closed, now_ns, exchange);
+  inputs(seg, contacts, load_counts, now_ns);
+}
+
+void SafeLinks::outputs(Segment& seg, bool k1_closed, bool k2_closed, std::uint64_t now_ns, bool exchange) {
   if (conns_.empty()) {
     return;
   }
@@ -306,26 +311,37 @@ void SafeLinks::cycle(Segment& seg, std::uint32_t contacts, const std::array<std
       continue;
     }
     remember(c.hist_dev, c.n_dev, sent[i].data(), c.rx_len);
-    std::array<std::uint8_t, 4> data{};
-    std::size_t n = c.device_data;
-    if (c.product == kProductSafeIn) {
-      for (std::size_t k = 0; k < 4U; ++k) {
-        data[k] = static_cast<std::uint8_t>(contacts >> (8U * k));
-      }
-    } else if (c.product == kProductSafeOut) {
-      // Its contactor's auxiliary contact, and whether this connection's outputs are on as
-      // the container arrives (the state it answers from: docs/ethercat.md).
-      const bool k = c.channel == 'A' ? k1_closed : k2_closed;
-      data[0] = static_cast<std::uint8_t>((k ? 0x01U : 0U) | (c.end.outputs_enabled() ? kSafeOutOn : 0U));
-    } else {
-      const auto v = static_cast<std::uint32_t>(load_counts[c.axis - 1U]);
-      for (std::size_t k = 0; k < 4U; ++k) {
-        data[k] = static_cast<std::uint8_t>(v >> (8U * k));
-      }
+    if (c.product != kProductSafeOut) {
+      continue;  // inputs(): with the plant cycle's sample
     }
-    c.last = c.end.cycle({rx_[i].data(), c.rx_len}, {data.data(), n}, {tx_[i].data(), c.tx_len});
+    // Its contactor's auxiliary contact, and whether this connection's outputs are on as the
+    // container arrives (the state it answers from: docs/ethercat.md).
+    const bool k = c.channel == 'A' ? k1_closed : k2_closed;
+    std::array<std::uint8_t, 1> data{
+        static_cast<std::uint8_t>((k ? 0x01U : 0U) | (c.end.outputs_enabled() ? kSafeOutOn : 0U))};
+    c.last = c.end.cycle({rx_[i].data(), c.rx_len}, {data.data(), 1}, {tx_[i].data(), c.tx_len});
   }
-  sent = tx_;
+}
+
+void SafeLinks::inputs(Segment& seg, std::uint32_t contacts, const std::array<std::int32_t, 6>& load_counts,
+                       std::uint64_t now_ns) {
+  if (conns_.empty()) {
+    return;
+  }
+  for (std::size_t i = 0; i < conns_.size(); ++i) {
+    Conn& c = conns_[i];
+    if (!c.powered || c.product == kProductSafeOut) {
+      continue;
+    }
+    std::array<std::uint8_t, 4> data{};
+    const std::uint32_t v =
+        (c.product == kProductSafeIn) ? contacts : static_cast<std::uint32_t>(load_counts[c.axis - 1U]);
+    for (std::size_t k = 0; k < 4U; ++k) {
+      data[k] = static_cast<std::uint8_t>(v >> (8U * k));
+    }
+    c.last = c.end.cycle({rx_[i].data(), c.rx_len}, {data.data(), c.device_data}, {tx_[i].data(), c.tx_len});
+  }
+  std::vector<std::array<std::uint8_t, safelink::kMaxContainer>> sent = tx_;
   apply(LinkDir::to_host, tx_, now_ns);
   for (std::size_t i = 0; i < conns_.size(); ++i) {
     Conn& c = conns_[i];

@@ -44,6 +44,21 @@ struct CellView {
   std::uint8_t program_length = 0;
 };
 
+// A channel's own reading of its safety inputs, applied after the black channel's containers
+// were decoded (issue 37): the simulator's `channel X input NAME=V` (SPEC §14: a channel reading
+// one contact wrong) where the contacts reach the channel in containers. Only the simulated
+// world installs one (sim::Cell); a controller on a plant has none.
+class InputStage {
+ public:
+  virtual void apply(core::RawInputs& raw) const noexcept = 0;
+
+ protected:
+  InputStage() = default;
+  InputStage(const InputStage&) = default;
+  InputStage& operator=(const InputStage&) = default;
+  ~InputStage() = default;
+};
+
 class Cell {
  public:
   // `cfg` must have passed core::validate(); `io` must outlive the cell. Registers the core's
@@ -84,6 +99,19 @@ class Cell {
     return links_.configure(table, self_, cfg_.cycle_us, session_seed, why);
   }
   [[nodiscard]] const SafetyLinks& links() const noexcept { return links_; }
+  // Issue 37, before the first step: one exchange of the black channel's containers alone (the
+  // connect and its answer) on `in` as read and into `out` (the safety layer only: the cell
+  // does not step, its outputs stay as `out` holds them). A tool that brings its bus up before
+  // its first cycle (safestate replay over EtherCAT) opens the sessions the same way. true
+  // once every connection the cell hosts has delivered data.
+  bool exchange_links(hal::ProcessImageIn& in, hal::ProcessImageOut& out) noexcept {
+    links_.receive(in);
+    links_.transmit(out);
+    return links_.check().up;
+  }
+  // The simulator's stage after the containers (InputStage above); null: none. A copy of the
+  // cell starts without one.
+  void set_input_stage(const InputStage* s) noexcept { input_stage_ = s; }
   [[nodiscard]] core::Channel channel() const noexcept { return self_; }
   [[nodiscard]] const CrossCheck& cross_check() const noexcept { return cross_; }
   [[nodiscard]] const Digest& last_digest() const noexcept { return digest_; }
@@ -134,6 +162,7 @@ class Cell {
   Digest digest_{};
   core::ChannelCheck check_{};
   SafetyLinks links_{};  // issue 37
+  const InputStage* input_stage_ = nullptr;
 };
 
 // SPEC §3's output bits of one cycle, as the black box records them and the cross-channel

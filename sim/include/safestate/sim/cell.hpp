@@ -54,6 +54,14 @@ class Cell final : public vocab::World {
   // A deep copy: the exhaustive checker forks the whole cell to explore alternatives.
   Cell(const Cell& other);
   Cell& operator=(const Cell&) = delete;
+  // Issue 37: with a `bus` that carries the black channel, why its safety connections were
+  // refused ("" when they were not): the controllers then check none, so a caller must stop.
+  [[nodiscard]] const char* links_error() const noexcept;
+  // Issue 37: with such a bus, opens the channels' sessions before the first cycle (at most
+  // `max_exchanges` exchanges of the containers alone; the cycle count stays 0), as the bus
+  // itself is brought up before it. true when every connection delivered data (also without
+  // a bus or a black channel: nothing to open).
+  bool connect_links(int max_exchanges) noexcept;
 
   // SPEC §10, before the first step: the safe limits and whether they are validated.
   void configure_limits(const core::SafetyLimits& limits, bool validated) noexcept;

@@ -248,7 +248,8 @@ class EmulatedCell {
 
  private:
   void unpack_held(hal::ProcessImageOut& out) noexcept;
-  void link_cycle(bool exchange) noexcept;
+  enum class LinkPhase : std::uint8_t { both, outputs, inputs };
+  void link_cycle(bool exchange, LinkPhase phase = LinkPhase::both) noexcept;
   enum class Cause : std::uint8_t { exchange, sync0, free };
   void on_exchange() noexcept;
   void time_reaction(bool was_closed) noexcept;

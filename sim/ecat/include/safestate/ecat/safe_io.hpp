@@ -112,6 +112,14 @@ class SafeLinks {
   // process-data exchange (else: a cycle period passed without one).
   void cycle(Segment& seg, std::uint32_t contacts, const std::array<std::int32_t, 6>& load_counts,
              bool k1_closed, bool k2_closed, std::uint64_t now_ns, bool exchange);
+  // The same cycle in two halves, for an exchange that runs a plant cycle in between (lock-
+  // step): outputs() takes the master's containers (the faults to the device applied) and
+  // runs the output terminal, whose outputs the plant cycle then uses; inputs() runs the input
+  // terminal and the drives with what that plant cycle sampled (as the DI terminal and the
+  // drives' plain PDOs answer in the same frame) and puts every answer on the wire.
+  void outputs(Segment& seg, bool k1_closed, bool k2_closed, std::uint64_t now_ns, bool exchange);
+  void inputs(Segment& seg, std::uint32_t contacts, const std::array<std::int32_t, 6>& load_counts,
+              std::uint64_t now_ns);
   // Device cycles due at `now_ns` without an exchange; true when one ran.
   [[nodiscard]] bool due(std::uint64_t now_ns) const noexcept {
     return any() && now_ns >= last_cycle_ns_ + period_ns_;
