@@ -211,6 +211,10 @@ int main(int argc, char** argv) {
   ecat_sim->add_flag("--no-safe-terminals", ecat_opt.no_safe_terminals,
                      "a segment without the safe input and output terminals and with the drives' PDOs without "
                      "safety containers, as before issue 37 (the DO terminal's bits drive the power path)");
+  ecat_sim->add_option("--link-watchdog-ms", ecat_opt.link_watchdog_ms,
+                       "the safe devices' watchdog per connection, ms (default 10; the bus configuration's "
+                       "safety_links must give the same: it is in every container's CRC)")
+      ->check(CLI::Range(1, 60000));
   ecat_sim->add_option("--link-seed", ecat_opt.link_seed,
                        "the safe devices' first sessions from this number instead of at random (tests)")
       ->check(CLI::Range(1U, 0xFFFFFFFFU));

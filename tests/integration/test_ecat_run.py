@@ -57,6 +57,8 @@ class Cell:
         self.shm = tempfile.TemporaryDirectory(prefix="ssrun-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None)
         if bus:
             run_args = (*run_args, "--bus-config", bus_config(self.tmp.name, **bus))
+            if "link_watchdog_ms" in bus:  # the safe devices must be parameterised the same
+                sim_args = (*sim_args, "--link-watchdog-ms", str(bus["link_watchdog_ms"]))
         self.control = os.path.join(self.tmp.name, "ctl.sock")
         self.port = 18000 + (os.getpid() * 7 + int(uuid.uuid4().hex[:4], 16)) % 20000  # own namespace: no clash
         self.procs = []
@@ -199,7 +201,13 @@ class Cell:
 
 def bus_config(tmp, **settings):
     cfg = json.loads((ROOT / "hal" / "ethercat" / "default-bus.json").read_text())
+    # Issue 37: the safety containers' watchdog of every connection (ecat-sim gets the same)
+    link_watchdog_ms = settings.pop("link_watchdog_ms", None)
     cfg.update(settings)
+    if link_watchdog_ms is not None:
+        for d in cfg["subdevices"]:
+            for link in d.get("safety_links", []):
+                link["watchdog_ms"] = link_watchdog_ms
     path = Path(tmp) / "bus.json"
     path.write_text(json.dumps(cfg))
     return str(path)
@@ -324,8 +332,9 @@ def host_stall_retry(test):
 # Those run on a bus that rides out a stall of this VM (10-30 ms, docs/ethercat.md "Host
 # stalls"): FIELDBUS_LOST after 50 stale cycles in a row and the subdevices' output watchdogs at
 # 50 cycles (the loop's own fieldbus watchdog stays at 100 ms), so that a stall leaves stale
-# cycles, not a lockout, and nothing is run again. Everything else is as shipped.
-STALL_TOLERANT_BUS = {"stale_cycles": 50, "watchdog_cycles": 50}
+# cycles, not a lockout, and nothing is run again; the black channel's containers (issue 37)
+# likewise 50 ms instead of 10. Everything else is as shipped.
+STALL_TOLERANT_BUS = {"stale_cycles": 50, "watchdog_cycles": 50, "link_watchdog_ms": 50}
 
 
 @pytest.fixture
@@ -352,7 +361,7 @@ def test_boots_to_estop_reset_needed_over_ethercat(cell):
     assert "(EtherCAT," in cell.log("run")
     assert s["alarms"] == []
     assert all(sw & 0x4F == 0x40 for sw in s["statusword"])  # read from the emulated drives' TxPDOs
-    assert cell.wire()["al_state"] == [8] * 9  # the distance sensor too
+    assert cell.wire()["al_state"] == [8] * 11  # the distance sensor and the safe terminals too
     assert cell.wire()["reset_lamp"] is True  # the lamp bit of the DO terminal's RxPDO
 
 
@@ -584,7 +593,7 @@ def test_a_short_working_counter_alone_is_fieldbus_lost(shipped_cell):
     watchdog takes it out of OP (which the "left OP" check would report, naming it)."""
     cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
-    assert cell.control_line("fault no-pd 10") == "ERROR no-pd needs a subdevice position 1..9"
+    assert cell.control_line("fault no-pd 12") == "ERROR no-pd needs a subdevice position 1..11"
     assert cell.control_line("fault no-pd 8") == "OK"
     s = cell.wait_state("ERROR_LOCKOUT", 10)
     assert "FIELDBUS_LOST" in s["alarms"], s
@@ -601,8 +610,10 @@ def test_late_frames_do_not_end_the_bus():
     the master gave them up (each cycle waits 3/4 of a cycle, then it is stale). The frame
     thread drops them and the bus goes on (ethercrab's own frame task ended on such a frame,
     and every later exchange timed out: a permanent FIELDBUS_LOST). stale_cycles (1000) and
-    the watchdog (1 s) are long here so that only a bus that never comes back can trip them."""
-    c = Cell(run_args=["--watchdog-ms", "1000"], bus={"stale_cycles": 1000, "watchdog_cycles": 1000})
+    the watchdog (1 s) are long here so that only a bus that never comes back can trip them
+    (the black channel's containers' watchdog 1 s as well)."""
+    c = Cell(run_args=["--watchdog-ms", "1000"],
+             bus={"stale_cycles": 1000, "watchdog_cycles": 1000, "link_watchdog_ms": 1000})
     try:
         c.wait_state("ESTOP_RESET_NEEDED")
         for _ in range(5):
@@ -636,7 +647,7 @@ def test_kill_9_of_the_master_drops_the_outputs_within_the_watchdog(shipped_cell
     cell = shipped_cell
     cell.wait_state("ESTOP_RESET_NEEDED")
     assert "process-data watchdog 10 cycles (0x0400 = 2498, 0x0420 = 100)" in cell.log("run")
-    assert cell.wire()["watchdog_us"] == [10000] * 9  # as the master wrote them (ESC default: 100000)
+    assert cell.wire()["watchdog_us"] == [10000] * 11  # as the master wrote them (ESC default: 100000)
     s = cell.pendant("reset,servo_on", "OPERATIONAL")
     assert s["state"] == "OPERATIONAL", (s, cell.log("run"))
     w = cell.wire()
@@ -762,7 +773,7 @@ def test_the_start_up_list_reaches_the_drives_in_pre_op(cell):
     for pos in range(2, 8):
         d = w["sdo"][pos]
         assert (d["6060:00"], d["60C2:01"], d["60C2:02"], d["6072:00"]) == (8, 1, -3, 1000), (pos, d)
-    assert w["al_state"] == [8] * 9
+    assert w["al_state"] == [8] * 11
 
 
 def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
@@ -780,7 +791,7 @@ def test_a_drive_that_refuses_an_sdo_fails_boot_naming_it():
         # In order: the drive took 0x6060 before refusing 0x6072; the next drive got nothing,
         # and no subdevice went on to SAFE-OP.
         assert w["sdo"][4]["6060:00"] == 8 and w["sdo"][5]["6060:00"] == 0, w["sdo"]
-        assert w["al_state"] == [2] * 9, w["al_state"]
+        assert w["al_state"] == [2] * 11, w["al_state"]
     finally:
         c.close()
 
@@ -825,7 +836,7 @@ def test_a_host_stall_during_the_boot_wait_does_not_fail_boot(drives):
         assert w["watchdog_expired"][1] >= 1, w["watchdog_expired"]  # ... and the DO terminal fell back
         if free:
             assert all(n >= 1 for n in w["watchdog_expired"][2:8]), w["watchdog_expired"]  # the drives too
-        assert w["al_state"] == [8] * 9, w["al_state"]
+        assert w["al_state"] == [8] * 11, w["al_state"]
         log = c.log("run")
         asked = [l for l in log.splitlines() if "error acknowledged, OP requested again" in l]
         print("\n".join(asked))

@@ -244,7 +244,8 @@ void unpack_outputs(const std::uint8_t* dout, const std::uint8_t (*drive_rx)[kDr
   }
 }
 
-EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices, std::uint32_t link_seed)
+EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices, std::uint32_t link_seed,
+                           std::uint16_t link_watchdog_ms)
     : cycle_us_(cycle_us),
       plant_(safestate::robot::active().model, static_cast<float>(cycle_us) * 1.0e-6F, timing(cycle_us), sim::home_pose()),
       segment_(with_cycle(devices, cycle_us)) {
@@ -253,7 +254,7 @@ EmulatedCell::EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDe
   plant_.set_two_contactors(true);
   segment_.on_process_data([this] { on_exchange(); });
   pos_distance_ = position_of(segment_, kProductDistance);
-  links_.setup(segment_, cycle_us, link_seed);
+  links_.setup(segment_, cycle_us, link_seed, link_watchdog_ms);
   latch_inputs();
 }
 

@@ -326,7 +326,7 @@ int ecat_sim_main(const EcatSimOptions& opt) {
     }
     return 2;
   }
-  EmulatedCell cell(opt.cycle_us, devs, opt.link_seed);
+  EmulatedCell cell(opt.cycle_us, devs, opt.link_seed, opt.link_watchdog_ms);
   cell.set_pacing(opt.lockstep ? EmulatedCell::Pacing::lockstep : EmulatedCell::Pacing::paced);
   for (std::size_t i = 0; i < drifts.size(); ++i) {
     cell.segment().esc(i).set_drift_ppm(drifts[i]);

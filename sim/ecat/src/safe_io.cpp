@@ -95,7 +95,7 @@ void SafeLinks::configure(Conn& c, bool new_power_up) {
   p.id = c.id;
   p.host_data_bytes = static_cast<std::uint8_t>(c.host_data);
   p.device_data_bytes = static_cast<std::uint8_t>(c.device_data);
-  p.watchdog_ms = kLinkWatchdogMs;
+  p.watchdog_ms = watchdog_ms_;
   p.device = {c.vendor, c.product, static_cast<std::uint16_t>(c.pos + 1U)};
   // A fixed seed (tests) still gives each connection and each power-up a session of its own.
   const std::uint16_t session =
@@ -108,7 +108,8 @@ void SafeLinks::configure(Conn& c, bool new_power_up) {
   c.n_host = 0;
 }
 
-void SafeLinks::setup(const Segment& seg, std::uint32_t cycle_us, std::uint32_t seed) {
+void SafeLinks::setup(const Segment& seg, std::uint32_t cycle_us, std::uint32_t seed, std::uint16_t watchdog_ms) {
+  watchdog_ms_ = watchdog_ms;
   conns_.clear();
   faults_.clear();
   cycle_us_ = cycle_us;

@@ -135,8 +135,9 @@ class EmulatedCell {
   };
   // `link_seed`: the safe devices' first sessions; 0 = random at power-up (getrandom), as
   // `ecat-sim` runs; another value makes them reproducible (tests, `--link-seed`).
+  // `link_watchdog_ms`: the safe devices' watchdog (ecat-sim --link-watchdog-ms).
   explicit EmulatedCell(std::uint32_t cycle_us, const std::vector<SubdeviceDesc>& devices = default_segment(),
-                        std::uint32_t link_seed = 0);
+                        std::uint32_t link_seed = 0, std::uint16_t link_watchdog_ms = kLinkWatchdogMs);
   void set_pacing(Pacing p) noexcept { pacing_ = p; }
   [[nodiscard]] Pacing pacing() const noexcept { return pacing_; }
   // The plant is stepped by SYNC0 now (paced, and the first drive's SYNC0 runs).

@@ -40,6 +40,9 @@ struct EcatSimOptions {
   // The safe devices' first sessions: 0 = random at power-up (getrandom); a fixed value for
   // tests (each connection and each power-up still gets a session of its own).
   std::uint32_t link_seed = 0;
+  // Every safety connection's watchdog in the safe devices (ms; the bus configuration's
+  // safety_links must say the same: it is in every container's CRC).
+  std::uint16_t link_watchdog_ms = 10;
   // The plant one cycle per process-data exchange (EmulatedCell::Pacing::lockstep) instead
   // of paced by the drives' SYNC0; `safestate replay` sets it over the control channel.
   bool lockstep = false;

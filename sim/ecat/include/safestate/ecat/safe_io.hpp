@@ -103,7 +103,10 @@ class SafeLinks {
   // Finds the connections of `seg`'s subdevices: the F-DI and F-DO by product code, the
   // drives (positions 3..8) where their PDOs carry containers. `seed` 0: each device's first
   // session random (getrandom) at power-up; otherwise derived from it (tests).
-  void setup(const Segment& seg, std::uint32_t cycle_us, std::uint32_t seed);
+  // `watchdog_ms`: every connection's (the devices' parameterisation, part of each container's
+  // CRC: the master's bus configuration must say the same).
+  void setup(const Segment& seg, std::uint32_t cycle_us, std::uint32_t seed,
+             std::uint16_t watchdog_ms = kLinkWatchdogMs);
   [[nodiscard]] bool any() const noexcept { return !conns_.empty(); }
   // An F-DO is on the line: it, not the DO terminal, drives K1, K2 and the brakes.
   [[nodiscard]] bool drives_power() const noexcept { return fdo_a_ >= 0; }
@@ -170,6 +173,7 @@ class SafeLinks {
   std::uint64_t period_ns_ = 1000000;
   std::uint64_t last_cycle_ns_ = 0;
   std::uint32_t seed_ = 0;
+  std::uint16_t watchdog_ms_ = kLinkWatchdogMs;
   std::uint32_t power_ups_ = 0;
   int fdo_a_ = -1;
   int fdo_b_ = -1;
