@@ -146,6 +146,12 @@ int main(int argc, char** argv) {
   run->add_option("--fieldbus", run_opt.fieldbus, "sim (the in-process simulated cell, default) or ethercat")
       ->check(CLI::IsMember({"sim", "ethercat"}));
   run->add_option("--ifname", run_opt.ifname, "ethercat: network interface of the segment (needs CAP_NET_RAW)");
+#if defined(SAFESTATE_TEST_HOOKS)
+  run->add_option("--corrupt", run_opt.corrupt,
+                  "TESTS: the master corrupts the black channel's containers it copies: 'KIND ID [ID2] DIR [ARG] "
+                  "at=CYCLES' (flip ID DIR [BIT], replay ID DIR, swap ID ID2 DIR, delay ID DIR MS, insert ID FROM "
+                  "DIR); repeatable. Not in a production build (SAFESTATE_TEST_HOOKS=OFF)");
+#endif
   run->add_option("--ecat-sim-control", run_opt.ecat_sim_control,
                   "ethercat on `safestate ecat-sim`: its --control socket, so the HMI's sim panel drives the emulator");
   run->add_option("--bus-config", run_opt.bus_config,

@@ -592,6 +592,23 @@ int run_main(const RunOptions& opt) {
     std::fprintf(stderr, "safestate run: %s\n", note.c_str());
   }
   hal::ethercat::Backend* const bus = host->ethercat();
+  if (!opt.corrupt.empty()) {
+    // Issue 37 item 4 (tests): the master at fault on the containers it copies.
+    if (bus == nullptr || bus->safety_links().count == 0U) {
+      std::fprintf(stderr, "safestate run: --corrupt needs --fieldbus ethercat with safety connections (safe terminals)\n");
+      return 2;
+    }
+    hal::ethercat::LinkCorruptor c;
+    for (const std::string& spec : opt.corrupt) {
+      std::string err;
+      if (!c.add(spec, bus->safety_links(), opt.rt.cycle_us, err)) {
+        std::fprintf(stderr, "safestate run: %s\n", err.c_str());
+        return 2;
+      }
+      std::fprintf(stderr, "safestate run: TEST: the master will corrupt the black channel: %s\n", spec.c_str());
+    }
+    bus->set_corruptor(std::move(c));
+  }
   if (bus != nullptr) {
     const hal::ethercat::BusConfig& bc = *host->bus_config();
     std::fprintf(stderr, "safestate run: EtherCAT on %s, %zu subdevices expected\n", opt.ifname.c_str(), bc.subdevices.size());

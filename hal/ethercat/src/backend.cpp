@@ -566,6 +566,10 @@ void Backend::read(ProcessImageIn& in) noexcept {
     f.len = link_in_len_[i];
     std::copy_n(in_buf_.begin() + static_cast<std::ptrdiff_t>(link_in_[i]), f.len, f.bytes.begin());
   }
+  ++link_cycles_;
+  if (!corrupt_.empty()) {
+    corrupt_.to_host(link_cycles_, in.link_rx);  // tests: the master at fault (--corrupt)
+  }
 }
 
 // @req MO-SAMPLE-TIME
@@ -689,8 +693,15 @@ void Backend::write(const ProcessImageOut& out) noexcept {
   }
   // Issue 37: each connection's container to its device, copied as the channel made it
   // (zeros where it made none: the device then sees "not connected").
+  const std::array<LinkFrame, kMaxLinks>* tx = &out.link_tx;
+  std::array<LinkFrame, kMaxLinks> corrupted;
+  if (!corrupt_.empty()) {
+    corrupted = out.link_tx;
+    corrupt_.to_device(link_cycles_, corrupted);  // tests: the master at fault (--corrupt)
+    tx = &corrupted;
+  }
   for (std::size_t i = 0; i < cfg_.links.count; ++i) {
-    const LinkFrame& f = out.link_tx[i];
+    const LinkFrame& f = (*tx)[i];
     std::uint8_t* p = out_buf_.data() + link_out_[i];
     const std::size_t n = std::min<std::size_t>(f.len, link_out_len_[i]);
     std::copy_n(f.bytes.begin(), n, p);

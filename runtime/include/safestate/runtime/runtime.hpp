@@ -146,6 +146,9 @@ struct RunOptions {
   std::string ifname;            // ethercat: the interface of the segment
   std::string bus_config;        // ethercat: topology file; empty = the shipped default (ecat-sim's segment)
   std::string ecat_sim_control;  // ethercat on ecat-sim: its control socket, for the HMI's sim panel
+  // Issue 37 item 4, tests only (`--corrupt`, a SAFESTATE_TEST_HOOKS build): the master's own
+  // faults on the black channel's containers (hal/link_corrupt.hpp).
+  std::vector<std::string> corrupt;
   // SPEC §14: 2 = channels A (GCC) and B (Clang) in processes of their own (pair/host.hpp),
   // 1 = the one-channel controller in this process (for comparison); 0 = the backend's
   // default (2 on the simulated cell; 1 on EtherCAT until K2 is on the segment).

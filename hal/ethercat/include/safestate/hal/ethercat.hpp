@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "safestate/hal/process_image.hpp"
+#include "safestate/hal/link_corrupt.hpp"
 #include "safestate/hal/safety_links.hpp"
 
 namespace safestate::hal::ethercat {
@@ -221,6 +222,10 @@ class Backend final : public hal::Backend {
   std::atomic<std::int64_t>* cycle_adjust() noexcept { return dc_ ? &cycle_adjust_ns_ : nullptr; }
   // Issue 37: the black channel's connections of the bus configuration (LinkTable order).
   [[nodiscard]] const LinkTable& safety_links() const noexcept override { return cfg_.links; }
+  // Issue 37 item 4, tests only (`safestate run --corrupt`, a SAFESTATE_TEST_HOOKS build):
+  // faults of the master on the containers it copies. Before the first cycle.
+  void set_corruptor(LinkCorruptor c) { corrupt_ = std::move(c); }
+  [[nodiscard]] const LinkCorruptor& corruptor() const noexcept { return corrupt_; }
   [[nodiscard]] const std::string& subdevice_name(std::size_t position) const noexcept {
     static const std::string none = "the bus";
     return (position >= 1U && position <= cfg_.subdevices.size()) ? cfg_.subdevices[position - 1U].name : none;
@@ -251,6 +256,8 @@ class Backend final : public hal::Backend {
   std::array<std::size_t, kMaxLinks> link_in_{};
   std::array<std::size_t, kMaxLinks> link_out_{};
   std::array<std::uint8_t, kMaxLinks> link_in_len_{};
+  LinkCorruptor corrupt_{};
+  std::uint64_t link_cycles_ = 0;  // cycles since the bus came up (the corruptor's clock)
   std::array<std::uint8_t, kMaxLinks> link_out_len_{};
   std::atomic<std::uint8_t> lost_position_{0};
   std::atomic<bool> lost_silent_{false};
