@@ -38,7 +38,7 @@ CLI::App* add_faults_command(CLI::App& app) {
       ->check([](const std::string& v) {
         faults::Fieldbus f{};
         return faults::parse_fieldbus(v, f) ? std::string()
-                                            : "--fieldbus: \"" + v + "\" is neither sim nor ethercat";
+                                            : "\"" + v + "\" is neither sim nor ethercat";
       })
       ->capture_default_str();
   c->add_option("--jobs", g_faults.campaign.jobs, "injections run at once (child processes)")
