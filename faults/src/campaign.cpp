@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "safestate/backends/simulated.hpp"
+#include "safestate/core/describe.hpp"
 #include "safestate/safety/safety_config.hpp"
 #include "safestate/vocab/inputs.hpp"
 
@@ -31,13 +32,18 @@ using vocab::FaultKind;
 
 constexpr core::AlarmMask kDiagnostic = core::bit(AlarmId::CHANNEL_MISMATCH) | core::bit(AlarmId::CHANNEL_LOST) |
                                         core::bit(AlarmId::ENCODER_DISCREPANCY) |
-                                        core::bit(AlarmId::CONTACTOR_WELDED) | core::bit(AlarmId::INTEGRITY_FAULT);
+                                        core::bit(AlarmId::CONTACTOR_WELDED) | core::bit(AlarmId::INTEGRITY_FAULT) |
+                                        core::bit(AlarmId::SAFETY_LINK_FAULT);
 constexpr std::uint32_t kMaxJitter = 500;   // cycles past the warm point before the fault
 constexpr std::uint32_t kAfterSafe = 200;   // cycles a demand's run goes on to see a naming (EDM: 100 ms)
 constexpr int kWarmLimit = 20000;
 
-constexpr std::array<const char*, 7> kClasses{"channel stall", "channel crash", "channel input", "digest",
-                                              "contactor welded", "encoder", "supervisor bit flip"};
+constexpr std::array<const char*, 12> kClasses{"channel stall", "channel crash", "channel input", "digest",
+                                               "contactor welded", "encoder", "supervisor bit flip",
+                                               // --fieldbus ethercat: faults on the black channel's wire
+                                               "bus flip", "bus replay", "bus swap", "bus delay", "bus insert"};
+constexpr std::size_t kFirstBusClass = 7;
+constexpr std::uint32_t kBusPercent = 25;  // of the injections with --fieldbus ethercat
 // Where an injection happens (SPEC §14: every demand after any one fault). Each situation is
 // one warm cell, made once, with the demands that belong to it.
 enum class Situation : std::uint8_t {
@@ -69,6 +75,8 @@ constexpr std::array<DemandInfo, 7> kDemands{{
 
 struct Fault {
   bool flip = false;
+  bool bus = false;  // a fault on the black channel's wire (w)
+  sim::WireFault w{};
   vocab::Fault f{};
   std::uint8_t channel = 0;  // flip: 0 A, 1 B
   std::uint32_t byte = 0;
@@ -130,7 +138,48 @@ Fault draw(std::mt19937& rng, std::uint8_t channels) {
   return x;
 }
 
+// A fault on the black channel's wire (--fieldbus ethercat): its kind, a connection and a
+// direction, the bit of the container (a flip), how old (a replay: 2..9 cycles), the other
+// connection (a swap, an insertion), how long held (a delay: 11..20 cycles, past the
+// 10-cycle watchdog).
+Fault draw_bus(std::mt19937& rng) {
+  Fault x{};
+  x.bus = true;
+  const hal::LinkTable t = sim::shipped_links();
+  const auto kind = static_cast<std::uint32_t>(rng() % 5U);
+  x.cls = kFirstBusClass + kind;
+  x.w.kind = static_cast<sim::WireFaultKind>(kind);
+  x.w.dir = (rng() % 2U == 0U) ? sim::WireDirection::to_device : sim::WireDirection::to_channel;
+  x.w.link = static_cast<std::uint8_t>(rng() % t.count);
+  x.w.other = static_cast<std::uint8_t>((x.w.link + 1U + rng() % (t.count - 1U)) % t.count);
+  const hal::LinkSpec& s = t.link[x.w.link];
+  const std::size_t len =
+      safelink::container_bytes(x.w.dir == sim::WireDirection::to_device ? s.host_data_bytes : s.device_data_bytes);
+  x.w.bit = static_cast<std::uint16_t>(rng() % (8U * len));
+  x.w.age = static_cast<std::uint8_t>(2U + rng() % 8U);
+  x.w.hold = static_cast<std::uint8_t>(11U + rng() % 10U);
+  return x;
+}
+
+std::string link_name(std::uint8_t i) {
+  char b[8];
+  std::snprintf(b, sizeof b, "0x%04X", static_cast<unsigned>(sim::shipped_links().link[i].id));
+  return b;
+}
+
 std::string words(const Fault& x) {
+  if (x.bus) {
+    std::string w = std::string("bus ") + sim::to_string(x.w.kind) + " " + sim::to_string(x.w.dir) + " " +
+                    link_name(x.w.link);
+    switch (x.w.kind) {
+      case sim::WireFaultKind::flip: w += " bit " + std::to_string(x.w.bit); break;
+      case sim::WireFaultKind::replay: w += " " + std::to_string(x.w.age) + " cycles old"; break;
+      case sim::WireFaultKind::swap: w += " with " + link_name(x.w.other); break;
+      case sim::WireFaultKind::delay: w += " held " + std::to_string(x.w.hold) + " cycles"; break;
+      case sim::WireFaultKind::insert: w += " replaced by " + link_name(x.w.other) + "'s"; break;
+    }
+    return w;
+  }
   if (x.flip) {
     return std::string("channel ") + (x.channel == 1U ? "B" : "A") + " flip byte " + std::to_string(x.byte) + " bit " +
            std::to_string(static_cast<unsigned>(x.bit));
@@ -139,7 +188,9 @@ std::string words(const Fault& x) {
 }
 
 void apply(sim::Cell& c, const Fault& x) {
-  if (x.flip) {
+  if (x.bus) {
+    static_cast<void>(c.inject_wire(x.w));
+  } else if (x.flip) {
     static_cast<void>(c.flip_supervisor_bit(x.channel, x.byte, x.bit));
   } else {
     c.inject(x.f);
@@ -210,7 +261,19 @@ bool safe(const sim::Cell& c, Demand d, float reduced_mm_s) {
 
 // The safety outputs as the world gets them (a change that makes the cell less safe than
 // its fault-free twin is what an unnamed fault may not do).
+// With the black channel (--fieldbus ethercat) those are the safe output terminal's: the
+// channels' plain contactor and brake bits are wired to nothing there.
+bool fdo_less_safe(const sim::BlackChannel& f, const sim::BlackChannel& twin, std::uint8_t channels) {
+  const bool power_f = f.k(0) && (channels == 1U || f.k(1));
+  const bool power_t = twin.k(0) && (channels == 1U || twin.k(1));
+  const bool brakes_f = f.brake_relay(0) && f.brake_relay(1);
+  const bool brakes_t = twin.brake_relay(0) && twin.brake_relay(1);
+  return (power_f && !power_t) || (brakes_f && !brakes_t);
+}
 bool less_safe(const sim::Cell& f, const sim::Cell& twin) {
+  if (f.black_channel() != nullptr && twin.black_channel() != nullptr) {
+    return fdo_less_safe(*f.black_channel(), *twin.black_channel(), f.channels());
+  }
   const bool power_f = f.contactor_command(0) && (f.channels() == 1U || f.contactor_command(1));
   const bool power_t = twin.contactor_command(0) && (twin.channels() == 1U || twin.contactor_command(1));
   const bool brakes_f = f.channel(0).image_out().brakes_release &&
@@ -220,6 +283,12 @@ bool less_safe(const sim::Cell& f, const sim::Cell& twin) {
   return (power_f && !power_t) || (brakes_f && !brakes_t);
 }
 bool differs(const sim::Cell& f, const sim::Cell& twin) {
+  if (f.black_channel() != nullptr && twin.black_channel() != nullptr) {
+    const sim::BlackChannel& a = *f.black_channel();
+    const sim::BlackChannel& b = *twin.black_channel();
+    return a.k(0) != b.k(0) || a.k(1) != b.k(1) || a.brake_relay(0) != b.brake_relay(0) ||
+           a.brake_relay(1) != b.brake_relay(1);
+  }
   return f.contactor_command(0) != twin.contactor_command(0) || f.contactor_command(1) != twin.contactor_command(1) ||
          f.channel(0).image_out().brakes_release != twin.channel(0).image_out().brakes_release ||
          f.channel(1).image_out().brakes_release != twin.channel(1).image_out().brakes_release;
@@ -313,8 +382,14 @@ bool situation_config(Situation where, const controller::CellView& at, safety::L
 // A cell of the situation, brought to it: reset, servo_on, and in AUTO_RUNNING the program
 // started, in T1 the enabling device held and the jog going; a distance sensor that sees
 // nobody, the brake test passed.
-std::unique_ptr<sim::Cell> bring_up(Situation where, const safety::Loaded& cfg, std::uint8_t channels, std::string& error) {
+std::unique_ptr<sim::Cell> bring_up(Situation where, const safety::Loaded& cfg, std::uint8_t channels, Fieldbus bus,
+                                    std::string& error) {
   auto cell = std::make_unique<sim::Cell>(core::Config{}, nullptr, channels);
+  const char* why = nullptr;
+  if (bus == Fieldbus::ethercat && !cell->use_black_channel(why)) {
+    error = std::string("the black channel does not come up: ") + (why != nullptr ? why : "?");
+    return nullptr;
+  }
   cell->configure_limits(cfg.limits, true);
   core::BrakeTestHistory h{};
   h.last = core::BrakeTestResult::passed;
@@ -341,10 +416,21 @@ std::unique_ptr<sim::Cell> bring_up(Situation where, const safety::Loaded& cfg, 
     c.source = static_cast<std::uint8_t>(core::Source::pendant);
     return cell->submit(c) == core::Result::OK;
   };
-  bool ok = until([](const sim::Cell& c) { return c.out().state == State::ESTOP_RESET_NEEDED; }) &&
+  // With the black channel the safe values before its connections are up (E-stop pressed)
+  // take the cell out of BOOT at once; its boot checks end later, and a reset before then is
+  // answered BUSY: wait for them too.
+  const bool black = bus == Fieldbus::ethercat;
+  bool ok = until([black](const sim::Cell& c) {
+              return c.out().state == State::ESTOP_RESET_NEEDED &&
+                     (!black || (!c.channel(0).controller().supervisor().manager().boot_pending() &&
+                                 !c.channel(1).controller().supervisor().manager().boot_pending()));
+            }) &&
             cmd(core::CommandId::reset) && until([](const sim::Cell& c) { return c.out().state == State::IDLE; });
   if (ok && t1) {
     in.enable_a = in.enable_b = true;
+    for (int k = 0; black && k < 4; ++k) {
+      step(*cell, Situation::auto_running);  // the contacts reach the channels in the F-DI's next containers
+    }
   }
   ok = ok && cmd(core::CommandId::servo_on) &&
        until([](const sim::Cell& c) { return c.out().state == State::OPERATIONAL; });
@@ -367,7 +453,7 @@ std::unique_ptr<sim::Cell> bring_up(Situation where, const safety::Loaded& cfg, 
   return cell;
 }
 
-Warm warm_cell(Situation where, std::uint8_t channels, std::string& error) {
+Warm warm_cell(Situation where, std::uint8_t channels, Fieldbus bus, std::string& error) {
   Warm w{};
   safety::Loaded cfg{};
   if (where == Situation::in_slot || where == Situation::at_joint) {
@@ -376,7 +462,7 @@ Warm warm_cell(Situation where, std::uint8_t channels, std::string& error) {
     if (!situation_config(Situation::auto_running, controller::CellView{}, plain, error)) {
       return w;
     }
-    const std::unique_ptr<sim::Cell> probe = bring_up(Situation::at_joint, plain, channels, error);
+    const std::unique_ptr<sim::Cell> probe = bring_up(Situation::at_joint, plain, channels, bus, error);
     if (!probe || !situation_config(where, probe->view(), cfg, error)) {
       return w;
     }
@@ -384,7 +470,7 @@ Warm warm_cell(Situation where, std::uint8_t channels, std::string& error) {
     return w;
   }
   w.reduced_mm_s = cfg.limits.reduced_tcp_max_speed_mm_s;
-  w.cell = bring_up(where, cfg, channels, error);
+  w.cell = bring_up(where, cfg, channels, bus, error);
   return w;
 }
 
@@ -403,6 +489,15 @@ Drawn drawn(const Options& o, std::uint32_t index) {
   d.where = static_cast<Situation>(index % kSituations);
   d.jitter = static_cast<std::uint32_t>(rng() % kMaxJitter);
   d.fault = draw(rng, o.channels);
+  if (o.fieldbus == Fieldbus::ethercat) {
+    // The bus faults from a stream of their own: every other injection is the sim
+    // campaign's, the same fault at the same moment.
+    std::seed_seq bus_seq{o.seed, index, 37U};
+    std::mt19937 bus_rng(bus_seq);
+    if (bus_rng() % 100U < kBusPercent) {
+      d.fault = draw_bus(bus_rng);
+    }
+  }
   return d;
 }
 
@@ -424,6 +519,11 @@ Injection one(const std::array<Warm, kSituations>& warm, const Options& o, std::
   r.cls = kClasses[x.cls];
   r.situation = kSituationNames[static_cast<std::size_t>(dr.where)];
   apply(faulty, x);
+  // A bus fault: the hosting channel's end of the faulted connection, whose counter moves
+  // with every new valid container it accepts (the last one before the power path opened).
+  const std::size_t host = (x.bus && faulty.channels() == 2U && sim::shipped_links().link[x.w.link].channel == 'B') ? 1U : 0U;
+  std::uint32_t last_seq = x.bus ? faulty.channel(host).links().end(x.w.link).seq() : 0U;
+  std::int32_t last_valid = 0;
   bool worse = false;
   bool changed = false;
   for (std::uint32_t k = 1; k <= kDetectCycles; ++k) {
@@ -435,6 +535,28 @@ Injection one(const std::array<Warm, kSituations>& warm, const Options& o, std::
     }
     worse = worse || less_safe(faulty, twin);
     changed = changed || differs(faulty, twin);
+    if (x.bus) {
+      // Issue 37: SAFETY_LINK_FAULT, and the safe output terminal's K1 and K2 (its outputs
+      // as its connections drive them: what reaches the contactors).
+      const sim::BlackChannel& bc = *faulty.black_channel();
+      if (r.to_link_fault < 0 && faulty.alarms().active(AlarmId::SAFETY_LINK_FAULT)) {
+        r.to_link_fault = static_cast<std::int32_t>(k);
+        std::array<char, 64> b{};
+        r.link_detail = core::detail_name(faulty.alarms().detail(AlarmId::SAFETY_LINK_FAULT), b.data(), b.size());
+      }
+      const std::uint32_t seq = faulty.channel(host).links().end(x.w.link).seq();
+      if (seq != last_seq && r.to_power_open < 0) {
+        last_seq = seq;
+        last_valid = static_cast<std::int32_t>(k);
+      }
+      if (r.to_power_open < 0 && (!bc.k(0) || !bc.k(1))) {
+        r.to_power_open = static_cast<std::int32_t>(k);
+        r.from_last_valid = r.to_power_open - last_valid;
+      }
+      if (r.to_both_open < 0 && !bc.k(0) && !bc.k(1)) {
+        r.to_both_open = static_cast<std::int32_t>(k);
+      }
+    }
   }
   const std::uint32_t limit = faulty.config().cross_check_cycles;
   bool all_safe = true;
@@ -483,7 +605,9 @@ std::string record(const Injection& r) {
     d += (i < r.demand_run.size() && !r.demand_run[i]) ? '-' : (r.demand_safe[i] ? '1' : '0');
   }
   return std::to_string(static_cast<int>(r.outcome)) + "|" + std::to_string(r.to_lockout) + "|" + r.named + "|" +
-         r.cls + "|" + r.fault + "|" + d + "\n";
+         r.cls + "|" + r.fault + "|" + d + "|" + r.link_detail + "|" + std::to_string(r.to_link_fault) + "|" +
+         std::to_string(r.to_power_open) + "|" + std::to_string(r.to_both_open) + "|" + std::to_string(r.from_last_valid) +
+         "\n";
 }
 
 bool parse_record(const std::string& line, Injection& r) {
@@ -498,7 +622,7 @@ bool parse_record(const std::string& line, Injection& r) {
     }
   }
   f.push_back(cur);
-  if (f.size() != 6U) {
+  if (f.size() != 11U) {
     return false;
   }
   const int o = std::atoi(f[0].c_str());
@@ -510,6 +634,11 @@ bool parse_record(const std::string& line, Injection& r) {
   r.named = f[2];
   r.cls = f[3];
   r.fault = f[4];
+  r.link_detail = f[6];
+  r.to_link_fault = std::atoi(f[7].c_str());
+  r.to_power_open = std::atoi(f[8].c_str());
+  r.to_both_open = std::atoi(f[9].c_str());
+  r.from_last_valid = std::atoi(f[10].c_str());
   r.demand_safe.clear();
   r.demand_run.clear();
   for (const char c : f[5]) {
@@ -525,8 +654,46 @@ struct Child {
   std::uint32_t index = 0;
 };
 
+// A bus fault's figures (--fieldbus ethercat).
+void tally_bus(Report& rep, const Injection& r) {
+  BusStats* b = nullptr;
+  for (BusStats& x : rep.bus) {
+    if (x.name == r.cls) {
+      b = &x;
+    }
+  }
+  if (b == nullptr) {
+    return;  // not a bus fault
+  }
+  ++b->injected;
+  if (r.outcome == Outcome::dangerous) {
+    ++b->dangerous;
+  }
+  if (r.to_link_fault >= 0) {
+    ++b->caught;
+    b->to_link_fault.push_back(static_cast<std::uint32_t>(r.to_link_fault));
+    const std::string e = r.link_detail.substr(r.link_detail.rfind('.') + 1U);
+    auto it = std::find_if(b->errors.begin(), b->errors.end(), [&e](const auto& p) { return p.first == e; });
+    if (it == b->errors.end()) {
+      b->errors.emplace_back(e, 1U);
+    } else {
+      ++it->second;
+    }
+  }
+  if (r.to_power_open >= 0) {
+    b->to_power_open.push_back(static_cast<std::uint32_t>(r.to_power_open));
+    b->from_last_valid.push_back(static_cast<std::uint32_t>(std::max(0, r.from_last_valid)));
+  }
+  if (r.to_both_open >= 0) {
+    b->to_both_open.push_back(static_cast<std::uint32_t>(r.to_both_open));
+  } else {
+    ++b->not_opened;
+  }
+}
+
 void tally(Report& rep, const Injection& r) {
   ++rep.injected;
+  tally_bus(rep, r);
   ClassStats* cs = nullptr;
   for (ClassStats& c : rep.classes) {
     if (c.name == r.cls) {
@@ -579,6 +746,20 @@ std::uint32_t percentile(std::vector<std::uint32_t> v, double p) {
 
 }  // namespace
 
+const char* to_string(Fieldbus f) noexcept { return (f == Fieldbus::ethercat) ? "ethercat" : "sim"; }
+
+bool parse_fieldbus(const std::string& s, Fieldbus& out) noexcept {
+  if (s == "sim") {
+    out = Fieldbus::sim;
+    return true;
+  }
+  if (s == "ethercat") {
+    out = Fieldbus::ethercat;
+    return true;
+  }
+  return false;
+}
+
 const char* to_string(Outcome o) noexcept {
   switch (o) {
     case Outcome::detected: return "detected";
@@ -595,8 +776,17 @@ Report run(const Options& o) {
   rep.options = o;
   std::string error;
   std::array<Warm, kSituations> warm{};
+  if (o.fieldbus == Fieldbus::ethercat) {
+    for (std::size_t c = kFirstBusClass; c < kClasses.size(); ++c) {
+      BusStats b{};
+      b.name = kClasses[c];
+      rep.bus.push_back(b);
+    }
+    const core::Config cfg{};
+    rep.watchdog_cycles = static_cast<std::uint32_t>((sim::kLinkWatchdogMs * 1000U + cfg.cycle_us - 1U) / cfg.cycle_us);
+  }
   for (std::size_t i = 0; i < kSituations; ++i) {
-    warm[i] = warm_cell(static_cast<Situation>(i), o.channels, error);
+    warm[i] = warm_cell(static_cast<Situation>(i), o.channels, o.fieldbus, error);
     if (!warm[i].cell) {
       rep.error = error;
       return rep;
@@ -706,7 +896,12 @@ std::string table(const Report& r) {
     return t.str();
   }
   t << "fault-injection campaign (SPEC 14): seed " << r.options.seed << ", " << r.injected << " injections, "
-    << static_cast<int>(r.options.channels) << " channel" << (r.options.channels == 2U ? "s" : "") << "\n";
+    << static_cast<int>(r.options.channels) << " channel" << (r.options.channels == 2U ? "s" : "");
+  if (r.options.fieldbus == Fieldbus::ethercat) {
+    t << ", fieldbus ethercat (the black channel in the simulated world: the containers and both ends real, the "
+         "bus a byte copy, no frames)";
+  }
+  t << "\n";
   char line[256];
   std::snprintf(line, sizeof line, "%-22s %9s %9s %9s %9s %9s %9s %9s\n", "fault class", "injected", "detected",
                 "before", "masked", "failsafe", "crashed", "DANGER");
@@ -742,6 +937,36 @@ std::string table(const Report& r) {
   }
   if (r.dangerous_count > 10U) {
     t << "  ... " << (r.dangerous_count - 10U) << " more dangerous (--json lists the first 50)\n";
+  }
+  if (!r.bus.empty()) {
+    t << "bus faults (issue 37): caught = SAFETY_LINK_FAULT named; cycles from the injection to it, to the safe output "
+         "terminal's K1 or K2 open (the power path open) and to both open; watchdog "
+      << r.watchdog_cycles << " cycles\n";
+    std::snprintf(line, sizeof line, "%-12s %8s %8s %7s %9s %13s %9s %13s %7s  %s\n", "bus fault", "injected",
+                  "caught", "DANGER", "fault max", "K1|K2 p50/max", "from valid", "K1&K2 p50/max", "within",
+                  "errors named");
+    t << line;
+    for (const BusStats& b : r.bus) {
+      std::string errors;
+      for (const auto& e : b.errors) {
+        errors += (errors.empty() ? "" : ", ") + e.first + " " + std::to_string(e.second);
+      }
+      const std::uint32_t both_max = percentile(b.to_both_open, 1.0);
+      char any[32];
+      char both[32];
+      std::snprintf(any, sizeof any, "%u/%u", percentile(b.to_power_open, 0.5), percentile(b.to_power_open, 1.0));
+      std::snprintf(both, sizeof both, "%u/%u", percentile(b.to_both_open, 0.5), both_max);
+      const bool within = b.not_opened == 0U && percentile(b.from_last_valid, 1.0) <= r.watchdog_cycles;
+      std::snprintf(line, sizeof line, "%-12s %8llu %8llu %7llu %9u %13s %9u %13s %7s  %s\n", b.name.c_str(),
+                    static_cast<unsigned long long>(b.injected), static_cast<unsigned long long>(b.caught),
+                    static_cast<unsigned long long>(b.dangerous), percentile(b.to_link_fault, 1.0), any,
+                    percentile(b.from_last_valid, 1.0), both, b.injected == 0U ? "-" : (within ? "yes" : "NO"),
+                    errors.c_str());
+      t << line;
+    }
+    t << "(from valid: max cycles from the last new valid container the channel accepted on the faulted connection to "
+         "K1 or K2 open, which the watchdog bounds; within: that max <= the watchdog and K1 and K2 both opened every "
+         "time; K1&K2 adds the other channel's cross-check)\n";
   }
   return t.str();
 }
@@ -783,6 +1008,31 @@ std::string json(const Report& r) {
                             {"safe", d.safe},
                             {"reaction_cycles", d.reaction_cycles},
                             {"answered_by", d.answered_by}});
+  }
+  if (r.options.fieldbus == Fieldbus::ethercat) {  // the sim campaign's JSON stays as it was
+    j["fieldbus"] = to_string(r.options.fieldbus);
+    j["watchdog_cycles"] = r.watchdog_cycles;
+    j["bus_faults"] = nlohmann::json::array();
+    for (const BusStats& b : r.bus) {
+      nlohmann::json errors = nlohmann::json::object();
+      for (const auto& e : b.errors) {
+        errors[e.first] = e.second;
+      }
+      j["bus_faults"].push_back({{"name", b.name},
+                                 {"injected", b.injected},
+                                 {"caught", b.caught},
+                                 {"dangerous", b.dangerous},
+                                 {"to_link_fault_cycles", {{"p50", percentile(b.to_link_fault, 0.5)},
+                                                           {"max", percentile(b.to_link_fault, 1.0)}}},
+                                 {"to_power_open_cycles", {{"p50", percentile(b.to_power_open, 0.5)},
+                                                           {"max", percentile(b.to_power_open, 1.0)}}},
+                                 {"to_both_open_cycles", {{"p50", percentile(b.to_both_open, 0.5)},
+                                                          {"max", percentile(b.to_both_open, 1.0)}}},
+                                 {"from_last_valid_to_power_open_cycles", {{"p50", percentile(b.from_last_valid, 0.5)},
+                                                                           {"max", percentile(b.from_last_valid, 1.0)}}},
+                                 {"not_opened", b.not_opened},
+                                 {"errors", errors}});
+    }
   }
   j["dangerous_injections"] = nlohmann::json::array();
   for (const Injection& i : r.dangerous) {

@@ -175,7 +175,8 @@ struct Cell::Impl final : hal::Backend {
         core(o.core, *this),
         port_b(*this),
         arm_model(o.arm_model),
-        arm_frames(o.arm_frames) {
+        arm_frames(o.arm_frames),
+        black(o.black) {
     link_a.last = o.link_a.last;
     link_a.have_last = o.link_a.have_last;
     link_b.last = o.link_b.last;
@@ -223,14 +224,40 @@ struct Cell::Impl final : hal::Backend {
     }
     person.advance(static_cast<float>(cfg.cycle_us) * 1.0e-6F);
     person.sense(person_sensors, arm, (bus == nullptr) ? in.safety : person_discard, view.person);
+    if (black) {
+      black->to_channels(in);  // the devices' containers as the wire delivers them
+    }
   }
   void read_world(hal::ProcessImageIn& in) noexcept { read_world(in, core.controller().motion().frames()); }
   void write_world(const hal::ProcessImageOut& out) noexcept {
     if (bus != nullptr) {
       bus->write(out);
+    } else if (black) {
+      // Issue 37: the channels' containers to the devices; the power path as the F-DO drives it.
+      hal::ProcessImageOut powered{};
+      black->to_devices(out, device_world(), powered);
+      plant.write(powered);
     } else {
       plant.write(out);
     }
+  }
+  // What the simulated devices read this cycle: the world's image of this cycle (before
+  // a channel's own faults), each F-DI connection's contacts with its channel's stuck
+  // contacts (SPEC §14 `channel X input`: with the black channel a channel's path from the
+  // terminal reads them wrong), the load-side encoders, the contactors' auxiliary contacts.
+  [[nodiscard]] DeviceWorld device_world() const noexcept {
+    DeviceWorld w{};
+    for (std::size_t ch = 0; ch < 2U; ++ch) {
+      core::RawInputs s = image.safety;
+      stuck[ch].apply(s);
+      w.contacts[ch] = contact_word(s, image);
+    }
+    for (std::size_t a = 0; a < hal::kAxes; ++a) {
+      w.load_counts[a] = load_counts(image.drive[a].load_position_rad);
+    }
+    w.k1_closed = image.contactor_closed;
+    w.k2_closed = image.k2_closed;
+    return w;
   }
   // Channel A's backend.
   void read(hal::ProcessImageIn& in) noexcept override {
@@ -284,6 +311,7 @@ struct Cell::Impl final : hal::Backend {
   motion::RobotModel arm_model = robot::active().model;  // with the declared tool (configure_limits)
   motion::Frames arm_frames{};
   std::optional<controller::Cell> core_b;  // channel B, with two channels
+  std::optional<BlackChannel> black;       // issue 37, opt-in (use_black_channel)
 };
 
 // The channels together (controller::together: spec/scenario-format.md "Two channels").
@@ -344,6 +372,9 @@ void Cell::inject(const Fault& f) noexcept {
     case FaultKind::clear_all:  // the channels' input faults and the link's go; a stalled or
       s.stuck = {};             // crashed channel stays so (a process does not come back)
       s.digest_fault = {};
+      if (s.black) {
+        s.black->clear();  // and the black channel's wire faults (a failed device stays failed)
+      }
       break;
     default: break;
   }
@@ -531,6 +562,32 @@ bool Cell::flip_supervisor_bit(std::size_t channel, std::size_t byte, unsigned b
   p[byte] = static_cast<unsigned char>(p[byte] ^ (1U << bit));
   return true;
 }
+
+bool Cell::use_black_channel(const char*& why) noexcept {
+  Impl& s = *impl_;
+  why = nullptr;
+  if (s.bus != nullptr) {
+    why = "the black channel is the simulated world's: this cell runs on a fieldbus";
+  } else if (s.cycles != 0U) {
+    why = "the black channel is set up before the first step";
+  } else if (s.black) {
+    why = "the black channel is already set up";
+  }
+  if (why != nullptr) {
+    return false;
+  }
+  BlackChannel bc(s.cfg.cycle_us);
+  // Each channel's first host session (a random number on a real start; fixed in this
+  // deterministic world). Both channels take the same checked table: A's passing, B's does.
+  if (!s.core.configure_links(bc.table(), 0x5A01U, why) ||
+      (s.core_b && !s.core_b->configure_links(bc.table(), 0x5B01U, why))) {
+    return false;
+  }
+  s.black.emplace(bc);
+  return true;
+}
+const BlackChannel* Cell::black_channel() const noexcept { return impl_->black ? &*impl_->black : nullptr; }
+bool Cell::inject_wire(const WireFault& f) noexcept { return impl_->black && impl_->black->inject(f); }
 
 bool Cell::contactor_command(std::size_t i) const noexcept {
   return (i == 1U && impl_->channels == 2U) ? impl_->out_b.contactor : impl_->out_a.contactor;

@@ -27,10 +27,22 @@
 //  - crashed: the child process died (a bit flip made the channel's program fail).
 // Diagnostic coverage = detected / (detected + dangerous), crashes counted as detected with
 // two channels (the partner names a dead channel) and left out with one.
+//
+// Issue 37 (`--fieldbus ethercat`): the warm cells carry the black channel of the shipped
+// segment (sim/black_channel.hpp: the containers and both ends are the real code, the bus a
+// byte copy in this process, the frames not built) and a quarter of the injections, drawn
+// from a stream of their own (the others are the sim campaign's draws, index by index), are
+// faults on its wire: a flipped bit, a stale container replayed, two connections' containers
+// swapped, a connection's containers held past the watchdog, another connection's container
+// inserted; a random connection, direction, moment and bit. For each: whether
+// SAFETY_LINK_FAULT named it, and the cycles from the injection to the safe output
+// terminal's K1 or K2 open (the power path open) and to both open, against the 10-cycle
+// watchdog.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace safestate::faults {
@@ -38,12 +50,20 @@ namespace safestate::faults {
 inline constexpr std::uint32_t kDetectCycles = 300;   // from the fault to the demands
 inline constexpr std::uint32_t kDemandCycles = 3000;  // a demand not safe by then is lost
 
+// Where the channels' safety data travel: the simulated cell's process image (sim), or the
+// black channel of the EtherCAT segment, in the simulated world (ethercat).
+enum class Fieldbus : std::uint8_t { sim, ethercat };
+[[nodiscard]] const char* to_string(Fieldbus f) noexcept;
+// "sim" or "ethercat"; false otherwise (`out` unchanged).
+[[nodiscard]] bool parse_fieldbus(const std::string& s, Fieldbus& out) noexcept;
+
 struct Options {
   std::uint32_t seed = 1;
   std::uint32_t injections = 10000;
   std::uint8_t channels = 2;
   std::uint32_t jobs = 2;       // child processes at once
   std::uint32_t first = 0;      // the first injection's index (one injection: --first I --injections 1)
+  Fieldbus fieldbus = Fieldbus::sim;
 };
 
 enum class Outcome : std::uint8_t { detected, masked, dangerous, crashed, failsafe };
@@ -80,11 +100,37 @@ struct Injection {
   std::vector<bool> demand_safe;  // per demand of the campaign (true for another situation's)
   std::vector<bool> demand_run;   // whether the demand was made (its situation's)
   std::string situation;
+  // A bus fault's (--fieldbus ethercat): SAFETY_LINK_FAULT's detail (link.0xA001.crc) and the
+  // cycles from the injection to it, to the F-DO's K1 or K2 open, to both open (-1: not
+  // within the window before the demands).
+  std::string link_detail;
+  std::int32_t to_link_fault = -1;
+  std::int32_t to_power_open = -1;
+  std::int32_t to_both_open = -1;
+  // Cycles from the last new valid container the hosting channel accepted on the faulted
+  // connection to K1 or K2 open (the watchdog bounds it; the injection may find one in flight).
+  std::int32_t from_last_valid = -1;
+};
+
+// One class of bus faults (--fieldbus ethercat).
+struct BusStats {
+  std::string name;
+  std::uint64_t injected = 0;
+  std::uint64_t caught = 0;     // SAFETY_LINK_FAULT named it before the demands
+  std::uint64_t dangerous = 0;  // as the campaign's classification
+  std::vector<std::uint32_t> to_link_fault;  // cycles, each caught one
+  std::vector<std::uint32_t> to_power_open;  // cycles to K1 or K2 open at the F-DO
+  std::vector<std::uint32_t> to_both_open;   // cycles to K1 and K2 open at the F-DO
+  std::vector<std::uint32_t> from_last_valid;  // cycles from the last valid container accepted to K1 or K2 open
+  std::uint64_t not_opened = 0;              // the F-DO's K1 and K2 not both open in the window
+  std::vector<std::pair<std::string, std::uint64_t>> errors;  // the error SAFETY_LINK_FAULT named, and how often
 };
 
 struct Report {
   Options options;
   std::vector<ClassStats> classes;
+  std::vector<BusStats> bus;           // --fieldbus ethercat: the bus fault classes
+  std::uint32_t watchdog_cycles = 0;   // the connections' watchdog, in cycles
   std::vector<DemandStats> demands;
   std::vector<std::uint32_t> to_lockout;  // cycles, every detection before the demands
   std::vector<Injection> dangerous;       // each one, to reproduce (--first I --injections 1)

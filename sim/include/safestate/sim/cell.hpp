@@ -24,6 +24,7 @@
 #include "safestate/core/types.hpp"
 #include "safestate/hal/process_image.hpp"
 #include "safestate/motion/motion_controller.hpp"
+#include "safestate/sim/black_channel.hpp"
 #include "safestate/sim/person.hpp"
 #include "safestate/vocab/faults.hpp"
 #include "safestate/vocab/world.hpp"
@@ -135,6 +136,19 @@ class Cell final : public vocab::World {
   // of channel i's supervisor (`value` as vocab::Fault's: FlipField << 8 | bit). False (nothing
   // changed) for a field or bit outside vocab::kFlipFields.
   bool flip_field(std::size_t channel, std::uint16_t value) noexcept;
+  // Issue 37, opt-in (sim/black_channel.hpp): the shipped segment's black channel between
+  // the channels and the simulated devices — the containers and both ends are the real code,
+  // the bus a byte copy in this process (the frames are not built: the real wire is tested
+  // with ecat-sim). Each channel configures its own connections (a one-channel cell all of
+  // them) and takes its safety inputs from the F-DI's and the drives' containers; the plant's
+  // K1, K2 and brakes follow the F-DO alone. Before the first step, on the simulated plant
+  // only; false with `why` otherwise (nothing changed). Without it (replay, scenarios,
+  // golden traces) nothing of this exists.
+  bool use_black_channel(const char*& why) noexcept;
+  // The black channel, or null when the cell has none.
+  [[nodiscard]] const BlackChannel* black_channel() const noexcept;
+  // A fault on its wire (false: no black channel, or refused as BlackChannel::inject).
+  bool inject_wire(const WireFault& f) noexcept;
   [[nodiscard]] const core::RawInputs& raw_inputs_of_last_cycle() const noexcept;
   [[nodiscard]] core::Leaf leaf() const noexcept;
   // What the supervisor saw in the last cycle (for a differential oracle).
