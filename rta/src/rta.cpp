@@ -367,7 +367,7 @@ Analysis analyse(const core::Config& cfg_in, const safety::Loaded& s, const BusT
     const std::uint64_t n = b.cat0_stop_cycles(axis);
     f.terms.push_back({"Cat 0 stop: braked from the axis speed limit", b.cycles(n),
                        b.per_cycle(n, "axis " + num(axis) + ", as the other Cat 0 stops")});
-    f.note = "measured on the wire by ecat-sim (`fault link ...`, status -> safety -> outputs_open_after_us)";
+    f.note = "measured on the wire by ecat-sim (`fault link ...`, status -> safety -> fault_to_open_us)";
     a.functions.push_back(f);
   }
   return a;
