@@ -60,6 +60,11 @@ int rta_main(const RtaOptions& o) {
     bus.distance_sensor = std::any_of(bc.subdevices.begin(), bc.subdevices.end(), [](const hal::ethercat::Subdevice& d) {
       return d.role == hal::ethercat::Role::distance_sensor;
     });
+    // Issue 37: the black channel's connections (their longest watchdog).
+    bus.safety_links = bc.links.count != 0U;
+    for (std::size_t i = 0; i < bc.links.count; ++i) {
+      bus.link_watchdog_ms = std::max<std::uint32_t>(bus.link_watchdog_ms, bc.links.link[i].watchdog_ms);
+    }
   }
   const rta::Analysis a = rta::analyse(cfg, *r.config, bus);
   const std::string text = o.json ? rta::json(a) : rta::table(a);
