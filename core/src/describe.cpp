@@ -248,7 +248,7 @@ const char* detail_name(const AlarmDetail& d, char* buf, std::size_t n) noexcept
     t.s((d.channel == Channel::a) ? "k1" : "k2");
   } else if ((d.signal == Signal::channel) && (d.code != 0U)) {
     t.s(to_string(static_cast<CrossField>(d.code)));
-  } else if ((d.signal == Signal::safety_link) && (d.axis != 0U)) {
+  } else if (d.signal == Signal::safety_link) {
     // Issue 37: the connection and what its check found.
     t.s("link.0x").hex4(d.code).s(".").s(to_string(static_cast<LinkError>(d.axis)));
   } else {
