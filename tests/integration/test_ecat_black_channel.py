@@ -77,7 +77,7 @@ def test_the_pair_runs_with_the_safe_terminals_and_the_estop_reaction_stays_with
         assert st["alarms"] == [], st
         w = c.wire()
         assert sorted(w["safety"]["links"]) == sorted(CONNECTIONS), w["safety"]
-        assert all(v["state"] == "Connected" for v in w["safety"]["links"].values()), w["safety"]
+        assert all(v["state"] == "connected" for v in w["safety"]["links"].values()), w["safety"]
         assert c.control_line("time cat0 from=input") == "OK"
         stale0 = c.metric("safestate_fieldbus_stale_cycles_total")
         assert c.control_line("in estop.a=0 estop.b=0") == "OK"

@@ -16,10 +16,10 @@ CXX=arm-none-eabi-g++
 FLAGS=(-std=c++20 -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -Os
        -fno-exceptions -fno-rtti -fno-threadsafe-statics -ffunction-sections -fdata-sections
        -Wall -Wextra -Wconversion -Wdouble-promotion -Werror -Icore/include -Imotion/include -Ihal/include
-       -Icontroller/include)
+       -Isafelink/include -Icontroller/include)
 SHORT=${M4_SHORT:-20}
 LONG=${M4_LONG:-60}
-for f in core/src/*.cpp core/src/monitors/*.cpp motion/src/*.cpp controller/src/*.cpp; do
+for f in core/src/*.cpp core/src/monitors/*.cpp motion/src/*.cpp safelink/src/*.cpp controller/src/*.cpp; do
   # Named by path: core/src/monitors/channels.cpp and controller/src/channels.cpp are two files.
   "$CXX" "${FLAGS[@]}" -c "$f" -o "$out/obj/$(echo "${f%.cpp}" | tr / _).o" &
   while (( $(jobs -rp | wc -l) >= 2 )); do wait -n; done

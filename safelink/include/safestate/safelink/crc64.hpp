@@ -22,7 +22,7 @@ inline constexpr std::uint64_t kCrc64Init = 0xFFFFFFFFFFFFFFFFULL;
 namespace detail {
 constexpr std::array<std::uint64_t, 256> make_crc64_table() noexcept {
   std::array<std::uint64_t, 256> t{};
-  for (std::uint64_t i = 0; i < 256U; ++i) {
+  for (std::size_t i = 0; i < 256U; ++i) {
     std::uint64_t c = i;
     for (int k = 0; k < 8; ++k) c = ((c & 1U) != 0U) ? ((c >> 1U) ^ kCrc64ReflectedPoly) : (c >> 1U);
     t[i] = c;
