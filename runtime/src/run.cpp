@@ -627,6 +627,18 @@ int run_main(const RunOptions& opt) {
       rt.cycle_adjust_ns = bus->cycle_adjust();
     }
     publish_bus(*bus, bc, seg->header().bus);
+    if (const hal::LinkTable& links = bus->safety_links(); links.count != 0U) {
+      // Issue 37: the safety data travel in containers the channels check (docs/black-channel.md).
+      std::uint32_t watchdog = 0;
+      for (std::size_t i = 0; i < links.count; ++i) {
+        watchdog = std::max<std::uint32_t>(watchdog, links.link[i].watchdog_ms);
+      }
+      std::fprintf(stderr,
+                   "safestate run: black channel: %u safety connections (safe input and output terminals, the "
+                   "drives' load-side encoders), watchdog %u ms; the channels check every container, the master "
+                   "copies them\n",
+                   static_cast<unsigned>(links.count), watchdog);
+    }
     rt.simulated = !opt.ecat_sim_control.empty();
   }
   // SPEC §14: the channels. Two (the default on the simulated cell): A and B in processes of
