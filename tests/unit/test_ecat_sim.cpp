@@ -1395,6 +1395,20 @@ class PacingRig {
     const std::uint8_t* p = &in[kDiBytes + axis * kDriveTxBytes];
     return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
   }
+  // Drive 1 enabled, the step counts started again, then moving at `step` counts per cycle
+  // for three cycles (set-points 1..3 taken): `steady` is the point speed of that motion.
+  // false when the drive did not reach Operation enabled.
+  bool moving(std::int32_t step, float& steady) {
+    if ((statusword(enable()) & 0x6F) != 0x27) {
+      return false;
+    }
+    cell.reset_steps();
+    for (std::int32_t n = 1; n <= 3; ++n) {
+      cycle(outputs(0x0F, n * step));
+    }
+    steady = cell.max_point_speed_mm_s();
+    return true;
+  }
   EmulatedCell cell{1000, default_segment(false)};
 
  private:
@@ -1442,14 +1456,10 @@ TEST(EcatPacing, PacedStepsOnSync0AndTheNextFrameCarriesWhatItSampled) {
 
 TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
   PacingRig rig(EmulatedCell::Pacing::paced);
-  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
-  rig.cell.reset_steps();
-  for (std::int32_t n = 1; n <= 3; ++n) {
-    rig.cycle(PacingRig::outputs(0x0F, n * kStep));  // moving at kStep per cycle
-  }
+  float steady = 0.0F;
+  ASSERT_TRUE(rig.moving(kStep, steady)) << "drive 1 operation enabled";  // moving at kStep per cycle
   EXPECT_EQ(rig.cell.steps().extrapolated, 0U);
   EXPECT_EQ(rig.cell.steps().multi_step, 0U);
-  const float steady = rig.cell.max_point_speed_mm_s();
   EXPECT_GT(steady, 250.0F) << "axis 1 at ~0.9 rad/s";
   rig.cycle({}, false);  // frame 4 lost: its pulse repeats the last step
   std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 5 * kStep));
@@ -1480,12 +1490,8 @@ TEST(EcatPacing, APulseWithoutANewSetPointExtrapolatesOnceThenHolds) {
 // emulator records as more than one set-point in one pulse is what the axis really did.
 TEST(EcatPacing, SeveralFramesBeforeOnePulseAreOneStepAfterAnExtrapolatedPulseAndMoreAfterMore) {
   PacingRig rig(EmulatedCell::Pacing::paced);
-  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
-  rig.cell.reset_steps();
-  for (std::int32_t n = 1; n <= 3; ++n) {
-    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
-  }
-  const float steady = rig.cell.max_point_speed_mm_s();
+  float steady = 0.0F;
+  ASSERT_TRUE(rig.moving(kStep, steady)) << "drive 1 operation enabled";
   rig.cycle({}, false);                              // frame 4 late past its pulse: extrapolated to 4
   rig.send(PacingRig::outputs(0x0F, 4 * kStep), 100000);  // it arrives just after that pulse,
   std::vector<std::uint8_t> in = rig.cycle(PacingRig::outputs(0x0F, 5 * kStep));  // frame 5 in time
@@ -1520,12 +1526,8 @@ TEST(EcatPacing, SeveralFramesBeforeOnePulseAreOneStepAfterAnExtrapolatedPulseAn
 // for one set-point) holds only when the extrapolation moved the axis.
 TEST(EcatPacing, AnExtrapolationThatDidNotMoveMakesUpForNoSetPoint) {
   PacingRig rig(EmulatedCell::Pacing::paced);
-  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
-  rig.cell.reset_steps();
-  for (std::int32_t n = 1; n <= 3; ++n) {
-    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
-  }
-  const float steady = rig.cell.max_point_speed_mm_s();
+  float steady = 0.0F;
+  ASSERT_TRUE(rig.moving(kStep, steady)) << "drive 1 operation enabled";
   rig.cycle({}, false);                                  // frame 4 late: its pulse extrapolates to 4
   rig.send(PacingRig::outputs(0x0F, 4 * kStep), 100000);  // it arrives after that pulse
   rig.cycle({}, false);                                  // the next pulse takes 4 alone: no step
@@ -1546,12 +1548,8 @@ TEST(EcatPacing, AnExtrapolationThatDidNotMoveMakesUpForNoSetPoint) {
 // one's: the extrapolated pulse counts as one that applied more than one set-point.
 TEST(EcatPacing, AnExtrapolationOfATwoStepPulseIsTwoStepsToo) {
   PacingRig rig(EmulatedCell::Pacing::paced);
-  ASSERT_EQ(PacingRig::statusword(rig.enable()) & 0x6F, 0x27);
-  rig.cell.reset_steps();
-  for (std::int32_t n = 1; n <= 3; ++n) {
-    rig.cycle(PacingRig::outputs(0x0F, n * kStep));
-  }
-  const float steady = rig.cell.max_point_speed_mm_s();
+  float steady = 0.0F;
+  ASSERT_TRUE(rig.moving(kStep, steady)) << "drive 1 operation enabled";
   rig.cycle({}, false);  // frames 4 and 5 lost: 4 extrapolated, then held at 4
   rig.cycle({}, false);
   rig.cycle(PacingRig::outputs(0x0F, 6 * kStep));  // its pulse takes 6: from 4 to 6
