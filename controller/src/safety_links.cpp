@@ -37,6 +37,16 @@ bool role_lengths(const hal::LinkSpec& s) noexcept {
 
 }  // namespace
 
+safelink::ConnectionParams link_params(const hal::LinkSpec& s) noexcept {
+  safelink::ConnectionParams p{};
+  p.id = s.id;
+  p.host_data_bytes = s.host_data_bytes;
+  p.device_data_bytes = s.device_data_bytes;
+  p.watchdog_ms = s.watchdog_ms;
+  p.device = safelink::DeviceIdentity{s.vendor_id, s.product_code, s.position};
+  return p;
+}
+
 core::LinkError link_error(safelink::Verdict v) noexcept {
   switch (v) {
     case safelink::Verdict::Crc: return core::LinkError::crc;
@@ -72,16 +82,10 @@ bool SafetyLinks::configure(const hal::LinkTable& table, core::Channel self, std
       why = "a safety connection's channel, role or data lengths are not the protocol's";
       return false;
     }
-    safelink::ConnectionParams p{};
-    p.id = s.id;
-    p.host_data_bytes = s.host_data_bytes;
-    p.device_data_bytes = s.device_data_bytes;
-    p.watchdog_ms = s.watchdog_ms;
-    p.device = safelink::DeviceIdentity{s.vendor_id, s.product_code, s.position};
     conn[i].spec = s;
     conn[i].hosted = (self == core::Channel::none) || (self == channel_of(s));
     if (conn[i].hosted) {
-      const safelink::ConfigError e = conn[i].end.configure(p, cycle_us);
+      const safelink::ConfigError e = conn[i].end.configure(link_params(s), cycle_us);
       if (e != safelink::ConfigError::None) {
         why = safelink::to_string(e);
         return false;

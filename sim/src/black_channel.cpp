@@ -97,15 +97,9 @@ std::int32_t load_counts(float rad) noexcept {
 BlackChannel::BlackChannel(std::uint32_t cycle_us) noexcept : table_(shipped_links()) {
   for (std::size_t i = 0; i < table_.count; ++i) {
     const hal::LinkSpec& s = table_.link[i];
-    safelink::ConnectionParams p{};
-    p.id = s.id;
-    p.host_data_bytes = s.host_data_bytes;
-    p.device_data_bytes = s.device_data_bytes;
-    p.watchdog_ms = s.watchdog_ms;
-    p.device = safelink::DeviceIdentity{s.vendor_id, s.product_code, s.position};
     // Each device's first session: a seed of its own (a random number at power-up on a
     // device; fixed here, the simulated world being deterministic).
-    static_cast<void>(dev_[i].configure(p, cycle_us, static_cast<std::uint16_t>(0x3000U + (i * 0x101U))));
+    static_cast<void>(dev_[i].configure(controller::link_params(s), cycle_us, static_cast<std::uint16_t>(0x3000U + (i * 0x101U))));
     from_dev_[i].len = static_cast<std::uint8_t>(safelink::container_bytes(s.device_data_bytes));
   }
   fdo_a_ = index_of(0xA002);

@@ -17,50 +17,17 @@
 #include "safestate/core/describe.hpp"
 #include "safestate/robot/description.hpp"
 #include "safestate/safelink/link.hpp"
+#include "safestate/sim/black_channel.hpp"
 
 using namespace safestate;
 
 namespace {
 
-constexpr std::uint32_t kVendor = 0x00005AFEU;
-constexpr std::uint32_t kFdi = 0x00D1F001U;
-constexpr std::uint32_t kFdo = 0x00D0F001U;
-constexpr std::uint32_t kDrive = 0x00402001U;
-constexpr std::uint32_t kCountsPerRev = 1U << 20U;
+constexpr std::uint32_t kCountsPerRev = sim::kLoadCountsPerRev;
 
-hal::LinkSpec spec(std::uint16_t id, char ch, hal::LinkRole role, std::uint8_t axis, std::uint32_t product,
-                   std::uint16_t position) {
-  hal::LinkSpec s{};
-  s.id = id;
-  s.channel = ch;
-  s.role = role;
-  s.axis = axis;
-  s.host_data_bytes = (role == hal::LinkRole::safe_outputs) ? 1U : 0U;
-  s.device_data_bytes = (role == hal::LinkRole::safe_outputs) ? 1U : 4U;
-  s.watchdog_ms = 10;
-  s.vendor_id = kVendor;
-  s.product_code = product;
-  s.position = position;
-  s.counts_per_revolution = (role == hal::LinkRole::load_encoder) ? kCountsPerRev : 0U;
-  return s;
-}
-
-// The shipped segment's connections, in its bus configuration's order.
-hal::LinkTable shipped_links() {
-  hal::LinkTable t{};
-  auto add = [&t](const hal::LinkSpec& s) { t.link[t.count++] = s; };
-  for (std::uint8_t a = 1; a <= 6; ++a) {
-    add(spec(static_cast<std::uint16_t>(0xA010U + a), 'A', hal::LinkRole::load_encoder, a, kDrive,
-             static_cast<std::uint16_t>(a + 2U)));
-    add(spec(static_cast<std::uint16_t>(0xB010U + a), 'B', hal::LinkRole::load_encoder, a, kDrive,
-             static_cast<std::uint16_t>(a + 2U)));
-  }
-  add(spec(0xA001, 'A', hal::LinkRole::safe_inputs, 0, kFdi, 10));
-  add(spec(0xB001, 'B', hal::LinkRole::safe_inputs, 0, kFdi, 10));
-  add(spec(0xA002, 'A', hal::LinkRole::safe_outputs, 0, kFdo, 11));
-  add(spec(0xB002, 'B', hal::LinkRole::safe_outputs, 0, kFdo, 11));
-  return t;
-}
+// The shipped segment's connections, in its bus configuration's order (the simulated world's
+// table: test_sim_black_channel holds it to default-bus.json's).
+using sim::shipped_links;
 
 std::size_t index_of(const hal::LinkTable& t, std::uint16_t id) {
   for (std::size_t i = 0; i < t.count; ++i) {
@@ -96,13 +63,7 @@ struct Segment final : hal::Backend {
   Segment() {
     for (std::size_t i = 0; i < table.count; ++i) {
       const hal::LinkSpec& s = table.link[i];
-      safelink::ConnectionParams p{};
-      p.id = s.id;
-      p.host_data_bytes = s.host_data_bytes;
-      p.device_data_bytes = s.device_data_bytes;
-      p.watchdog_ms = s.watchdog_ms;
-      p.device = safelink::DeviceIdentity{s.vendor_id, s.product_code, s.position};
-      EXPECT_EQ(dev[i].configure(p, 1000, static_cast<std::uint16_t>(0x300 + i)), safelink::ConfigError::None);
+      EXPECT_EQ(dev[i].configure(controller::link_params(s), 1000, static_cast<std::uint16_t>(0x300 + i)), safelink::ConfigError::None);
       from_dev[i].len = static_cast<std::uint8_t>(safelink::container_bytes(s.device_data_bytes));
     }
     plain.safety.estop_a = plain.safety.estop_b = true;

@@ -11,6 +11,8 @@
 #include <string>
 
 #include "safestate/core/describe.hpp"
+#include "safestate/hal/ethercat.hpp"
+#include "safestate/sim/black_channel.hpp"
 #include "safestate/sim/cell.hpp"
 
 using namespace safestate;
@@ -100,6 +102,32 @@ std::string hex(std::uint16_t id) {
 }
 
 }  // namespace
+
+// The simulated world stands in for the shipped segment's black channel: its connections are
+// the default bus configuration's, field by field (the one table the unit tests of the
+// channel's link layer use too).
+TEST(SimBlackChannel, ItsConnectionsAreTheDefaultBusConfigurations) {
+  hal::ethercat::BusConfig bc;
+  std::string err;
+  ASSERT_TRUE(hal::ethercat::parse_bus_config(hal::ethercat::default_bus_config(), bc, err)) << err;
+  const hal::LinkTable t = sim::shipped_links();
+  ASSERT_EQ(t.count, bc.links.count);
+  for (std::size_t i = 0; i < t.count; ++i) {
+    const hal::LinkSpec& a = t.link[i];
+    const hal::LinkSpec& b = bc.links.link[i];
+    EXPECT_EQ(a.id, b.id) << i;
+    EXPECT_EQ(a.channel, b.channel) << a.id;
+    EXPECT_EQ(a.role, b.role) << a.id;
+    EXPECT_EQ(a.axis, b.axis) << a.id;
+    EXPECT_EQ(a.host_data_bytes, b.host_data_bytes) << a.id;
+    EXPECT_EQ(a.device_data_bytes, b.device_data_bytes) << a.id;
+    EXPECT_EQ(a.watchdog_ms, b.watchdog_ms) << a.id;
+    EXPECT_EQ(a.vendor_id, b.vendor_id) << a.id;
+    EXPECT_EQ(a.product_code, b.product_code) << a.id;
+    EXPECT_EQ(a.position, b.position) << a.id;
+    EXPECT_EQ(a.counts_per_revolution, b.counts_per_revolution) << a.id;
+  }
+}
 
 // @req LINK-FAULT LINK-SAFE-VALUES
 TEST(SimBlackChannel, TheCellBootsAndRunsTheDemoAsItDoesWithout) {

@@ -86,6 +86,10 @@ class SafetyLinks {
   core::LinkCheck check_{};
 };
 
+// A connection's parameters as both of its ends put them into every CRC (the host here, a
+// device end in an emulation or a test).
+[[nodiscard]] safelink::ConnectionParams link_params(const hal::LinkSpec& s) noexcept;
+
 // safelink's verdict as the core names it.
 [[nodiscard]] core::LinkError link_error(safelink::Verdict v) noexcept;
 
